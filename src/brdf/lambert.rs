@@ -1,0 +1,74 @@
+//! Lambert: the ideal diffuse reflector. Survey eq. 3, f_r = ρ/π.
+//!
+//! | parameter | unit | default | range | meaning |
+//! |---|---|---|---|---|
+//! | `albedo` | RGB, unitless | `[0.5, 0.5, 0.5]` | [0, 1] | hemispherical reflectance ρ |
+//!
+//! Reciprocal and energy conserving for ρ ≤ 1; the directional albedo is ρ at every angle
+//! (brdf-models.md §3). Sampling is cosine-weighted, so the sample weight is exactly ρ.
+//!
+//! GPU record: `p[0].xyz` = albedo.
+
+use super::common::{cosine_hemisphere_pdf, sample_cosine_hemisphere, same_hemisphere_up};
+use super::{Brdf, BrdfSample, ParamError, ParamReader, Params};
+use glam::{Vec2, Vec3};
+use std::f32::consts::FRAC_1_PI;
+use std::sync::Arc;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lambert {
+    pub albedo: Vec3,
+}
+
+pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
+    let albedo = r.rgb("albedo", Vec3::splat(0.5), 0.0, 1.0)?;
+    Ok(Arc::new(Lambert { albedo }))
+}
+
+/// f_r = ρ/π (survey eq. 3).
+pub fn eval(m: &Lambert, wi: Vec3, wo: Vec3) -> Vec3 {
+    if !same_hemisphere_up(wi, wo) {
+        return Vec3::ZERO;
+    }
+    m.albedo * FRAC_1_PI
+}
+
+pub fn pdf(_m: &Lambert, given: Vec3, sampled: Vec3) -> f32 {
+    if !same_hemisphere_up(given, sampled) {
+        return 0.0;
+    }
+    cosine_hemisphere_pdf(sampled.z)
+}
+
+pub fn sample(m: &Lambert, given: Vec3, u: Vec2) -> Option<BrdfSample> {
+    if given.z <= 0.0 {
+        return None;
+    }
+    let wi = sample_cosine_hemisphere(u);
+    let pdf = cosine_hemisphere_pdf(wi.z);
+    if pdf <= 0.0 {
+        return None;
+    }
+    // f·cos/pdf = (ρ/π)·cos/(cos/π) = ρ, returned directly instead of as 0/0 at the horizon.
+    Some(BrdfSample { wi, weight: m.albedo, pdf, delta: false })
+}
+
+impl Brdf for Lambert {
+    fn eval(&self, wi: Vec3, wo: Vec3) -> Vec3 {
+        eval(self, wi, wo)
+    }
+    fn pdf(&self, given: Vec3, sampled: Vec3) -> f32 {
+        pdf(self, given, sampled)
+    }
+    fn sample(&self, given: Vec3, _u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
+        sample(self, given, u)
+    }
+    fn pack(&self) -> Params {
+        let mut p = Params::default();
+        p.set3(0, self.albedo);
+        p
+    }
+    fn scatters(&self) -> bool {
+        self.albedo != Vec3::ZERO
+    }
+}

@@ -1,0 +1,128 @@
+//! Reflectance models. One file per model, the same file name and function names as its GLSL
+//! twin in `shaders/brdf/`: `src/brdf/ward.rs` ↔ `shaders/brdf/ward.glsl`.
+//!
+//! Every model exposes the same small interface ([`Brdf`]): `eval`, `sample` and `pdf` in the
+//! local shading frame, plus `pack` to write its parameters into the GPU material record. The
+//! integrators never know which model they hold.
+//!
+//! Conventions (as in `../shared/reference/brdf-models.md` §1):
+//! * local frame: z = shading normal, x = tangent (anisotropy axis), y = bitangent;
+//! * `wi` points toward the light, `wo` toward the viewer, both away from the surface;
+//! * `eval` returns f_r in sr⁻¹ *without* the cosine;
+//! * `sample(given, …)` samples the other direction; the path tracer passes the viewer
+//!   direction as `given` and receives `wi`; `pdf(given, sampled)` is the solid-angle density of
+//!   that sample (the mixture density over all non-delta lobes, times their selection
+//!   probability).
+//!
+//! Adding a model: a Rust file here, a GLSL file in `shaders/brdf/`, one line in [`MODELS`].
+
+pub mod common;
+pub mod lambert;
+pub mod params;
+
+use glam::{Vec2, Vec3};
+pub use params::{Origin, ParamError, ParamReader};
+use std::fmt::Debug;
+use std::sync::Arc;
+
+/// The result of sampling a BRDF.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BrdfSample {
+    /// The sampled direction (toward the light when the viewer direction was given).
+    pub wi: Vec3,
+    /// f·cosθ/pdf for a non-delta lobe; the lobe's reflectance divided by its selection
+    /// probability for a delta lobe.
+    pub weight: Vec3,
+    /// Solid-angle pdf of `wi` (what [`Brdf::pdf`] returns); 0 for a delta lobe.
+    pub pdf: f32,
+    /// The sample came from a delta (mirror) lobe: no pdf, no MIS, no NEE.
+    pub delta: bool,
+}
+
+/// Number of 32-bit words in a GPU material record (`struct Material` in `shaders/common.glsl`).
+pub const RECORD_WORDS: usize = 32;
+/// Words 0..4 are the header (model index, queue slot, flags, reserved); 4..32 the parameters.
+pub const RECORD_PARAMS: usize = RECORD_WORDS - 4;
+
+/// A material's parameters as the GPU reads them: `vec4 p[7]` in GLSL. Each model's Rust
+/// `pack` and GLSL accessors agree on the offsets; each model file documents its layout.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Params(pub [f32; RECORD_PARAMS]);
+
+impl Params {
+    pub fn set(&mut self, offset: usize, v: f32) -> &mut Self {
+        self.0[offset] = v;
+        self
+    }
+    pub fn set3(&mut self, offset: usize, v: Vec3) -> &mut Self {
+        self.0[offset..offset + 3].copy_from_slice(&v.to_array());
+        self
+    }
+}
+
+pub trait Brdf: Debug + Send + Sync {
+    /// f_r(wi, wo) in the local frame, without the cosine. Zero below either horizon.
+    fn eval(&self, wi: Vec3, wo: Vec3) -> Vec3;
+    /// Solid-angle pdf of sampling `sampled` given `given` (0 for directions only a delta lobe
+    /// produces).
+    fn pdf(&self, given: Vec3, sampled: Vec3) -> f32;
+    /// Sample a direction given the other one. `u_lobe` chooses a lobe, `u` the direction.
+    /// `None` when the sample carries no energy (below the horizon, zero pdf).
+    fn sample(&self, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample>;
+    /// The GPU parameter block.
+    fn pack(&self) -> Params;
+    /// `#define`s this material needs in its model's shade pipeline (features the scene does
+    /// not use are compiled out). The union over a model's materials is compiled.
+    fn defines(&self) -> Vec<&'static str> {
+        Vec::new()
+    }
+    /// Whether the surface scatters at all (a black Lambert light surface does not); paths
+    /// that hit a non-scattering surface end there without a shade dispatch.
+    fn scatters(&self) -> bool {
+        true
+    }
+}
+
+/// A model of the survey: its scene-file name and how to read its parameters.
+pub struct ModelInfo {
+    /// Scene-file `model = "…"` name, Rust module name and GLSL file stem (`shaders/brdf/NAME.glsl`).
+    pub name: &'static str,
+    pub parse: fn(&mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError>,
+}
+
+/// Every model, in a fixed order; the index is the model id on the GPU.
+pub static MODELS: &[ModelInfo] = &[ModelInfo { name: "lambert", parse: lambert::parse }];
+
+/// A named material instance: which model and its parameters.
+#[derive(Clone, Debug)]
+pub struct Material {
+    /// Index into [`MODELS`].
+    pub model: usize,
+    pub brdf: Arc<dyn Brdf>,
+}
+
+impl Material {
+    pub fn model_name(&self) -> &'static str {
+        MODELS[self.model].name
+    }
+}
+
+/// Parse a material from its fields. Returns the material and any warnings.
+pub fn parse_material(
+    origin: Origin<'_>,
+    fields: std::collections::BTreeMap<String, toml::Spanned<toml::Value>>,
+) -> Result<(Material, Vec<String>), ParamError> {
+    let mut reader = ParamReader::new(origin, fields);
+    let name = match reader.has("model") {
+        false => return Err(reader.error("model", "missing: every material names its model")),
+        true => reader.choice("model", &model_names(), "lambert")?,
+    };
+    let model = MODELS.iter().position(|m| m.name == name).expect("choice returns a known model");
+    let brdf = (MODELS[model].parse)(&mut reader)?;
+    let warnings = reader.finish()?;
+    Ok((Material { model, brdf }, warnings))
+}
+
+pub fn model_names() -> Vec<&'static str> {
+    MODELS.iter().map(|m| m.name).collect()
+}

@@ -1,0 +1,172 @@
+//! Reading a material's parameters from its TOML table, with errors that name the file, the
+//! line, the material and the field.
+//!
+//! Each model's `parse` function asks for its parameters by name through [`ParamReader`];
+//! [`ParamReader::finish`] then rejects any field the model did not ask for, so a misspelt
+//! parameter is an error rather than a silently ignored value.
+
+use glam::Vec3;
+use std::collections::{BTreeMap, BTreeSet};
+use std::ops::Range;
+use toml::{Spanned, Value};
+
+/// A material definition error, already formatted as `file:line: material 'x', field 'y': …`.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct ParamError(pub String);
+
+/// Where the material's TOML came from, for messages.
+#[derive(Clone, Debug)]
+pub struct Origin<'a> {
+    /// File name (or `--material` for an inline table on the command line).
+    pub file: &'a str,
+    /// The whole source text, used to turn byte spans into line numbers.
+    pub source: &'a str,
+    /// The material's name (`materials.NAME`).
+    pub material: &'a str,
+    /// Span of the material's table, for errors about the table as a whole.
+    pub span: Range<usize>,
+}
+
+/// Line number (1-based) of a byte offset in `source`.
+pub fn line_of(source: &str, offset: usize) -> usize {
+    let end = offset.min(source.len());
+    source.as_bytes()[..end].iter().filter(|&&b| b == b'\n').count() + 1
+}
+
+pub struct ParamReader<'a> {
+    origin: Origin<'a>,
+    fields: BTreeMap<String, Spanned<Value>>,
+    used: BTreeSet<String>,
+    warnings: Vec<String>,
+}
+
+impl<'a> ParamReader<'a> {
+    pub fn new(origin: Origin<'a>, fields: BTreeMap<String, Spanned<Value>>) -> Self {
+        let mut used = BTreeSet::new();
+        used.insert("model".to_string());
+        ParamReader { origin, fields, used, warnings: Vec::new() }
+    }
+
+    /// `file:line: material 'name', field 'key': msg`.
+    pub fn error(&self, key: &str, msg: impl std::fmt::Display) -> ParamError {
+        let span = self.fields.get(key).map(|v| v.span()).unwrap_or(self.origin.span.clone());
+        ParamError(format!(
+            "{}:{}: material '{}', field '{}': {}",
+            self.origin.file,
+            line_of(self.origin.source, span.start),
+            self.origin.material,
+            key,
+            msg
+        ))
+    }
+
+    /// Record a warning (printed by the caller) about a legal but suspicious value.
+    pub fn warn(&mut self, key: &str, msg: impl std::fmt::Display) {
+        let e = self.error(key, msg);
+        self.warnings.push(format!("warning: {}", e.0));
+    }
+
+    pub fn has(&self, key: &str) -> bool {
+        self.fields.contains_key(key)
+    }
+
+    fn take(&mut self, key: &str) -> Option<&Value> {
+        self.used.insert(key.to_string());
+        self.fields.get(key).map(|v| v.get_ref())
+    }
+
+    fn number(&self, key: &str, v: &Value) -> Result<f32, ParamError> {
+        let x = match v {
+            Value::Float(f) => *f,
+            Value::Integer(i) => *i as f64,
+            other => {
+                return Err(self.error(key, format!("expected a number, found {}", other.type_str())))
+            }
+        };
+        if !x.is_finite() {
+            return Err(self.error(key, format!("{x} is not a finite number")));
+        }
+        if x.abs() > f32::MAX as f64 {
+            return Err(self.error(key, format!("{x} is out of the single-precision range")));
+        }
+        Ok(x as f32)
+    }
+
+    fn check_range(&self, key: &str, x: f32, min: f32, max: f32) -> Result<(), ParamError> {
+        if x < min || x > max {
+            let range = match (min == f32::NEG_INFINITY, max == f32::INFINITY) {
+                (true, true) => String::new(),
+                (false, true) => format!(">= {min}"),
+                (true, false) => format!("<= {max}"),
+                (false, false) => format!("in [{min}, {max}]"),
+            };
+            return Err(self.error(key, format!("{x} is out of range: must be {range}")));
+        }
+        Ok(())
+    }
+
+    /// A scalar in `[min, max]`, or `default` when the field is absent.
+    pub fn scalar(&mut self, key: &str, default: f32, min: f32, max: f32) -> Result<f32, ParamError> {
+        let x = match self.take(key).cloned() {
+            None => return Ok(default),
+            Some(v) => self.number(key, &v)?,
+        };
+        self.check_range(key, x, min, max)?;
+        Ok(x)
+    }
+
+    /// An RGB triple `[r, g, b]` (a single number means grey) with every channel in
+    /// `[min, max]`, or `default` when the field is absent.
+    pub fn rgb(&mut self, key: &str, default: Vec3, min: f32, max: f32) -> Result<Vec3, ParamError> {
+        let v = match self.take(key).cloned() {
+            None => return Ok(default),
+            Some(v) => v,
+        };
+        let c = match &v {
+            Value::Array(a) if a.len() == 3 => {
+                Vec3::new(self.number(key, &a[0])?, self.number(key, &a[1])?, self.number(key, &a[2])?)
+            }
+            Value::Array(a) => {
+                return Err(self.error(key, format!("expected [r, g, b], found an array of {}", a.len())))
+            }
+            other => Vec3::splat(self.number(key, other)?),
+        };
+        for x in c.to_array() {
+            self.check_range(key, x, min, max)?;
+        }
+        Ok(c)
+    }
+
+    /// One of `options`, or `default` when the field is absent.
+    pub fn choice(
+        &mut self,
+        key: &str,
+        options: &[&'static str],
+        default: &'static str,
+    ) -> Result<&'static str, ParamError> {
+        let v = match self.take(key).cloned() {
+            None => return Ok(default),
+            Some(v) => v,
+        };
+        let s = v
+            .as_str()
+            .ok_or_else(|| self.error(key, format!("expected a string, found {}", v.type_str())))?;
+        options.iter().copied().find(|o| *o == s).ok_or_else(|| {
+            self.error(key, format!("unknown value \"{s}\": expected one of {}", options.join(", ")))
+        })
+    }
+
+    /// Reject fields the model did not read; return the warnings collected.
+    pub fn finish(self) -> Result<Vec<String>, ParamError> {
+        if let Some(k) = self.fields.keys().find(|k| !self.used.contains(*k)) {
+            let mut known: Vec<&str> = self.used.iter().map(|s| s.as_str()).collect();
+            known.retain(|k| *k != "model");
+            return Err(self.error(
+                k,
+                format!("unknown field for this model (it takes: {})", known.join(", ")),
+            ));
+        }
+        Ok(self.warnings)
+    }
+}

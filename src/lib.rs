@@ -1,0 +1,22 @@
+//! brdfwave: a Vulkan compute wavefront path tracer and an independent CPU reference renderer
+//! for comparing the surface models of the survey "Physically correct surface models".
+//!
+//! Where to find things:
+//! * `scene` — scene format and loader (`scenes/README.md` documents the TOML);
+//! * `brdf` — one file per reflectance model (GLSL twins in `shaders/brdf/`);
+//! * `bvh` — host binned-SAH BVH, its GPU layout and the CPU traversal (`shaders/bvh.glsl`);
+//! * `rng` — the counter-based random numbers both renderers share (`shaders/rng.glsl`);
+//! * `cpu` — the CPU reference path tracer;
+//! * `vk` — the Vulkan backend layer: device, buffers, shader compilation, pipelines;
+//! * `gpu` — the wavefront integrator built on `vk` (kernels in `shaders/wavefront/`);
+//! * `imageio`, `metrics` — image files and image comparison.
+
+pub mod brdf;
+pub mod bvh;
+pub mod cpu;
+pub mod gpu;
+pub mod imageio;
+pub mod metrics;
+pub mod rng;
+pub mod scene;
+pub mod vk;

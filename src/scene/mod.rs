@@ -1,0 +1,97 @@
+//! The in-memory scene both renderers consume.
+//!
+//! A scene file (`scenes/*.toml`, format documented in `scenes/README.md`) is parsed by
+//! [`load`] into a [`Scene`]: flat lists of triangles and spheres, each tagged with a material
+//! index and an optional emitter index. The BVH (`crate::bvh`) is built over these lists and the
+//! GPU upload (`crate::gpu::scene_buffers`) packs them without further interpretation.
+
+pub mod load;
+
+use crate::brdf::Material;
+use glam::{Vec2, Vec3};
+
+/// Pinhole camera. `fov_y_deg` is the full vertical field of view.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    pub position: Vec3,
+    pub target: Vec3,
+    pub up: Vec3,
+    pub fov_y_deg: f32,
+}
+
+/// Integrator settings; the command line may override them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Integrator {
+    pub spp: u32,
+    /// Maximum number of path segments; the camera-to-first-hit segment is one.
+    pub max_depth: u32,
+    pub seed: u32,
+    /// Russian roulette from `rr_start_depth` on (off by default: unbiased but noisier).
+    pub russian_roulette: bool,
+    pub rr_start_depth: u32,
+}
+
+impl Default for Integrator {
+    fn default() -> Self {
+        Integrator { spp: 16, max_depth: 8, seed: 0, russian_roulette: false, rr_start_depth: 3 }
+    }
+}
+
+/// A one-sided emitter: radiance leaves the front side (the side the geometric normal points to).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Emitter {
+    pub radiance: Vec3,
+}
+
+/// One triangle. Positions are in world space; the geometric normal is
+/// `normalize(cross(v1 - v0, v2 - v0))` and defines the front side.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Triangle {
+    pub v: [Vec3; 3],
+    /// Per-vertex shading normals, if the mesh has them (else the geometric normal is used).
+    pub n: Option<[Vec3; 3]>,
+    /// Per-vertex texture coordinates, if the mesh has them (used for the tangent dp/du).
+    pub uv: Option<[Vec2; 3]>,
+    pub material: u32,
+    pub emitter: Option<u32>,
+}
+
+/// An analytic sphere. The front side is the outside, unless `inward` is set (a closed room
+/// seen from within).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sphere {
+    pub center: Vec3,
+    pub radius: f32,
+    pub material: u32,
+    pub emitter: Option<u32>,
+    pub inward: bool,
+}
+
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// The file the scene came from (for messages).
+    pub path: std::path::PathBuf,
+    pub camera: Camera,
+    pub width: u32,
+    pub height: u32,
+    pub integrator: Integrator,
+    pub materials: Vec<Material>,
+    /// Material names, parallel to `materials`.
+    pub material_names: Vec<String>,
+    pub emitters: Vec<Emitter>,
+    pub triangles: Vec<Triangle>,
+    pub spheres: Vec<Sphere>,
+    /// Constant environment radiance seen by rays that leave the scene.
+    pub environment: Vec3,
+}
+
+impl Triangle {
+    pub fn geometric_normal_unnormalized(&self) -> Vec3 {
+        (self.v[1] - self.v[0]).cross(self.v[2] - self.v[0])
+    }
+    pub fn area(&self) -> f32 {
+        0.5 * self.geometric_normal_unnormalized().length()
+    }
+}
+
+pub use load::{load, load_str};
