@@ -1,0 +1,28 @@
+// Shared definitions for every kernel. Rust twin: src/brdf/mod.rs (record layout).
+#ifndef COMMON_GLSL
+#define COMMON_GLSL
+
+#define PI 3.14159265358979323846
+#define INV_PI 0.31830988618379067154
+
+// GPU material record, 32 words (brdf::RECORD_WORDS): header = (model index, queue slot,
+// flags, reserved); p[] = the model's parameters as its Rust `pack` writes them.
+struct Material {
+    uvec4 header;
+    vec4 p[7];
+};
+
+// The result of sampling a BRDF (Rust: brdf::BrdfSample).
+struct BrdfSample {
+    vec3 wi;      // sampled direction
+    vec3 weight;  // f·cos/pdf (non-delta), or reflectance / selection probability (delta)
+    float pdf;    // solid-angle pdf; 0 for delta
+    bool delta;
+};
+
+// A float is finite iff its exponent bits are not all ones. Bit tests cannot be optimised away
+// the way isnan/isinf can under Vulkan's default float controls.
+bool is_finite_f(float x) { return (floatBitsToUint(x) & 0x7f800000u) != 0x7f800000u; }
+bool is_finite_v(vec3 v) { return is_finite_f(v.x) && is_finite_f(v.y) && is_finite_f(v.z); }
+
+#endif
