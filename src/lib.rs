@@ -13,10 +13,13 @@
 
 pub mod brdf;
 pub mod bvh;
+pub mod camera;
 pub mod cpu;
 pub mod gpu;
 pub mod imageio;
+pub mod lights;
 pub mod metrics;
+pub mod output;
 pub mod rng;
 pub mod scene;
 pub mod vk;

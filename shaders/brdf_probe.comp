@@ -1,0 +1,35 @@
+#version 460
+// Evaluates one material's BRDF on the GPU for lists of direction pairs and samples: the GPU
+// side of `brdfwave brdf eval --backend gpu` and of the GPU-vs-CPU BRDF parity tests. The model
+// is chosen like the shade pipelines: "brdf/model.glsl" and BRDF_EVAL / BRDF_PDF / BRDF_SAMPLE.
+#extension GL_GOOGLE_include_directive : require
+#include "common.glsl"
+#include "brdf/model.glsl"
+layout(local_size_x = 64) in;
+
+layout(std430, set = 0, binding = 0) readonly buffer Mat { Material material; };
+// Inputs, 2 vec4 per item: (a.xyz, u_lobe), (b.xyz or (u.x, u.y, _), _).
+layout(std430, set = 0, binding = 1) readonly buffer Inputs { vec4 inputs[]; };
+// Outputs, 2 vec4 per item. Mode 0 (eval): (f, pdf), (0). Mode 1 (sample): (wi, pdf), (weight, ok | delta << 1).
+layout(std430, set = 0, binding = 2) writeonly buffer Outputs { vec4 outputs[]; };
+
+layout(push_constant) uniform Push { uint count; uint mode; } pc;
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= pc.count) return;
+    vec4 a = inputs[2u * i];
+    vec4 b = inputs[2u * i + 1u];
+    if (pc.mode == 0u) {
+        // a = wi, b = wo; pdf of sampling wo given wi.
+        vec3 f = BRDF_EVAL(material, a.xyz, b.xyz);
+        float pdf = BRDF_PDF(material, a.xyz, b.xyz);
+        outputs[2u * i] = vec4(f, pdf);
+        outputs[2u * i + 1u] = vec4(0.0);
+    } else {
+        BrdfSample s;
+        bool ok = BRDF_SAMPLE(material, a.xyz, a.w, b.xy, s);
+        outputs[2u * i] = vec4(s.wi, s.pdf);
+        outputs[2u * i + 1u] = vec4(s.weight, float((ok ? 1u : 0u) | (s.delta ? 2u : 0u)));
+    }
+}

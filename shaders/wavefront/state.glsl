@@ -1,0 +1,99 @@
+// The wavefront integrator's buffers, shared by every stage. Rust side: src/gpu/mod.rs
+// (`Binding`), which binds the same buffers to every pipeline in this order.
+//
+// Path state is structure-of-arrays, one entry per path slot of the current chunk; queues hold
+// path indices only (the state never moves). Counters and indirect-dispatch arguments live in
+// small buffers written by the one-thread `prepare` kernel.
+#ifndef STATE_GLSL
+#define STATE_GLSL
+#extension GL_EXT_scalar_block_layout : require
+#include "common.glsl"
+#include "rng.glsl"
+
+#define BVH_BINDING 0
+#include "bvh.glsl"
+
+layout(std430, set = 0, binding = 4) readonly buffer TriAttrs { vec4 tri_attr[]; };  // 4 vec4 per triangle: (n0, u0), (n1, u1), (n2, u2), (v0, v1, v2, flags)
+layout(std430, set = 0, binding = 5) readonly buffer Materials { Material materials[]; };
+layout(std430, set = 0, binding = 6) readonly buffer Lights { uvec2 lights[]; };      // (prim ref, floatBits(cdf))
+layout(std430, set = 0, binding = 7) readonly buffer Emitters { vec4 emitters[]; };   // radiance
+
+// Scene-wide values.
+layout(scalar, set = 0, binding = 8) readonly buffer Globals {
+    vec3 cam_origin;
+    vec3 cam_forward;
+    vec3 cam_right;   // scaled by tan(fov/2)·aspect
+    vec3 cam_up;      // scaled by tan(fov/2)
+    vec3 environment;
+    float light_total_weight;
+    uint num_lights;
+    uint width;
+    uint height;
+    uint max_depth;
+    uint seed;
+    uint rr_enabled;
+    uint rr_start_depth;
+    uint num_queues;  // material queues in use
+    uint capacity;    // path slots per chunk
+} g;
+
+// Path state (SoA).
+layout(std430, set = 0, binding = 9) buffer RayO { vec4 ray_o[]; };      // xyz origin
+layout(std430, set = 0, binding = 10) buffer RayD { vec4 ray_d[]; };     // xyz direction, w = pdf of the BSDF sample (0: camera/delta)
+layout(std430, set = 0, binding = 11) buffer Beta { vec4 beta[]; };      // path throughput
+layout(std430, set = 0, binding = 12) buffer Radiance { vec4 radiance[]; };
+layout(std430, set = 0, binding = 13) buffer HitRec { uvec4 hit_rec[]; }; // prim, bary.x, bary.y, t (float bits)
+layout(std430, set = 0, binding = 14) buffer ShadowO { vec4 shadow_o[]; }; // xyz origin, w = tmax
+layout(std430, set = 0, binding = 15) buffer ShadowD { vec4 shadow_d[]; };
+layout(std430, set = 0, binding = 16) buffer ShadowL { vec4 shadow_l[]; }; // unoccluded contribution
+
+// Queues: [0, cap) and [cap, 2cap) ping-pong ray queues; [2cap, 3cap) shadow queue;
+// [(3 + k)cap, (4 + k)cap) material queue k.
+layout(std430, set = 0, binding = 17) buffer Queues { uint queues[]; };
+// counters: 0,1 ray queues; 2 shadow queue; 3 non-finite samples; 4,5 extension rays traced
+// (low, high word); 6,7 shadow rays traced; 8 + k material queue k.
+layout(std430, set = 0, binding = 18) buffer Counters { uint counters[]; };
+// Indirect dispatch arguments, 4 uints each (x, y, z, pad): 0 ray, 1 shadow, 2 + k material k.
+layout(std430, set = 0, binding = 19) buffer Args { uvec4 args[]; };
+// Film: running sums of radiance and radiance² per pixel.
+layout(std430, set = 0, binding = 20) buffer Film { vec4 film[]; };
+layout(std430, set = 0, binding = 21) buffer Film2 { vec4 film2[]; };
+
+#define NUM_BINDINGS 22
+
+#define COUNTER_RAY 0u
+#define COUNTER_SHADOW 2u
+#define COUNTER_NONFINITE 3u
+#define COUNTER_EXT_TOTAL 4u
+#define COUNTER_SHADOW_TOTAL 6u
+#define COUNTER_MATERIAL 8u
+#define ARGS_RAY 0u
+#define ARGS_SHADOW 1u
+#define ARGS_MATERIAL 2u
+#define QUEUE_SHADOW 2u
+#define QUEUE_MATERIAL 3u
+
+layout(push_constant) uniform Push {
+    uint bounce;        // segment index d of the rays being traced / the vertex being shaded
+    uint sample_index;
+    uint chunk_offset;  // first pixel of this chunk
+    uint chunk_size;    // paths in this chunk
+    uint phase;         // prepare kernel: which arguments to write
+    uint queue_slot;    // shade kernels: which material queue
+} pc;
+
+uint ray_queue_in() { return (pc.bounce + 1u) & 1u; }  // segment 1 reads queue 0
+uint ray_queue_out() { return pc.bounce & 1u; }
+
+// Append a path index to queue q (counter c). One atomic per push; subgroup aggregation is a
+// measured-later optimisation.
+void queue_push(uint q, uint c, uint path) {
+    uint slot = atomicAdd(counters[c], 1u);
+    queues[q * g.capacity + slot] = path;
+}
+
+float rand(uint path, uint bounce, uint dim) {
+    return random_f32(g.seed, pc.chunk_offset + path, pc.sample_index, bounce, dim);
+}
+
+#endif

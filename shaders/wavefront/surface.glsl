@@ -1,0 +1,151 @@
+// Surface interactions and light sampling on the GPU. Rust twin (independent code, same
+// conventions): src/cpu/surface.rs.
+#ifndef SURFACE_GLSL
+#define SURFACE_GLSL
+#include "wavefront/state.glsl"
+
+#define SPHERE_BIT 0x80000000u
+#define NO_EMITTER 0xFFFFFFFFu
+
+struct Frame { vec3 t; vec3 b; vec3 n; };
+
+vec3 to_local(Frame f, vec3 v) { return vec3(dot(v, f.t), dot(v, f.b), dot(v, f.n)); }
+vec3 to_world(Frame f, vec3 v) { return f.t * v.x + f.b * v.y + f.n * v.z; }
+
+// Duff et al. 2017 orthonormal basis; sign from n.z >= 0 (as the Rust side).
+vec3 default_tangent(vec3 n) {
+    float s = n.z >= 0.0 ? 1.0 : -1.0;
+    float a = -1.0 / (s + n.z);
+    float b = n.x * n.y * a;
+    return vec3(1.0 + s * n.x * n.x * a, s * b, -s * n.x);
+}
+
+Frame make_frame(vec3 n, vec3 hint) {
+    vec3 t = hint - n * dot(n, hint);
+    float len2 = dot(t, t);
+    t = len2 > 1e-12 ? t / sqrt(len2) : default_tangent(n);
+    Frame f;
+    f.t = t;
+    f.b = cross(n, t);
+    f.n = n;
+    return f;
+}
+
+struct Surface {
+    vec3 p;
+    vec3 ng;       // unit geometric normal, front side
+    bool front;
+    Frame frame;
+    uint material;
+    uint emitter;  // NO_EMITTER when not emissive
+};
+
+Surface surface_at(uint prim, vec2 bary, float t, vec3 o, vec3 d) {
+    Surface s;
+    if ((prim & SPHERE_BIT) != 0u) {
+        uint i = prim & ~SPHERE_BIT;
+        vec4 cr = sphere_data[2u * i];
+        uvec4 info = floatBitsToUint(sphere_data[2u * i + 1u]);
+        vec3 outward = normalize(o + d * t - cr.xyz);
+        s.p = cr.xyz + outward * cr.w;
+        s.ng = info.z != 0u ? -outward : outward;
+        s.front = dot(d, s.ng) < 0.0;
+        s.frame = make_frame(s.ng, cross(vec3(0.0, 1.0, 0.0), outward));
+        s.material = info.x;
+        s.emitter = info.y;
+    } else {
+        vec4 a = tri_data[3u * prim];
+        vec4 b = tri_data[3u * prim + 1u];
+        vec4 c = tri_data[3u * prim + 2u];
+        float b1 = bary.x;
+        float b2 = bary.y;
+        float b0 = 1.0 - b1 - b2;
+        s.p = a.xyz * b0 + b.xyz * b1 + c.xyz * b2;
+        vec3 e1 = b.xyz - a.xyz;
+        vec3 e2 = c.xyz - a.xyz;
+        s.ng = normalize(cross(e1, e2));
+        s.front = dot(d, s.ng) < 0.0;
+        vec4 n0 = tri_attr[4u * prim];
+        vec4 n1 = tri_attr[4u * prim + 1u];
+        vec4 n2 = tri_attr[4u * prim + 2u];
+        vec4 vv = tri_attr[4u * prim + 3u];
+        uint flags = floatBitsToUint(vv.w);
+        vec3 ns = s.ng;
+        if ((flags & 1u) != 0u) {
+            vec3 n = n0.xyz * b0 + n1.xyz * b1 + n2.xyz * b2;
+            float len2 = dot(n, n);
+            if (len2 > 1e-12) {
+                n = n / sqrt(len2);
+                if (dot(n, s.ng) > 0.0) ns = n;
+            }
+        }
+        vec3 hint = default_tangent(ns);
+        if ((flags & 2u) != 0u) {
+            vec2 du1 = vec2(n1.w, vv.y) - vec2(n0.w, vv.x);
+            vec2 du2 = vec2(n2.w, vv.z) - vec2(n0.w, vv.x);
+            float det = du1.x * du2.y - du1.y * du2.x;
+            if (abs(det) > 1e-12) hint = (e1 * du2.y - e2 * du1.y) / det;
+        }
+        s.frame = make_frame(ns, hint);
+        s.material = floatBitsToUint(a.w);
+        s.emitter = floatBitsToUint(b.w);
+    }
+    return s;
+}
+
+float luminance(vec3 c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
+
+// First light whose CDF exceeds u (the same binary search as LightTable::select).
+uint select_light(float u) {
+    uint lo = 0u;
+    uint hi = g.num_lights - 1u;
+    while (lo < hi) {
+        uint mid = (lo + hi) / 2u;
+        if (uintBitsToFloat(lights[mid].y) > u) hi = mid; else lo = mid + 1u;
+    }
+    return lo;
+}
+
+struct LightSample { vec3 p; vec3 n; vec3 radiance; };
+
+LightSample sample_light(float u_sel, float u1, float u2) {
+    uint prim = lights[select_light(u_sel)].x;
+    LightSample ls;
+    if ((prim & SPHERE_BIT) != 0u) {
+        uint i = prim & ~SPHERE_BIT;
+        vec4 cr = sphere_data[2u * i];
+        uvec4 info = floatBitsToUint(sphere_data[2u * i + 1u]);
+        float z = 1.0 - 2.0 * u1;
+        float r = sqrt(max(1.0 - z * z, 0.0));
+        float phi = 2.0 * PI * u2;
+        vec3 dir = vec3(r * cos(phi), r * sin(phi), z);
+        ls.p = cr.xyz + dir * cr.w;
+        ls.n = info.z != 0u ? -dir : dir;
+        ls.radiance = emitters[info.y].xyz;
+    } else {
+        vec4 a = tri_data[3u * prim];
+        vec4 b = tri_data[3u * prim + 1u];
+        vec4 c = tri_data[3u * prim + 2u];
+        float su = sqrt(u1);
+        float b0 = 1.0 - su;
+        float b1 = u2 * su;
+        float b2 = 1.0 - b0 - b1;
+        ls.p = a.xyz * b0 + b.xyz * b1 + c.xyz * b2;
+        ls.n = normalize(cross(b.xyz - a.xyz, c.xyz - a.xyz));
+        ls.radiance = emitters[floatBitsToUint(b.w)].xyz;
+    }
+    return ls;
+}
+
+float light_pdf(vec3 le, float dist2, float cos_light) {
+    if (cos_light <= 0.0 || g.light_total_weight <= 0.0) return 0.0;
+    return luminance(le) / g.light_total_weight * dist2 / cos_light;
+}
+
+float power_heuristic(float a, float b) {
+    if (a <= 0.0) return 0.0;
+    float r = min(b / a, 1e18);
+    return 1.0 / (1.0 + r * r);
+}
+
+#endif

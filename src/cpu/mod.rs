@@ -1,0 +1,223 @@
+//! The CPU reference path tracer.
+//!
+//! The same algorithm as the GPU wavefront integrator (`crate::gpu`), written in plain Rust so
+//! the two can disagree when one is wrong. Shared with the GPU side are only the scene, the BVH
+//! (built once on the host), the emitter table and the random-number keys; the shading, light
+//! sampling and BRDFs are independent code (`src/brdf/*.rs` vs `shaders/brdf/*.glsl`).
+//!
+//! Algorithm (both sides): unidirectional path tracing with next-event estimation on emitters,
+//! combined with BSDF sampling by multiple importance sampling (power heuristic). `max_depth`
+//! counts path segments, the camera segment being the first: emission seen at the end of
+//! segment d counts when d ≤ max_depth, and a light sample from the vertex at the end of segment
+//! d adds segment d+1, so it is taken only when d < max_depth. Surfaces reflect on their front
+//! side only; a path that reaches a back face ends. Russian roulette is optional.
+
+pub mod surface;
+
+use crate::brdf::Brdf;
+use crate::bvh::{self, Bvh};
+use crate::camera::CameraBasis;
+use crate::imageio::Image;
+use crate::output::{mean_and_variance, RenderOutput};
+use crate::lights::{luminance, LightTable};
+use crate::rng::{dim, PathRng};
+use crate::scene::Scene;
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
+use surface::{light_pdf, power_heuristic, sample_light, surface_at};
+
+/// Statistics of one path.
+#[derive(Default)]
+struct PathStats {
+    extension_rays: u64,
+    shadow_rays: u64,
+}
+
+pub struct CpuRenderer<'a> {
+    scene: &'a Scene,
+    bvh: &'a Bvh,
+    lights: LightTable,
+    camera: CameraBasis,
+}
+
+impl<'a> CpuRenderer<'a> {
+    pub fn new(scene: &'a Scene, bvh: &'a Bvh) -> Self {
+        CpuRenderer { scene, bvh, lights: LightTable::build(scene), camera: CameraBasis::new(scene) }
+    }
+
+    /// Render `scene.integrator.spp` samples per pixel. `progress` is called with the number of
+    /// rows finished.
+    pub fn render(&self, progress: &(dyn Fn(u32) + Sync)) -> RenderOutput {
+        let s = self.scene;
+        let (w, h) = (s.width, s.height);
+        let spp = s.integrator.spp;
+        let nonfinite = AtomicU64::new(0);
+        let ext = AtomicU64::new(0);
+        let shadow = AtomicU64::new(0);
+        let rows_done = AtomicU64::new(0);
+        let rows: Vec<Vec<([f32; 3], [f32; 3])>> = (0..h)
+            .into_par_iter()
+            .map(|y| {
+                let mut stats = PathStats::default();
+                let mut bad = 0u64;
+                let row = (0..w)
+                    .map(|x| {
+                        let pixel = y * w + x;
+                        let mut sum = [0f64; 3];
+                        let mut sum2 = [0f64; 3];
+                        for sample in 0..spp {
+                            let rng = PathRng { seed: s.integrator.seed, pixel, sample };
+                            let l = self.trace_path(x, y, &rng, &mut stats);
+                            if !l.is_finite() {
+                                bad += 1;
+                                continue;
+                            }
+                            for c in 0..3 {
+                                sum[c] += l[c] as f64;
+                                sum2[c] += (l[c] as f64) * (l[c] as f64);
+                            }
+                        }
+                        mean_and_variance(sum, sum2, spp)
+                    })
+                    .collect();
+                nonfinite.fetch_add(bad, Ordering::Relaxed);
+                ext.fetch_add(stats.extension_rays, Ordering::Relaxed);
+                shadow.fetch_add(stats.shadow_rays, Ordering::Relaxed);
+                let done = rows_done.fetch_add(1, Ordering::Relaxed) + 1;
+                progress(done as u32);
+                row
+            })
+            .collect();
+        let mut mean = Image::new(w, h);
+        let mut variance = Image::new(w, h);
+        for (y, row) in rows.into_iter().enumerate() {
+            for (x, (m, v)) in row.into_iter().enumerate() {
+                let i = y * w as usize + x;
+                mean.data[i] = m;
+                variance.data[i] = v;
+            }
+        }
+        RenderOutput {
+            mean,
+            variance,
+            spp,
+            nonfinite_samples: nonfinite.into_inner(),
+            extension_rays: ext.into_inner(),
+            shadow_rays: shadow.into_inner(),
+            stage_seconds: Vec::new(),
+        }
+    }
+
+    /// Radiance of one camera path through pixel (x, y).
+    fn trace_path(&self, x: u32, y: u32, rng: &PathRng, stats: &mut PathStats) -> Vec3 {
+        let s = self.scene;
+        let max_depth = s.integrator.max_depth;
+        let fx = x as f32 + rng.get(0, dim::PIXEL_X);
+        let fy = y as f32 + rng.get(0, dim::PIXEL_Y);
+        let mut o = self.camera.origin;
+        let mut d = self.camera.ray_direction(fx, fy, s.width, s.height);
+        let mut beta = Vec3::ONE;
+        let mut l = Vec3::ZERO;
+        // Solid-angle pdf of the BSDF sample that produced the current ray; 0 for the camera
+        // ray and after delta lobes (emission is then counted with weight 1).
+        let mut prev_pdf = 0.0f32;
+        for depth in 1..=max_depth {
+            stats.extension_rays += 1;
+            let Some(hit) = self.bvh.closest(s, o, d, f32::MAX) else {
+                l += beta * s.environment;
+                break;
+            };
+            let si = surface_at(s, &hit, o, d);
+            if !si.front {
+                break;
+            }
+            if let Some(e) = si.emitter {
+                let le = s.emitters[e as usize].radiance;
+                let w = if prev_pdf > 0.0 {
+                    let cos_light = -d.dot(si.ng);
+                    power_heuristic(prev_pdf, light_pdf(&self.lights, le, hit.t * hit.t, cos_light))
+                } else {
+                    1.0
+                };
+                l += beta * le * w;
+            }
+            if depth == max_depth {
+                break;
+            }
+            let material = &s.materials[si.material as usize];
+            let brdf: &dyn Brdf = material.brdf.as_ref();
+            if !brdf.scatters() {
+                break;
+            }
+            let wo = si.frame.to_local(-d);
+            if wo.z <= 0.0 {
+                break;
+            }
+            let origin = bvh::offset_ray_origin(si.p, si.ng);
+
+            // Next-event estimation.
+            if !self.lights.is_empty() {
+                let ls = sample_light(
+                    s,
+                    &self.lights,
+                    rng.get(depth, dim::LIGHT_SELECT),
+                    rng.get(depth, dim::LIGHT_U),
+                    rng.get(depth, dim::LIGHT_V),
+                );
+                let target = bvh::offset_ray_origin(ls.p, ls.n);
+                let to_light = target - origin;
+                let dist2 = to_light.length_squared();
+                if dist2 > 0.0 {
+                    let dist = dist2.sqrt();
+                    let wi = to_light / dist;
+                    let cos_light = -wi.dot(ls.n);
+                    let wi_local = si.frame.to_local(wi);
+                    if cos_light > 0.0 && wi.dot(si.ng) > 0.0 && wi_local.z > 0.0 {
+                        let pdf_l = light_pdf(&self.lights, ls.radiance, dist2, cos_light);
+                        let f = brdf.eval(wi_local, wo);
+                        if pdf_l > 0.0 && f != Vec3::ZERO {
+                            let pdf_b = brdf.pdf(wo, wi_local);
+                            let w = power_heuristic(pdf_l, pdf_b);
+                            let contrib = beta * f * (wi_local.z * w / pdf_l) * ls.radiance;
+                            stats.shadow_rays += 1;
+                            if !self.bvh.occluded(s, origin, wi, dist) {
+                                l += contrib;
+                            }
+                        }
+                    }
+                }
+            }
+
+            // BSDF sampling for the next segment.
+            let u = Vec2::new(rng.get(depth, dim::BSDF_U), rng.get(depth, dim::BSDF_V));
+            let Some(bs) = brdf.sample(wo, rng.get(depth, dim::BSDF_LOBE), u) else {
+                break;
+            };
+            let wi = si.frame.to_world(bs.wi);
+            if wi.dot(si.ng) <= 0.0 {
+                break;
+            }
+            beta *= bs.weight;
+            prev_pdf = if bs.delta { 0.0 } else { bs.pdf };
+            if s.integrator.russian_roulette && depth >= s.integrator.rr_start_depth {
+                let q = beta.max_element().min(1.0);
+                if rng.get(depth, dim::RR) >= q {
+                    break;
+                }
+                beta /= q;
+            }
+            if beta == Vec3::ZERO {
+                break;
+            }
+            o = origin;
+            d = wi;
+        }
+        l
+    }
+}
+
+/// Luminance helper re-exported for reports.
+pub fn pixel_luminance(p: [f32; 3]) -> f32 {
+    luminance(Vec3::from_array(p))
+}

@@ -1,0 +1,169 @@
+//! Surface interactions and light samples for the CPU reference renderer.
+//! GLSL twins: `shaders/wavefront/surface.glsl` and `shaders/wavefront/lights.glsl`.
+
+use crate::bvh::{Hit, SPHERE_BIT};
+use crate::lights::{luminance, LightTable};
+use crate::scene::Scene;
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// Local shading frame: z = shading normal, x = tangent, y = bitangent.
+#[derive(Clone, Copy, Debug)]
+pub struct Frame {
+    pub t: Vec3,
+    pub b: Vec3,
+    pub n: Vec3,
+}
+
+impl Frame {
+    pub fn to_local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.t), v.dot(self.b), v.dot(self.n))
+    }
+    pub fn to_world(&self, v: Vec3) -> Vec3 {
+        self.t * v.x + self.b * v.y + self.n * v.z
+    }
+}
+
+/// A tangent for `n` when the surface gives none (Duff et al. 2017, "Building an Orthonormal
+/// Basis, Revisited", JCGT 6(1)); the sign uses `n.z >= 0` so both sides agree at -0.
+pub fn default_tangent(n: Vec3) -> Vec3 {
+    let sign = if n.z >= 0.0 { 1.0 } else { -1.0 };
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x)
+}
+
+/// Orthonormal frame from a shading normal and a tangent hint (Gram–Schmidt).
+pub fn make_frame(n: Vec3, tangent_hint: Vec3) -> Frame {
+    let mut t = tangent_hint - n * n.dot(tangent_hint);
+    let len2 = t.length_squared();
+    t = if len2 > 1e-12 { t / len2.sqrt() } else { default_tangent(n) };
+    Frame { t, b: n.cross(t), n }
+}
+
+pub struct Surface {
+    pub p: Vec3,
+    /// Unit geometric normal on the front side.
+    pub ng: Vec3,
+    /// The ray arrived at the front side.
+    pub front: bool,
+    pub frame: Frame,
+    pub material: u32,
+    pub emitter: Option<u32>,
+}
+
+/// Reconstruct the hit surface from the BVH hit record (position from barycentrics, not o + t·d).
+pub fn surface_at(scene: &Scene, hit: &Hit, o: Vec3, d: Vec3) -> Surface {
+    if hit.prim & SPHERE_BIT != 0 {
+        let s = &scene.spheres[(hit.prim & !SPHERE_BIT) as usize];
+        let out = (o + d * hit.t - s.center).normalize();
+        let p = s.center + out * s.radius;
+        let ng = if s.inward { -out } else { out };
+        let front = d.dot(ng) < 0.0;
+        // Tangent along lines of latitude around the world y axis.
+        let hint = Vec3::Y.cross(out);
+        Surface {
+            p,
+            ng,
+            front,
+            frame: make_frame(ng, hint),
+            material: s.material,
+            emitter: s.emitter,
+        }
+    } else {
+        let tri = &scene.triangles[hit.prim as usize];
+        let (b1, b2) = (hit.bary.x, hit.bary.y);
+        let b0 = 1.0 - b1 - b2;
+        let [v0, v1, v2] = tri.v;
+        let p = v0 * b0 + v1 * b1 + v2 * b2;
+        let e1 = v1 - v0;
+        let e2 = v2 - v0;
+        let ng = e1.cross(e2).normalize();
+        let front = d.dot(ng) < 0.0;
+        let mut ns = ng;
+        if let Some([n0, n1, n2]) = tri.n {
+            let n = n0 * b0 + n1 * b1 + n2 * b2;
+            let len2 = n.length_squared();
+            if len2 > 1e-12 {
+                let n = n / len2.sqrt();
+                if n.dot(ng) > 0.0 {
+                    ns = n;
+                }
+            }
+        }
+        let mut hint = default_tangent(ns);
+        if let Some([uv0, uv1, uv2]) = tri.uv {
+            let du1: Vec2 = uv1 - uv0;
+            let du2: Vec2 = uv2 - uv0;
+            let det = du1.x * du2.y - du1.y * du2.x;
+            if det.abs() > 1e-12 {
+                hint = (e1 * du2.y - e2 * du1.y) / det;
+            }
+        }
+        Surface {
+            p,
+            ng,
+            front,
+            frame: make_frame(ns, hint),
+            material: tri.material,
+            emitter: tri.emitter,
+        }
+    }
+}
+
+pub struct LightSample {
+    pub p: Vec3,
+    /// Unit normal on the emitting side.
+    pub n: Vec3,
+    pub radiance: Vec3,
+}
+
+/// Choose an emissive primitive by power and a point uniformly by area on it.
+pub fn sample_light(scene: &Scene, lights: &LightTable, u_sel: f32, u1: f32, u2: f32) -> LightSample {
+    let prim = lights.prims[lights.select(u_sel)];
+    if prim & SPHERE_BIT != 0 {
+        let s = &scene.spheres[(prim & !SPHERE_BIT) as usize];
+        let z = 1.0 - 2.0 * u1;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let phi = 2.0 * PI * u2;
+        let dir = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+        let e = s.emitter.expect("light table holds emitters only");
+        LightSample {
+            p: s.center + dir * s.radius,
+            n: if s.inward { -dir } else { dir },
+            radiance: scene.emitters[e as usize].radiance,
+        }
+    } else {
+        let t = &scene.triangles[prim as usize];
+        let su = u1.sqrt();
+        let b0 = 1.0 - su;
+        let b1 = u2 * su;
+        let b2 = 1.0 - b0 - b1;
+        let [v0, v1, v2] = t.v;
+        let e = t.emitter.expect("light table holds emitters only");
+        LightSample {
+            p: v0 * b0 + v1 * b1 + v2 * b2,
+            n: (v1 - v0).cross(v2 - v0).normalize(),
+            radiance: scene.emitters[e as usize].radiance,
+        }
+    }
+}
+
+/// Solid-angle density of NEE choosing a point with radiance `le` at distance² `dist2` whose
+/// emitting side makes cosine `cos_light` with the direction back to the shading point.
+pub fn light_pdf(lights: &LightTable, le: Vec3, dist2: f32, cos_light: f32) -> f32 {
+    if cos_light <= 0.0 || lights.total_weight <= 0.0 {
+        return 0.0;
+    }
+    luminance(le) / lights.total_weight * dist2 / cos_light
+}
+
+/// Power heuristic (β = 2) weight of a strategy with density `a` against one with `b`,
+/// written so that huge densities cannot overflow into inf/inf.
+pub fn power_heuristic(a: f32, b: f32) -> f32 {
+    if a <= 0.0 {
+        return 0.0;
+    }
+    let r = (b / a).min(1e18);
+    1.0 / (1.0 + r * r)
+}

@@ -1,0 +1,329 @@
+//! The wavefront path tracer on Vulkan compute.
+//!
+//! Per sample index, one command buffer holds the whole pass over every chunk of pixels:
+//!
+//! ```text
+//! generate                                   camera rays → ray queue 0
+//! for segment d = 1 ..= max_depth:
+//!     prepare(0)   args for `extend`; reset the queues this segment appends to
+//!     extend       closest hit; emission (MIS); route to the material's queue
+//!     prepare(1)   args for each material queue
+//!     shade_<m>    one pipeline per model, indirect over its own queue: NEE → shadow queue,
+//!                  BRDF sample → next ray queue
+//!     prepare(2)   args for the shadow queue
+//!     shadow       any hit; add the unoccluded light sample
+//! accumulate                                 film += path radiance (one writer per pixel)
+//! ```
+//!
+//! Only the models the scene's materials use get a queue and a shade pipeline; features a
+//! scene does not use are compiled out through the models' `#define`s. The algorithm and its
+//! conventions (depth, MIS, random-number keys) are those of the CPU reference (`crate::cpu`).
+
+pub mod brdf_probe;
+pub mod scene_buffers;
+
+use crate::brdf::MODELS;
+use crate::bvh::Bvh;
+use crate::lights::LightTable;
+use crate::output::{mean_and_variance, RenderOutput};
+use crate::scene::Scene;
+use crate::vk::{Buffer, ComputePipeline, Context, ShaderCompiler};
+use anyhow::{bail, Context as _, Result};
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+use std::collections::BTreeSet;
+use std::time::Instant;
+
+/// Bytes of push constants (`Push` in state.glsl).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct Push {
+    bounce: u32,
+    sample_index: u32,
+    chunk_offset: u32,
+    chunk_size: u32,
+    phase: u32,
+    queue_slot: u32,
+}
+
+const NUM_BINDINGS: u32 = 22;
+const LOCAL_SIZE: u32 = 64;
+/// Path slots per chunk: bounded by the 65535-workgroup dispatch limit and lavapipe's 128 MiB
+/// storage-buffer range (the queue buffer holds (3 + models) × capacity indices).
+pub const MAX_CAPACITY: u32 = 1 << 20;
+
+/// Timing and bookkeeping of the set-up, for the summary.
+#[derive(Clone, Debug, Default)]
+pub struct SetupStats {
+    /// Names of the pipelines built (shade pipelines are `shade_<model>`).
+    pub pipelines: Vec<String>,
+    pub seconds_shader_compile: f64,
+    pub seconds_pipeline_create: f64,
+    pub seconds_upload: f64,
+    pub shader_cache_hits: u32,
+}
+
+struct Kernel {
+    pipeline: ComputePipeline,
+    set: vk::DescriptorSet,
+}
+
+pub struct GpuRenderer<'a> {
+    ctx: &'a Context,
+    scene: &'a Scene,
+    buffers: Vec<Buffer>,
+    generate: Kernel,
+    prepare: Kernel,
+    extend: Kernel,
+    shadow: Kernel,
+    accumulate: Kernel,
+    /// (queue slot, model index, kernel)
+    shade: Vec<(u32, usize, Kernel)>,
+    capacity: u32,
+    pub setup: SetupStats,
+}
+
+/// Buffer indices = binding numbers (state.glsl).
+mod b {
+    pub const FILM: usize = 20;
+    pub const FILM2: usize = 21;
+    pub const COUNTERS: usize = 18;
+}
+
+impl<'a> GpuRenderer<'a> {
+    pub fn new(ctx: &'a Context, scene: &'a Scene, bvh: &Bvh, compiler: &ShaderCompiler) -> Result<Self> {
+        let mut setup = SetupStats::default();
+        let pixels = scene.width as u64 * scene.height as u64;
+        let capacity = pixels.min(MAX_CAPACITY as u64) as u32;
+
+        // Which models need a queue: those of materials that scatter.
+        let used: BTreeSet<usize> =
+            scene.materials.iter().filter(|m| m.brdf.scatters()).map(|m| m.model).collect();
+        let models: Vec<usize> = used.into_iter().collect();
+        let queue_slot: Vec<u32> = scene
+            .materials
+            .iter()
+            .map(|m| match m.brdf.scatters() {
+                true => models.iter().position(|&x| x == m.model).unwrap() as u32,
+                false => scene_buffers::NO_QUEUE,
+            })
+            .collect();
+        let num_queues = models.len() as u32;
+
+        // Scene and state buffers, in binding order.
+        let t_upload = Instant::now();
+        let lights = LightTable::build(scene);
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let film_bytes = pixels * 16;
+        let limit = ctx.limits.max_storage_buffer_range as u64;
+        let queue_bytes = (3 + num_queues as u64) * capacity as u64 * 4;
+        if film_bytes > limit || queue_bytes > limit {
+            bail!(
+                "image of {}x{} needs a {} MiB film buffer, over this device's storage-buffer range of {} MiB; render a smaller image",
+                scene.width,
+                scene.height,
+                film_bytes >> 20,
+                limit >> 20
+            );
+        }
+        let cap = capacity as u64;
+        let mut buffers = vec![
+            ctx.create_buffer_with_data("bvh_nodes", scene_buffers::bvh_nodes(bvh), storage)?,
+            ctx.create_buffer_with_data("bvh_prims", &bvh.prims, storage)?,
+            ctx.create_buffer_with_data("triangles", &scene_buffers::triangle_data(scene), storage)?,
+            ctx.create_buffer_with_data("spheres", &scene_buffers::sphere_data(scene), storage)?,
+            ctx.create_buffer_with_data("tri_attrs", &scene_buffers::triangle_attributes(scene), storage)?,
+            ctx.create_buffer_with_data("materials", &scene_buffers::material_records(scene, &queue_slot), storage)?,
+            ctx.create_buffer_with_data("lights", &scene_buffers::light_data(&lights), storage)?,
+            ctx.create_buffer_with_data("emitters", &scene_buffers::emitter_data(scene), storage)?,
+            ctx.create_buffer_with_data("globals", &scene_buffers::globals(scene, &lights, num_queues, capacity), storage)?,
+        ];
+        let gpu = MemoryLocation::GpuOnly;
+        for name in ["ray_o", "ray_d", "beta", "radiance", "hit_rec", "shadow_o", "shadow_d", "shadow_l"] {
+            buffers.push(ctx.create_buffer(name, cap * 16, storage, gpu)?);
+        }
+        buffers.push(ctx.create_buffer("queues", queue_bytes, storage, gpu)?);
+        buffers.push(ctx.create_buffer(
+            "counters",
+            (8 + num_queues as u64) * 4,
+            storage | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+        )?);
+        buffers.push(ctx.create_buffer(
+            "args",
+            (2 + num_queues as u64) * 16,
+            storage | vk::BufferUsageFlags::INDIRECT_BUFFER,
+            gpu,
+        )?);
+        for name in ["film", "film2"] {
+            buffers.push(ctx.create_buffer(
+                name,
+                film_bytes,
+                storage | vk::BufferUsageFlags::TRANSFER_DST,
+                MemoryLocation::GpuToCpu,
+            )?);
+        }
+        assert_eq!(buffers.len() as u32, NUM_BINDINGS);
+        setup.seconds_upload = t_upload.elapsed().as_secs_f64();
+
+        // Pipelines.
+        let mut build = |name: &str, file: &str, defines: Vec<(String, String)>, overrides: Vec<(String, String)>| -> Result<Kernel> {
+            let t = Instant::now();
+            let spirv = compiler
+                .compile(file, &defines, &overrides)
+                .with_context(|| format!("compiling {file} for pipeline {name}"))?;
+            setup.seconds_shader_compile += t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            let pipeline = ctx.create_compute_pipeline(name, &spirv, NUM_BINDINGS, std::mem::size_of::<Push>() as u32)?;
+            setup.seconds_pipeline_create += t.elapsed().as_secs_f64();
+            let refs: Vec<&Buffer> = buffers.iter().collect();
+            let set = ctx.create_descriptor_set(&pipeline, &refs)?;
+            setup.pipelines.push(name.to_string());
+            Ok(Kernel { pipeline, set })
+        };
+        let generate = build("generate", "wavefront/generate.comp", vec![], vec![])?;
+        let prepare = build("prepare", "wavefront/prepare.comp", vec![], vec![])?;
+        let extend = build("extend", "wavefront/extend.comp", vec![], vec![])?;
+        let shadow = build("shadow", "wavefront/shadow.comp", vec![], vec![])?;
+        let accumulate = build("accumulate", "wavefront/accumulate.comp", vec![], vec![])?;
+        let mut shade = Vec::new();
+        for (slot, &model) in models.iter().enumerate() {
+            let name = MODELS[model].name;
+            let mut defines: BTreeSet<&'static str> = BTreeSet::new();
+            for m in scene.materials.iter().filter(|m| m.model == model && m.brdf.scatters()) {
+                defines.extend(m.brdf.defines());
+            }
+            let mut defs: Vec<(String, String)> = defines.into_iter().map(|d| (d.to_string(), "1".to_string())).collect();
+            defs.push(("BRDF_EVAL".into(), format!("{name}_eval")));
+            defs.push(("BRDF_PDF".into(), format!("{name}_pdf")));
+            defs.push(("BRDF_SAMPLE".into(), format!("{name}_sample")));
+            let overrides = vec![("brdf/model.glsl".to_string(), format!("brdf/{name}.glsl"))];
+            let k = build(&format!("shade_{name}"), "wavefront/shade.comp", defs, overrides)?;
+            shade.push((slot as u32, model, k));
+        }
+
+        Ok(GpuRenderer { ctx, scene, buffers, generate, prepare, extend, shadow, accumulate, shade, capacity, setup })
+    }
+
+    /// Render `scene.integrator.spp` passes; `progress` gets the number of passes done.
+    pub fn render(&mut self, progress: &dyn Fn(u32)) -> Result<RenderOutput> {
+        let scene = self.scene;
+        let pixels = scene.width * scene.height;
+        let spp = scene.integrator.spp;
+        let ctx = self.ctx;
+        let mut rec = ctx.begin()?;
+        rec.fill_buffer(&self.buffers[b::FILM], 0);
+        rec.fill_buffer(&self.buffers[b::FILM2], 0);
+        rec.fill_buffer(&self.buffers[b::COUNTERS], 0);
+        ctx.submit_and_wait(rec)?;
+
+        let mut stage_seconds: Vec<(String, f64)> = Vec::new();
+        for sample in 0..spp {
+            let mut rec = ctx.begin()?;
+            rec.timestamp("start");
+            let mut offset = 0;
+            while offset < pixels {
+                let n = (pixels - offset).min(self.capacity);
+                let mut push = Push { sample_index: sample, chunk_offset: offset, chunk_size: n, ..Default::default() };
+                let groups = n.div_ceil(LOCAL_SIZE);
+                rec.bind(&self.generate.pipeline, self.generate.set);
+                rec.push_constants(&self.generate.pipeline, &push);
+                rec.dispatch(groups, 1, 1);
+                rec.barrier();
+                rec.timestamp("generate");
+                for depth in 1..=scene.integrator.max_depth {
+                    push.bounce = depth;
+                    let args = &self.buffers[19];
+                    self.run_prepare(&mut rec, &mut push, 0);
+                    rec.bind(&self.extend.pipeline, self.extend.set);
+                    rec.push_constants(&self.extend.pipeline, &push);
+                    rec.dispatch_indirect(args, 0);
+                    rec.barrier();
+                    rec.timestamp("extend");
+                    if depth == scene.integrator.max_depth {
+                        break;
+                    }
+                    self.run_prepare(&mut rec, &mut push, 1);
+                    for (slot, _, k) in &self.shade {
+                        push.queue_slot = *slot;
+                        rec.bind(&k.pipeline, k.set);
+                        rec.push_constants(&k.pipeline, &push);
+                        rec.dispatch_indirect(args, (2 + *slot as u64) * 16);
+                        rec.barrier();
+                        rec.timestamp(&k.pipeline.name);
+                    }
+                    self.run_prepare(&mut rec, &mut push, 2);
+                    rec.bind(&self.shadow.pipeline, self.shadow.set);
+                    rec.push_constants(&self.shadow.pipeline, &push);
+                    rec.dispatch_indirect(args, 16);
+                    rec.barrier();
+                    rec.timestamp("shadow");
+                }
+                rec.bind(&self.accumulate.pipeline, self.accumulate.set);
+                rec.push_constants(&self.accumulate.pipeline, &push);
+                rec.dispatch(groups, 1, 1);
+                rec.barrier();
+                rec.timestamp("accumulate");
+                offset += n;
+            }
+            ctx.submit_and_wait(rec)?;
+            let stamps = ctx.read_timestamps()?;
+            for w in stamps.windows(2) {
+                let (label, dt) = (&w[1].0, w[1].1 - w[0].1);
+                match stage_seconds.iter_mut().find(|(l, _)| l == label) {
+                    Some((_, t)) => *t += dt,
+                    None => stage_seconds.push((label.clone(), dt)),
+                }
+            }
+            progress(sample + 1);
+        }
+
+        let counters: Vec<u32> = ctx.download(&self.buffers[b::COUNTERS])?;
+        let film: Vec<[f32; 4]> = ctx.download(&self.buffers[b::FILM])?;
+        let film2: Vec<[f32; 4]> = ctx.download(&self.buffers[b::FILM2])?;
+        let mut mean = crate::imageio::Image::new(scene.width, scene.height);
+        let mut variance = crate::imageio::Image::new(scene.width, scene.height);
+        for i in 0..pixels as usize {
+            let s = [film[i][0] as f64, film[i][1] as f64, film[i][2] as f64];
+            let s2 = [film2[i][0] as f64, film2[i][1] as f64, film2[i][2] as f64];
+            let (m, v) = mean_and_variance(s, s2, spp);
+            mean.data[i] = m;
+            variance.data[i] = v;
+        }
+        // Running totals kept by the prepare kernel from the queue sizes.
+        let extension_rays = counters[4] as u64 | (counters[5] as u64) << 32;
+        let shadow_rays = counters[6] as u64 | (counters[7] as u64) << 32;
+        Ok(RenderOutput {
+            mean,
+            variance,
+            spp,
+            nonfinite_samples: counters[3] as u64,
+            extension_rays,
+            shadow_rays,
+            stage_seconds,
+        })
+    }
+
+    fn run_prepare(&self, rec: &mut crate::vk::Recorder<'_>, push: &mut Push, phase: u32) {
+        push.phase = phase;
+        rec.bind(&self.prepare.pipeline, self.prepare.set);
+        rec.push_constants(&self.prepare.pipeline, push);
+        rec.dispatch(1, 1, 1);
+        rec.barrier();
+    }
+}
+
+impl Drop for GpuRenderer<'_> {
+    fn drop(&mut self) {
+        let ctx = self.ctx;
+        for k in [&self.generate, &self.prepare, &self.extend, &self.shadow, &self.accumulate] {
+            ctx.destroy_pipeline_ref(&k.pipeline);
+        }
+        for (_, _, k) in &self.shade {
+            ctx.destroy_pipeline_ref(&k.pipeline);
+        }
+        for b in self.buffers.drain(..) {
+            ctx.destroy_buffer(b);
+        }
+    }
+}

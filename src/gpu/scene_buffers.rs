@@ -1,0 +1,120 @@
+//! Packing the scene into the GPU buffers the kernels read (layouts documented beside each
+//! buffer in `shaders/wavefront/state.glsl` and `shaders/bvh.glsl`).
+
+use crate::brdf::{Material, RECORD_WORDS};
+use crate::bvh::Bvh;
+use crate::camera::CameraBasis;
+use crate::lights::LightTable;
+use crate::scene::Scene;
+
+pub const NO_EMITTER: u32 = u32::MAX;
+/// Material header value for a surface that does not scatter: paths end there.
+pub const NO_QUEUE: u32 = u32::MAX;
+
+fn bits(x: u32) -> f32 {
+    f32::from_bits(x)
+}
+
+/// 3 vec4 per triangle: (v0, material), (v1, emitter), (v2, 0).
+pub fn triangle_data(scene: &Scene) -> Vec<[f32; 4]> {
+    let mut out = Vec::with_capacity(scene.triangles.len() * 3);
+    for t in &scene.triangles {
+        let e = t.emitter.unwrap_or(NO_EMITTER);
+        out.push([t.v[0].x, t.v[0].y, t.v[0].z, bits(t.material)]);
+        out.push([t.v[1].x, t.v[1].y, t.v[1].z, bits(e)]);
+        out.push([t.v[2].x, t.v[2].y, t.v[2].z, 0.0]);
+    }
+    out
+}
+
+/// 4 vec4 per triangle: (n0, u0), (n1, u1), (n2, u2), (v0, v1, v2, flags: 1 normals, 2 uvs).
+pub fn triangle_attributes(scene: &Scene) -> Vec<[f32; 4]> {
+    let mut out = Vec::with_capacity(scene.triangles.len() * 4);
+    for t in &scene.triangles {
+        let n = t.n.unwrap_or([glam::Vec3::ZERO; 3]);
+        let uv = t.uv.unwrap_or([glam::Vec2::ZERO; 3]);
+        let flags = (t.n.is_some() as u32) | ((t.uv.is_some() as u32) << 1);
+        for k in 0..3 {
+            out.push([n[k].x, n[k].y, n[k].z, uv[k].x]);
+        }
+        out.push([uv[0].y, uv[1].y, uv[2].y, bits(flags)]);
+    }
+    out
+}
+
+/// 2 vec4 per sphere: (center, radius), (material, emitter, inward, 0).
+pub fn sphere_data(scene: &Scene) -> Vec<[f32; 4]> {
+    let mut out = Vec::with_capacity(scene.spheres.len() * 2);
+    for s in &scene.spheres {
+        out.push([s.center.x, s.center.y, s.center.z, s.radius]);
+        out.push([
+            bits(s.material),
+            bits(s.emitter.unwrap_or(NO_EMITTER)),
+            bits(s.inward as u32),
+            0.0,
+        ]);
+    }
+    out
+}
+
+/// Material records; `queue_slot[m]` is the material's queue (or NO_QUEUE).
+pub fn material_records(scene: &Scene, queue_slot: &[u32]) -> Vec<[u32; RECORD_WORDS]> {
+    records(&scene.materials, queue_slot)
+}
+
+/// Records of materials outside a scene (queue slot 0).
+pub fn material_records_of(materials: &[Material]) -> Vec<[u32; RECORD_WORDS]> {
+    records(materials, &vec![0; materials.len()])
+}
+
+fn records(materials: &[Material], queue_slot: &[u32]) -> Vec<[u32; RECORD_WORDS]> {
+    materials
+        .iter()
+        .zip(queue_slot)
+        .map(|(m, &slot)| {
+            let mut r = [0u32; RECORD_WORDS];
+            r[0] = m.model as u32;
+            r[1] = slot;
+            for (k, p) in m.brdf.pack().0.iter().enumerate() {
+                r[4 + k] = p.to_bits();
+            }
+            r
+        })
+        .collect()
+}
+
+pub fn light_data(lights: &LightTable) -> Vec<[u32; 2]> {
+    lights.prims.iter().zip(&lights.cdf).map(|(&p, &c)| [p, c.to_bits()]).collect()
+}
+
+pub fn emitter_data(scene: &Scene) -> Vec<[f32; 4]> {
+    scene.emitters.iter().map(|e| [e.radiance.x, e.radiance.y, e.radiance.z, 0.0]).collect()
+}
+
+/// The `Globals` block (scalar layout) of state.glsl.
+pub fn globals(scene: &Scene, lights: &LightTable, num_queues: u32, capacity: u32) -> Vec<u32> {
+    let cam = CameraBasis::new(scene);
+    let mut w: Vec<u32> = Vec::with_capacity(32);
+    for v in [cam.origin, cam.forward, cam.right, cam.up, scene.environment] {
+        w.extend(v.to_array().iter().map(|f| f.to_bits()));
+    }
+    let it = &scene.integrator;
+    w.push(lights.total_weight.to_bits());
+    w.extend([
+        lights.prims.len() as u32,
+        scene.width,
+        scene.height,
+        it.max_depth,
+        it.seed,
+        it.russian_roulette as u32,
+        it.rr_start_depth,
+        num_queues,
+        capacity,
+    ]);
+    w
+}
+
+/// BVH nodes as raw words (4 vec4 each).
+pub fn bvh_nodes(bvh: &Bvh) -> &[u8] {
+    bytemuck::cast_slice(&bvh.nodes)
+}

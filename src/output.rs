@@ -1,0 +1,32 @@
+//! What a render produces, whichever backend made it.
+
+use crate::imageio::Image;
+
+pub struct RenderOutput {
+    /// Per-pixel mean radiance (linear RGB).
+    pub mean: Image,
+    /// Per-pixel variance of one sample (unbiased), for statistical comparisons.
+    pub variance: Image,
+    pub spp: u32,
+    /// Samples whose radiance was NaN or infinite; they are dropped (counted as zero).
+    pub nonfinite_samples: u64,
+    /// Extension (closest-hit) rays traced.
+    pub extension_rays: u64,
+    /// Shadow (any-hit) rays traced.
+    pub shadow_rays: u64,
+    /// Time per stage (GPU timestamps; empty for the CPU), summed over all passes.
+    pub stage_seconds: Vec<(String, f64)>,
+}
+
+/// Mean and unbiased one-sample variance from sums accumulated in f64.
+pub fn mean_and_variance(sum: [f64; 3], sum2: [f64; 3], n: u32) -> ([f32; 3], [f32; 3]) {
+    let n = n.max(1) as f64;
+    let mut m = [0f32; 3];
+    let mut v = [0f32; 3];
+    for c in 0..3 {
+        let mean = sum[c] / n;
+        m[c] = mean as f32;
+        v[c] = if n > 1.0 { ((sum2[c] - n * mean * mean) / (n - 1.0)).max(0.0) as f32 } else { 0.0 };
+    }
+    (m, v)
+}

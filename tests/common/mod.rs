@@ -1,0 +1,68 @@
+//! Helpers shared by the integration tests that render.
+#![allow(dead_code)]
+
+use brdfwave::bvh;
+use brdfwave::cpu::CpuRenderer;
+use brdfwave::gpu::GpuRenderer;
+use brdfwave::output::RenderOutput;
+use brdfwave::scene::{self, Scene};
+use brdfwave::vk::{Context, ContextOptions, ShaderCompiler};
+use std::path::{Path, PathBuf};
+
+pub fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Load a scene from `scenes/` and override size, spp, depth and seed.
+pub fn scene(name: &str, w: u32, h: u32, spp: u32, max_depth: u32, seed: u32) -> Scene {
+    let mut s = scene::load(&repo().join("scenes").join(name)).expect("scene loads");
+    s.width = w;
+    s.height = h;
+    s.integrator.spp = spp;
+    s.integrator.max_depth = max_depth;
+    s.integrator.seed = seed;
+    s
+}
+
+/// A Vulkan context on the default device (lavapipe in CI) with validation enabled when the
+/// layer is installed. Fails (does not skip) when Vulkan is unavailable.
+pub fn context() -> Context {
+    Context::new(&ContextOptions { device: None, validation: true }).expect("a Vulkan device (install mesa-vulkan-drivers)")
+}
+
+pub fn render_cpu(s: &Scene) -> RenderOutput {
+    let b = bvh::build(s);
+    CpuRenderer::new(s, &b).render(&|_| {})
+}
+
+/// Render on the GPU; returns the output and the names of the pipelines built. Fails the test
+/// if the validation layer reported anything.
+pub fn render_gpu(ctx: &Context, s: &Scene) -> (RenderOutput, Vec<String>) {
+    let b = bvh::build(s);
+    let compiler = ShaderCompiler::new().expect("shader compiler");
+    let (out, pipelines) = {
+        let mut r = GpuRenderer::new(ctx, s, &b, &compiler).expect("GPU renderer set-up");
+        let out = r.render(&|_| {}).expect("GPU render");
+        (out, r.setup.pipelines.clone())
+    };
+    let msgs = ctx.validation_messages();
+    assert!(msgs.is_empty(), "validation layer messages:\n{}", msgs.join("\n"));
+    (out, pipelines)
+}
+
+/// Where tests write images for inspection on failure.
+pub fn artifact_dir() -> PathBuf {
+    let d = repo().join("target").join("test-artifacts");
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+pub fn save(name: &str, img: &brdfwave::imageio::Image) -> PathBuf {
+    let p = artifact_dir().join(name);
+    brdfwave::imageio::write(&p, img).expect("write artifact");
+    p
+}
+
+pub fn exists(p: &Path) -> bool {
+    p.exists()
+}
