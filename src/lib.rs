@@ -12,6 +12,7 @@
 //! * `imageio`, `metrics` — image files and image comparison.
 
 pub mod brdf;
+pub mod brdf_tools;
 pub mod bvh;
 pub mod camera;
 pub mod cpu;

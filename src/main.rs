@@ -68,6 +68,49 @@ enum Command {
     },
     /// List the Vulkan devices.
     Devices,
+    /// Evaluate, plot and measure reflectance models.
+    Brdf {
+        #[command(subcommand)]
+        command: BrdfCommand,
+    },
+}
+
+#[derive(Subcommand)]
+enum BrdfCommand {
+    /// Evaluate f and pdf for direction pairs from a CSV (header wi_x,wi_y,wi_z,wo_x,wo_y,wo_z).
+    Eval {
+        /// The material as an inline TOML table, e.g. 'model = "ward", ks = [1,1,1], alpha_x = 0.2, alpha_y = 0.1'.
+        #[arg(long)]
+        material: String,
+        #[arg(long)]
+        dirs: PathBuf,
+        #[arg(long, value_enum, default_value = "cpu")]
+        backend: Backend,
+        /// Output CSV (default: stdout).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        #[arg(long)]
+        device: Option<String>,
+    },
+    /// Plot the lobe: polar plot of f·cosθo in the plane of incidence and a hemisphere image.
+    Plot {
+        #[arg(long)]
+        material: String,
+        #[arg(long, allow_hyphen_values = true)]
+        theta_i: f32,
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Measure every model at representative parameters: albedo, reciprocity, χ², cost, variance.
+    Report {
+        #[arg(long, default_value = "out/report")]
+        out: PathBuf,
+        /// Skip the GPU cost measurement.
+        #[arg(long)]
+        no_gpu: bool,
+        #[arg(long)]
+        device: Option<String>,
+    },
 }
 
 fn parse_res(s: &str) -> std::result::Result<(u32, u32), String> {
@@ -87,6 +130,7 @@ fn main() {
             render(RenderArgs { scene, backend, spp, res, max_depth, seed, out, variance_out, device, validation, json })
         }
         Command::Diff { test, reference, error_map, json } => diff(&test, &reference, error_map.as_deref(), json),
+        Command::Brdf { command } => brdf_command(command),
         Command::Devices => vk::Context::list_devices().map(|d| {
             for name in d {
                 println!("{name}");
@@ -291,4 +335,88 @@ fn diff(test: &Path, reference: &Path, error_map: Option<&Path>, json_out: bool)
         println!("flip      {:.6}", report.flip_mean);
     }
     Ok(())
+}
+
+fn brdf_command(cmd: BrdfCommand) -> Result<()> {
+    use brdfwave::brdf::inline::parse_inline;
+    use brdfwave::brdf_tools as tools;
+    match cmd {
+        BrdfCommand::Eval { material, dirs, backend, out, device } => {
+            let m = parse_inline(&material)?;
+            let pairs = tools::read_direction_csv(&dirs)?;
+            let values = match backend {
+                Backend::Cpu => tools::eval_cpu(&m, &pairs),
+                Backend::Gpu => {
+                    let ctx = vk::Context::new(&vk::ContextOptions { device, validation: false })?;
+                    let compiler = vk::ShaderCompiler::new()?;
+                    brdfwave::gpu::brdf_probe::eval(&ctx, &compiler, &m, &pairs)?
+                }
+            };
+            let csv = tools::format_eval_csv(&pairs, &values);
+            match out {
+                Some(p) => tools::write_atomic(&p, csv.as_bytes())?,
+                None => print!("{csv}"),
+            }
+        }
+        BrdfCommand::Plot { material, theta_i, out } => {
+            if !(0.0..90.0).contains(&theta_i) {
+                bail!("--theta-i must be in [0, 90) degrees, got {theta_i}");
+            }
+            let m = parse_inline(&material)?;
+            let img = tools::plot_lobe(m.brdf.as_ref(), theta_i);
+            let mut bytes = Vec::new();
+            img.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)?;
+            tools::write_atomic(&out, &bytes)?;
+            println!("wrote {}", out.display());
+        }
+        BrdfCommand::Report { out, no_gpu, device } => {
+            std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+            let gpu = if no_gpu {
+                None
+            } else {
+                let ctx = vk::Context::new(&vk::ContextOptions { device, validation: false })?;
+                let compiler = vk::ShaderCompiler::new()?;
+                Some((ctx, compiler))
+            };
+            let mut rows = Vec::new();
+            for (label, src) in tools::REPRESENTATIVE {
+                if !tools::available(src) {
+                    eprintln!("skipping {label}: model not built into this binary");
+                    continue;
+                }
+                eprintln!("measuring {label}");
+                let (mut row, m) = tools::report_row(label, src)?;
+                if let Some((ctx, compiler)) = &gpu {
+                    row.ns_per_eval_gpu = Some(gpu_eval_cost(ctx, compiler, &m)?);
+                }
+                let img = tools::plot_lobe(m.brdf.as_ref(), 45.0);
+                let mut bytes = Vec::new();
+                img.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)?;
+                tools::write_atomic(&out.join(format!("lobe_{}.png", tools::slug(label))), &bytes)?;
+                rows.push(row);
+            }
+            let device_name = gpu.as_ref().map(|(c, _)| c.device_name.clone());
+            let md = tools::report_markdown(&rows, device_name.as_deref());
+            tools::write_atomic(&out.join("report.md"), md.as_bytes())?;
+            tools::write_atomic(&out.join("report.csv"), tools::report_csv(&rows).as_bytes())?;
+            print!("{md}");
+            println!("\nwrote {}/report.md, report.csv and lobe_*.png", out.display());
+        }
+    }
+    Ok(())
+}
+
+/// Nanoseconds per BRDF evaluation on the GPU: the probe kernel over 2^20 random pairs, timed
+/// by GPU timestamps around the dispatch (uploads and pipeline creation excluded).
+fn gpu_eval_cost(ctx: &vk::Context, compiler: &vk::ShaderCompiler, m: &brdfwave::brdf::Material) -> Result<f64> {
+    let n = 1u32 << 20;
+    let pairs: Vec<(glam::Vec3, glam::Vec3)> = (0..n)
+        .map(|i| {
+            let u = |d| brdfwave::rng::random_f32(9, i, 0, 0, d);
+            let s = brdfwave::brdf::common::sample_cosine_hemisphere;
+            (s(glam::Vec2::new(u(0), u(1))), s(glam::Vec2::new(u(2), u(3))))
+        })
+        .collect();
+    let (_, seconds) = brdfwave::gpu::brdf_probe::eval_timed(ctx, compiler, m, &pairs)?;
+    Ok(seconds * 1e9 / n as f64)
 }

@@ -17,6 +17,7 @@
 //! Adding a model: a Rust file here, a GLSL file in `shaders/brdf/`, one line in [`MODELS`].
 
 pub mod common;
+pub mod inline;
 pub mod lambert;
 pub mod params;
 

@@ -16,7 +16,8 @@ struct Push {
     mode: u32,
 }
 
-fn run(ctx: &Context, compiler: &ShaderCompiler, m: &Material, inputs: &[[f32; 4]], mode: u32) -> Result<Vec<[f32; 4]>> {
+/// Runs the probe kernel; returns the outputs and the kernel's GPU time in seconds (timestamps).
+fn run(ctx: &Context, compiler: &ShaderCompiler, m: &Material, inputs: &[[f32; 4]], mode: u32) -> Result<(Vec<[f32; 4]>, f64)> {
     let name = MODELS[m.model].name;
     let mut defines: Vec<(String, String)> = m.brdf.defines().into_iter().map(|d| (d.to_string(), "1".to_string())).collect();
     defines.push(("BRDF_EVAL".into(), format!("{name}_eval")));
@@ -35,25 +36,39 @@ fn run(ctx: &Context, compiler: &ShaderCompiler, m: &Material, inputs: &[[f32; 4
     rec.bind(&pipeline, set);
     let count = (inputs.len() / 2) as u32;
     rec.push_constants(&pipeline, &Push { count, mode });
+    rec.timestamp("begin");
     rec.dispatch(count.div_ceil(64), 1, 1);
+    rec.timestamp("end");
     ctx.submit_and_wait(rec)?;
+    let stamps = ctx.read_timestamps()?;
+    let seconds = stamps.last().map(|s| s.1).unwrap_or(0.0) - stamps.first().map(|s| s.1).unwrap_or(0.0);
     let result: Vec<[f32; 4]> = ctx.download(&out)?;
     ctx.destroy_buffer(mat);
     ctx.destroy_buffer(inp);
     ctx.destroy_buffer(out);
     ctx.destroy_pipeline(pipeline);
-    Ok(result)
+    Ok((result, seconds))
 }
 
 /// f(wi, wo) and pdf(given = wi, sampled = wo) for each pair, on the GPU.
 pub fn eval(ctx: &Context, compiler: &ShaderCompiler, m: &Material, pairs: &[(Vec3, Vec3)]) -> Result<Vec<(Vec3, f32)>> {
+    Ok(eval_timed(ctx, compiler, m, pairs)?.0)
+}
+
+/// [`eval`] plus the kernel's GPU time in seconds.
+pub fn eval_timed(
+    ctx: &Context,
+    compiler: &ShaderCompiler,
+    m: &Material,
+    pairs: &[(Vec3, Vec3)],
+) -> Result<(Vec<(Vec3, f32)>, f64)> {
     let mut inputs = Vec::with_capacity(pairs.len() * 2);
     for (wi, wo) in pairs {
         inputs.push([wi.x, wi.y, wi.z, 0.0]);
         inputs.push([wo.x, wo.y, wo.z, 0.0]);
     }
-    let out = run(ctx, compiler, m, &inputs, 0)?;
-    Ok(out.chunks(2).map(|c| (Vec3::new(c[0][0], c[0][1], c[0][2]), c[0][3])).collect())
+    let (out, seconds) = run(ctx, compiler, m, &inputs, 0)?;
+    Ok((out.chunks(2).map(|c| (Vec3::new(c[0][0], c[0][1], c[0][2]), c[0][3])).collect(), seconds))
 }
 
 /// `sample(given, u_lobe, u)` for each input, on the GPU.
@@ -68,7 +83,7 @@ pub fn sample(
         raw.push([g.x, g.y, g.z, *ul]);
         raw.push([u.x, u.y, 0.0, 0.0]);
     }
-    let out = run(ctx, compiler, m, &raw, 1)?;
+    let (out, _) = run(ctx, compiler, m, &raw, 1)?;
     Ok(out
         .chunks(2)
         .map(|c| {
