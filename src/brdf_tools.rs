@@ -99,7 +99,7 @@ pub fn plot_lobe(b: &dyn Brdf, theta_i_deg: f32) -> image::RgbImage {
         .collect();
     let vmax = samples.iter().map(|s| s.1).fold(0.0f32, f32::max).max(1e-12);
     let (cx, cy, rad) = (size as f32 / 2.0, size as f32 * 0.9, size as f32 * 0.8);
-    let mut put = |img: &mut image::RgbImage, x: f32, y: f32, c: [u8; 3]| {
+    let put = |img: &mut image::RgbImage, x: f32, y: f32, c: [u8; 3]| {
         if x >= 0.0 && y >= 0.0 && (x as u32) < size && (y as u32) < size {
             img.put_pixel(x as u32, y as u32, image::Rgb(c));
         }
