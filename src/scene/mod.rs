@@ -83,6 +83,9 @@ pub struct Scene {
     pub spheres: Vec<Sphere>,
     /// Constant environment radiance seen by rays that leave the scene.
     pub environment: Vec3,
+    /// Legal but suspicious content found while loading (unused materials, skipped
+    /// zero-area OBJ triangles, ignored MTL files, …), each `warning: file:line: …`.
+    pub warnings: Vec<String>,
 }
 
 impl Triangle {
@@ -94,4 +97,4 @@ impl Triangle {
     }
 }
 
-pub use load::{load, load_str};
+pub use load::{load, load_str, SceneError};

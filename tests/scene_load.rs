@@ -1,0 +1,718 @@
+//! Scene loading: the shipped scenes load as documented, and every kind of bad input gives an
+//! error naming the file, the line and the field.
+
+use brdfwave::scene::{load, load_str, Scene, Triangle};
+use glam::{Quat, Vec3};
+use std::path::{Path, PathBuf};
+
+fn repo(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
+}
+
+fn load_ok(rel: &str) -> Scene {
+    load(&repo(rel)).unwrap_or_else(|e| panic!("{rel} does not load: {e}"))
+}
+
+fn v3(j: &serde_json::Value) -> Vec3 {
+    let a = j.as_array().expect("array");
+    assert_eq!(a.len(), 3);
+    Vec3::new(
+        a[0].as_f64().unwrap() as f32,
+        a[1].as_f64().unwrap() as f32,
+        a[2].as_f64().unwrap() as f32,
+    )
+}
+
+fn unit_normal(t: &Triangle) -> Vec3 {
+    t.geometric_normal_unnormalized().normalize()
+}
+
+fn centroid(t: &Triangle) -> Vec3 {
+    (t.v[0] + t.v[1] + t.v[2]) / 3.0
+}
+
+// ---------------------------------------------------------------------------------------------
+// The Cornell box against the published data (a copy of the project's cornell_box.json).
+
+/// The shapes of `scenes/cornell-box.toml` in file order.
+const CORNELL_ORDER: [&str; 8] = [
+    "floor",
+    "ceiling",
+    "back_wall",
+    "red_wall",
+    "green_wall",
+    "short_block",
+    "tall_block",
+    "light",
+];
+
+#[test]
+fn cornell_box_matches_the_published_data() {
+    let s = load_ok("scenes/cornell-box.toml");
+    let json: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(repo("tests/data/cornell_box.json")).unwrap(),
+    )
+    .unwrap();
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+
+    let cam = &json["camera"];
+    assert_eq!(s.camera.position, v3(&cam["origin"]));
+    assert_eq!(s.camera.target, v3(&cam["target"]));
+    assert_eq!(s.camera.up, v3(&cam["up"]));
+    assert_eq!(s.camera.fov_y_deg, cam["fov_deg"].as_f64().unwrap() as f32);
+    assert_eq!(cam["fov_axis"], "y");
+    assert_eq!(s.width as u64, cam["default_resolution"][0].as_u64().unwrap());
+    assert_eq!(s.height as u64, cam["default_resolution"][1].as_u64().unwrap());
+    assert_eq!(s.integrator.max_depth as u64, json["integrator"]["max_depth"].as_u64().unwrap());
+    assert!(!s.integrator.russian_roulette);
+    assert_eq!(s.environment, Vec3::ZERO);
+
+    // Materials: the four Lambert materials of the diffuse variant, in file order.
+    assert_eq!(s.material_names, ["white", "red", "green", "light_surface"]);
+    for (name, m) in s.material_names.iter().zip(&s.materials) {
+        let j = &json["materials"][name];
+        assert_eq!(m.model_name(), j["model"].as_str().unwrap());
+        // Lambert packs its albedo in p[0].xyz.
+        let p = m.brdf.pack().0;
+        assert_eq!(Vec3::new(p[0], p[1], p[2]), v3(&j["albedo"]), "albedo of {name}");
+    }
+    assert!(!s.materials[3].brdf.scatters(), "the light surface is black");
+
+    // Geometry: every quad as published, split (v0,v1,v2), (v0,v2,v3).
+    let shapes = json["shapes"].as_object().unwrap();
+    assert_eq!(shapes.len(), CORNELL_ORDER.len());
+    let mut expected = Vec::new();
+    for name in CORNELL_ORDER {
+        let shape = &shapes[name];
+        let material =
+            s.material_names.iter().position(|n| n == shape["material"].as_str().unwrap());
+        let emitter = shape.get("emitter").map(|_| 0u32);
+        for q in shape["quads"].as_array().unwrap() {
+            let p: Vec<Vec3> = q.as_array().unwrap().iter().map(v3).collect();
+            for t in [[p[0], p[1], p[2]], [p[0], p[2], p[3]]] {
+                expected.push((name, t, material.unwrap() as u32, emitter));
+            }
+        }
+    }
+    // 5 walls × 1 quad + 2 blocks × 5 quads + 1 light quad = 16 quads = 32 triangles.
+    assert_eq!(expected.len(), 32);
+    assert_eq!(s.triangles.len(), 32);
+    assert!(s.spheres.is_empty());
+    for (t, (name, v, material, emitter)) in s.triangles.iter().zip(&expected) {
+        assert_eq!(t.v, *v, "{name}");
+        assert_eq!(t.material, *material, "{name}");
+        assert_eq!(t.emitter, *emitter, "{name}");
+        assert_eq!(t.n, None);
+        assert_eq!(t.uv, None);
+    }
+    assert_eq!(s.emitters.len(), 1);
+    assert_eq!(json["emitter"]["shape"], "light");
+    assert_eq!(s.emitters[0].radiance, v3(&json["emitter"]["radiance"]));
+}
+
+#[test]
+fn cornell_box_normals_follow_the_conventions() {
+    let s = load_ok("scenes/cornell-box.toml");
+    let tris = |name: &str| -> &[Triangle] {
+        let mut start = 0;
+        for n in CORNELL_ORDER {
+            let count = if n.ends_with("_block") { 10 } else { 2 };
+            if n == name {
+                return &s.triangles[start..start + count];
+            }
+            start += count;
+        }
+        unreachable!()
+    };
+    // Walls, floor and ceiling face into the box, along their axis.
+    let inside = Vec3::new(278.0, 274.4, 279.6);
+    for (name, axis) in [
+        ("floor", Vec3::Y),
+        ("ceiling", -Vec3::Y),
+        ("back_wall", -Vec3::Z),
+        ("red_wall", -Vec3::X),
+        ("green_wall", Vec3::X),
+    ] {
+        for t in tris(name) {
+            let n = unit_normal(t);
+            assert!(n.dot(inside - centroid(t)) > 0.0, "{name} faces out: {n}");
+            assert!(n.dot(axis) > 0.999, "{name}: normal {n}, expected about {axis}");
+        }
+    }
+    // The blocks face outward: away from their own centre; the sides are vertical.
+    for name in ["short_block", "tall_block"] {
+        let ts = tris(name);
+        let centre = ts.iter().map(centroid).sum::<Vec3>() / ts.len() as f32;
+        for (k, t) in ts.iter().enumerate() {
+            let n = unit_normal(t);
+            assert!(n.dot(centroid(t) - centre) > 0.0, "{name} triangle {k} faces in: {n}");
+            if k < 2 {
+                assert!(n.dot(Vec3::Y) > 0.9999, "{name} top: {n}");
+            } else {
+                assert!(n.y.abs() < 1e-6, "{name} side {k}: {n}");
+            }
+        }
+    }
+    // The light faces down.
+    for t in tris("light") {
+        assert!((unit_normal(t) - -Vec3::Y).length() < 1e-6);
+        assert_eq!(t.emitter, Some(0));
+        assert!(t.v.iter().all(|v| v.y == 548.7));
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The analytic scenes and the OBJ example.
+
+#[test]
+fn furnace_sphere_puts_the_camera_inside_an_emitting_inward_sphere() {
+    let s = load_ok("scenes/furnace-sphere.toml");
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    assert!(s.triangles.is_empty());
+    assert_eq!(s.spheres.len(), 1);
+    let sp = &s.spheres[0];
+    assert!(sp.inward);
+    assert_eq!((sp.center, sp.radius), (Vec3::ZERO, 1.0));
+    assert!((s.camera.position - sp.center).length() < sp.radius);
+    assert_eq!(sp.emitter, Some(0));
+    assert_eq!(s.emitters[0].radiance, Vec3::splat(0.5));
+    assert_eq!(s.materials[sp.material as usize].brdf.pack().0[..3], [0.5; 3]);
+    assert_eq!((s.width, s.height), (32, 32));
+    assert_eq!(s.environment, Vec3::ZERO);
+    assert!(!s.integrator.russian_roulette);
+}
+
+#[test]
+fn white_furnace_is_a_grey_sphere_in_a_white_environment() {
+    let s = load_ok("scenes/white-furnace.toml");
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    assert_eq!(s.environment, Vec3::ONE);
+    assert_eq!(s.spheres.len(), 1);
+    let sp = &s.spheres[0];
+    assert!(!sp.inward);
+    assert!((s.camera.position - sp.center).length() > sp.radius);
+    assert_eq!(sp.emitter, None);
+    assert!(s.emitters.is_empty());
+    assert_eq!(s.materials[sp.material as usize].brdf.pack().0[..3], [0.8; 3]);
+}
+
+#[test]
+fn obj_example_loads_the_mesh_with_its_normals_and_transforms() {
+    let s = load_ok("scenes/obj-example.toml");
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    // floor quad, two 80-triangle icospheres, lamp quad.
+    assert_eq!(s.triangles.len(), 2 + 80 + 80 + 2);
+    let (floor, rest) = s.triangles.split_at(2);
+    let (ball, rest) = rest.split_at(80);
+    let (egg, lamp) = rest.split_at(80);
+    assert!(floor.iter().all(|t| (unit_normal(t) - Vec3::Y).length() < 1e-6));
+    assert!(lamp
+        .iter()
+        .all(|t| (unit_normal(t) + Vec3::Y).length() < 1e-6 && t.emitter == Some(0)));
+
+    // Ball: the unit icosphere moved to (-1.2, 1, 0); its normals are the radial directions.
+    let c = Vec3::new(-1.2, 1.0, 0.0);
+    for t in ball {
+        let n = t.n.expect("the icosphere has vertex normals");
+        for (v, n) in t.v.iter().zip(n) {
+            assert!(((*v - c).length() - 1.0).abs() < 1e-5);
+            assert!((n - (*v - c).normalize()).length() < 1e-4, "{n} vs {v}");
+        }
+        assert!(unit_normal(t).dot(t.v[0] - c) > 0.0, "outward winding");
+        assert_eq!(t.uv, None);
+        assert_eq!(t.emitter, None);
+        assert_eq!(s.material_names[t.material as usize], "clay");
+    }
+
+    // Egg: scale (0.6, 1, 0.6), then 30° about +y, then translate. Undo it with glam's
+    // rotation to get the unit-sphere point p; the ellipsoid's normal is R·(p / scale).
+    let scale = Vec3::new(0.6, 1.0, 0.6);
+    let rot = Quat::from_rotation_y(30f32.to_radians());
+    let translate = Vec3::new(1.2, 1.0, 0.5);
+    for t in egg {
+        let n = t.n.expect("normals survive the transform");
+        for (v, n) in t.v.iter().zip(n) {
+            let p = rot.inverse() * (*v - translate) / scale;
+            assert!((p.length() - 1.0).abs() < 1e-5, "vertex {v} is not on the ellipsoid");
+            let expected = (rot * (p / scale)).normalize();
+            assert!((n - expected).length() < 1e-4, "{n} vs {expected}");
+            assert!(n.dot(unit_normal(t)) > 0.0);
+        }
+    }
+}
+
+/// A scratch directory with a scene and an OBJ file side by side.
+fn scene_with_obj(obj: &str, extra: &str) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("mesh.obj"), obj).unwrap();
+    let scene = format!("{BASE}\n[[shapes]]\nmaterial = \"m\"\nobj = \"mesh.obj\"\n{extra}");
+    let path = dir.path().join("scene.toml");
+    std::fs::write(&path, scene).unwrap();
+    (dir, path)
+}
+
+const QUAD_OBJ: &str =
+    "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3 4/4\n";
+
+#[test]
+fn obj_texture_coordinates_are_kept() {
+    let (_dir, path) = scene_with_obj(QUAD_OBJ, "");
+    let s = load(&path).unwrap();
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let quad = &s.triangles[..];
+    assert_eq!(quad.len(), 2);
+    assert_eq!(quad[0].uv, Some([glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::ONE]));
+    assert_eq!(quad[1].uv, Some([glam::Vec2::ZERO, glam::Vec2::ONE, glam::Vec2::Y]));
+    assert_eq!(quad[0].n, None);
+    // Counter-clockwise seen from +z: the front side is +z.
+    assert!((unit_normal(&quad[0]) - Vec3::Z).length() < 1e-6);
+}
+
+#[test]
+fn obj_mtl_materials_are_ignored_with_a_warning() {
+    let obj = format!("mtllib nothere.mtl\nusemtl gold\n{QUAD_OBJ}");
+    let (_dir, path) = scene_with_obj(&obj, "");
+    let s = load(&path).unwrap();
+    assert_eq!(s.triangles.len(), 2);
+    assert!(s.triangles.iter().all(|t| s.material_names[t.material as usize] == "m"));
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    let w = &s.warnings[0];
+    assert!(w.starts_with("warning: ") && w.contains("scene.toml:20:") && w.contains("MTL"), "{w}");
+}
+
+#[test]
+fn obj_zero_area_triangles_are_skipped_with_a_warning() {
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\n";
+    let (_dir, path) = scene_with_obj(obj, "");
+    let s = load(&path).unwrap();
+    assert_eq!(s.triangles.len(), 1);
+    assert!(s.warnings.iter().any(|w| w.contains("skipped 1 zero-area")), "{:?}", s.warnings);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bad input.
+
+/// A small valid scene (lines numbered for reading the cases below).
+const BASE: &str = r#"[camera]
+position = [0.0, 0.0, -4.0]
+target = [0.0, 0.0, 0.0]
+fov_y = 40.0
+
+[film]
+width = 8
+height = 8
+
+[materials.m]
+model = "lambert"
+
+[[shapes]]
+material = "m"
+emission = [1.0, 1.0, 1.0]
+sphere = { center = [0.0, 0.0, 0.0], radius = 1.0 }
+"#;
+
+/// BASE with one edit; the edited text must be there.
+fn with(from: &str, to: &str) -> String {
+    assert!(BASE.contains(from), "test bug: '{from}' is not in BASE");
+    BASE.replacen(from, to, 1)
+}
+
+/// 1-based line of the first occurrence of `needle` in `src` (the test's own idea of where
+/// the fault is).
+fn line_of(src: &str, needle: &str) -> usize {
+    let at = src.find(needle).unwrap_or_else(|| panic!("test bug: '{needle}' not in the scene"));
+    src[..at].matches('\n').count() + 1
+}
+
+fn error_of(src: &str) -> String {
+    match load_str(src, Path::new("dir/bad.toml")) {
+        Ok(_) => panic!("loaded without error:\n{src}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+/// The error names the file, the line where `at` is, the field, and says `what`.
+#[track_caller]
+fn expect_error(src: &str, at: &str, field: &str, what: &str) {
+    let msg = error_of(src);
+    let line = line_of(src, at);
+    assert!(msg.starts_with(&format!("dir/bad.toml:{line}: ")), "want line {line}: {msg}");
+    assert!(msg.contains(&format!("field '{field}'")), "want field '{field}': {msg}");
+    assert!(msg.contains(what), "want '{what}': {msg}");
+}
+
+#[test]
+fn the_base_scene_is_valid() {
+    let s = load_str(BASE, Path::new("dir/base.toml")).unwrap();
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    assert_eq!(s.spheres.len(), 1);
+    assert_eq!(s.integrator, brdfwave::scene::Integrator::default());
+}
+
+#[test]
+fn unknown_fields_are_errors_everywhere() {
+    let top = format!("samples = 4\n{BASE}");
+    expect_error(&top, "samples", "samples", "unknown field");
+    expect_error(&with("fov_y", "fov = 40.0\nfov_y"), "fov =", "camera.fov", "unknown field");
+    expect_error(
+        &with("height = 8", "height = 8\ndepth = 1"),
+        "depth",
+        "film.depth",
+        "unknown field",
+    );
+    let i = format!("{BASE}[integrator]\nspp = 4\nbounces = 3\n");
+    expect_error(&i, "bounces", "integrator.bounces", "unknown field");
+    let e = format!("{BASE}[environment]\nradiance = 1.0\ncolor = 2.0\n");
+    expect_error(&e, "color", "environment.color", "unknown field");
+    expect_error(
+        &with("emission", "colour = 1\nemission"),
+        "colour",
+        "shapes[0].colour",
+        "unknown field",
+    );
+    expect_error(
+        &with("radius = 1.0", "radius = 1.0, radiuss = 2.0"),
+        "radiuss",
+        "shapes[0].sphere.radiuss",
+        "unknown field",
+    );
+    // Sub-tables written with dotted keys are found too.
+    let dotted = with(
+        "sphere = { center = [0.0, 0.0, 0.0], radius = 1.0 }",
+        "sphere.center = [0.0, 0.0, 0.0]\nsphere.radius = 1.0\nsphere.inwards = true",
+    );
+    expect_error(&dotted, "sphere.inwards", "shapes[0].sphere.inwards", "unknown field");
+    // A material parameter the model does not take (the brdf module's message).
+    let msg = error_of(&with("model = \"lambert\"", "model = \"lambert\"\nalbedoo = 0.5"));
+    let line =
+        line_of(&with("model = \"lambert\"", "model = \"lambert\"\nalbedoo = 0.5"), "albedoo");
+    assert!(
+        msg.starts_with(&format!("dir/bad.toml:{line}: material 'm', field 'albedoo'")),
+        "{msg}"
+    );
+}
+
+#[test]
+fn transform_fields_are_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("mesh.obj"), QUAD_OBJ).unwrap();
+    let path = dir.path().join("s.toml");
+    let scene = |t: &str| {
+        format!("{BASE}\n[[shapes]]\nmaterial = \"m\"\nobj = \"mesh.obj\"\ntransform = {t}\n")
+    };
+    let check = |src: String, field: &str, what: &str| {
+        let msg = load_str(&src, &path).expect_err("must fail").to_string();
+        let line = line_of(&src, "transform");
+        assert!(msg.starts_with(&format!("{}:{line}: ", path.display())), "{msg}");
+        assert!(msg.contains(&format!("field '{field}'")) && msg.contains(what), "{msg}");
+    };
+    check(scene("{ rotate_x_deg = 3.0 }"), "shapes[1].transform.rotate_x_deg", "unknown field");
+    check(scene("{ scale = 0.0 }"), "shapes[1].transform.scale", "must be > 0");
+    check(scene("{ scale = [1.0, -1.0, 1.0] }"), "shapes[1].transform.scale", "must be > 0");
+    check(
+        scene("{ translate = [1.0, nan, 1.0] }"),
+        "shapes[1].transform.translate",
+        "not a finite number",
+    );
+    check(
+        scene("{ rotate_y_deg = inf }"),
+        "shapes[1].transform.rotate_y_deg",
+        "not a finite number",
+    );
+    let ok = load_str(
+        &scene("{ scale = 2.0, rotate_y_deg = 90.0, translate = [0.0, 0.0, 5.0] }"),
+        &path,
+    )
+    .unwrap();
+    // (1, 0, 0) → scaled (2, 0, 0) → rotated (0, 0, -2) → translated (0, 0, 3).
+    assert!(
+        (ok.triangles[0].v[1] - Vec3::new(0.0, 0.0, 3.0)).length() < 1e-5,
+        "{}",
+        ok.triangles[0].v[1]
+    );
+    // Transforms belong to OBJ shapes only.
+    let src = with("radius = 1.0 }", "radius = 1.0 }\ntransform = { scale = 2.0 }");
+    expect_error(&src, "transform", "shapes[0].transform", "only to obj");
+}
+
+#[test]
+fn material_references_are_checked() {
+    expect_error(
+        &with("material = \"m\"", "material = \"nope\""),
+        "material = \"nope\"",
+        "shapes[0].material",
+        "unknown material 'nope' (defined materials: m)",
+    );
+    expect_error(&with("material = \"m\"\n", ""), "[[shapes]]", "shapes[0].material", "missing");
+    let dup = with("[[shapes]]", "[materials.m]\nmodel = \"lambert\"\n\n[[shapes]]");
+    let msg = error_of(&dup);
+    let second = line_of(&dup, "[[shapes]]") - 3;
+    assert!(msg.starts_with(&format!("dir/bad.toml:{second}: ")), "{msg}");
+    assert!(msg.contains("duplicate key `m`"), "{msg}");
+    // A material without a model, and an unknown model.
+    let msg = error_of(&with("model = \"lambert\"", "albedo = 0.5"));
+    assert!(msg.starts_with("dir/bad.toml:10: material 'm', field 'model': missing"), "{msg}");
+    let msg = error_of(&with("model = \"lambert\"", "model = \"phong\""));
+    assert!(
+        msg.starts_with("dir/bad.toml:11: material 'm', field 'model': unknown value \"phong\""),
+        "{msg}"
+    );
+    // Unused materials are a warning.
+    let s = load_str(
+        &with("[[shapes]]", "[materials.spare]\nmodel = \"lambert\"\n\n[[shapes]]"),
+        Path::new("w.toml"),
+    )
+    .unwrap();
+    assert_eq!(s.warnings.len(), 1);
+    assert!(
+        s.warnings[0].starts_with("warning: w.toml:13: field 'materials.spare'"),
+        "{:?}",
+        s.warnings
+    );
+}
+
+#[test]
+fn obj_problems_name_the_obj_file_and_the_scene_line() {
+    // Missing file.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("s.toml");
+    let src = format!("{BASE}\n[[shapes]]\nmaterial = \"m\"\nobj = \"meshes/none.obj\"\n");
+    let msg = load_str(&src, &path).err().unwrap().to_string();
+    let line = line_of(&src, "meshes/none.obj");
+    assert!(
+        msg.starts_with(&format!(
+            "{}:{line}: field 'shapes[1].obj': cannot read OBJ file",
+            path.display()
+        )),
+        "{msg}"
+    );
+    assert!(msg.contains(&dir.path().join("meshes/none.obj").display().to_string()), "{msg}");
+
+    // Index out of range: the OBJ line is named.
+    let (_d, path) = scene_with_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "");
+    let msg = load(&path).err().unwrap().to_string();
+    assert!(
+        msg.contains("scene.toml:20: field 'shapes[1].obj'") && msg.contains("mesh.obj', line 4"),
+        "{msg}"
+    );
+    assert!(msg.contains("vertex index 4 does not exist"), "{msg}");
+    // A relative texture index before any texture coordinate.
+    let (_d, path) = scene_with_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/-100 2 3\n", "");
+    let msg = load(&path).err().unwrap().to_string();
+    assert!(msg.contains("line 4") && msg.contains("texture coordinate index -100"), "{msg}");
+    // tobj's own parse errors.
+    let (_d, path) = scene_with_obj("v 0 zero 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "");
+    let msg = load(&path).err().unwrap().to_string();
+    assert!(
+        msg.contains("scene.toml:20: field 'shapes[1].obj': cannot parse OBJ file")
+            && msg.contains("mesh.obj"),
+        "{msg}"
+    );
+    // Non-finite vertices.
+    let (_d, path) = scene_with_obj("v 0 nan 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "");
+    let msg = load(&path).err().unwrap().to_string();
+    assert!(msg.contains("scene.toml:20:") && msg.contains("not finite"), "{msg}");
+}
+
+#[test]
+fn degenerate_triangles_are_errors_naming_shape_and_index() {
+    let quads = with(
+        "sphere = { center = [0.0, 0.0, 0.0], radius = 1.0 }",
+        "name = \"wall\"\nquads = [\n  [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]],\n  [[0, 0, 0], [1, 0, 0], [1, 1, 0], [1, 1, 0]],\n]",
+    );
+    expect_error(
+        &quads,
+        "[1, 1, 0], [1, 1, 0]",
+        "shapes[0].quads[1]",
+        "shape 'wall', quad 1: its second triangle (v0, v2, v3) has zero area",
+    );
+    let tris = with(
+        "sphere = { center = [0.0, 0.0, 0.0], radius = 1.0 }",
+        "triangles = [[[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 0, 0], [1, 1, 1], [2, 2, 2]]]",
+    );
+    expect_error(&tris, "triangles", "shapes[0].triangles[1]", "triangle 1 has zero area");
+}
+
+#[test]
+fn non_finite_numbers_are_errors() {
+    expect_error(
+        &with("fov_y = 40.0", "fov_y = nan"),
+        "fov_y",
+        "camera.fov_y",
+        "not a finite number",
+    );
+    expect_error(
+        &with("position = [0.0, 0.0, -4.0]", "position = [0.0, inf, -4.0]"),
+        "position",
+        "camera.position",
+        "not a finite number",
+    );
+    expect_error(
+        &with("position = [0.0, 0.0, -4.0]", "position = [0.0, 1e39, -4.0]"),
+        "position",
+        "camera.position",
+        "single-precision range",
+    );
+    expect_error(
+        &with("emission = [1.0, 1.0, 1.0]", "emission = [1.0, -nan, 1.0]"),
+        "emission",
+        "shapes[0].emission",
+        "not a finite number",
+    );
+    expect_error(
+        &with("center = [0.0, 0.0, 0.0]", "center = [0.0, 0.0, -inf]"),
+        "center",
+        "shapes[0].sphere.center",
+        "not a finite number",
+    );
+    expect_error(
+        &with("radius = 1.0", "radius = inf"),
+        "radius",
+        "shapes[0].sphere.radius",
+        "not a finite number",
+    );
+    let q = with(
+        "sphere = { center = [0.0, 0.0, 0.0], radius = 1.0 }",
+        "quads = [[[0, 0, 0], [1, 0, 0], [1, nan, 0], [0, 1, 0]]]",
+    );
+    expect_error(&q, "quads", "shapes[0].quads[0]", "not a finite number");
+}
+
+#[test]
+fn out_of_range_values_are_errors() {
+    expect_error(
+        &with("radius = 1.0", "radius = -1.0"),
+        "radius",
+        "shapes[0].sphere.radius",
+        "must be > 0",
+    );
+    expect_error(
+        &with("radius = 1.0", "radius = 0"),
+        "radius",
+        "shapes[0].sphere.radius",
+        "must be > 0",
+    );
+    expect_error(&with("width = 8", "width = 0"), "width", "film.width", "must be in [1, 16384]");
+    expect_error(
+        &with("height = 8", "height = 16385"),
+        "height",
+        "film.height",
+        "must be in [1, 16384]",
+    );
+    expect_error(&with("width = 8", "width = -8"), "width", "film.width", "expected u32");
+    expect_error(&with("width = 8", "width = \"8\""), "width", "film.width", "invalid type");
+    for fov in ["0.0", "180.0", "-30", "200"] {
+        expect_error(
+            &with("fov_y = 40.0", &format!("fov_y = {fov}")),
+            "fov_y",
+            "camera.fov_y",
+            "must be in (0, 180)",
+        );
+    }
+    expect_error(
+        &with("target = [0.0, 0.0, 0.0]", "target = [0.0, 0.0, -4.0]"),
+        "target",
+        "camera.target",
+        "equals the position",
+    );
+    expect_error(
+        &with("fov_y", "up = [0.0, 0.0, -3.0]\nfov_y"),
+        "up =",
+        "camera.up",
+        "parallel to the viewing direction",
+    );
+    expect_error(&with("fov_y", "up = [0.0, 0.0, 0.0]\nfov_y"), "up =", "camera.up", "zero length");
+    expect_error(
+        &with("position = [0.0, 0.0, -4.0]", "position = [0.0, -4.0]"),
+        "position",
+        "camera.position",
+        "invalid length 2",
+    );
+    expect_error(
+        &with("emission = [1.0, 1.0, 1.0]", "emission = [1.0, -0.5, 1.0]"),
+        "emission",
+        "shapes[0].emission",
+        "negative",
+    );
+    let env = format!("{BASE}[environment]\nradiance = -1\n");
+    expect_error(&env, "radiance", "environment.radiance", "negative");
+    for field in ["spp", "max_depth", "rr_start_depth"] {
+        let src = format!("{BASE}[integrator]\n{field} = 0\n");
+        expect_error(&src, &format!("{field} ="), &format!("integrator.{field}"), "must be >= 1");
+    }
+    let src = format!("{BASE}[integrator]\nspp = 1.5\n");
+    expect_error(&src, "spp", "integrator.spp", "invalid type");
+}
+
+#[test]
+fn geometry_kinds_are_exactly_one_per_shape() {
+    let two = with("radius = 1.0 }", "radius = 1.0 }\nobj = \"x.obj\"");
+    expect_error(&two, "obj =", "shapes[0].obj", "has both sphere and obj");
+    let none = with("sphere = { center = [0.0, 0.0, 0.0], radius = 1.0 }\n", "");
+    expect_error(&none, "[[shapes]]", "shapes[0]", "has no geometry");
+    let empty = with("sphere = { center = [0.0, 0.0, 0.0], radius = 1.0 }", "quads = []");
+    expect_error(&empty, "quads", "shapes[0].quads", "empty");
+    let short = with(
+        "sphere = { center = [0.0, 0.0, 0.0], radius = 1.0 }",
+        "quads = [[[0, 0, 0], [1, 0, 0], [1, 1, 0]]]",
+    );
+    expect_error(&short, "quads", "shapes[0].quads[0]", "invalid length 3");
+}
+
+#[test]
+fn missing_parts_are_errors() {
+    // No shapes at all: no line to name.
+    let src = BASE.split("[[shapes]]").next().unwrap();
+    let msg = error_of(src);
+    assert!(msg.starts_with("dir/bad.toml: field 'shapes': the scene has no primitives"), "{msg}");
+    // Missing required tables and fields.
+    let msg = error_of(&with("[film]\nwidth = 8\nheight = 8\n", ""));
+    assert!(msg.starts_with("dir/bad.toml: field 'film': missing"), "{msg}");
+    expect_error(&with("fov_y = 40.0\n", ""), "[camera]", "camera.fov_y", "missing");
+    expect_error(&with(", radius = 1.0", ""), "sphere", "shapes[0].sphere.radius", "missing");
+    // Syntax errors name the line.
+    let msg = error_of(&with("[film]", "[film"));
+    assert!(msg.starts_with("dir/bad.toml:6: "), "{msg}");
+    // An unreadable scene file names it.
+    let msg = load(Path::new("no/such/scene.toml")).err().unwrap().to_string();
+    assert!(msg.starts_with("no/such/scene.toml: cannot read the scene file"), "{msg}");
+}
+
+#[test]
+fn dotted_keys_and_inline_tables_are_equivalent_to_headers() {
+    let src = r#"camera = { position = [0.0, 0.0, -4.0], target = [0.0, 0.0, 0.0], fov_y = 40.0 }
+film.width = 8
+film.height = 8
+materials.m.model = "lambert"
+materials.m.albedo = 0.25
+shapes = [{ material = "m", sphere = { center = [0.0, 0.0, 0.0], radius = 1.0 } }]
+environment.radiance = 1
+"#;
+    let s = load_str(src, Path::new("inline.toml")).unwrap();
+    assert_eq!((s.width, s.height), (8, 8));
+    assert_eq!(s.spheres.len(), 1);
+    assert_eq!(s.materials[0].brdf.pack().0[..3], [0.25; 3]);
+    // Errors inside them are located as well.
+    let bad = src.replace("albedo = 0.25", "albedo = 2.5");
+    let msg = error_of(&bad);
+    assert!(msg.starts_with("dir/bad.toml:5: material 'm', field 'albedo'"), "{msg}");
+    let bad = src.replace("radius = 1.0", "radius = -1.0");
+    expect_error(&bad, "radius", "shapes[0].sphere.radius", "must be > 0");
+}
+
+/// Every prefix of the Cornell box file is either a scene or an error: never a panic.
+#[test]
+fn truncated_input_never_panics() {
+    let src = std::fs::read_to_string(repo("scenes/cornell-box.toml")).unwrap();
+    let mut errors = 0;
+    for end in (0..src.len()).step_by(5).filter(|&e| src.is_char_boundary(e)) {
+        match load_str(&src[..end], Path::new("cut.toml")) {
+            Ok(_) => {}
+            Err(e) => {
+                assert!(e.to_string().starts_with("cut.toml"), "{e}");
+                errors += 1;
+            }
+        }
+    }
+    assert!(errors > 100);
+}
