@@ -716,3 +716,22 @@ fn truncated_input_never_panics() {
     }
     assert!(errors > 100);
 }
+
+/// The minimal scene printed in scenes/README.md loads as described.
+#[test]
+fn readme_example_loads() {
+    let readme = std::fs::read_to_string(repo("scenes/README.md")).unwrap();
+    let start = readme.find("```toml\n").expect("README has a toml example") + "```toml\n".len();
+    let len = readme[start..].find("```").unwrap();
+    let s = load_str(&readme[start..start + len], Path::new("README.md")).unwrap();
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    assert_eq!((s.width, s.height, s.spheres.len()), (320, 240, 1));
+    assert_eq!(s.camera.up, Vec3::Y);
+    assert_eq!(s.environment, Vec3::ONE);
+}
+
+#[test]
+fn missing_field_of_the_only_table_names_table_and_line() {
+    let msg = error_of("[camera]\nposition = [0.0, 0.0, -4.0]\n");
+    assert!(msg.starts_with("dir/bad.toml:1: field 'camera.target': missing"), "{msg}");
+}

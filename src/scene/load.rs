@@ -362,11 +362,8 @@ impl Cx<'_> {
         let mut message = e.message().trim().replace('\n', ": ");
         let mut field = None;
         let mut line = None;
-        // An empty span at 0 or one covering the whole document (a missing top-level table)
-        // names neither a line nor a field.
-        let span = e
-            .span()
-            .filter(|s| !(s.start == 0 && (s.end == 0 || s.end >= self.source.trim_end().len())));
+        // Serde reports a missing top-level table with the empty span 0..0: no line, no field.
+        let span = e.span().filter(|s| *s != (0..0));
         if let Some(span) = span {
             if let Ok(tree) = toml::from_str::<Sp<Node>>(self.source) {
                 let mut path = String::new();
