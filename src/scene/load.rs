@@ -158,22 +158,21 @@ impl<'de, T: Deserialize<'de>> Visitor<'de> for SpVisitor<T> {
         let first: Option<Key> = map.next_key()?;
         if first.as_ref().is_some_and(|k| k.0 == SPANNED_START) {
             let start: usize = map.next_value()?;
-            let mut expect = |name: &'static str| match map.next_key::<Key>()? {
-                Some(k) if k.0 == name => Ok(()),
-                _ => Err(de::Error::missing_field(name)),
-            };
-            expect(SPANNED_END)?;
+            expect_key(&mut map, SPANNED_END)?;
             let end: usize = map.next_value()?;
-            let mut expect = |name: &'static str| match map.next_key::<Key>()? {
-                Some(k) if k.0 == name => Ok(()),
-                _ => Err(de::Error::missing_field(name)),
-            };
-            expect(SPANNED_VALUE)?;
+            expect_key(&mut map, SPANNED_VALUE)?;
             let value: T = map.next_value()?;
             return Ok(Sp { span: Some(start..end), value });
         }
         // A table without a span: its entries, starting with the key already read.
         plain(MapAccessDeserializer::new(Replay { first: first.map(|k| k.0), map }))
+    }
+}
+
+fn expect_key<'de, A: MapAccess<'de>>(map: &mut A, name: &'static str) -> Result<(), A::Error> {
+    match map.next_key::<Key>()? {
+        Some(k) if k.0 == name => Ok(()),
+        _ => Err(de::Error::missing_field(name)),
     }
 }
 
@@ -390,8 +389,10 @@ impl Cx<'_> {
                 if prefix.starts_with("missing") {
                     message = "missing: this field is required (see scenes/README.md)".to_string();
                 } else {
-                    message =
-                        format!("unknown field: {}", rest.split_once(", ").map_or("", |r| r.1));
+                    message = match rest.split_once(", ") {
+                        Some((_, expected)) => format!("unknown field: {expected}"),
+                        None => "unknown field".to_string(),
+                    };
                 }
             }
         }
