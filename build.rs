@@ -5,6 +5,10 @@
 //! `libshaderc_combined.a`, which does not contain glslang, so the glslang static libraries from
 //! `glslang-dev` are linked here as well (see the renderer anchors, takeaway 10).
 //! `.cargo/config.toml` sets `SHADERC_LIB_DIR` for `shaderc-sys`.
+//!
+//! It also embeds the GLSL sources under `shaders/` into the binary: a table of
+//! `(path relative to shaders/, include_str!(...))` is written to `$OUT_DIR/embedded_shaders.rs`
+//! and included by `src/vk/shader.rs`, so the binary compiles its kernels from any directory.
 
 fn main() {
     let dir = std::env::var("SHADERC_LIB_DIR")
@@ -24,5 +28,67 @@ fn main() {
         "glslang-default-resource-limits",
     ] {
         println!("cargo:rustc-link-lib=static={lib}");
+    }
+    embed_shaders();
+}
+
+/// File endings treated as shader sources (anything else under `shaders/` is not embedded).
+const SHADER_ENDINGS: [&str; 4] = ["glsl", "comp", "h", "inc"];
+
+/// Writes `$OUT_DIR/embedded_shaders.rs`: `pub static EMBEDDED_SHADERS: &[(&str, &str)]`,
+/// sorted by path, paths relative to `shaders/` with `/` separators.
+fn embed_shaders() {
+    use std::path::{Path, PathBuf};
+    let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("CARGO_MANIFEST_DIR"));
+    let root = manifest.join("shaders");
+    // A directory makes cargo rescan the whole tree for changes (added or removed files too).
+    println!("cargo:rerun-if-changed=shaders");
+
+    fn walk(root: &Path, dir: &Path, out: &mut Vec<(String, PathBuf)>) {
+        let mut entries: Vec<_> = match std::fs::read_dir(dir) {
+            Ok(rd) => rd.filter_map(|e| e.ok()).collect(),
+            Err(e) => panic!("cannot read shader directory {}: {e}", dir.display()),
+        };
+        entries.sort_by_key(|e| e.file_name());
+        for e in entries {
+            let path = e.path();
+            let name = e.file_name().to_string_lossy().into_owned();
+            if name.starts_with('.') {
+                continue;
+            }
+            if path.is_dir() {
+                walk(root, &path, out);
+            } else if SHADER_ENDINGS
+                .iter()
+                .any(|x| name.ends_with(&format!(".{x}")))
+            {
+                let rel = path.strip_prefix(root).expect("under shaders/");
+                let rel: Vec<String> = rel
+                    .components()
+                    .map(|c| c.as_os_str().to_string_lossy().into_owned())
+                    .collect();
+                out.push((rel.join("/"), path));
+            }
+        }
+    }
+    let mut files = Vec::new();
+    if root.is_dir() {
+        walk(&root, &root, &mut files);
+    }
+    let mut code = String::from(
+        "/// Shader sources embedded at build time by build.rs: (path relative to shaders/, text).\n\
+         pub static EMBEDDED_SHADERS: &[(&str, &str)] = &[\n",
+    );
+    for (rel, path) in &files {
+        code.push_str(&format!(
+            "    ({rel:?}, include_str!({:?})),\n",
+            path.display().to_string()
+        ));
+    }
+    code.push_str("];\n");
+    let out = PathBuf::from(std::env::var("OUT_DIR").expect("OUT_DIR")).join("embedded_shaders.rs");
+    // Rewrite only on change so dependent code is not rebuilt needlessly.
+    if std::fs::read_to_string(&out).ok().as_deref() != Some(code.as_str()) {
+        std::fs::write(&out, code).expect("write embedded_shaders.rs");
     }
 }

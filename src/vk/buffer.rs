@@ -1,0 +1,278 @@
+//! Buffers: creation through gpu-allocator, upload and download (a mapped copy when the memory
+//! is host-visible, a staging buffer and a copy command otherwise), destruction.
+
+use super::context::Context;
+use anyhow::{anyhow, bail, Context as _, Result};
+use ash::vk;
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+use gpu_allocator::MemoryLocation;
+
+/// A buffer and its memory. Destroy it with [`Context::destroy_buffer`]; a buffer dropped
+/// without that is reported as a leak when the context goes.
+#[derive(Debug)]
+pub struct Buffer {
+    pub raw: vk::Buffer,
+    /// The size asked for, in bytes (upload and download work on this many bytes).
+    pub size: u64,
+    pub name: String,
+    /// The usage given plus TRANSFER_SRC | TRANSFER_DST, which every buffer gets.
+    pub usage: vk::BufferUsageFlags,
+    pub location: MemoryLocation,
+    /// The size of the Vulkan buffer: `size`, or 16 when `size` is 0 (Vulkan needs nonzero).
+    pub(crate) vk_size: u64,
+    allocation: Option<Allocation>,
+}
+
+impl Context {
+    /// A buffer of `size` bytes. Every buffer also gets TRANSFER_SRC and TRANSFER_DST usage, so
+    /// that [`upload`](Self::upload), [`download`](Self::download) and `fill_buffer` always work.
+    pub fn create_buffer(
+        &self,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        location: MemoryLocation,
+    ) -> Result<Buffer> {
+        let vk_size = if size == 0 { 16 } else { size };
+        let usage = usage | vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST;
+        let info = vk::BufferCreateInfo::default()
+            .size(vk_size)
+            .usage(usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
+        let raw = unsafe { self.device.create_buffer(&info, None) }
+            .with_context(|| format!("vkCreateBuffer \"{name}\" ({size} bytes)"))?;
+        let requirements = unsafe { self.device.get_buffer_memory_requirements(raw) };
+        let allocation = self.allocator().allocate(&AllocationCreateDesc {
+            name,
+            requirements,
+            location,
+            linear: true,
+            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+        });
+        let allocation = match allocation {
+            Ok(a) => a,
+            Err(e) => {
+                unsafe { self.device.destroy_buffer(raw, None) };
+                bail!("allocating {size} bytes ({location:?}) for buffer \"{name}\": {e}");
+            }
+        };
+        if let Err(e) = unsafe {
+            self.device
+                .bind_buffer_memory(raw, allocation.memory(), allocation.offset())
+        } {
+            unsafe { self.device.destroy_buffer(raw, None) };
+            let _ = self.allocator().free(allocation);
+            bail!("vkBindBufferMemory \"{name}\": {e}");
+        }
+        self.set_name(raw, name);
+        self.registry
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .buffers
+            .insert(raw, name.to_string());
+        Ok(Buffer {
+            raw,
+            size,
+            name: name.to_string(),
+            usage,
+            location,
+            vk_size,
+            allocation: Some(allocation),
+        })
+    }
+
+    /// A device-local buffer holding `data`.
+    pub fn create_buffer_with_data<T: bytemuck::Pod>(
+        &self,
+        name: &str,
+        data: &[T],
+        usage: vk::BufferUsageFlags,
+    ) -> Result<Buffer> {
+        let buf = self.create_buffer(
+            name,
+            std::mem::size_of_val(data) as u64,
+            usage,
+            MemoryLocation::GpuOnly,
+        )?;
+        if let Err(e) = self.upload(&buf, data) {
+            self.destroy_buffer(buf);
+            return Err(e);
+        }
+        Ok(buf)
+    }
+
+    /// Copies `data` to the start of `buf` (at most `buf.size` bytes). Call it while no
+    /// submitted work uses the buffer (every submission here is waited for, so: not between
+    /// `begin` and `submit_and_wait` of a recording that uses it).
+    pub fn upload<T: bytemuck::Pod>(&self, buf: &Buffer, data: &[T]) -> Result<()> {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        if bytes.len() as u64 > buf.size {
+            bail!(
+                "upload to buffer \"{}\": {} bytes do not fit in its {} bytes",
+                buf.name,
+                bytes.len(),
+                buf.size
+            );
+        }
+        if bytes.is_empty() {
+            return Ok(());
+        }
+        let alloc = buf.allocation.as_ref().expect("live buffer has memory");
+        if alloc.mapped_ptr().is_some() {
+            return self
+                .write_mapped(alloc, bytes)
+                .with_context(|| format!("upload to buffer \"{}\"", buf.name));
+        }
+        let staging = self.create_buffer(
+            &format!("{} (staging)", buf.name),
+            bytes.len() as u64,
+            vk::BufferUsageFlags::empty(),
+            MemoryLocation::CpuToGpu,
+        )?;
+        let result = (|| {
+            let salloc = staging.allocation.as_ref().expect("live buffer has memory");
+            if salloc.mapped_ptr().is_none() {
+                bail!("the staging memory is not host-visible");
+            }
+            self.write_mapped(salloc, bytes)?;
+            let mut rec = self.begin_internal()?;
+            rec.copy_buffer(&staging, buf, bytes.len() as u64);
+            self.submit_and_wait(rec)
+        })();
+        self.destroy_buffer(staging);
+        result
+            .with_context(|| format!("upload to buffer \"{}\" through a staging buffer", buf.name))
+    }
+
+    /// The contents of `buf` (`buf.size` bytes, which must be a multiple of `size_of::<T>()`).
+    /// Call it after the work writing the buffer was submitted and waited for.
+    pub fn download<T: bytemuck::Pod>(&self, buf: &Buffer) -> Result<Vec<T>> {
+        let elem = std::mem::size_of::<T>() as u64;
+        if elem == 0 || buf.size % elem != 0 {
+            bail!("download of buffer \"{}\": its {} bytes are not a whole number of {elem}-byte elements", buf.name, buf.size);
+        }
+        let mut out: Vec<T> = vec![T::zeroed(); (buf.size / elem) as usize];
+        let bytes: &mut [u8] = bytemuck::cast_slice_mut(&mut out);
+        if bytes.is_empty() {
+            return Ok(out);
+        }
+        let alloc = buf.allocation.as_ref().expect("live buffer has memory");
+        if alloc.mapped_ptr().is_some() {
+            self.read_mapped(alloc, bytes)
+                .with_context(|| format!("download of buffer \"{}\"", buf.name))?;
+            return Ok(out);
+        }
+        let staging = self.create_buffer(
+            &format!("{} (readback)", buf.name),
+            buf.size,
+            vk::BufferUsageFlags::empty(),
+            MemoryLocation::GpuToCpu,
+        )?;
+        let result = (|| {
+            let mut rec = self.begin_internal()?;
+            rec.copy_buffer(buf, &staging, buf.size);
+            self.submit_and_wait(rec)?;
+            let salloc = staging.allocation.as_ref().expect("live buffer has memory");
+            if salloc.mapped_ptr().is_none() {
+                bail!("the readback memory is not host-visible");
+            }
+            self.read_mapped(salloc, bytes)
+        })();
+        self.destroy_buffer(staging);
+        result.with_context(|| {
+            format!(
+                "download of buffer \"{}\" through a staging buffer",
+                buf.name
+            )
+        })?;
+        Ok(out)
+    }
+
+    /// Frees the buffer and its memory. The buffer must not be in use by unfinished work.
+    pub fn destroy_buffer(&self, mut buf: Buffer) {
+        self.registry
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .buffers
+            .remove(&buf.raw);
+        unsafe { self.device.destroy_buffer(buf.raw, None) };
+        if let Some(a) = buf.allocation.take() {
+            if let Err(e) = self.allocator().free(a) {
+                eprintln!(
+                    "warning: freeing the memory of buffer \"{}\": {e}",
+                    buf.name
+                );
+            }
+        }
+    }
+
+    /// Memory range covering an allocation, aligned to `nonCoherentAtomSize` for flush and
+    /// invalidate (WHOLE_SIZE from the aligned-down offset stays inside the mapping).
+    fn mapped_range(&self, alloc: &Allocation) -> vk::MappedMemoryRange<'static> {
+        let atom = self.limits.non_coherent_atom_size.max(1);
+        vk::MappedMemoryRange::default()
+            .memory(unsafe { alloc.memory() })
+            .offset(alloc.offset() / atom * atom)
+            .size(vk::WHOLE_SIZE)
+    }
+
+    fn write_mapped(&self, alloc: &Allocation, bytes: &[u8]) -> Result<()> {
+        let ptr = alloc
+            .mapped_ptr()
+            .ok_or_else(|| anyhow!("memory is not mapped"))?;
+        if bytes.len() as u64 > alloc.size() {
+            bail!(
+                "{} bytes exceed the allocation of {} bytes",
+                bytes.len(),
+                alloc.size()
+            );
+        }
+        // SAFETY: the mapping covers `alloc.size()` bytes; no GPU work uses it (caller contract).
+        unsafe {
+            std::ptr::copy_nonoverlapping(bytes.as_ptr(), ptr.as_ptr().cast::<u8>(), bytes.len())
+        };
+        if !alloc
+            .memory_properties()
+            .contains(vk::MemoryPropertyFlags::HOST_COHERENT)
+        {
+            unsafe {
+                self.device
+                    .flush_mapped_memory_ranges(&[self.mapped_range(alloc)])
+            }
+            .context("vkFlushMappedMemoryRanges")?;
+        }
+        Ok(())
+    }
+
+    fn read_mapped(&self, alloc: &Allocation, bytes: &mut [u8]) -> Result<()> {
+        let ptr = alloc
+            .mapped_ptr()
+            .ok_or_else(|| anyhow!("memory is not mapped"))?;
+        if bytes.len() as u64 > alloc.size() {
+            bail!(
+                "{} bytes exceed the allocation of {} bytes",
+                bytes.len(),
+                alloc.size()
+            );
+        }
+        if !alloc
+            .memory_properties()
+            .contains(vk::MemoryPropertyFlags::HOST_COHERENT)
+        {
+            unsafe {
+                self.device
+                    .invalidate_mapped_memory_ranges(&[self.mapped_range(alloc)])
+            }
+            .context("vkInvalidateMappedMemoryRanges")?;
+        }
+        // SAFETY: as in write_mapped; the GPU work writing it has completed (fence waited).
+        unsafe {
+            std::ptr::copy_nonoverlapping(
+                ptr.as_ptr().cast::<u8>(),
+                bytes.as_mut_ptr(),
+                bytes.len(),
+            )
+        };
+        Ok(())
+    }
+}

@@ -1,0 +1,519 @@
+//! Compute pipelines: one descriptor set of storage buffers plus push constants per pipeline,
+//! created through a pipeline cache that persists on disk; descriptor sets from pools owned by
+//! the context; the workgroup size read back from the SPIR-V.
+
+use super::buffer::Buffer;
+use super::cache::{default_cache_dir, write_atomic};
+use super::context::Context;
+use anyhow::{anyhow, bail, Context as _, Result};
+use ash::vk;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// A compute pipeline and the layout objects it owns.
+#[derive(Debug)]
+pub struct ComputePipeline {
+    pub name: String,
+    pub pipeline: vk::Pipeline,
+    pub layout: vk::PipelineLayout,
+    pub set_layout: vk::DescriptorSetLayout,
+    /// Workgroup size along x (`local_size_x`), read from the SPIR-V.
+    pub local_size_x: u32,
+    /// The whole workgroup size.
+    pub local_size: [u32; 3],
+    /// Storage-buffer bindings 0..n of set 0.
+    pub num_storage_buffers: u32,
+    pub push_constant_bytes: u32,
+}
+
+impl Context {
+    /// A compute pipeline whose set 0 holds `num_storage_buffers` storage buffers at bindings
+    /// 0..n and whose push-constant block has `push_constant_bytes` bytes (a multiple of 4, at
+    /// most the device limit, 128 on lavapipe). The entry point is `main`.
+    pub fn create_compute_pipeline(
+        &self,
+        name: &str,
+        spirv: &[u32],
+        num_storage_buffers: u32,
+        push_constant_bytes: u32,
+    ) -> Result<ComputePipeline> {
+        let local_size = reflect_local_size(spirv)
+            .with_context(|| format!("pipeline \"{name}\": reading the SPIR-V"))?;
+        let max_buffers = self.limits.max_per_stage_descriptor_storage_buffers;
+        if num_storage_buffers > max_buffers {
+            bail!("pipeline \"{name}\": {num_storage_buffers} storage buffers, the device allows {max_buffers} per stage");
+        }
+        let max_push = self.limits.max_push_constants_size;
+        if push_constant_bytes > max_push || push_constant_bytes % 4 != 0 {
+            bail!("pipeline \"{name}\": push constants of {push_constant_bytes} bytes; need a multiple of 4 and at most {max_push}");
+        }
+        let d = &self.device;
+        let bindings: Vec<_> = (0..num_storage_buffers)
+            .map(|i| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(i)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .descriptor_count(1)
+                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            })
+            .collect();
+        let set_layout = unsafe {
+            d.create_descriptor_set_layout(
+                &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
+                None,
+            )
+        }
+        .with_context(|| format!("vkCreateDescriptorSetLayout for pipeline \"{name}\""))?;
+        let ranges = [vk::PushConstantRange::default()
+            .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            .offset(0)
+            .size(push_constant_bytes)];
+        let set_layouts = [set_layout];
+        let mut layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+        if push_constant_bytes > 0 {
+            layout_info = layout_info.push_constant_ranges(&ranges);
+        }
+        let layout = match unsafe { d.create_pipeline_layout(&layout_info, None) } {
+            Ok(l) => l,
+            Err(e) => {
+                unsafe { d.destroy_descriptor_set_layout(set_layout, None) };
+                return Err(anyhow!(
+                    "vkCreatePipelineLayout for pipeline \"{name}\": {e}"
+                ));
+            }
+        };
+        let cleanup = || unsafe {
+            d.destroy_pipeline_layout(layout, None);
+            d.destroy_descriptor_set_layout(set_layout, None);
+        };
+        let module = match unsafe {
+            d.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(spirv), None)
+        } {
+            Ok(m) => m,
+            Err(e) => {
+                cleanup();
+                return Err(anyhow!("vkCreateShaderModule for pipeline \"{name}\": {e}"));
+            }
+        };
+        let stage = vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::COMPUTE)
+            .module(module)
+            .name(c"main");
+        let info = [vk::ComputePipelineCreateInfo::default()
+            .stage(stage)
+            .layout(layout)];
+        let created = unsafe { d.create_compute_pipelines(self.pipeline_cache, &info, None) };
+        unsafe { d.destroy_shader_module(module, None) };
+        let pipeline = match created {
+            Ok(p) => p[0],
+            Err((_, e)) => {
+                cleanup();
+                return Err(anyhow!(
+                    "vkCreateComputePipelines for pipeline \"{name}\": {e}"
+                ));
+            }
+        };
+        self.set_name(pipeline, name);
+        self.set_name(layout, name);
+        self.set_name(set_layout, name);
+        self.registry
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .pipelines
+            .insert(pipeline, (layout, set_layout, name.to_string()));
+        Ok(ComputePipeline {
+            name: name.to_string(),
+            pipeline,
+            layout,
+            set_layout,
+            local_size_x: local_size[0],
+            local_size,
+            num_storage_buffers,
+            push_constant_bytes,
+        })
+    }
+
+    /// A descriptor set for `pipeline` with `buffers[i]` at binding i (whole buffers). The set
+    /// lives until the context is dropped.
+    pub fn create_descriptor_set(
+        &self,
+        pipeline: &ComputePipeline,
+        buffers: &[&Buffer],
+    ) -> Result<vk::DescriptorSet> {
+        if buffers.len() as u32 != pipeline.num_storage_buffers {
+            bail!(
+                "descriptor set for pipeline \"{}\": {} buffers given, the pipeline has {} bindings",
+                pipeline.name,
+                buffers.len(),
+                pipeline.num_storage_buffers
+            );
+        }
+        for (i, b) in buffers.iter().enumerate() {
+            if !b.usage.contains(vk::BufferUsageFlags::STORAGE_BUFFER) {
+                bail!("descriptor set for pipeline \"{}\": buffer \"{}\" (binding {i}) lacks STORAGE_BUFFER usage", pipeline.name, b.name);
+            }
+            let max = self.limits.max_storage_buffer_range as u64;
+            if b.vk_size > max {
+                bail!(
+                    "descriptor set for pipeline \"{}\": buffer \"{}\" (binding {i}) has {} bytes, more than the device's \
+                     maxStorageBufferRange of {max} bytes; split it",
+                    pipeline.name,
+                    b.name,
+                    b.vk_size
+                );
+            }
+        }
+        let set = self
+            .descriptor_pools
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .allocate(
+                &self.device,
+                pipeline.set_layout,
+                pipeline.num_storage_buffers,
+            )
+            .with_context(|| {
+                format!(
+                    "allocating a descriptor set for pipeline \"{}\"",
+                    pipeline.name
+                )
+            })?;
+        let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
+            .iter()
+            .map(|b| {
+                [vk::DescriptorBufferInfo::default()
+                    .buffer(b.raw)
+                    .offset(0)
+                    .range(vk::WHOLE_SIZE)]
+            })
+            .collect();
+        let writes: Vec<_> = infos
+            .iter()
+            .enumerate()
+            .map(|(i, info)| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(set)
+                    .dst_binding(i as u32)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .buffer_info(info)
+            })
+            .collect();
+        unsafe { self.device.update_descriptor_sets(&writes, &[]) };
+        Ok(set)
+    }
+
+    /// Destroys the pipeline and its layouts (descriptor sets made for it stay allocated until
+    /// the context goes, and must not be bound afterwards).
+    pub fn destroy_pipeline(&self, p: ComputePipeline) {
+        self.destroy_pipeline_ref(&p);
+    }
+
+    /// [`destroy_pipeline`](Self::destroy_pipeline) for a pipeline held by reference (e.g. in a
+    /// `Drop` impl); destroying the same pipeline twice does nothing the second time.
+    pub fn destroy_pipeline_ref(&self, p: &ComputePipeline) {
+        let known = self
+            .registry
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .pipelines
+            .remove(&p.pipeline)
+            .is_some();
+        if known {
+            unsafe {
+                self.device.destroy_pipeline(p.pipeline, None);
+                self.device.destroy_pipeline_layout(p.layout, None);
+                self.device
+                    .destroy_descriptor_set_layout(p.set_layout, None);
+            }
+        }
+    }
+}
+
+/// Descriptor pools of the context. Capacity is tracked here, so a new pool is made before an
+/// allocation could fail (no reliance on VK_ERROR_OUT_OF_POOL_MEMORY).
+#[derive(Default)]
+pub(crate) struct DescriptorPools {
+    pools: Vec<vk::DescriptorPool>,
+    sets_left: u32,
+    descriptors_left: u32,
+}
+
+impl DescriptorPools {
+    const SETS_PER_POOL: u32 = 64;
+    const DESCRIPTORS_PER_POOL: u32 = 64 * 24;
+
+    fn allocate(
+        &mut self,
+        device: &ash::Device,
+        layout: vk::DescriptorSetLayout,
+        descriptors: u32,
+    ) -> Result<vk::DescriptorSet> {
+        if self.pools.is_empty() || self.sets_left == 0 || self.descriptors_left < descriptors {
+            let count = Self::DESCRIPTORS_PER_POOL.max(descriptors);
+            let sizes = [vk::DescriptorPoolSize::default()
+                .ty(vk::DescriptorType::STORAGE_BUFFER)
+                .descriptor_count(count)];
+            let info = vk::DescriptorPoolCreateInfo::default()
+                .max_sets(Self::SETS_PER_POOL)
+                .pool_sizes(&sizes);
+            let pool = unsafe { device.create_descriptor_pool(&info, None) }
+                .context("vkCreateDescriptorPool")?;
+            self.pools.push(pool);
+            self.sets_left = Self::SETS_PER_POOL;
+            self.descriptors_left = count;
+        }
+        let layouts = [layout];
+        let info = vk::DescriptorSetAllocateInfo::default()
+            .descriptor_pool(*self.pools.last().unwrap())
+            .set_layouts(&layouts);
+        let set = unsafe { device.allocate_descriptor_sets(&info) }
+            .context("vkAllocateDescriptorSets")?[0];
+        self.sets_left -= 1;
+        self.descriptors_left -= descriptors;
+        Ok(set)
+    }
+
+    pub(crate) fn destroy(self, device: &ash::Device) {
+        for p in self.pools {
+            unsafe { device.destroy_descriptor_pool(p, None) };
+        }
+    }
+}
+
+/// The on-disk pipeline cache of this device: `<cache>/pipeline-<vendor>-<device>-<uuid>.bin`.
+fn pipeline_cache_path(props: &vk::PhysicalDeviceProperties) -> Option<PathBuf> {
+    let uuid: String = props
+        .pipeline_cache_uuid
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect();
+    default_cache_dir().map(|d| {
+        d.join(format!(
+            "pipeline-{:04x}-{:04x}-{uuid}.bin",
+            props.vendor_id, props.device_id
+        ))
+    })
+}
+
+/// Whether `data` starts with a pipeline-cache header (version one) for this exact device and
+/// driver build; anything else is not handed to the driver.
+fn pipeline_cache_header_matches(data: &[u8], props: &vk::PhysicalDeviceProperties) -> bool {
+    if data.len() < 32 {
+        return false;
+    }
+    let word = |i: usize| u32::from_le_bytes(data[i..i + 4].try_into().unwrap());
+    let header_len = word(0);
+    header_len >= 32
+        && header_len as usize <= data.len()
+        && word(4) == vk::PipelineCacheHeaderVersion::ONE.as_raw() as u32
+        && word(8) == props.vendor_id
+        && word(12) == props.device_id
+        && data[16..32] == props.pipeline_cache_uuid
+}
+
+/// Creates the pipeline cache, seeded from disk when a matching file exists.
+pub(crate) fn load_pipeline_cache(
+    device: &ash::Device,
+    props: &vk::PhysicalDeviceProperties,
+) -> Result<(vk::PipelineCache, Option<PathBuf>)> {
+    let path = pipeline_cache_path(props);
+    let data = path
+        .as_ref()
+        .and_then(|p| std::fs::read(p).ok())
+        .filter(|d| pipeline_cache_header_matches(d, props));
+    let create = |initial: &[u8]| unsafe {
+        device.create_pipeline_cache(
+            &vk::PipelineCacheCreateInfo::default().initial_data(initial),
+            None,
+        )
+    };
+    let cache = match data.as_deref().map(create) {
+        Some(Ok(c)) => c,
+        // A rejected file (driver update, damage): start empty.
+        _ => create(&[]).context("vkCreatePipelineCache")?,
+    };
+    Ok((cache, path))
+}
+
+/// Writes the pipeline cache to disk (atomically); failures are reported on stderr only, since
+/// this runs during teardown.
+pub(crate) fn save_pipeline_cache(device: &ash::Device, cache: vk::PipelineCache, path: &Path) {
+    match unsafe { device.get_pipeline_cache_data(cache) } {
+        Ok(data) if !data.is_empty() => {
+            if let Err(e) = write_atomic(path, &data) {
+                eprintln!("warning: could not save the pipeline cache: {e:#}");
+            }
+        }
+        Ok(_) => {}
+        Err(e) => eprintln!("warning: vkGetPipelineCacheData: {e}"),
+    }
+}
+
+const SPIRV_MAGIC: u32 = 0x0723_0203;
+const OP_ENTRY_POINT: u32 = 15;
+const OP_EXECUTION_MODE: u32 = 16;
+const OP_CONSTANT: u32 = 43;
+const OP_CONSTANT_COMPOSITE: u32 = 44;
+const OP_SPEC_CONSTANT: u32 = 50;
+const OP_SPEC_CONSTANT_COMPOSITE: u32 = 51;
+const OP_DECORATE: u32 = 71;
+const OP_EXECUTION_MODE_ID: u32 = 331;
+const EXECUTION_MODEL_GLCOMPUTE: u32 = 5;
+const EXECUTION_MODE_LOCAL_SIZE: u32 = 17;
+const EXECUTION_MODE_LOCAL_SIZE_ID: u32 = 38;
+const DECORATION_BUILTIN: u32 = 11;
+const BUILTIN_WORKGROUP_SIZE: u32 = 25;
+
+/// The workgroup size of the GLCompute entry point `main`, from the module's words: the
+/// `WorkgroupSize` built-in constant when present (it overrides the execution mode), else
+/// `OpExecutionMode LocalSize`, else `OpExecutionModeId LocalSizeId`. Spec constants give their
+/// default values.
+pub fn reflect_local_size(spirv: &[u32]) -> Result<[u32; 3]> {
+    if spirv.len() < 5 || spirv[0] != SPIRV_MAGIC {
+        bail!("not a SPIR-V module (no magic number)");
+    }
+    let mut entry: Option<u32> = None;
+    let mut local_size: HashMap<u32, [u32; 3]> = HashMap::new();
+    let mut local_size_id: HashMap<u32, [u32; 3]> = HashMap::new();
+    let mut constants: HashMap<u32, u32> = HashMap::new();
+    let mut composites: HashMap<u32, Vec<u32>> = HashMap::new();
+    let mut workgroup_builtin: Option<u32> = None;
+    let mut i = 5;
+    while i < spirv.len() {
+        let count = (spirv[i] >> 16) as usize;
+        let op = spirv[i] & 0xffff;
+        if count == 0 || i + count > spirv.len() {
+            bail!("malformed SPIR-V: instruction at word {i} has length {count}");
+        }
+        let w = &spirv[i..i + count];
+        match op {
+            OP_ENTRY_POINT if count >= 4 && w[1] == EXECUTION_MODEL_GLCOMPUTE => {
+                let name_bytes: Vec<u8> = w[3..]
+                    .iter()
+                    .flat_map(|x| x.to_le_bytes())
+                    .take_while(|&b| b != 0)
+                    .collect();
+                if name_bytes == b"main" {
+                    entry = Some(w[2]);
+                }
+            }
+            OP_EXECUTION_MODE if count >= 6 && w[2] == EXECUTION_MODE_LOCAL_SIZE => {
+                local_size.insert(w[1], [w[3], w[4], w[5]]);
+            }
+            OP_EXECUTION_MODE_ID if count >= 6 && w[2] == EXECUTION_MODE_LOCAL_SIZE_ID => {
+                local_size_id.insert(w[1], [w[3], w[4], w[5]]);
+            }
+            OP_DECORATE
+                if count >= 4 && w[2] == DECORATION_BUILTIN && w[3] == BUILTIN_WORKGROUP_SIZE =>
+            {
+                workgroup_builtin = Some(w[1]);
+            }
+            OP_CONSTANT | OP_SPEC_CONSTANT if count >= 4 => {
+                constants.insert(w[2], w[3]);
+            }
+            OP_CONSTANT_COMPOSITE | OP_SPEC_CONSTANT_COMPOSITE if count >= 3 => {
+                composites.insert(w[2], w[3..].to_vec());
+            }
+            _ => {}
+        }
+        i += count;
+    }
+    let entry = entry.ok_or_else(|| anyhow!("no GLCompute entry point named \"main\""))?;
+    let constant = |id: u32| {
+        constants.get(&id).copied().ok_or_else(|| {
+            anyhow!("workgroup size refers to id {id}, which is not a scalar constant")
+        })
+    };
+    let size = if let Some(id) = workgroup_builtin {
+        let parts = composites
+            .get(&id)
+            .ok_or_else(|| anyhow!("WorkgroupSize built-in {id} is not a constant composite"))?;
+        if parts.len() != 3 {
+            bail!("WorkgroupSize built-in has {} components", parts.len());
+        }
+        [
+            constant(parts[0])?,
+            constant(parts[1])?,
+            constant(parts[2])?,
+        ]
+    } else if let Some(s) = local_size.get(&entry) {
+        *s
+    } else if let Some(ids) = local_size_id.get(&entry) {
+        [constant(ids[0])?, constant(ids[1])?, constant(ids[2])?]
+    } else {
+        bail!("the entry point declares no workgroup size (LocalSize)");
+    };
+    if size.contains(&0) {
+        bail!("workgroup size {size:?} has a zero component");
+    }
+    Ok(size)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A hand-assembled module: header, OpEntryPoint GLCompute %4 "main", LocalSize 64 2 1.
+    fn module(extra: &[u32]) -> Vec<u32> {
+        let name = u32::from_le_bytes(*b"main");
+        let mut m = vec![SPIRV_MAGIC, 0x0001_0500, 0, 100, 0];
+        m.extend_from_slice(&[
+            (5 << 16) | OP_ENTRY_POINT,
+            EXECUTION_MODEL_GLCOMPUTE,
+            4,
+            name,
+            0,
+        ]);
+        m.extend_from_slice(&[
+            (6 << 16) | OP_EXECUTION_MODE,
+            4,
+            EXECUTION_MODE_LOCAL_SIZE,
+            64,
+            2,
+            1,
+        ]);
+        m.extend_from_slice(extra);
+        m
+    }
+
+    #[test]
+    fn local_size_from_execution_mode() {
+        assert_eq!(reflect_local_size(&module(&[])).unwrap(), [64, 2, 1]);
+    }
+
+    #[test]
+    fn workgroup_size_builtin_overrides() {
+        let extra = [
+            (4 << 16) | OP_DECORATE,
+            20,
+            DECORATION_BUILTIN,
+            BUILTIN_WORKGROUP_SIZE,
+            (4 << 16) | OP_SPEC_CONSTANT,
+            1,
+            10,
+            128,
+            (4 << 16) | OP_CONSTANT,
+            1,
+            11,
+            1,
+            (6 << 16) | OP_SPEC_CONSTANT_COMPOSITE,
+            2,
+            20,
+            10,
+            11,
+            11,
+        ];
+        assert_eq!(reflect_local_size(&module(&extra)).unwrap(), [128, 1, 1]);
+    }
+
+    #[test]
+    fn malformed_modules_are_rejected() {
+        assert!(reflect_local_size(&[1, 2, 3]).is_err());
+        let mut m = module(&[]);
+        m[5] = OP_ENTRY_POINT; // zero length
+        assert!(reflect_local_size(&m).is_err());
+        let mut m = module(&[]);
+        m.truncate(10); // cut inside the execution mode
+        assert!(reflect_local_size(&m).is_err());
+    }
+}
