@@ -71,6 +71,13 @@ struct ScalePush {
 }
 
 #[test]
+fn shared_types_are_send_and_sync() {
+    fn check<T: Send + Sync>() {}
+    check::<Context>();
+    check::<ShaderCompiler>();
+}
+
+#[test]
 fn devices_are_listed_and_bad_names_rejected() {
     let devices = Context::list_devices().expect("list Vulkan devices");
     assert!(!devices.is_empty());
@@ -548,16 +555,26 @@ fn shader_dir_overrides_embedded_sources() {
 #[test]
 fn buffers_upload_download_and_misuse() {
     let ctx = context();
-    // Every memory location round-trips (mapped or staged, whichever the device needs).
-    for loc in [
+    // Every memory location round-trips, mapped and through staging buffers.
+    let locations = [
         MemoryLocation::GpuOnly,
         MemoryLocation::CpuToGpu,
         MemoryLocation::GpuToCpu,
-    ] {
+    ];
+    for (loc, staging) in locations.iter().flat_map(|&l| [(l, false), (l, true)]) {
+        ctx.debug_force_staging(staging);
         let data: Vec<u32> = (0..777).map(|i| i * 7 + 1).collect();
         let b = ctx.create_buffer("rt", 777 * 4, STORAGE, loc).unwrap();
         ctx.upload(&b, &data).unwrap();
-        assert_eq!(ctx.download::<u32>(&b).unwrap(), data, "{loc:?}");
+        assert_eq!(
+            ctx.download::<u32>(&b).unwrap(),
+            data,
+            "{loc:?}, staging {staging}"
+        );
+        // A partial upload changes only the front.
+        ctx.upload(&b, &[5u32, 6]).unwrap();
+        let back = ctx.download::<u32>(&b).unwrap();
+        assert_eq!((&back[..2], &back[2..]), (&[5u32, 6][..], &data[2..]));
         assert!(
             ctx.upload(&b, &vec![0u32; 778]).is_err(),
             "oversized upload accepted"
@@ -568,6 +585,7 @@ fn buffers_upload_download_and_misuse() {
         );
         ctx.destroy_buffer(b);
     }
+    ctx.debug_force_staging(false);
     // Size zero is allowed (rounded up inside).
     let empty = ctx
         .create_buffer("empty", 0, STORAGE, MemoryLocation::GpuOnly)
@@ -609,6 +627,33 @@ fn buffers_upload_download_and_misuse() {
         .is_err());
     ctx.destroy_buffer(empty);
     ctx.destroy_pipeline(p);
+    finish_clean(ctx);
+}
+
+#[test]
+fn descriptor_sets_are_freed_with_their_pipeline() {
+    let ctx = context();
+    let comp = compiler(&[("t/busy.comp", BUSY_COMP)]);
+    let spirv = comp.compile("t/busy.comp", &[], &[]).unwrap();
+    let buf = ctx
+        .create_buffer("b", 256, STORAGE, MemoryLocation::GpuOnly)
+        .unwrap();
+    let mut pools = Vec::new();
+    for round in 0..3 {
+        let p = ctx.create_compute_pipeline("sets", &spirv, 1, 0).unwrap();
+        // More sets than one pool holds (64).
+        for _ in 0..150 {
+            ctx.create_descriptor_set(&p, &[&buf]).unwrap();
+        }
+        pools.push(ctx.debug_descriptor_pool_count());
+        ctx.destroy_pipeline(p);
+        assert!(
+            round < 1 || pools[round] == pools[0],
+            "pools grow: {pools:?}"
+        );
+    }
+    assert!(pools[0] >= 3, "{pools:?}");
+    ctx.destroy_buffer(buf);
     finish_clean(ctx);
 }
 

@@ -6,6 +6,7 @@ use anyhow::{anyhow, bail, Context as _, Result};
 use ash::vk;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::MemoryLocation;
+use std::sync::atomic::Ordering;
 
 /// A buffer and its memory. Destroy it with [`Context::destroy_buffer`]; a buffer dropped
 /// without that is reported as a leak when the context goes.
@@ -157,7 +158,7 @@ impl Context {
             return Ok(out);
         }
         let alloc = buf.allocation.as_ref().expect("live buffer has memory");
-        if alloc.mapped_ptr().is_some() {
+        if alloc.mapped_ptr().is_some() && !self.force_staging.load(Ordering::Relaxed) {
             self.read_mapped(alloc, bytes)
                 .with_context(|| format!("download of buffer \"{}\"", buf.name))?;
             return Ok(out);
@@ -186,6 +187,14 @@ impl Context {
             )
         })?;
         Ok(out)
+    }
+
+    /// Testing aid: send every upload and download through a staging buffer and a copy
+    /// command, as on a GPU whose device-local memory is not host-visible (lavapipe maps all
+    /// its memory, so the staging path is otherwise never taken there).
+    #[doc(hidden)]
+    pub fn debug_force_staging(&self, on: bool) {
+        self.force_staging.store(on, Ordering::Relaxed);
     }
 
     /// Frees the buffer and its memory. The buffer must not be in use by unfinished work.

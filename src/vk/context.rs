@@ -12,6 +12,7 @@ use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 use std::collections::HashMap;
 use std::ffi::{c_void, CStr, CString};
 use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
 use std::sync::Mutex;
 
 /// How to set up a [`Context`].
@@ -44,25 +45,32 @@ const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 pub const MAX_TIMESTAMPS: u32 = 4096;
 
 /// Where validation messages go; the debug messenger gets a pointer to it (boxed, so it never
-/// moves while the messenger lives).
+/// moves while the messenger lives). Keeps the first [`MessageSink::KEEP`] messages and counts
+/// the rest, so a broken render cannot fill the memory with repeats.
 #[derive(Default)]
 pub(crate) struct MessageSink {
-    messages: Mutex<Vec<String>>,
+    messages: Mutex<(Vec<String>, usize)>,
 }
 
 impl MessageSink {
+    const KEEP: usize = 1000;
+
     pub(crate) fn push(&self, msg: String) {
-        self.messages
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .push(msg);
+        let mut m = self.messages.lock().unwrap_or_else(|e| e.into_inner());
+        if m.0.len() < Self::KEEP {
+            m.0.push(msg);
+        } else {
+            m.1 += 1;
+        }
     }
 
     fn snapshot(&self) -> Vec<String> {
-        self.messages
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .clone()
+        let m = self.messages.lock().unwrap_or_else(|e| e.into_inner());
+        let mut out = m.0.clone();
+        if m.1 > 0 {
+            out.push(format!("... and {} more messages (not kept)", m.1));
+        }
+        out
     }
 }
 
@@ -155,6 +163,8 @@ pub struct Context {
     pub(crate) query_pool: vk::QueryPool,
     pub(crate) timestamps: Mutex<Timestamps>,
     pub(crate) registry: Mutex<Registry>,
+    /// See [`Context::debug_force_staging`].
+    pub(crate) force_staging: AtomicBool,
     /// `VkPhysicalDeviceProperties::deviceName`, e.g. "llvmpipe (LLVM 15.0.6, 256 bits)".
     pub device_name: String,
     pub device_type: vk::PhysicalDeviceType,
@@ -550,6 +560,7 @@ impl Context {
             query_pool: vk::QueryPool::null(),
             timestamps: Mutex::new(Timestamps::default()),
             registry: Mutex::new(Registry::default()),
+            force_staging: AtomicBool::new(false),
             device_name: cand.name.clone(),
             device_type: cand.kind,
             driver_id: cand.driver_id,

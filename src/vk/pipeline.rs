@@ -133,8 +133,9 @@ impl Context {
         })
     }
 
-    /// A descriptor set for `pipeline` with `buffers[i]` at binding i (whole buffers). The set
-    /// lives until the context is dropped.
+    /// A descriptor set for `pipeline` with `buffers[i]` at binding i (whole buffers), from a
+    /// pool owned by the context. The set belongs to `pipeline`: it is freed when the pipeline
+    /// is destroyed.
     pub fn create_descriptor_set(
         &self,
         pipeline: &ComputePipeline,
@@ -169,6 +170,7 @@ impl Context {
             .unwrap_or_else(|e| e.into_inner())
             .allocate(
                 &self.device,
+                pipeline.pipeline,
                 pipeline.set_layout,
                 pipeline.num_storage_buffers,
             )
@@ -202,8 +204,17 @@ impl Context {
         Ok(set)
     }
 
-    /// Destroys the pipeline and its layouts (descriptor sets made for it stay allocated until
-    /// the context goes, and must not be bound afterwards).
+    /// Testing aid: the number of descriptor pools made so far.
+    #[doc(hidden)]
+    pub fn debug_descriptor_pool_count(&self) -> usize {
+        self.descriptor_pools
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .pools
+            .len()
+    }
+
+    /// Destroys the pipeline, its layouts and the descriptor sets made for it.
     pub fn destroy_pipeline(&self, p: ComputePipeline) {
         self.destroy_pipeline_ref(&p);
     }
@@ -219,6 +230,10 @@ impl Context {
             .remove(&p.pipeline)
             .is_some();
         if known {
+            self.descriptor_pools
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .free_owned(&self.device, p.pipeline);
             unsafe {
                 self.device.destroy_pipeline(p.pipeline, None);
                 self.device.destroy_pipeline_layout(p.layout, None);
@@ -229,13 +244,21 @@ impl Context {
     }
 }
 
-/// Descriptor pools of the context. Capacity is tracked here, so a new pool is made before an
-/// allocation could fail (no reliance on VK_ERROR_OUT_OF_POOL_MEMORY).
-#[derive(Default)]
-pub(crate) struct DescriptorPools {
-    pools: Vec<vk::DescriptorPool>,
+/// One descriptor pool and what is left in it.
+struct Pool {
+    pool: vk::DescriptorPool,
     sets_left: u32,
     descriptors_left: u32,
+}
+
+/// Descriptor pools of the context (storage buffers only, FREE_DESCRIPTOR_SET). Capacity is
+/// tracked here, so a pool with room is chosen before allocating; sets are freed when their
+/// pipeline is destroyed and their room is reused.
+#[derive(Default)]
+pub(crate) struct DescriptorPools {
+    pools: Vec<Pool>,
+    /// The sets of each pipeline: (pool index, set, descriptors).
+    owned: HashMap<vk::Pipeline, Vec<(usize, vk::DescriptorSet, u32)>>,
 }
 
 impl DescriptorPools {
@@ -245,37 +268,75 @@ impl DescriptorPools {
     fn allocate(
         &mut self,
         device: &ash::Device,
+        owner: vk::Pipeline,
         layout: vk::DescriptorSetLayout,
         descriptors: u32,
     ) -> Result<vk::DescriptorSet> {
-        if self.pools.is_empty() || self.sets_left == 0 || self.descriptors_left < descriptors {
-            let count = Self::DESCRIPTORS_PER_POOL.max(descriptors);
-            let sizes = [vk::DescriptorPoolSize::default()
-                .ty(vk::DescriptorType::STORAGE_BUFFER)
-                .descriptor_count(count)];
-            let info = vk::DescriptorPoolCreateInfo::default()
-                .max_sets(Self::SETS_PER_POOL)
-                .pool_sizes(&sizes);
-            let pool = unsafe { device.create_descriptor_pool(&info, None) }
-                .context("vkCreateDescriptorPool")?;
-            self.pools.push(pool);
-            self.sets_left = Self::SETS_PER_POOL;
-            self.descriptors_left = count;
-        }
         let layouts = [layout];
-        let info = vk::DescriptorSetAllocateInfo::default()
-            .descriptor_pool(*self.pools.last().unwrap())
-            .set_layouts(&layouts);
-        let set = unsafe { device.allocate_descriptor_sets(&info) }
-            .context("vkAllocateDescriptorSets")?[0];
-        self.sets_left -= 1;
-        self.descriptors_left -= descriptors;
-        Ok(set)
+        let fits = |p: &Pool| p.sets_left > 0 && p.descriptors_left >= descriptors;
+        let mut index = self.pools.iter().position(fits);
+        loop {
+            let i = match index {
+                Some(i) => i,
+                None => {
+                    let count = Self::DESCRIPTORS_PER_POOL.max(descriptors);
+                    let sizes = [vk::DescriptorPoolSize::default()
+                        .ty(vk::DescriptorType::STORAGE_BUFFER)
+                        .descriptor_count(count)];
+                    let info = vk::DescriptorPoolCreateInfo::default()
+                        .flags(vk::DescriptorPoolCreateFlags::FREE_DESCRIPTOR_SET)
+                        .max_sets(Self::SETS_PER_POOL)
+                        .pool_sizes(&sizes);
+                    let pool = unsafe { device.create_descriptor_pool(&info, None) }
+                        .context("vkCreateDescriptorPool")?;
+                    self.pools.push(Pool {
+                        pool,
+                        sets_left: Self::SETS_PER_POOL,
+                        descriptors_left: count,
+                    });
+                    self.pools.len() - 1
+                }
+            };
+            let info = vk::DescriptorSetAllocateInfo::default()
+                .descriptor_pool(self.pools[i].pool)
+                .set_layouts(&layouts);
+            match unsafe { device.allocate_descriptor_sets(&info) } {
+                Ok(sets) => {
+                    let p = &mut self.pools[i];
+                    p.sets_left -= 1;
+                    p.descriptors_left -= descriptors;
+                    self.owned
+                        .entry(owner)
+                        .or_default()
+                        .push((i, sets[0], descriptors));
+                    return Ok(sets[0]);
+                }
+                // Fragmented after frees: treat the pool as full and use a fresh one.
+                Err(vk::Result::ERROR_FRAGMENTED_POOL | vk::Result::ERROR_OUT_OF_POOL_MEMORY)
+                    if index.is_some() =>
+                {
+                    self.pools[i].sets_left = 0;
+                    index = None;
+                }
+                Err(e) => return Err(anyhow!("vkAllocateDescriptorSets: {e}")),
+            }
+        }
+    }
+
+    /// Frees the sets made for `owner` and returns their room to the pools.
+    fn free_owned(&mut self, device: &ash::Device, owner: vk::Pipeline) {
+        for (i, set, descriptors) in self.owned.remove(&owner).unwrap_or_default() {
+            let p = &mut self.pools[i];
+            if unsafe { device.free_descriptor_sets(p.pool, &[set]) }.is_ok() {
+                p.sets_left += 1;
+                p.descriptors_left += descriptors;
+            }
+        }
     }
 
     pub(crate) fn destroy(self, device: &ash::Device) {
         for p in self.pools {
-            unsafe { device.destroy_descriptor_pool(p, None) };
+            unsafe { device.destroy_descriptor_pool(p.pool, None) };
         }
     }
 }

@@ -590,5 +590,29 @@ mod tests {
             assert_eq!(&on_disk, text, "{rel}");
         }
         assert!(EMBEDDED_SHADERS.iter().any(|(p, _)| *p == "common.glsl"));
+        // And every shader source on disk is embedded (the table is not stale).
+        fn walk(dir: &Path, prefix: &str, out: &mut Vec<String>) {
+            for e in std::fs::read_dir(dir).unwrap() {
+                let e = e.unwrap();
+                let name = e.file_name().to_string_lossy().into_owned();
+                if e.path().is_dir() {
+                    walk(&e.path(), &format!("{prefix}{name}/"), out);
+                } else if name.ends_with(".glsl") || name.ends_with(".comp") {
+                    out.push(format!("{prefix}{name}"));
+                }
+            }
+        }
+        let mut on_disk = Vec::new();
+        walk(
+            &Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders"),
+            "",
+            &mut on_disk,
+        );
+        for rel in on_disk {
+            assert!(
+                EMBEDDED_SHADERS.iter().any(|(p, _)| *p == rel),
+                "{rel} is not embedded"
+            );
+        }
     }
 }
