@@ -136,4 +136,5 @@ fn gpu_and_cpu_agree_on_eval_pdf_and_sample_for_every_model() {
     let msgs = ctx.validation_messages();
     assert!(msgs.is_empty(), "validation: {msgs:?}");
     assert!(failures.is_empty(), "GPU/CPU BRDF disagreements:\n{}", failures.join("\n"));
+    common::finish(ctx);
 }

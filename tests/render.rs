@@ -27,6 +27,7 @@ fn cornell_box_gpu_matches_cpu_with_the_same_seed() {
     let rel = |a: u64, b: u64| (a as f64 - b as f64).abs() / b as f64;
     assert!(rel(gpu.extension_rays, cpu.extension_rays) < 0.01, "{} vs {}", gpu.extension_rays, cpu.extension_rays);
     assert!(rel(gpu.shadow_rays, cpu.shadow_rays) < 0.01, "{} vs {}", gpu.shadow_rays, cpu.shadow_rays);
+    finish(ctx);
 }
 
 /// Independent seeds: per-pixel two-sample test of the means (Mitsuba-style, Šidák-corrected).
@@ -41,6 +42,7 @@ fn cornell_box_gpu_and_cpu_agree_statistically_with_independent_seeds() {
         save("z-cpu.exr", &cpu.mean);
     }
     assert!(r.passed, "{r:?}");
+    finish(ctx);
 }
 
 fn analytic_furnace(out: &brdfwave::output::RenderOutput, expected: f64) {
@@ -64,6 +66,7 @@ fn closed_sphere_lit_from_within_renders_the_exact_radiance_on_both_backends() {
     analytic_furnace(&render_cpu(&s), expected);
     let ctx = context();
     analytic_furnace(&render_gpu(&ctx, &s).0, expected);
+    finish(ctx);
 }
 
 /// White furnace: a convex Lambertian sphere (ρ = 0.8) under a constant environment of
@@ -84,6 +87,7 @@ fn white_furnace_sphere_is_exact_on_both_backends() {
             assert!(p.iter().all(|&v| (0.8 - 1e-5..=1.0 + 1e-6).contains(&v)), "{name}: pixel {p:?}");
         }
     }
+    finish(ctx);
 }
 
 /// max_depth counts segments: with one segment only directly visible emitters show.
@@ -106,6 +110,7 @@ fn depth_one_shows_only_the_light_on_both_backends() {
     let s2 = scene("cornell-box.toml", 32, 32, 4, 2, 0);
     let out = render_cpu(&s2);
     assert!(out.mean.data.iter().filter(|p| p[0] > 0.0).count() > 32 * 32 / 2);
+    finish(ctx);
 }
 
 /// Only the models a scene uses get a shade pipeline.
@@ -116,4 +121,5 @@ fn a_lambert_only_scene_builds_only_the_lambert_shade_pipeline() {
     let (_, pipelines) = render_gpu(&ctx, &s);
     let shade: Vec<&String> = pipelines.iter().filter(|p| p.starts_with("shade_")).collect();
     assert_eq!(shade, vec!["shade_lambert"], "all pipelines: {pipelines:?}");
+    finish(ctx);
 }

@@ -20,6 +20,7 @@ fn same_seed_parity(name: &str, w: u32, h: u32, spp: u32, depth: u32) -> Vec<Str
         save(&format!("{stem}-error.png"), &metrics::error_map(&gpu.mean, &cpu.mean).unwrap());
         panic!("{name}: only {fraction:.4} of pixel-channels agree (need 0.98); worst {:?}", &worst[..worst.len().min(8)]);
     }
+    finish(ctx);
     pipelines
 }
 

@@ -50,6 +50,13 @@ pub fn render_gpu(ctx: &Context, s: &Scene) -> (RenderOutput, Vec<String>) {
     (out, pipelines)
 }
 
+/// Tear the context down and fail on any validation message, including those raised at device
+/// destruction (leaked objects).
+pub fn finish(ctx: Context) {
+    let msgs = ctx.finish();
+    assert!(msgs.is_empty(), "validation layer messages at teardown:\n{}", msgs.join("\n"));
+}
+
 /// Where tests write images for inspection on failure.
 pub fn artifact_dir() -> PathBuf {
     let d = repo().join("target").join("test-artifacts");
