@@ -1,0 +1,771 @@
+//! Image files: an in-memory linear-RGB [`Image`] and atomic reading/writing of OpenEXR, PNG and
+//! PFM files.
+//!
+//! * `.exr` — linear RGB, 32-bit float per channel, lossless ZIP compression (crate `exr`).
+//!   Round trips are bit-exact, including negative, infinite and NaN values.
+//! * `.png` — 8-bit sRGB: linear values are clamped to [0, 1] (NaN becomes 0), then encoded with
+//!   the sRGB transfer curve (IEC 61966-2-1) and rounded to the nearest 8-bit code. Reading
+//!   applies the inverse curve, so a PNG round trip is exact up to this 8-bit quantisation.
+//!   Alpha is ignored on reading, grey images are replicated to RGB, 16-bit PNGs are read at full
+//!   precision.
+//! * `.pfm` — Portable Float Map, linear 32-bit float, little-endian, rows stored bottom to top
+//!   as the format requires. Reading accepts both byte orders and grey (`Pf`) files; the
+//!   magnitude of the scale field is ignored.
+//!
+//! The format is chosen by the file extension (case-insensitive). Every write is atomic: the
+//! encoded image goes to a temporary file in the destination directory, which is then renamed
+//! over the destination, so an interrupted or failed write never destroys an existing file
+//! (the replaced file's permissions are kept; a symbolic link at the destination is replaced,
+//! not followed).
+//! Missing directories are not created: writing into one is an error naming the path.
+//!
+//! Renderers that estimate per-pixel variance produce two plain [`Image`]s (mean and sample
+//! variance); [`Moments`] and [`mean_variance_from_sums`] build them.
+
+use std::fmt;
+use std::fs::File;
+use std::io::{BufReader, BufWriter, Read, Write};
+use std::path::{Path, PathBuf};
+
+/// Errors of image construction, reading and writing. Each names the file involved.
+#[derive(Debug, thiserror::Error)]
+pub enum ImageError {
+    #[error("{path}: unsupported image file extension (expected .exr, .png or .pfm)")]
+    UnknownExtension { path: PathBuf },
+    #[error("{path}: cannot write, the directory {dir} does not exist")]
+    MissingDirectory { path: PathBuf, dir: PathBuf },
+    #[error("{path}: {what}: {source}")]
+    Io {
+        path: PathBuf,
+        what: &'static str,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error(
+        "{path}: OpenEXR error: {source} (brdfwave reads the first layer with R, G and B channels)"
+    )]
+    Exr {
+        path: PathBuf,
+        #[source]
+        source: exr::error::Error,
+    },
+    #[error("{path}: PNG error: {source}")]
+    Png {
+        path: PathBuf,
+        #[source]
+        source: image::ImageError,
+    },
+    #[error("{path}: malformed PFM file: {reason}")]
+    Pfm { path: PathBuf, reason: String },
+    #[error("{path}: invalid image: {reason}")]
+    InvalidImage { path: PathBuf, reason: String },
+    #[error("invalid image: {0}")]
+    Invalid(String),
+}
+
+/// A linear-RGB floating-point image. Pixels are stored row by row, row 0 at the top, so pixel
+/// (x, y) is `data[y * width + x]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    pub width: u32,
+    pub height: u32,
+    pub data: Vec<[f32; 3]>,
+}
+
+impl Image {
+    /// A black image.
+    pub fn new(width: u32, height: u32) -> Image {
+        Image::filled(width, height, [0.0; 3])
+    }
+
+    /// An image with every pixel set to `rgb`.
+    pub fn filled(width: u32, height: u32, rgb: [f32; 3]) -> Image {
+        Image {
+            width,
+            height,
+            data: vec![rgb; width as usize * height as usize],
+        }
+    }
+
+    /// An image whose pixel (x, y) is `f(x, y)`.
+    pub fn from_fn(width: u32, height: u32, mut f: impl FnMut(u32, u32) -> [f32; 3]) -> Image {
+        let mut data = Vec::with_capacity(width as usize * height as usize);
+        for y in 0..height {
+            for x in 0..width {
+                data.push(f(x, y));
+            }
+        }
+        Image {
+            width,
+            height,
+            data,
+        }
+    }
+
+    /// Wraps pixel data, checking that it holds exactly `width * height` pixels.
+    pub fn from_data(width: u32, height: u32, data: Vec<[f32; 3]>) -> Result<Image, ImageError> {
+        let img = Image {
+            width,
+            height,
+            data,
+        };
+        img.validate()?;
+        Ok(img)
+    }
+
+    /// Checks the invariants the public fields cannot enforce: a non-empty size and
+    /// `data.len() == width * height`.
+    pub fn validate(&self) -> Result<(), ImageError> {
+        if self.width == 0 || self.height == 0 {
+            return Err(ImageError::Invalid(format!(
+                "size {}x{} is empty",
+                self.width, self.height
+            )));
+        }
+        let expected = self.width as u64 * self.height as u64;
+        if self.data.len() as u64 != expected {
+            return Err(ImageError::Invalid(format!(
+                "{}x{} image holds {} pixels, expected {}",
+                self.width,
+                self.height,
+                self.data.len(),
+                expected
+            )));
+        }
+        Ok(())
+    }
+
+    /// Number of pixels, `width * height`.
+    pub fn pixel_count(&self) -> usize {
+        self.width as usize * self.height as usize
+    }
+
+    /// Index of pixel (x, y) in `data`.
+    #[inline]
+    pub fn index(&self, x: u32, y: u32) -> usize {
+        debug_assert!(x < self.width && y < self.height);
+        y as usize * self.width as usize + x as usize
+    }
+
+    /// Pixel (x, y). Panics when out of bounds, like slice indexing.
+    #[inline]
+    pub fn get(&self, x: u32, y: u32) -> [f32; 3] {
+        assert!(
+            x < self.width && y < self.height,
+            "pixel ({x}, {y}) outside {}x{}",
+            self.width,
+            self.height
+        );
+        self.data[self.index(x, y)]
+    }
+
+    /// Sets pixel (x, y). Panics when out of bounds, like slice indexing.
+    #[inline]
+    pub fn set(&mut self, x: u32, y: u32, rgb: [f32; 3]) {
+        assert!(
+            x < self.width && y < self.height,
+            "pixel ({x}, {y}) outside {}x{}",
+            self.width,
+            self.height
+        );
+        let i = self.index(x, y);
+        self.data[i] = rgb;
+    }
+
+    /// (x, y) of the pixel at `data[index]`.
+    #[inline]
+    pub fn coords(&self, index: usize) -> (u32, u32) {
+        let w = self.width.max(1) as usize;
+        ((index % w) as u32, (index / w) as u32)
+    }
+
+    /// Whether both images have the same width and height.
+    pub fn same_size(&self, other: &Image) -> bool {
+        self.width == other.width && self.height == other.height
+    }
+
+    /// A new image with `f` applied to every pixel.
+    pub fn map(&self, mut f: impl FnMut([f32; 3]) -> [f32; 3]) -> Image {
+        Image {
+            width: self.width,
+            height: self.height,
+            data: self.data.iter().map(|&p| f(p)).collect(),
+        }
+    }
+
+    /// Per-channel mean over all pixels, in f64. Non-finite values propagate (see
+    /// [`Image::count_nonfinite`]); use [`Image::mean_finite`] to skip them.
+    pub fn mean(&self) -> [f64; 3] {
+        let mut s = [0.0f64; 3];
+        for p in &self.data {
+            for c in 0..3 {
+                s[c] += p[c] as f64;
+            }
+        }
+        let n = self.data.len().max(1) as f64;
+        s.map(|v| v / n)
+    }
+
+    /// Per-channel mean over the finite values only (each channel divides by its own count of
+    /// finite values; 0 when there are none).
+    pub fn mean_finite(&self) -> [f64; 3] {
+        let mut s = [0.0f64; 3];
+        let mut n = [0u64; 3];
+        for p in &self.data {
+            for c in 0..3 {
+                if p[c].is_finite() {
+                    s[c] += p[c] as f64;
+                    n[c] += 1;
+                }
+            }
+        }
+        [0, 1, 2].map(|c| if n[c] > 0 { s[c] / n[c] as f64 } else { 0.0 })
+    }
+
+    /// Mean luminance (Rec. 709 / sRGB primaries: 0.2126 R + 0.7152 G + 0.0722 B).
+    pub fn mean_luminance(&self) -> f64 {
+        let m = self.mean();
+        0.2126 * m[0] + 0.7152 * m[1] + 0.0722 * m[2]
+    }
+
+    /// Number of pixel-channels that are NaN or infinite.
+    pub fn count_nonfinite(&self) -> usize {
+        self.data
+            .iter()
+            .flat_map(|p| p.iter())
+            .filter(|v| !v.is_finite())
+            .count()
+    }
+
+    /// Smallest and largest finite channel values, or `None` if there are none.
+    pub fn finite_range(&self) -> Option<(f32, f32)> {
+        let mut r: Option<(f32, f32)> = None;
+        for &v in self.data.iter().flat_map(|p| p.iter()) {
+            if v.is_finite() {
+                r = Some(match r {
+                    None => (v, v),
+                    Some((lo, hi)) => (lo.min(v), hi.max(v)),
+                });
+            }
+        }
+        r
+    }
+
+    /// The image tone-mapped for display: each channel clamped to [0, 1] (NaN to 0), sRGB
+    /// encoded and rounded to 8 bits; tightly packed RGB, row 0 first.
+    pub fn to_srgb8(&self) -> Vec<u8> {
+        let mut out = Vec::with_capacity(self.data.len() * 3);
+        for p in &self.data {
+            for &v in p {
+                out.push(linear_to_srgb8(v));
+            }
+        }
+        out
+    }
+
+    /// Builds an image from tightly packed 8-bit sRGB data, decoding to linear.
+    pub fn from_srgb8(width: u32, height: u32, bytes: &[u8]) -> Result<Image, ImageError> {
+        let n = width as usize * height as usize;
+        if bytes.len() != n * 3 {
+            return Err(ImageError::Invalid(format!(
+                "{width}x{height} sRGB8 data holds {} bytes, expected {}",
+                bytes.len(),
+                n * 3
+            )));
+        }
+        let data = bytes
+            .chunks_exact(3)
+            .map(|c| [0, 1, 2].map(|i| srgb_to_linear(c[i] as f32 / 255.0)))
+            .collect();
+        Image::from_data(width, height, data)
+    }
+}
+
+impl fmt::Display for Image {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let m = self.mean();
+        write!(
+            f,
+            "{}x{} image, mean ({:.6}, {:.6}, {:.6})",
+            self.width, self.height, m[0], m[1], m[2]
+        )
+    }
+}
+
+/// The sRGB transfer curve (IEC 61966-2-1), linear to encoded, for `c` in [0, 1].
+#[inline]
+pub fn linear_to_srgb(c: f32) -> f32 {
+    if c <= 0.003_130_8 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// The inverse sRGB transfer curve, encoded to linear, for `c` in [0, 1].
+#[inline]
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.040_45 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// Clamps a linear value to [0, 1] (NaN to 0, +inf to 1), sRGB-encodes it and rounds to the
+/// nearest 8-bit code.
+#[inline]
+pub fn linear_to_srgb8(v: f32) -> u8 {
+    let c = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
+    (linear_to_srgb(c) * 255.0 + 0.5).floor().clamp(0.0, 255.0) as u8
+}
+
+/// Image file formats, chosen by extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Exr,
+    Png,
+    Pfm,
+}
+
+impl Format {
+    /// The format for `path`'s extension (case-insensitive), or an error naming the path.
+    pub fn from_path(path: &Path) -> Result<Format, ImageError> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase());
+        match ext.as_deref() {
+            Some("exr") => Ok(Format::Exr),
+            Some("png") => Ok(Format::Png),
+            Some("pfm") => Ok(Format::Pfm),
+            _ => Err(ImageError::UnknownExtension {
+                path: path.to_path_buf(),
+            }),
+        }
+    }
+}
+
+/// Writes `img` to `path` atomically, in the format given by the extension (see the module
+/// documentation). The parent directory must exist.
+pub fn write(path: &Path, img: &Image) -> Result<(), ImageError> {
+    let format = Format::from_path(path)?;
+    img.validate().map_err(|e| ImageError::InvalidImage {
+        path: path.to_path_buf(),
+        reason: match e {
+            ImageError::Invalid(r) => r,
+            other => other.to_string(),
+        },
+    })?;
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !dir.is_dir() {
+        return Err(ImageError::MissingDirectory {
+            path: path.to_path_buf(),
+            dir,
+        });
+    }
+    let io_err = |what: &'static str| {
+        let path = path.to_path_buf();
+        move |source: std::io::Error| ImageError::Io { path, what, source }
+    };
+    let file_name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let prefix = format!(".{file_name}.");
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(&prefix).suffix(".tmp");
+    // Temporary files are private (0600); the image should get the permissions a plain
+    // `File::create` gives (0666 minus the umask), or keep those of the file it replaces.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    let mut tmp = builder.tempfile_in(&dir).map_err(io_err(
+        "cannot create a temporary file in the destination directory",
+    ))?;
+    if let Ok(meta) = std::fs::metadata(path) {
+        if meta.is_file() {
+            tmp.as_file()
+                .set_permissions(meta.permissions())
+                .map_err(io_err("cannot copy the permissions of the existing file"))?;
+        }
+    }
+
+    match format {
+        Format::Exr => write_exr(tmp.as_file_mut(), path, img)?,
+        Format::Png => write_png(tmp.as_file_mut(), path, img)?,
+        Format::Pfm => write_pfm(tmp.as_file_mut(), path, img)?,
+    }
+    tmp.as_file_mut()
+        .sync_all()
+        .map_err(io_err("cannot flush the temporary file"))?;
+    // On failure the temporary file is removed when `tmp` (inside the error) is dropped.
+    tmp.persist(path)
+        .map_err(|e| io_err("cannot rename the temporary file over the destination")(e.error))?;
+    Ok(())
+}
+
+fn write_exr(file: &mut File, path: &Path, img: &Image) -> Result<(), ImageError> {
+    use exr::prelude::{Encoding, SpecificChannels, Vec2, WritableImage};
+    let w = img.width as usize;
+    let data = &img.data;
+    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
+        let p = data[y * w + x];
+        (p[0], p[1], p[2])
+    });
+    exr::prelude::Image::from_encoded_channels(
+        (w, img.height as usize),
+        Encoding::SMALL_LOSSLESS,
+        channels,
+    )
+    .write()
+    .to_buffered(BufWriter::new(file))
+    .map_err(|source| ImageError::Exr {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+fn write_png(file: &mut File, path: &Path, img: &Image) -> Result<(), ImageError> {
+    use image::ImageEncoder;
+    let bytes = img.to_srgb8();
+    let mut out = BufWriter::new(file);
+    image::codecs::png::PngEncoder::new(&mut out)
+        .write_image(
+            &bytes,
+            img.width,
+            img.height,
+            image::ExtendedColorType::Rgb8,
+        )
+        .map_err(|source| ImageError::Png {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    out.flush().map_err(|source| ImageError::Io {
+        path: path.to_path_buf(),
+        what: "cannot write the PNG data",
+        source,
+    })
+}
+
+fn write_pfm(file: &mut File, path: &Path, img: &Image) -> Result<(), ImageError> {
+    let mut out = BufWriter::new(file);
+    let mut bytes = Vec::with_capacity(32 + img.data.len() * 12);
+    bytes.extend_from_slice(format!("PF\n{} {}\n-1.0\n", img.width, img.height).as_bytes());
+    let w = img.width as usize;
+    for row in img.data.chunks_exact(w).rev() {
+        for p in row {
+            for v in p {
+                bytes.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+    }
+    out.write_all(&bytes)
+        .and_then(|_| out.flush())
+        .map_err(|source| ImageError::Io {
+            path: path.to_path_buf(),
+            what: "cannot write the PFM data",
+            source,
+        })
+}
+
+/// Reads an image, in the format given by the extension (see the module documentation), as
+/// linear RGB.
+pub fn read(path: &Path) -> Result<Image, ImageError> {
+    let format = Format::from_path(path)?;
+    let img = match format {
+        Format::Exr => read_exr(path)?,
+        Format::Png => read_png(path)?,
+        Format::Pfm => read_pfm(path)?,
+    };
+    img.validate().map_err(|e| ImageError::InvalidImage {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    })?;
+    Ok(img)
+}
+
+fn open(path: &Path) -> Result<File, ImageError> {
+    File::open(path).map_err(|source| ImageError::Io {
+        path: path.to_path_buf(),
+        what: "cannot open",
+        source,
+    })
+}
+
+fn read_exr(path: &Path) -> Result<Image, ImageError> {
+    use exr::prelude::ReadChannels;
+    use exr::prelude::ReadLayers;
+    let file = open(path)?;
+    let exr_img = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .rgba_channels(
+            |size, _| Image::new(size.width() as u32, size.height() as u32),
+            |img: &mut Image, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                let i = pos.y() * img.width as usize + pos.x();
+                img.data[i] = [r, g, b];
+            },
+        )
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(BufReader::new(file))
+        .map_err(|source| ImageError::Exr {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    Ok(exr_img.layer_data.channel_data.pixels)
+}
+
+fn read_png(path: &Path) -> Result<Image, ImageError> {
+    let file = open(path)?;
+    let decoded = image::ImageReader::with_format(BufReader::new(file), image::ImageFormat::Png)
+        .decode()
+        .map_err(|source| ImageError::Png {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    let rgb = decoded.into_rgb32f();
+    let (width, height) = rgb.dimensions();
+    let data = rgb
+        .pixels()
+        .map(|p| p.0.map(|c| srgb_to_linear(c.clamp(0.0, 1.0))))
+        .collect();
+    Image::from_data(width, height, data).map_err(|e| ImageError::InvalidImage {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    })
+}
+
+fn read_pfm(path: &Path) -> Result<Image, ImageError> {
+    let bad = |reason: String| ImageError::Pfm {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let mut bytes = Vec::new();
+    open(path)?
+        .read_to_end(&mut bytes)
+        .map_err(|source| ImageError::Io {
+            path: path.to_path_buf(),
+            what: "cannot read",
+            source,
+        })?;
+    // Header: four whitespace-separated tokens (magic, width, height, scale), then exactly one
+    // whitespace byte before the raster.
+    let mut pos = 0usize;
+    let mut tokens: Vec<String> = Vec::with_capacity(4);
+    while tokens.len() < 4 {
+        while pos < bytes.len() && bytes[pos].is_ascii_whitespace() {
+            pos += 1;
+        }
+        let start = pos;
+        while pos < bytes.len() && !bytes[pos].is_ascii_whitespace() && pos - start < 64 {
+            pos += 1;
+        }
+        if start == pos {
+            return Err(bad(format!(
+                "header ends after {} of its 4 fields (magic, width, height, scale)",
+                tokens.len()
+            )));
+        }
+        tokens.push(String::from_utf8_lossy(&bytes[start..pos]).into_owned());
+    }
+    if pos >= bytes.len() || !bytes[pos].is_ascii_whitespace() {
+        return Err(bad("no whitespace byte after the scale field".into()));
+    }
+    pos += 1;
+    let channels = match tokens[0].as_str() {
+        "PF" => 3usize,
+        "Pf" => 1usize,
+        m => {
+            return Err(bad(format!(
+                "magic is {m:?}, expected \"PF\" (RGB) or \"Pf\" (grey)"
+            )))
+        }
+    };
+    let parse_dim = |s: &str, name: &str| -> Result<u32, ImageError> {
+        s.parse::<u32>()
+            .ok()
+            .filter(|&v| v > 0)
+            .ok_or_else(|| bad(format!("{name} {s:?} is not a positive integer")))
+    };
+    let width = parse_dim(&tokens[1], "width")?;
+    let height = parse_dim(&tokens[2], "height")?;
+    let scale: f32 = tokens[3]
+        .parse()
+        .ok()
+        .filter(|s: &f32| s.is_finite() && *s != 0.0)
+        .ok_or_else(|| bad(format!("scale {:?} is not a non-zero number", tokens[3])))?;
+    let little_endian = scale < 0.0;
+    let expected = width as u64 * height as u64 * channels as u64 * 4;
+    let available = (bytes.len() - pos) as u64;
+    if available < expected {
+        return Err(bad(format!(
+            "{width}x{height} raster needs {expected} bytes, the file has {available}"
+        )));
+    }
+    let raster = &bytes[pos..pos + expected as usize];
+    let mut floats = raster.chunks_exact(4).map(|b| {
+        let b = [b[0], b[1], b[2], b[3]];
+        if little_endian {
+            f32::from_le_bytes(b)
+        } else {
+            f32::from_be_bytes(b)
+        }
+    });
+    let (w, h) = (width as usize, height as usize);
+    let mut data = vec![[0.0f32; 3]; w * h];
+    // Rows are stored bottom to top.
+    for y in (0..h).rev() {
+        for x in 0..w {
+            let px = &mut data[y * w + x];
+            if channels == 3 {
+                for c in px.iter_mut() {
+                    *c = floats.next().unwrap_or(0.0);
+                }
+            } else {
+                *px = [floats.next().unwrap_or(0.0); 3];
+            }
+        }
+    }
+    Ok(Image {
+        width,
+        height,
+        data,
+    })
+}
+
+/// Per-pixel running mean and sample variance over whole-image passes (one sample per pixel per
+/// pass), in f64 with Welford's update so that large sample counts do not cancel.
+#[derive(Clone, Debug)]
+pub struct Moments {
+    pub width: u32,
+    pub height: u32,
+    n: u64,
+    mean: Vec<[f64; 3]>,
+    m2: Vec<[f64; 3]>,
+}
+
+impl Moments {
+    pub fn new(width: u32, height: u32) -> Moments {
+        let len = width as usize * height as usize;
+        Moments {
+            width,
+            height,
+            n: 0,
+            mean: vec![[0.0; 3]; len],
+            m2: vec![[0.0; 3]; len],
+        }
+    }
+
+    /// Adds one sample per pixel (e.g. a 1-spp render).
+    pub fn add_pass(&mut self, pass: &Image) -> Result<(), ImageError> {
+        pass.validate()?;
+        if pass.width != self.width || pass.height != self.height {
+            return Err(ImageError::Invalid(format!(
+                "pass is {}x{}, the accumulator is {}x{}",
+                pass.width, pass.height, self.width, self.height
+            )));
+        }
+        self.n += 1;
+        let inv_n = 1.0 / self.n as f64;
+        for ((mean, m2), p) in self.mean.iter_mut().zip(&mut self.m2).zip(&pass.data) {
+            for c in 0..3 {
+                let x = p[c] as f64;
+                let d = x - mean[c];
+                mean[c] += d * inv_n;
+                m2[c] += d * (x - mean[c]);
+            }
+        }
+        Ok(())
+    }
+
+    /// Number of passes (samples per pixel) accumulated.
+    pub fn count(&self) -> u64 {
+        self.n
+    }
+
+    /// Per-pixel mean.
+    pub fn mean_image(&self) -> Image {
+        Image {
+            width: self.width,
+            height: self.height,
+            data: self.mean.iter().map(|m| m.map(|v| v as f32)).collect(),
+        }
+    }
+
+    /// Per-pixel sample variance of ONE sample (denominator n − 1; 0 when n < 2). The variance of
+    /// the mean is this divided by [`Moments::count`].
+    pub fn variance_image(&self) -> Image {
+        let denom = if self.n >= 2 {
+            (self.n - 1) as f64
+        } else {
+            f64::INFINITY
+        };
+        Image {
+            width: self.width,
+            height: self.height,
+            data: self
+                .m2
+                .iter()
+                .map(|m| m.map(|v| (clamp_negative(v) / denom) as f32))
+                .collect(),
+        }
+    }
+}
+
+/// Per-pixel mean and sample variance of one sample (denominator n − 1; 0 when n < 2) from
+/// per-pixel sums of samples and of squared samples over `n` samples per pixel, computed in
+/// f64. Negative variances from rounding are clamped to 0.
+pub fn mean_variance_from_sums(
+    width: u32,
+    height: u32,
+    n: u64,
+    sum: &[[f64; 3]],
+    sum_sq: &[[f64; 3]],
+) -> Result<(Image, Image), ImageError> {
+    let len = width as usize * height as usize;
+    if n == 0 {
+        return Err(ImageError::Invalid("sample count n is 0".into()));
+    }
+    if sum.len() != len || sum_sq.len() != len {
+        return Err(ImageError::Invalid(format!(
+            "{width}x{height} needs {len} sums, got {} sums and {} squared sums",
+            sum.len(),
+            sum_sq.len()
+        )));
+    }
+    let nf = n as f64;
+    let mut mean = Vec::with_capacity(len);
+    let mut var = Vec::with_capacity(len);
+    for (s, s2) in sum.iter().zip(sum_sq) {
+        let m = s.map(|v| v / nf);
+        mean.push(m.map(|v| v as f32));
+        var.push([0, 1, 2].map(|c| {
+            if n < 2 {
+                0.0
+            } else {
+                clamp_negative((s2[c] - s[c] * m[c]) / (nf - 1.0)) as f32
+            }
+        }));
+    }
+    Ok((
+        Image::from_data(width, height, mean)?,
+        Image::from_data(width, height, var)?,
+    ))
+}
+
+/// Negative values (rounding in variance formulas) become 0; NaN is kept so that it shows.
+#[inline]
+fn clamp_negative(v: f64) -> f64 {
+    if v < 0.0 {
+        0.0
+    } else {
+        v
+    }
+}

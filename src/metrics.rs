@@ -1,0 +1,1 @@
+//! Image comparison (placeholder until the next commit).
