@@ -348,6 +348,20 @@ impl Format {
 
 /// Writes `img` to `path` atomically, in the format given by the extension (see the module
 /// documentation). The parent directory must exist.
+/// Check, before a long render, that `path` has a known image extension and an existing
+/// directory, so a typo does not cost the render.
+pub fn check_writable(path: &Path) -> Result<(), ImageError> {
+    Format::from_path(path)?;
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        return Err(ImageError::MissingDirectory { path: path.to_path_buf(), dir: dir.to_path_buf() });
+    }
+    Ok(())
+}
+
 pub fn write(path: &Path, img: &Image) -> Result<(), ImageError> {
     let format = Format::from_path(path)?;
     img.validate().map_err(|e| ImageError::InvalidImage {
