@@ -1,0 +1,286 @@
+// BVH traversal and ray/primitive intersection. Rust twin: src/bvh.rs, which documents the
+// node layout, the link encoding, the tie rule and the numerics. Every step below repeats the
+// Rust arithmetic in the same order; intermediate values are `precise` so the compiler cannot
+// fuse multiply-adds (which would change results and break the sign symmetry of the watertight
+// edge functions).
+//
+// Include after `#version 460`; define BVH_BINDING first to move the four buffers.
+#ifndef BVH_GLSL
+#define BVH_GLSL
+
+#ifndef BVH_BINDING
+#define BVH_BINDING 0
+#endif
+
+// 4 vec4 per node: (lmin, left), (lmax, right), (rmin, left_count), (rmax, right_count); the
+// u32 fields as uintBitsToFloat in .w.
+layout(std430, set = 0, binding = BVH_BINDING + 0) readonly buffer BvhNodes { vec4 bvh_nodes[]; };
+// Primitive references: triangle index, or sphere index | BVH_SPHERE_BIT.
+layout(std430, set = 0, binding = BVH_BINDING + 1) readonly buffer BvhPrims { uint bvh_prims[]; };
+// 3 vec4 per triangle: (v0, material bits), (v1, emitter bits or 0xFFFFFFFF), (v2, unused).
+layout(std430, set = 0, binding = BVH_BINDING + 2) readonly buffer Triangles { vec4 tri_data[]; };
+// 2 vec4 per sphere: (center, radius), (material bits, emitter bits, inward bits, 0).
+layout(std430, set = 0, binding = BVH_BINDING + 3) readonly buffer Spheres { vec4 sphere_data[]; };
+
+struct Hit {
+    float t;
+    uint prim;   // primitive reference
+    vec2 bary;   // (b1, b2) for triangles: p = (1-b1-b2) v0 + b1 v1 + b2 v2; zero for spheres
+};
+
+#define BVH_SPHERE_BIT 0x80000000u
+#define BVH_LEAF_FLAG 0x80000000u
+#define BVH_STACK_SIZE 64
+// 1 + 2^-20 (Rust BOX_WIDEN), 2^-80 (ZERO_DIR), 2^120 (ZERO_INV), 2^80 (ZERO_PAD),
+// 2^-19 (SPHERE_ON_SURFACE), largest finite float.
+#define BVH_BOX_WIDEN uintBitsToFloat(0x3F800008u)
+#define BVH_ZERO_DIR uintBitsToFloat(0x17800000u)
+#define BVH_ZERO_INV uintBitsToFloat(0x7B800000u)
+#define BVH_ZERO_PAD uintBitsToFloat(0x67800000u)
+#define BVH_SPHERE_ON_SURFACE uintBitsToFloat(0x36000000u)
+#define BVH_FLT_MAX uintBitsToFloat(0x7F7FFFFFu)
+
+// Per-ray constants (Rust: struct Ray).
+struct BvhRay {
+    vec3 o;
+    vec3 inv;   // safe inverse direction
+    vec3 pad;   // BVH_ZERO_PAD on zero components, else 0
+    int kx;     // Woop et al. shear axes, kz = largest |d| component
+    int ky;
+    int kz;
+    vec3 s;     // (Sx, Sy, Sz)
+};
+
+float bvh_dot3(vec3 a, vec3 b) {
+    precise float r = a.x * b.x + a.y * b.y + a.z * b.z;
+    return r;
+}
+
+void bvh_safe_inv(float d, out float inv, out float pad) {
+    if (abs(d) < BVH_ZERO_DIR) {
+        inv = BVH_ZERO_INV;
+        pad = BVH_ZERO_PAD;
+    } else {
+        inv = 1.0 / d;
+        pad = 0.0;
+    }
+}
+
+// False for a zero, infinite or NaN direction: such a ray hits nothing.
+bool bvh_make_ray(vec3 o, vec3 d, out BvhRay r) {
+    vec3 a = abs(d);
+    int kz;
+    if (a.x >= a.y && a.x >= a.z) {
+        kz = 0;
+    } else if (a.y >= a.z) {
+        kz = 1;
+    } else {
+        kz = 2;
+    }
+    r.o = o;
+    r.kz = kz;
+    r.kx = 0;
+    r.ky = 0;
+    r.s = vec3(0.0);
+    r.inv = vec3(0.0);
+    r.pad = vec3(0.0);
+    if (!(a[kz] > 0.0 && a[kz] <= BVH_FLT_MAX)) return false;
+    int kx = kz == 2 ? 0 : kz + 1;
+    int ky = kx == 2 ? 0 : kx + 1;
+    if (d[kz] < 0.0) {
+        int tmp = kx;
+        kx = ky;
+        ky = tmp;
+    }
+    r.kx = kx;
+    r.ky = ky;
+    r.s = vec3(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
+    bvh_safe_inv(d.x, r.inv.x, r.pad.x);
+    bvh_safe_inv(d.y, r.inv.y, r.pad.y);
+    bvh_safe_inv(d.z, r.inv.z, r.pad.z);
+    return true;
+}
+
+// Conservative slab test (Ize 2013); returns hit, writes the entry distance clamped to 0.
+bool bvh_box_hit(BvhRay r, vec3 bmin, vec3 bmax, float tmax, out float tnear) {
+    precise vec3 t0 = (bmin - r.o) * r.inv;
+    precise vec3 t1 = (bmax - r.o) * r.inv;
+    precise vec3 tn = min(t0, t1) - r.pad;
+    precise vec3 tf = max(t0, t1) + r.pad;
+    tnear = max(max(tn.x, tn.y), max(tn.z, 0.0));
+    precise float tfar = min(min(tf.x, tf.y), min(tf.z, tmax)) * BVH_BOX_WIDEN;
+    return tnear <= tfar;
+}
+
+// Woop–Benthin–Wald watertight test: t in (0, tmax) and (b1, b2).
+bool bvh_triangle(BvhRay r, vec3 v0, vec3 v1, vec3 v2, float tmax, out float t, out vec2 bary) {
+    t = 0.0;
+    bary = vec2(0.0);
+    precise vec3 a = v0 - r.o;
+    precise vec3 b = v1 - r.o;
+    precise vec3 c = v2 - r.o;
+    precise float ax = a[r.kx] - r.s.x * a[r.kz];
+    precise float ay = a[r.ky] - r.s.y * a[r.kz];
+    precise float bx = b[r.kx] - r.s.x * b[r.kz];
+    precise float by = b[r.ky] - r.s.y * b[r.kz];
+    precise float cx = c[r.kx] - r.s.x * c[r.kz];
+    precise float cy = c[r.ky] - r.s.y * c[r.kz];
+    precise float u = cx * by - cy * bx;
+    precise float v = ax * cy - ay * cx;
+    precise float w = bx * ay - by * ax;
+    if ((u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0)) return false;
+    precise float det = u + v + w;
+    if (det == 0.0) return false;
+    precise float az = r.s.z * a[r.kz];
+    precise float bz = r.s.z * b[r.kz];
+    precise float cz = r.s.z * c[r.kz];
+    precise float tt = u * az + v * bz + w * cz;
+    if ((det < 0.0 && tt >= 0.0) || (det > 0.0 && tt <= 0.0)) return false;
+    precise float rcp = 1.0 / det;
+    precise float th = tt * rcp;
+    if (!(th > 0.0 && th < tmax)) return false;
+    t = th;
+    bary = vec2(v * rcp, w * rcp);
+    return true;
+}
+
+// Ray/sphere (Ray Tracing Gems ch. 7): the smallest root in (0, tmax); an origin on the
+// surface (within about radius·2^-20) drops the root at t ≈ 0. Rust: intersect_sphere.
+bool bvh_sphere(vec3 o, vec3 d, vec3 center, float radius, float tmax, out float t) {
+    t = 0.0;
+    precise vec3 f = o - center;
+    float a = bvh_dot3(d, d);
+    if (!(a > 0.0)) return false;
+    float b = bvh_dot3(f, d);
+    precise float r2 = radius * radius;
+    precise float c = bvh_dot3(f, f) - r2;
+    precise float k = b / a;
+    precise vec3 l = f - d * k;
+    precise float disc = a * (r2 - bvh_dot3(l, l));
+    if (disc < 0.0) return false;
+    float sq = sqrt(disc);
+    precise float q = b >= 0.0 ? -b - sq : -b + sq;
+    if (q == 0.0) return false;
+    bool on_surface = abs(c) <= r2 * BVH_SPHERE_ON_SURFACE;
+    precise float t0 = on_surface ? 0.0 : c / q;
+    precise float t1 = q / a;
+    float lo = t0 <= t1 ? t0 : t1;
+    float hi = t0 <= t1 ? t1 : t0;
+    if (lo > 0.0 && lo < tmax) {
+        t = lo;
+        return true;
+    }
+    if (hi > 0.0 && hi < tmax) {
+        t = hi;
+        return true;
+    }
+    return false;
+}
+
+// Stack entry of a child link (Rust: fn link).
+uint bvh_link(uint index, uint count) {
+    return count == 0u ? index : (BVH_LEAF_FLAG | (index << 3) | (count - 1u));
+}
+
+// Near-first stack traversal (Rust: Bvh::traverse). any_hit stops at the first hit.
+bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
+    hit.t = tmax;
+    hit.prim = 0xFFFFFFFFu;
+    hit.bary = vec2(0.0);
+    BvhRay r;
+    if (!bvh_make_ray(o, d, r)) return false;
+    bool found = false;
+    uint stack[BVH_STACK_SIZE];
+    uint sp = 0u;
+    uint cur = 0u;
+    while (true) {
+        if ((cur & BVH_LEAF_FLAG) != 0u) {
+            uint first = (cur >> 3) & 0x0FFFFFFFu;
+            uint end = first + (cur & 7u) + 1u;
+            for (uint i = first; i < end; ++i) {
+                uint ref = bvh_prims[i];
+                float t;
+                vec2 bary = vec2(0.0);
+                bool h;
+                if ((ref & BVH_SPHERE_BIT) != 0u) {
+                    uint s = (ref & ~BVH_SPHERE_BIT) * 2u;
+                    vec4 cr = sphere_data[s];
+                    h = bvh_sphere(o, d, cr.xyz, cr.w, hit.t, t);
+                } else {
+                    uint k = ref * 3u;
+                    h = bvh_triangle(r, tri_data[k].xyz, tri_data[k + 1u].xyz, tri_data[k + 2u].xyz, hit.t, t, bary);
+                }
+                if (h) {
+                    hit.t = t;
+                    hit.prim = ref;
+                    hit.bary = bary;
+                    found = true;
+                    if (any_hit) return true;
+                }
+            }
+        } else {
+            uint base = cur * 4u;
+            vec4 n0 = bvh_nodes[base];
+            vec4 n1 = bvh_nodes[base + 1u];
+            vec4 n2 = bvh_nodes[base + 2u];
+            vec4 n3 = bvh_nodes[base + 3u];
+            uint left = floatBitsToUint(n0.w);
+            uint right = floatBitsToUint(n1.w);
+            uint left_count = floatBitsToUint(n2.w);
+            uint right_count = floatBitsToUint(n3.w);
+            float tl;
+            float tr;
+            bool hl = bvh_box_hit(r, n0.xyz, n1.xyz, hit.t, tl);
+            bool hr = bvh_box_hit(r, n2.xyz, n3.xyz, hit.t, tr);
+            hl = hl && (left_count != 0u || left != 0u);
+            hr = hr && (right_count != 0u || right != 0u);
+            uint cl = bvh_link(left, left_count);
+            uint cr = bvh_link(right, right_count);
+            if (hl && hr) {
+                bool swap = tr < tl;
+                uint near = swap ? cr : cl;
+                uint far = swap ? cl : cr;
+                if (sp < uint(BVH_STACK_SIZE)) {
+                    stack[sp] = far;
+                    sp += 1u;
+                }
+                cur = near;
+                continue;
+            }
+            if (hl) {
+                cur = cl;
+                continue;
+            }
+            if (hr) {
+                cur = cr;
+                continue;
+            }
+        }
+        if (sp == 0u) break;
+        sp -= 1u;
+        cur = stack[sp];
+    }
+    return found;
+}
+
+// Closest hit with t in (0, tmax). On a miss, hit.t = tmax and hit.prim = 0xFFFFFFFF.
+bool trace_closest(vec3 o, vec3 d, float tmax, out Hit hit) {
+    return bvh_traverse(o, d, tmax, false, hit);
+}
+
+// Whether anything is hit with t in (0, tmax).
+bool trace_any(vec3 o, vec3 d, float tmax) {
+    Hit h;
+    return bvh_traverse(o, d, tmax, true, h);
+}
+
+// Wächter & Binder 2019 (Rust: offset_ray_origin): 256 ulps along n per coordinate, or n/65536
+// within 1/32 of zero. n points to the side the new ray leaves from.
+vec3 offset_ray_origin(vec3 p, vec3 n) {
+    ivec3 of_i = ivec3(256.0 * n);
+    precise vec3 p_f = p + (1.0 / 65536.0) * n;
+    vec3 p_i = intBitsToFloat(floatBitsToInt(p) + mix(of_i, -of_i, lessThan(p, vec3(0.0))));
+    return mix(p_i, p_f, lessThan(abs(p), vec3(1.0 / 32.0)));
+}
+
+#endif
