@@ -32,12 +32,12 @@ struct Hit {
 #define BVH_LEAF_FLAG 0x80000000u
 #define BVH_STACK_SIZE 64
 // 1 + 2^-20 (Rust BOX_WIDEN), 2^-80 (ZERO_DIR), 2^120 (ZERO_INV), 2^80 (ZERO_PAD),
-// 2^-19 (SPHERE_ON_SURFACE), largest finite float.
+// 2^-18 (SPHERE_ON_SURFACE), largest finite float.
 #define BVH_BOX_WIDEN uintBitsToFloat(0x3F800008u)
 #define BVH_ZERO_DIR uintBitsToFloat(0x17800000u)
 #define BVH_ZERO_INV uintBitsToFloat(0x7B800000u)
 #define BVH_ZERO_PAD uintBitsToFloat(0x67800000u)
-#define BVH_SPHERE_ON_SURFACE uintBitsToFloat(0x36000000u)
+#define BVH_SPHERE_ON_SURFACE uintBitsToFloat(0x36800000u)
 #define BVH_FLT_MAX uintBitsToFloat(0x7F7FFFFFu)
 
 // Per-ray constants (Rust: struct Ray).
@@ -145,7 +145,7 @@ bool bvh_triangle(BvhRay r, vec3 v0, vec3 v1, vec3 v2, float tmax, out float t, 
 }
 
 // Ray/sphere (Ray Tracing Gems ch. 7): the smallest root in (0, tmax); an origin on the
-// surface (within about radius·2^-20) drops the root at t ≈ 0. Rust: intersect_sphere.
+// surface (within about 16 ulps of max(|o|, radius)) drops the root at t ≈ 0. Rust: intersect_sphere.
 bool bvh_sphere(vec3 o, vec3 d, vec3 center, float radius, float tmax, out float t) {
     t = 0.0;
     precise vec3 f = o - center;
@@ -161,7 +161,9 @@ bool bvh_sphere(vec3 o, vec3 d, vec3 center, float radius, float tmax, out float
     float sq = sqrt(disc);
     precise float q = b >= 0.0 ? -b - sq : -b + sq;
     if (q == 0.0) return false;
-    bool on_surface = abs(c) <= r2 * BVH_SPHERE_ON_SURFACE;
+    float m = max(max(abs(o.x), abs(o.y)), max(abs(o.z), abs(radius)));
+    precise float tol = abs(radius) * m * BVH_SPHERE_ON_SURFACE;
+    bool on_surface = abs(c) <= tol;
     precise float t0 = on_surface ? 0.0 : c / q;
     precise float t1 = q / a;
     float lo = t0 <= t1 ? t0 : t1;

@@ -87,10 +87,11 @@ const ZERO_INV: f32 = (1u128 << 120) as f32;
 /// by more than `ZERO_PAD / ZERO_INV = 2^-40` gets an empty one.
 const ZERO_PAD: f32 = (1u128 << 80) as f32;
 
-/// A sphere-room origin closer to the surface than about `radius · 2^-20` counts as on the
-/// surface: the root at t ≈ 0 is dropped so the ray finds the far side (see
-/// [`intersect_sphere`]). `|f|² - r²` is compared with `r² · SPHERE_ON_SURFACE`.
-const SPHERE_ON_SURFACE: f32 = 1.0 / (1u32 << 19) as f32;
+/// A ray origin closer to a sphere's surface than about `M · 2^-19`, M = max(|o|∞, r), counts
+/// as on the surface (16 ulps of the largest coordinate, more than the rounding of a point
+/// computed on the sphere): the root at t ≈ 0 is dropped so the ray finds the far side (see
+/// [`intersect_sphere`]). `|f|² - r²` is compared with `r · M · SPHERE_ON_SURFACE`.
+const SPHERE_ON_SURFACE: f32 = 1.0 / (1u32 << 18) as f32;
 
 /// One node, Aila–Laine layout: both children's boxes in the parent (64 bytes, 4 × vec4 on the
 /// GPU with the u32 fields in `.w`). See the module documentation for the link encoding.
@@ -181,7 +182,10 @@ struct Aabb {
 }
 
 impl Aabb {
-    const EMPTY: Aabb = Aabb { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
+    const EMPTY: Aabb = Aabb {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
     fn grow(&mut self, b: &Aabb) {
         self.min = self.min.min(b.min);
         self.max = self.max.max(b.max);
@@ -190,9 +194,9 @@ impl Aabb {
         self.min = self.min.min(p);
         self.max = self.max.max(p);
     }
-    /// Half the surface area; 0 for empty or flat boxes.
-    fn half_area(&self) -> f32 {
-        let e = (self.max - self.min).max(Vec3::ZERO);
+    /// Half the surface area (f64: no overflow for huge boxes); 0 for empty or flat boxes.
+    fn half_area(&self) -> f64 {
+        let e = (self.max - self.min).max(Vec3::ZERO).as_dvec3();
         e.x * e.y + e.y * e.z + e.z * e.x
     }
 }
@@ -206,10 +210,16 @@ fn prim_box(scene: &Scene, r: u32) -> Aabb {
         let lo = s.center - Vec3::splat(rad);
         let hi = s.center + Vec3::splat(rad);
         // One more ulp outward, so rounding of the sums cannot cut into the sphere.
-        Aabb { min: lo - lo.abs() * f32::EPSILON, max: hi + hi.abs() * f32::EPSILON }
+        Aabb {
+            min: lo - lo.abs() * f32::EPSILON,
+            max: hi + hi.abs() * f32::EPSILON,
+        }
     } else {
         let v = &scene.triangles[r as usize].v;
-        Aabb { min: v[0].min(v[1]).min(v[2]), max: v[0].max(v[1]).max(v[2]) }
+        Aabb {
+            min: v[0].min(v[1]).min(v[2]),
+            max: v[0].max(v[1]).max(v[2]),
+        }
     }
 }
 
@@ -230,7 +240,14 @@ struct Link {
     count: u32,
 }
 
-const ABSENT: Link = Link { bounds: Aabb { min: Vec3::ZERO, max: Vec3::ZERO }, index: 0, count: 0 };
+const ABSENT: Link = Link {
+    bounds: Aabb {
+        min: Vec3::ZERO,
+        max: Vec3::ZERO,
+    },
+    index: 0,
+    count: 0,
+};
 
 struct Builder {
     boxes: Vec<Aabb>,
@@ -261,9 +278,15 @@ impl Builder {
     }
 
     /// Best binned SAH split: (axis, bin boundary, cost), or None when no axis has extent.
-    fn best_split(&self, start: usize, end: usize, bounds: &Aabb, cb: &Aabb) -> Option<(usize, usize, f32)> {
+    fn best_split(
+        &self,
+        start: usize,
+        end: usize,
+        bounds: &Aabb,
+        cb: &Aabb,
+    ) -> Option<(usize, usize, f64)> {
         let parent_area = bounds.half_area();
-        let mut best: Option<(usize, usize, f32)> = None;
+        let mut best: Option<(usize, usize, f64)> = None;
         for axis in 0..3 {
             let lo = cb.min[axis];
             let extent = cb.max[axis] - lo;
@@ -280,28 +303,32 @@ impl Builder {
                 bin_box[b].grow(&self.boxes[i as usize]);
             }
             // Sweep from the right: area·count of bins k.. for every k.
-            let mut right_cost = [0.0f32; BINS];
+            let mut right_cost = [0.0f64; BINS];
             let mut acc = Aabb::EMPTY;
             let mut n = 0;
             for k in (1..BINS).rev() {
                 acc.grow(&bin_box[k]);
                 n += bin_n[k];
-                right_cost[k] = if n > 0 { acc.half_area() * n as f32 } else { f32::INFINITY };
+                right_cost[k] = if n > 0 {
+                    acc.half_area() * n as f64
+                } else {
+                    f64::INFINITY
+                };
             }
             let mut acc = Aabb::EMPTY;
             let mut n = 0;
             for k in 1..BINS {
                 acc.grow(&bin_box[k - 1]);
                 n += bin_n[k - 1];
-                if n == 0 || right_cost[k] == f32::INFINITY {
+                if n == 0 || right_cost[k] == f64::INFINITY {
                     continue;
                 }
-                let areas = acc.half_area() * n as f32 + right_cost[k];
-                let cost = if parent_area > 0.0 {
-                    C_TRAV + C_INT * areas / parent_area
+                let areas = acc.half_area() * n as f64 + right_cost[k];
+                let cost = if parent_area > 0.0 && parent_area < f64::INFINITY {
+                    C_TRAV as f64 + C_INT as f64 * areas / parent_area
                 } else {
-                    // Degenerate (flat-point) node: every split costs the same.
-                    C_TRAV + C_INT * 0.5 * (end - start) as f32
+                    // Degenerate (point-like) node: every split costs the same.
+                    C_TRAV as f64 + C_INT as f64 * 0.5 * (end - start) as f64
                 };
                 if best.map_or(true, |(_, _, c)| cost < c) {
                     best = Some((axis, k, cost));
@@ -341,13 +368,21 @@ impl Builder {
         };
         let mid = start + (end - start) / 2;
         let c = &self.centroids;
-        self.order[start..end]
-            .select_nth_unstable_by(mid - start, |&a, &b| c[a as usize][axis].total_cmp(&c[b as usize][axis]));
+        self.order[start..end].select_nth_unstable_by(mid - start, |&a, &b| {
+            c[a as usize][axis].total_cmp(&c[b as usize][axis])
+        });
         self.stats.median_splits += 1;
         mid
     }
 
-    fn decide(&mut self, start: usize, end: usize, depth: u32, bounds: &Aabb, cb: &Aabb) -> Decision {
+    fn decide(
+        &mut self,
+        start: usize,
+        end: usize,
+        depth: u32,
+        bounds: &Aabb,
+        cb: &Aabb,
+    ) -> Decision {
         let n = end - start;
         if n <= 1 || (n <= MAX_LEAF && depth >= MAX_DEPTH) {
             return Decision::Leaf;
@@ -355,7 +390,7 @@ impl Builder {
         let split = self.best_split(start, end, bounds, cb);
         if n <= MAX_LEAF {
             match split {
-                Some((_, _, cost)) if cost < n as f32 * C_INT => {}
+                Some((_, _, cost)) if cost < n as f64 * C_INT as f64 => {}
                 _ => return Decision::Leaf,
             }
         }
@@ -374,8 +409,12 @@ impl Builder {
         self.stats.leaves += 1;
         self.stats.max_leaf_size = self.stats.max_leaf_size.max(n);
         self.stats.max_leaf_depth = self.stats.max_leaf_depth.max(depth);
-        self.sah_sum += bounds.half_area() as f64 * n as f64 * C_INT as f64;
-        Link { bounds, index: start as u32, count: n as u32 }
+        self.sah_sum += bounds.half_area() * n as f64 * C_INT as f64;
+        Link {
+            bounds,
+            index: start as u32,
+            count: n as u32,
+        }
     }
 
     /// Build the subtree over `order[start..end]` whose root sits at `depth` (as an inner node).
@@ -385,28 +424,40 @@ impl Builder {
             // Only the root of an empty scene.
             self.nodes.push(GpuNode::default());
             self.stats.inner_nodes += 1;
-            return Link { bounds, index: 0, count: 0 };
+            return Link {
+                bounds,
+                index: 0,
+                count: 0,
+            };
         }
         match self.decide(start, end, depth, &bounds, &cb) {
             Decision::Leaf if !is_root => self.leaf(start, end, depth, bounds),
             Decision::Leaf => {
                 self.nodes.push(GpuNode::default());
                 self.stats.inner_nodes += 1;
-                self.sah_sum += bounds.half_area() as f64 * C_TRAV as f64;
+                self.sah_sum += bounds.half_area() * C_TRAV as f64;
                 let l = self.leaf(start, end, depth + 1, bounds);
                 self.nodes[0] = make_node(&l, &ABSENT);
-                Link { bounds, index: 0, count: 0 }
+                Link {
+                    bounds,
+                    index: 0,
+                    count: 0,
+                }
             }
             Decision::Split(mid) => {
                 let index = self.nodes.len();
                 self.nodes.push(GpuNode::default());
                 self.stats.inner_nodes += 1;
                 self.stats.max_depth = self.stats.max_depth.max(depth);
-                self.sah_sum += bounds.half_area() as f64 * C_TRAV as f64;
+                self.sah_sum += bounds.half_area() * C_TRAV as f64;
                 let l = self.build(start, mid, depth + 1, false);
                 let r = self.build(mid, end, depth + 1, false);
                 self.nodes[index] = make_node(&l, &r);
-                Link { bounds, index: index as u32, count: 0 }
+                Link {
+                    bounds,
+                    index: index as u32,
+                    count: 0,
+                }
             }
         }
     }
@@ -437,7 +488,10 @@ fn bin_of(c: f32, lo: f32, scale: f32) -> usize {
 /// leaf encoding.
 pub fn build(scene: &Scene) -> Bvh {
     let n = scene.triangles.len() + scene.spheres.len();
-    assert!(n <= MAX_PRIMS, "the BVH supports at most {MAX_PRIMS} primitives, the scene has {n}");
+    assert!(
+        n <= MAX_PRIMS,
+        "the BVH supports at most {MAX_PRIMS} primitives, the scene has {n}"
+    );
     let refs: Vec<u32> = (0..scene.triangles.len() as u32)
         .chain((0..scene.spheres.len() as u32).map(|i| i | SPHERE_BIT))
         .collect();
@@ -449,17 +503,38 @@ pub fn build(scene: &Scene) -> Bvh {
         refs,
         order: (0..n as u32).collect(),
         nodes: Vec::with_capacity(n.max(1)),
-        stats: BvhStats { primitives: n, ..Default::default() },
+        stats: BvhStats {
+            primitives: n,
+            ..Default::default()
+        },
         sah_sum: 0.0,
     };
     let root = b.build(0, n, 0, true);
     let mut stats = b.stats;
-    let root_area = root.bounds.half_area() as f64;
-    stats.sah_cost = if root_area > 0.0 { (b.sah_sum / root_area) as f32 } else { 0.0 };
-    stats.mean_leaf_size = if stats.leaves > 0 { n as f32 / stats.leaves as f32 } else { 0.0 };
+    let root_area = root.bounds.half_area();
+    stats.sah_cost = if root_area > 0.0 {
+        (b.sah_sum / root_area) as f32
+    } else {
+        0.0
+    };
+    stats.mean_leaf_size = if stats.leaves > 0 {
+        n as f32 / stats.leaves as f32
+    } else {
+        0.0
+    };
     let prims = b.order.iter().map(|&i| b.refs[i as usize]).collect();
-    let (bounds_min, bounds_max) = if n > 0 { (root.bounds.min, root.bounds.max) } else { (Vec3::ZERO, Vec3::ZERO) };
-    Bvh { nodes: b.nodes, prims, bounds_min, bounds_max, stats }
+    let (bounds_min, bounds_max) = if n > 0 {
+        (root.bounds.min, root.bounds.max)
+    } else {
+        (Vec3::ZERO, Vec3::ZERO)
+    };
+    Bvh {
+        nodes: b.nodes,
+        prims,
+        bounds_min,
+        bounds_max,
+        stats,
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -519,7 +594,15 @@ impl Ray {
         let (ix, px) = safe_inv(d.x);
         let (iy, py) = safe_inv(d.y);
         let (iz, pz) = safe_inv(d.z);
-        Some(Ray { o, inv: Vec3::new(ix, iy, iz), pad: Vec3::new(px, py, pz), kx, ky, kz, s })
+        Some(Ray {
+            o,
+            inv: Vec3::new(ix, iy, iz),
+            pad: Vec3::new(px, py, pz),
+            kx,
+            ky,
+            kz,
+            s,
+        })
     }
 
     /// Conservative slab test: (hit, entry distance clamped to 0).
@@ -581,13 +664,14 @@ pub fn intersect_triangle(o: Vec3, d: Vec3, v: &[Vec3; 3], tmax: f32) -> Option<
 }
 
 /// Ray/sphere intersection (Ray Tracing Gems ch. 7): the smallest root in (0, tmax), so a ray
-/// starting inside finds the far side. An origin within about `radius · 2^-20` of the surface
-/// counts as on it: the root at t ≈ 0 is dropped, so a ray leaving the surface inwards finds
+/// starting inside finds the far side. An origin within about 16 ulps of its largest
+/// coordinate (or of the radius) from the surface counts as on it: the root at t ≈ 0 is dropped, so a ray leaving the surface inwards finds
 /// the far side and one leaving outwards finds nothing. `d` need not be normalised.
 pub fn intersect_sphere(o: Vec3, d: Vec3, center: Vec3, radius: f32, tmax: f32) -> Option<f32> {
     let f = o - center;
     let a = dot3(d, d);
-    if !(a > 0.0) {
+    // Also rejects NaN (GLSL: `!(a > 0.0)`).
+    if a.is_nan() || a <= 0.0 {
         return None;
     }
     let b = dot3(f, d);
@@ -605,7 +689,8 @@ pub fn intersect_sphere(o: Vec3, d: Vec3, center: Vec3, radius: f32, tmax: f32) 
     if q == 0.0 {
         return None;
     }
-    let on_surface = c.abs() <= r2 * SPHERE_ON_SURFACE;
+    let m = o.x.abs().max(o.y.abs()).max(o.z.abs().max(radius.abs()));
+    let on_surface = c.abs() <= radius.abs() * m * SPHERE_ON_SURFACE;
     let t0 = if on_surface { 0.0 } else { c / q };
     let t1 = q / a;
     let (lo, hi) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
@@ -654,7 +739,11 @@ impl Bvh {
 
     fn traverse<const ANY: bool>(&self, scene: &Scene, o: Vec3, d: Vec3, tmax: f32) -> Option<Hit> {
         let ray = Ray::new(o, d)?;
-        let mut best = Hit { t: tmax, prim: u32::MAX, bary: Vec2::ZERO };
+        let mut best = Hit {
+            t: tmax,
+            prim: u32::MAX,
+            bary: Vec2::ZERO,
+        };
         let mut found = false;
         let mut stack = [0u32; STACK_SIZE];
         let mut sp = 0usize;
@@ -732,19 +821,30 @@ mod tests {
 
     #[test]
     fn node_is_64_bytes_in_vec4_order() {
-        let n = GpuNode { left: 1, right: 2, left_count: 3, right_count: 4, ..Default::default() };
+        let n = GpuNode {
+            left: 1,
+            right: 2,
+            left_count: 3,
+            right_count: 4,
+            ..Default::default()
+        };
         let w: &[u32; 16] = bytemuck::cast_ref(&n);
         assert_eq!((w[3], w[7], w[11], w[15]), (1, 2, 3, 4));
     }
 
     #[test]
     fn triangle_hit_values() {
-        let v = [Vec3::new(0.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(0.0, 1.0, 1.0)];
+        let v = [
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(0.0, 1.0, 1.0),
+        ];
         let (t, b) = intersect_triangle(Vec3::new(0.25, 0.5, 0.0), Vec3::Z, &v, f32::MAX).unwrap();
         assert_eq!(t, 1.0);
         assert!((b - Vec2::new(0.25, 0.5)).abs().max_element() < 1e-6, "{b}");
         // From behind and with a reversed direction: both sides hit (no culling).
-        let (t, _) = intersect_triangle(Vec3::new(0.25, 0.5, 3.0), -Vec3::Z * 2.0, &v, f32::MAX).unwrap();
+        let (t, _) =
+            intersect_triangle(Vec3::new(0.25, 0.5, 3.0), -Vec3::Z * 2.0, &v, f32::MAX).unwrap();
         assert!((t - 1.0).abs() < 1e-6);
         // Behind the origin, beyond tmax, outside, zero direction.
         assert!(intersect_triangle(Vec3::new(0.25, 0.5, 2.0), Vec3::Z, &v, f32::MAX).is_none());
@@ -772,7 +872,9 @@ mod tests {
         assert!((t - 4.0).abs() < 1e-5);
         assert!(intersect_sphere(p, Vec3::Z, c, 2.0, f32::MAX).is_none());
         // Miss, behind, tmax.
-        assert!(intersect_sphere(c + Vec3::new(0.0, 3.0, -5.0), Vec3::Z, c, 2.0, f32::MAX).is_none());
+        assert!(
+            intersect_sphere(c + Vec3::new(0.0, 3.0, -5.0), Vec3::Z, c, 2.0, f32::MAX).is_none()
+        );
         assert!(intersect_sphere(c + Vec3::X * 5.0, Vec3::X, c, 2.0, f32::MAX).is_none());
         assert!(intersect_sphere(c - Vec3::X * 5.0, Vec3::X, c, 2.0, 3.0).is_none());
     }
@@ -794,7 +896,11 @@ mod tests {
             let q = offset_ray_origin(p, n);
             let moved = (q - p).dot(n);
             assert!(moved > 0.0, "scale {s}: {p} -> {q}");
-            assert!((q - p).length() < 1e-3 * s.abs().max(1.0), "scale {s}: moved too far {}", (q - p).length());
+            assert!(
+                (q - p).length() < 1e-3 * s.abs().max(1.0),
+                "scale {s}: moved too far {}",
+                (q - p).length()
+            );
             let q = offset_ray_origin(p, -n);
             assert!((q - p).dot(n) < 0.0);
         }
