@@ -906,6 +906,43 @@ mod tests {
         }
     }
 
+    /// The GLSL twin's constants are the Rust ones, bit for bit.
+    #[test]
+    fn glsl_constants_match() {
+        let glsl = include_str!("../shaders/bvh.glsl");
+        let define = |name: &str| -> &str {
+            let key = format!("#define {name} ");
+            let line = glsl
+                .lines()
+                .find(|l| l.starts_with(&key))
+                .unwrap_or_else(|| panic!("{name} not in bvh.glsl"));
+            line[key.len()..].trim()
+        };
+        let bits = |name: &str| -> u32 {
+            let v = define(name);
+            let hex = v
+                .strip_prefix("uintBitsToFloat(0x")
+                .and_then(|v| v.strip_suffix("u)"))
+                .expect(v);
+            u32::from_str_radix(hex, 16).unwrap()
+        };
+        assert_eq!(define("BVH_STACK_SIZE"), STACK_SIZE.to_string());
+        assert_eq!(
+            define("BVH_SPHERE_BIT"),
+            format!("{SPHERE_BIT:#010X}u").replace("0X", "0x")
+        );
+        assert_eq!(
+            define("BVH_LEAF_FLAG"),
+            format!("{LEAF_FLAG:#010X}u").replace("0X", "0x")
+        );
+        assert_eq!(bits("BVH_BOX_WIDEN"), BOX_WIDEN.to_bits());
+        assert_eq!(bits("BVH_ZERO_DIR"), ZERO_DIR.to_bits());
+        assert_eq!(bits("BVH_ZERO_INV"), ZERO_INV.to_bits());
+        assert_eq!(bits("BVH_ZERO_PAD"), ZERO_PAD.to_bits());
+        assert_eq!(bits("BVH_SPHERE_ON_SURFACE"), SPHERE_ON_SURFACE.to_bits());
+        assert_eq!(bits("BVH_FLT_MAX"), f32::MAX.to_bits());
+    }
+
     #[test]
     fn levels_needed_halves() {
         assert_eq!(levels_needed(MAX_LEAF), 0);

@@ -871,27 +871,35 @@ fn print_stats_and_cpu_throughput() {
     }
 }
 
-#[test]
-fn glsl_twin_compiles_for_vulkan() {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
-    let src = r#"#version 460
+// ---------------------------------------------------------------------------------------------
+// GLSL twin on a Vulkan device (lavapipe in CI): same hits as the CPU traversal
+
+/// The probe kernel: per ray two vec4 in (o, tmax), (d, 0); out two uvec4:
+/// (closest prim or ~0, t, b1, b2) and (any hit, offset_ray_origin(o, d)).
+const PROBE: &str = r#"#version 460
 #extension GL_GOOGLE_include_directive : require
 #define BVH_BINDING 2
 #include "bvh.glsl"
 layout(local_size_x = 64) in;
 layout(std430, set = 0, binding = 0) readonly buffer Rays { vec4 rays[]; };
 layout(std430, set = 0, binding = 1) writeonly buffer Out { uvec4 outp[]; };
+layout(push_constant) uniform Pc { uint count; } pc;
 void main() {
     uint i = gl_GlobalInvocationID.x;
+    if (i >= pc.count) return;
     vec4 o = rays[2u * i];
     vec4 d = rays[2u * i + 1u];
     Hit h;
     bool c = trace_closest(o.xyz, d.xyz, o.w, h);
     bool a = trace_any(o.xyz, d.xyz, o.w);
     vec3 q = offset_ray_origin(o.xyz, d.xyz);
-    outp[i] = uvec4(c ? h.prim : 0xFFFFFFFFu, floatBitsToUint(h.t), a ? 1u : 0u, floatBitsToUint(q.x));
+    outp[2u * i] = uvec4(c ? h.prim : 0xFFFFFFFFu, floatBitsToUint(h.t), floatBitsToUint(h.bary.x), floatBitsToUint(h.bary.y));
+    outp[2u * i + 1u] = uvec4(a ? 1u : 0u, floatBitsToUint(q.x), floatBitsToUint(q.y), floatBitsToUint(q.z));
 }
 "#;
+
+fn compile_probe() -> Vec<u32> {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
     let compiler = shaderc::Compiler::new().expect("shaderc");
     let mut opts = shaderc::CompileOptions::new().expect("shaderc options");
     opts.set_target_env(
@@ -907,14 +915,515 @@ void main() {
             })
             .map_err(|e| format!("{}: {e}", p.display()))
     });
-    let out = compiler
+    compiler
         .compile_into_spirv(
-            src,
+            PROBE,
             shaderc::ShaderKind::Compute,
             "bvh_probe.comp",
             "main",
             Some(&opts),
         )
-        .unwrap_or_else(|e| panic!("shaders/bvh.glsl does not compile:\n{e}"));
-    assert!(out.len() > 100);
+        .unwrap_or_else(|e| panic!("shaders/bvh.glsl does not compile:\n{e}"))
+        .as_binary()
+        .to_vec()
+}
+
+#[test]
+fn glsl_twin_compiles_for_vulkan() {
+    assert!(compile_probe().len() > 100);
+}
+
+/// A bare-bones compute runner on the first Vulkan device (only for this test; the renderer
+/// has its own backend in `vk`).
+mod gpu {
+    use ash::vk;
+
+    pub struct Runner {
+        _entry: ash::Entry,
+        instance: ash::Instance,
+        device: ash::Device,
+        queue: vk::Queue,
+        family: u32,
+        mem_props: vk::PhysicalDeviceMemoryProperties,
+        pub name: String,
+    }
+
+    struct Buf {
+        buffer: vk::Buffer,
+        memory: vk::DeviceMemory,
+        size: u64,
+    }
+
+    impl Runner {
+        pub fn new() -> Runner {
+            unsafe {
+                let entry =
+                    ash::Entry::load().expect("a Vulkan loader (install mesa-vulkan-drivers)");
+                let app =
+                    vk::ApplicationInfo::default().api_version(vk::make_api_version(0, 1, 2, 0));
+                let instance = entry
+                    .create_instance(
+                        &vk::InstanceCreateInfo::default().application_info(&app),
+                        None,
+                    )
+                    .expect("Vulkan instance");
+                let pds = instance
+                    .enumerate_physical_devices()
+                    .expect("physical devices");
+                let (pd, family) = pds
+                    .iter()
+                    .find_map(|&pd| {
+                        instance
+                            .get_physical_device_queue_family_properties(pd)
+                            .iter()
+                            .position(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE))
+                            .map(|f| (pd, f as u32))
+                    })
+                    .expect("a Vulkan device with a compute queue");
+                let props = instance.get_physical_device_properties(pd);
+                let name = props
+                    .device_name_as_c_str()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_default();
+                let prio = [1.0f32];
+                let qci = [vk::DeviceQueueCreateInfo::default()
+                    .queue_family_index(family)
+                    .queue_priorities(&prio)];
+                let device = instance
+                    .create_device(
+                        pd,
+                        &vk::DeviceCreateInfo::default().queue_create_infos(&qci),
+                        None,
+                    )
+                    .expect("Vulkan device");
+                let queue = device.get_device_queue(family, 0);
+                let mem_props = instance.get_physical_device_memory_properties(pd);
+                Runner {
+                    _entry: entry,
+                    instance,
+                    device,
+                    queue,
+                    family,
+                    mem_props,
+                    name,
+                }
+            }
+        }
+
+        unsafe fn buffer(&self, bytes: &[u8], min_size: u64) -> Buf {
+            let size = (bytes.len() as u64).max(min_size).max(16);
+            let buffer = self
+                .device
+                .create_buffer(
+                    &vk::BufferCreateInfo::default()
+                        .size(size)
+                        .usage(vk::BufferUsageFlags::STORAGE_BUFFER)
+                        .sharing_mode(vk::SharingMode::EXCLUSIVE),
+                    None,
+                )
+                .unwrap();
+            let req = self.device.get_buffer_memory_requirements(buffer);
+            let want =
+                vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT;
+            let ty = (0..self.mem_props.memory_type_count)
+                .find(|&i| {
+                    req.memory_type_bits & (1 << i) != 0
+                        && self.mem_props.memory_types[i as usize]
+                            .property_flags
+                            .contains(want)
+                })
+                .expect("host-visible coherent memory");
+            let memory = self
+                .device
+                .allocate_memory(
+                    &vk::MemoryAllocateInfo::default()
+                        .allocation_size(req.size)
+                        .memory_type_index(ty),
+                    None,
+                )
+                .unwrap();
+            self.device.bind_buffer_memory(buffer, memory, 0).unwrap();
+            let p = self
+                .device
+                .map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty())
+                .unwrap() as *mut u8;
+            std::ptr::write_bytes(p, 0, size as usize);
+            std::ptr::copy_nonoverlapping(bytes.as_ptr(), p, bytes.len());
+            self.device.unmap_memory(memory);
+            Buf {
+                buffer,
+                memory,
+                size,
+            }
+        }
+
+        /// Run `spirv` over `count` invocations with the storage buffers bound at 0, 1, ...;
+        /// returns the contents of buffer `out_index` afterwards.
+        pub fn run(
+            &self,
+            spirv: &[u32],
+            inputs: &[&[u8]],
+            out_index: usize,
+            out_size: u64,
+            count: u32,
+        ) -> Vec<u8> {
+            unsafe {
+                let d = &self.device;
+                let bufs: Vec<Buf> = inputs
+                    .iter()
+                    .enumerate()
+                    .map(|(i, b)| self.buffer(b, if i == out_index { out_size } else { 0 }))
+                    .collect();
+                let bindings: Vec<_> = (0..bufs.len() as u32)
+                    .map(|i| {
+                        vk::DescriptorSetLayoutBinding::default()
+                            .binding(i)
+                            .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                            .descriptor_count(1)
+                            .stage_flags(vk::ShaderStageFlags::COMPUTE)
+                    })
+                    .collect();
+                let dsl = d
+                    .create_descriptor_set_layout(
+                        &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
+                        None,
+                    )
+                    .unwrap();
+                let pcr = [vk::PushConstantRange::default()
+                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
+                    .size(4)];
+                let layouts = [dsl];
+                let pl = d
+                    .create_pipeline_layout(
+                        &vk::PipelineLayoutCreateInfo::default()
+                            .set_layouts(&layouts)
+                            .push_constant_ranges(&pcr),
+                        None,
+                    )
+                    .unwrap();
+                let module = d
+                    .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(spirv), None)
+                    .unwrap();
+                let stage = vk::PipelineShaderStageCreateInfo::default()
+                    .stage(vk::ShaderStageFlags::COMPUTE)
+                    .module(module)
+                    .name(c"main");
+                let pipe = d
+                    .create_compute_pipelines(
+                        vk::PipelineCache::null(),
+                        &[vk::ComputePipelineCreateInfo::default()
+                            .stage(stage)
+                            .layout(pl)],
+                        None,
+                    )
+                    .map_err(|e| e.1)
+                    .unwrap()[0];
+                let sizes = [vk::DescriptorPoolSize {
+                    ty: vk::DescriptorType::STORAGE_BUFFER,
+                    descriptor_count: bufs.len() as u32,
+                }];
+                let pool = d
+                    .create_descriptor_pool(
+                        &vk::DescriptorPoolCreateInfo::default()
+                            .max_sets(1)
+                            .pool_sizes(&sizes),
+                        None,
+                    )
+                    .unwrap();
+                let set = d
+                    .allocate_descriptor_sets(
+                        &vk::DescriptorSetAllocateInfo::default()
+                            .descriptor_pool(pool)
+                            .set_layouts(&layouts),
+                    )
+                    .unwrap()[0];
+                let infos: Vec<[vk::DescriptorBufferInfo; 1]> = bufs
+                    .iter()
+                    .map(|b| {
+                        [vk::DescriptorBufferInfo::default()
+                            .buffer(b.buffer)
+                            .offset(0)
+                            .range(vk::WHOLE_SIZE)]
+                    })
+                    .collect();
+                let writes: Vec<_> = infos
+                    .iter()
+                    .enumerate()
+                    .map(|(i, info)| {
+                        vk::WriteDescriptorSet::default()
+                            .dst_set(set)
+                            .dst_binding(i as u32)
+                            .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                            .buffer_info(info)
+                    })
+                    .collect();
+                d.update_descriptor_sets(&writes, &[]);
+                let cp = d
+                    .create_command_pool(
+                        &vk::CommandPoolCreateInfo::default().queue_family_index(self.family),
+                        None,
+                    )
+                    .unwrap();
+                let cb = d
+                    .allocate_command_buffers(
+                        &vk::CommandBufferAllocateInfo::default()
+                            .command_pool(cp)
+                            .level(vk::CommandBufferLevel::PRIMARY)
+                            .command_buffer_count(1),
+                    )
+                    .unwrap()[0];
+                d.begin_command_buffer(
+                    cb,
+                    &vk::CommandBufferBeginInfo::default()
+                        .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+                )
+                .unwrap();
+                d.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, pipe);
+                d.cmd_bind_descriptor_sets(cb, vk::PipelineBindPoint::COMPUTE, pl, 0, &[set], &[]);
+                d.cmd_push_constants(
+                    cb,
+                    pl,
+                    vk::ShaderStageFlags::COMPUTE,
+                    0,
+                    &count.to_ne_bytes(),
+                );
+                d.cmd_dispatch(cb, count.div_ceil(64), 1, 1);
+                let barrier = [vk::MemoryBarrier::default()
+                    .src_access_mask(vk::AccessFlags::SHADER_WRITE)
+                    .dst_access_mask(vk::AccessFlags::HOST_READ)];
+                d.cmd_pipeline_barrier(
+                    cb,
+                    vk::PipelineStageFlags::COMPUTE_SHADER,
+                    vk::PipelineStageFlags::HOST,
+                    vk::DependencyFlags::empty(),
+                    &barrier,
+                    &[],
+                    &[],
+                );
+                d.end_command_buffer(cb).unwrap();
+                let fence = d
+                    .create_fence(&vk::FenceCreateInfo::default(), None)
+                    .unwrap();
+                let cbs = [cb];
+                d.queue_submit(
+                    self.queue,
+                    &[vk::SubmitInfo::default().command_buffers(&cbs)],
+                    fence,
+                )
+                .unwrap();
+                d.wait_for_fences(&[fence], true, u64::MAX).unwrap();
+                let out = &bufs[out_index];
+                let p = d
+                    .map_memory(out.memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty())
+                    .unwrap() as *const u8;
+                let result = std::slice::from_raw_parts(p, out.size as usize).to_vec();
+                d.unmap_memory(out.memory);
+                d.destroy_fence(fence, None);
+                d.destroy_command_pool(cp, None);
+                d.destroy_descriptor_pool(pool, None);
+                d.destroy_pipeline(pipe, None);
+                d.destroy_shader_module(module, None);
+                d.destroy_pipeline_layout(pl, None);
+                d.destroy_descriptor_set_layout(dsl, None);
+                for b in bufs {
+                    d.destroy_buffer(b.buffer, None);
+                    d.free_memory(b.memory, None);
+                }
+                result
+            }
+        }
+    }
+
+    impl Drop for Runner {
+        fn drop(&mut self) {
+            unsafe {
+                self.device.destroy_device(None);
+                self.instance.destroy_instance(None);
+            }
+        }
+    }
+}
+
+/// Triangles and spheres packed as the renderer packs them (`gpu::scene_buffers`).
+fn pack_scene(s: &Scene) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
+    let bits = f32::from_bits;
+    let mut tri = Vec::new();
+    for t in &s.triangles {
+        tri.push([t.v[0].x, t.v[0].y, t.v[0].z, bits(t.material)]);
+        tri.push([
+            t.v[1].x,
+            t.v[1].y,
+            t.v[1].z,
+            bits(t.emitter.unwrap_or(u32::MAX)),
+        ]);
+        tri.push([t.v[2].x, t.v[2].y, t.v[2].z, 0.0]);
+    }
+    let mut sph = Vec::new();
+    for p in &s.spheres {
+        sph.push([p.center.x, p.center.y, p.center.z, p.radius]);
+        sph.push([
+            bits(p.material),
+            bits(p.emitter.unwrap_or(u32::MAX)),
+            bits(p.inward as u32),
+            0.0,
+        ]);
+    }
+    (tri, sph)
+}
+
+#[test]
+fn glsl_traversal_matches_cpu_on_a_vulkan_device() {
+    let spirv = compile_probe();
+    let runner = gpu::Runner::new();
+    let mut rng = Rng(15);
+    let mut mixed = random_soup(&mut rng, 800, 5.0);
+    let (v, f) = icosphere(2, Vec3::new(2.0, 1.0, -1.0), 1.5);
+    mixed.extend(f.iter().map(|t| [v[t[0]], v[t[1]], v[t[2]]]));
+    let mut sp = random_spheres(&mut rng, 80, 5.0);
+    sp.push((Vec3::ZERO, 20.0, true));
+    let scenes = [
+        ("mixed", scene(mixed, sp)),
+        (
+            "grid cube (no spheres)",
+            scene(grid_cube(8, -1.0, 1.0), vec![]),
+        ),
+        (
+            "spheres only",
+            scene(vec![], random_spheres(&mut rng, 200, 5.0)),
+        ),
+        ("empty", scene(vec![], vec![])),
+    ];
+    for (name, s) in &scenes {
+        let b = bvh::build(s);
+        let tg = targets(s, &mut rng);
+        let mut rays: Vec<(Vec3, Vec3, f32)> = Vec::new();
+        for k in 0..20_000 {
+            let o = rng.vec(-8.0, 8.0);
+            let d = if k % 2 == 0 || tg.is_empty() {
+                rng.dir()
+            } else {
+                tg[(rng.next() % tg.len() as u64) as usize] - o
+            };
+            rays.push((o, d, tmax_of(&mut rng, 10.0)));
+        }
+        // Secondary rays as the renderer makes them: from surface points (offset along the
+        // normal, and raw) in random directions, spheres included.
+        for k in 0..4000 {
+            let (o, d, tmax) = rays[k];
+            let Some(h) = b.closest(s, o, d, tmax) else {
+                continue;
+            };
+            let (p, n) = if h.prim & SPHERE_BIT != 0 {
+                let sph = &s.spheres[(h.prim & !SPHERE_BIT) as usize];
+                let u = (o + d * h.t - sph.center).normalize();
+                (sph.center + u * sph.radius, u)
+            } else {
+                let v = s.triangles[h.prim as usize].v;
+                let p = v[0] * (1.0 - h.bary.x - h.bary.y) + v[1] * h.bary.x + v[2] * h.bary.y;
+                (p, (v[1] - v[0]).cross(v[2] - v[0]).normalize())
+            };
+            let n = if k % 2 == 0 { n } else { -n };
+            let mut dir = rng.dir();
+            if dir.dot(n) < 0.0 {
+                dir -= 2.0 * dir.dot(n) * n;
+            }
+            rays.push((bvh::offset_ray_origin(p, n), dir, f32::MAX));
+            rays.push((p, dir, f32::MAX));
+        }
+        // Axis-aligned rays from grid points (zero direction components, box-face origins).
+        for k in 0..3000 {
+            let o = Vec3::new(
+                (rng.next() % 9) as f32 * 0.25 - 1.0,
+                (rng.next() % 9) as f32 * 0.25 - 1.0,
+                rng.range(-0.9, 0.9),
+            );
+            let mut d = [0.0f32; 3];
+            d[k % 3] = if k % 2 == 0 { 1.0 } else { -1.0 };
+            let o = match k % 3 {
+                0 => Vec3::new(o.z, o.x, o.y),
+                1 => Vec3::new(o.y, o.z, o.x),
+                _ => o,
+            };
+            rays.push((o, Vec3::from(d), f32::MAX));
+        }
+        let ray_data: Vec<[f32; 4]> = rays
+            .iter()
+            .flat_map(|&(o, d, t)| [[o.x, o.y, o.z, t], [d.x, d.y, d.z, 0.0]])
+            .collect();
+        let (tri, sph) = pack_scene(s);
+        let n = rays.len();
+        let nodes: &[u8] = bytemuck::cast_slice(&b.nodes);
+        let out = runner.run(
+            &spirv,
+            &[
+                bytemuck::cast_slice(&ray_data),
+                &[],
+                nodes,
+                bytemuck::cast_slice(&b.prims),
+                bytemuck::cast_slice(&tri),
+                bytemuck::cast_slice(&sph),
+            ],
+            1,
+            (n * 32) as u64,
+            n as u32,
+        );
+        let out: &[[u32; 4]] = bytemuck::cast_slice(&out[..n * 32]);
+        let (mut hits, mut exact, mut inexact) = (0, 0, 0);
+        for (i, &(o, d, tmax)) in rays.iter().enumerate() {
+            let [prim, t, b1, b2] = out[2 * i];
+            let [any, qx, qy, qz] = out[2 * i + 1];
+            let cpu = b.closest(s, o, d, tmax);
+            let q = bvh::offset_ray_origin(o, d);
+            assert_eq!(
+                [qx, qy, qz],
+                [q.x.to_bits(), q.y.to_bits(), q.z.to_bits()],
+                "{name}: offset_ray_origin({o}, {d})"
+            );
+            assert_eq!(
+                any == 1,
+                b.occluded(s, o, d, tmax),
+                "{name}: any-hit differs for o={o} d={d} tmax={tmax}"
+            );
+            match cpu {
+                None => assert_eq!(
+                    prim,
+                    u32::MAX,
+                    "{name}: GPU hit {prim:#x} t={}, CPU none: o={o} d={d}",
+                    f32::from_bits(t)
+                ),
+                Some(h) => {
+                    assert_ne!(prim, u32::MAX, "{name}: GPU missed, CPU {h:?}: o={o} d={d}");
+                    hits += 1;
+                    let gt = f32::from_bits(t);
+                    let gb = Vec2::new(f32::from_bits(b1), f32::from_bits(b2));
+                    // The traversal order, and so the primitive kept among equal-t hits, is
+                    // the same on both sides.
+                    assert_eq!(
+                        prim, h.prim,
+                        "{name}: GPU hit {prim:#x} at {gt}, CPU {h:?}: o={o} d={d}"
+                    );
+                    if t == h.t.to_bits() && gb == h.bary {
+                        exact += 1;
+                    } else {
+                        // Tolerated on devices whose division or sqrt is not correctly rounded.
+                        let rel = (gt - h.t).abs() / h.t.max(1e-30);
+                        assert!(
+                            rel < 1e-5,
+                            "{name}: t differs: GPU {gt}, CPU {h:?}: o={o} d={d}"
+                        );
+                        inexact += 1;
+                    }
+                }
+            }
+        }
+        println!("{name} on {}: {n} rays, {hits} hits, {exact} bit-exact, {inexact} t/bary off in the last bits", runner.name);
+        // lavapipe's float division and sqrt are IEEE: everything must be bit-exact there.
+        if runner.name.contains("llvmpipe") {
+            assert_eq!(
+                inexact, 0,
+                "{name}: results are not bit-exact on {}",
+                runner.name
+            );
+        }
+    }
 }
