@@ -20,6 +20,9 @@ struct BrdfSample {
     bool delta;
 };
 
+// Rec. 709 luminance (Rust: lights::luminance).
+float luminance(vec3 c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
+
 // A float is finite iff its exponent bits are not all ones. Bit tests cannot be optimised away
 // the way isnan/isinf can under Vulkan's default float controls.
 bool is_finite_f(float x) { return (floatBitsToUint(x) & 0x7f800000u) != 0x7f800000u; }

@@ -12,12 +12,9 @@
 
 use crate::bvh::SPHERE_BIT;
 use crate::scene::Scene;
-use glam::Vec3;
 
-/// Rec. 709 luminance, the light-selection weight.
-pub fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
-}
+/// Rec. 709 luminance, the light-selection weight (one definition for the whole crate).
+pub use crate::brdf::common::luminance;
 
 #[derive(Clone, Debug, Default)]
 pub struct LightTable {

@@ -31,8 +31,6 @@ bool same_hemisphere_up(vec3 a, vec3 b) { return a.z > 0.0 && b.z > 0.0; }
 // marker in src/brdf/common.rs, same names and the same arithmetic.
 // ---------------------------------------------------------------------------------------------
 
-float luminance(vec3 c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
-
 vec3 reflect_z(vec3 w) { return vec3(-w.x, -w.y, w.z); }
 
 vec3 reflect_about(vec3 w, vec3 h) { return 2.0 * dot(w, h) * h - w; }

@@ -93,8 +93,6 @@ Surface surface_at(uint prim, vec2 bary, float t, vec3 o, vec3 d) {
     return s;
 }
 
-float luminance(vec3 c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
-
 // First light whose CDF exceeds u (the same binary search as LightTable::select).
 uint select_light(float u) {
     uint lo = 0u;

@@ -166,8 +166,39 @@ impl<'a> GpuRenderer<'a> {
         assert_eq!(buffers.len() as u32, NUM_BINDINGS);
         setup.seconds_upload = t_upload.elapsed().as_secs_f64();
 
-        // Pipelines.
-        let mut build = |name: &str, file: &str, defines: Vec<(String, String)>, overrides: Vec<(String, String)>| -> Result<Kernel> {
+        // Pipelines. On failure, everything made so far is destroyed before returning.
+        let mut built: Vec<Kernel> = Vec::new();
+        let result = Self::build_kernels(ctx, scene, &models, &buffers, compiler, &mut setup, &mut built);
+        if let Err(e) = result {
+            for k in built {
+                ctx.destroy_pipeline(k.pipeline);
+            }
+            for b in buffers {
+                ctx.destroy_buffer(b);
+            }
+            return Err(e);
+        }
+        let mut it = built.into_iter();
+        let mut next = || it.next().expect("five stage kernels");
+        let (generate, prepare, extend, shadow, accumulate) = (next(), next(), next(), next(), next());
+        let shade: Vec<(u32, usize, Kernel)> =
+            it.enumerate().map(|(slot, k)| (slot as u32, models[slot], k)).collect();
+
+        Ok(GpuRenderer { ctx, scene, buffers, generate, prepare, extend, shadow, accumulate, shade, capacity, setup })
+    }
+
+    /// Compile and create the stage pipelines (generate, prepare, extend, shadow, accumulate, in
+    /// that order) and one shade pipeline per model in `models`, pushing each onto `built`.
+    fn build_kernels(
+        ctx: &Context,
+        scene: &Scene,
+        models: &[usize],
+        buffers: &[Buffer],
+        compiler: &ShaderCompiler,
+        setup: &mut SetupStats,
+        built: &mut Vec<Kernel>,
+    ) -> Result<()> {
+        let mut build = |name: &str, file: &str, defines: Vec<(String, String)>, overrides: Vec<(String, String)>| -> Result<()> {
             let t = Instant::now();
             let spirv = compiler
                 .compile(file, &defines, &overrides)
@@ -177,17 +208,23 @@ impl<'a> GpuRenderer<'a> {
             let pipeline = ctx.create_compute_pipeline(name, &spirv, NUM_BINDINGS, std::mem::size_of::<Push>() as u32)?;
             setup.seconds_pipeline_create += t.elapsed().as_secs_f64();
             let refs: Vec<&Buffer> = buffers.iter().collect();
-            let set = ctx.create_descriptor_set(&pipeline, &refs)?;
+            let set = match ctx.create_descriptor_set(&pipeline, &refs) {
+                Ok(set) => set,
+                Err(e) => {
+                    ctx.destroy_pipeline(pipeline);
+                    return Err(e);
+                }
+            };
             setup.pipelines.push(name.to_string());
-            Ok(Kernel { pipeline, set })
+            built.push(Kernel { pipeline, set });
+            Ok(())
         };
-        let generate = build("generate", "wavefront/generate.comp", vec![], vec![])?;
-        let prepare = build("prepare", "wavefront/prepare.comp", vec![], vec![])?;
-        let extend = build("extend", "wavefront/extend.comp", vec![], vec![])?;
-        let shadow = build("shadow", "wavefront/shadow.comp", vec![], vec![])?;
-        let accumulate = build("accumulate", "wavefront/accumulate.comp", vec![], vec![])?;
-        let mut shade = Vec::new();
-        for (slot, &model) in models.iter().enumerate() {
+        build("generate", "wavefront/generate.comp", vec![], vec![])?;
+        build("prepare", "wavefront/prepare.comp", vec![], vec![])?;
+        build("extend", "wavefront/extend.comp", vec![], vec![])?;
+        build("shadow", "wavefront/shadow.comp", vec![], vec![])?;
+        build("accumulate", "wavefront/accumulate.comp", vec![], vec![])?;
+        for &model in models {
             let name = MODELS[model].name;
             let mut defines: BTreeSet<&'static str> = BTreeSet::new();
             for m in scene.materials.iter().filter(|m| m.model == model && m.brdf.scatters()) {
@@ -198,11 +235,9 @@ impl<'a> GpuRenderer<'a> {
             defs.push(("BRDF_PDF".into(), format!("{name}_pdf")));
             defs.push(("BRDF_SAMPLE".into(), format!("{name}_sample")));
             let overrides = vec![("brdf/model.glsl".to_string(), format!("brdf/{name}.glsl"))];
-            let k = build(&format!("shade_{name}"), "wavefront/shade.comp", defs, overrides)?;
-            shade.push((slot as u32, model, k));
+            build(&format!("shade_{name}"), "wavefront/shade.comp", defs, overrides)?;
         }
-
-        Ok(GpuRenderer { ctx, scene, buffers, generate, prepare, extend, shadow, accumulate, shade, capacity, setup })
+        Ok(())
     }
 
     /// Render `scene.integrator.spp` passes; `progress` gets the number of passes done.
