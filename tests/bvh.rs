@@ -77,6 +77,7 @@ fn scene(tris: Vec<[Vec3; 3]>, spheres: Vec<(Vec3, f32, bool)>) -> Scene {
             })
             .collect(),
         environment: Vec3::ZERO,
+        warnings: Vec::new(),
     }
 }
 

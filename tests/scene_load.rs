@@ -452,9 +452,9 @@ fn material_references_are_checked() {
     // A material without a model, and an unknown model.
     let msg = error_of(&with("model = \"lambert\"", "albedo = 0.5"));
     assert!(msg.starts_with("dir/bad.toml:10: material 'm', field 'model': missing"), "{msg}");
-    let msg = error_of(&with("model = \"lambert\"", "model = \"phong\""));
+    let msg = error_of(&with("model = \"lambert\"", "model = \"torrance_sparrow\""));
     assert!(
-        msg.starts_with("dir/bad.toml:11: material 'm', field 'model': unknown value \"phong\""),
+        msg.starts_with("dir/bad.toml:11: material 'm', field 'model': unknown value \"torrance_sparrow\""),
         "{msg}"
     );
     // Unused materials are a warning.
