@@ -224,7 +224,8 @@ fn render(a: RenderArgs) -> Result<()> {
             summary["seconds_shader_compile"] = json!(r.setup.seconds_shader_compile);
             summary["seconds_pipeline_create"] = json!(r.setup.seconds_pipeline_create);
             drop(r);
-            let msgs = ctx.validation_messages();
+            // Tear down now so that messages raised at device destruction (leaks) count too.
+            let msgs = ctx.finish();
             if !msgs.is_empty() {
                 bail!("the validation layer reported {} message(s):\n{}", msgs.len(), msgs.join("\n"));
             }

@@ -345,6 +345,7 @@ impl<'a> GpuRenderer<'a> {
         rec.push_constants(&self.prepare.pipeline, push);
         rec.dispatch(1, 1, 1);
         rec.barrier();
+        rec.timestamp("prepare");
     }
 }
 
