@@ -19,6 +19,7 @@
 pub mod common;
 pub mod lambert;
 pub mod params;
+pub mod validate;
 
 use glam::{Vec2, Vec3};
 pub use params::{Origin, ParamError, ParamReader};
