@@ -17,6 +17,7 @@
 //! Adding a model: a Rust file here, a GLSL file in `shaders/brdf/`, one line in [`MODELS`].
 
 pub mod common;
+pub mod cook_torrance;
 pub mod lambert;
 pub mod params;
 pub mod validate;
@@ -92,7 +93,10 @@ pub struct ModelInfo {
 }
 
 /// Every model, in a fixed order; the index is the model id on the GPU.
-pub static MODELS: &[ModelInfo] = &[ModelInfo { name: "lambert", parse: lambert::parse }];
+pub static MODELS: &[ModelInfo] = &[
+    ModelInfo { name: "lambert", parse: lambert::parse },
+    ModelInfo { name: "cook_torrance", parse: cook_torrance::parse },
+];
 
 /// A named material instance: which model and its parameters.
 #[derive(Clone, Debug)]
