@@ -18,6 +18,7 @@
 
 pub mod common;
 pub mod cook_torrance;
+pub mod he;
 pub mod lambert;
 pub mod params;
 pub mod validate;
@@ -96,6 +97,7 @@ pub struct ModelInfo {
 pub static MODELS: &[ModelInfo] = &[
     ModelInfo { name: "lambert", parse: lambert::parse },
     ModelInfo { name: "cook_torrance", parse: cook_torrance::parse },
+    ModelInfo { name: "he", parse: he::parse },
 ];
 
 /// A named material instance: which model and its parameters.
