@@ -21,6 +21,7 @@ pub mod cook_torrance;
 pub mod he;
 pub mod lambert;
 pub mod params;
+pub mod schlick;
 pub mod validate;
 
 use glam::{Vec2, Vec3};
@@ -98,6 +99,7 @@ pub static MODELS: &[ModelInfo] = &[
     ModelInfo { name: "lambert", parse: lambert::parse },
     ModelInfo { name: "cook_torrance", parse: cook_torrance::parse },
     ModelInfo { name: "he", parse: he::parse },
+    ModelInfo { name: "schlick", parse: schlick::parse },
 ];
 
 /// A named material instance: which model and its parameters.
