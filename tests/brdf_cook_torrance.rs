@@ -20,7 +20,12 @@ use std::collections::BTreeMap;
 fn material(src: &str) -> Result<(Material, Vec<String>), String> {
     let fields: BTreeMap<String, toml::Spanned<toml::Value>> =
         toml::from_str(src).map_err(|e| e.to_string())?;
-    let origin = Origin { file: "test.toml", source: src, material: "m", span: 0..src.len() };
+    let origin = Origin {
+        file: "test.toml",
+        source: src,
+        material: "m",
+        span: 0..src.len(),
+    };
     parse_material(origin, fields).map_err(|e| e.to_string())
 }
 
@@ -67,13 +72,20 @@ fn survey_is_exactly_four_times_walter() {
                     let (fs, fw) = (cook_torrance::eval(&s, a, b), cook_torrance::eval(&w, a, b));
                     // Exact wherever the value is a normal float (subnormals lose bits).
                     if fw.min_element() > 1e-30 {
-                        assert_eq!(fs, 4.0 * fw, "{distribution:?} {geometry:?} {fresnel:?} {a} {b}");
+                        assert_eq!(
+                            fs,
+                            4.0 * fw,
+                            "{distribution:?} {geometry:?} {fresnel:?} {a} {b}"
+                        );
                     } else {
                         assert!((fs - 4.0 * fw).abs().max_element() < 1e-35);
                     }
                 }
                 let wo = dir_from_theta_deg(40.0, 0.0);
-                let (qs, qw) = (albedo_quadrature(&s, wo, 100), albedo_quadrature(&w, wo, 100));
+                let (qs, qw) = (
+                    albedo_quadrature(&s, wo, 100),
+                    albedo_quadrature(&w, wo, 100),
+                );
                 assert!((qs / qw - 4.0).abs() < 1e-9, "albedo ratio {}", qs / qw);
             }
         }
@@ -98,20 +110,40 @@ fn albedo_table_of_section_7() {
     eprintln!("m     θ    survey (ref)      walter+v_cavity (ref)");
     for (m, th, survey, walter) in table {
         let wo = dir_from_theta_deg(th, 0.0);
-        let s = white(m, Distribution::Beckmann, Geometry::VCavity, Normalization::Survey);
-        let w = white(m, Distribution::Beckmann, Geometry::VCavity, Normalization::Walter);
+        let s = white(
+            m,
+            Distribution::Beckmann,
+            Geometry::VCavity,
+            Normalization::Survey,
+        );
+        let w = white(
+            m,
+            Distribution::Beckmann,
+            Geometry::VCavity,
+            Normalization::Walter,
+        );
         let qs = albedo_quadrature(&s, wo, 400);
         let qw = albedo_quadrature(&w, wo, 400);
         eprintln!("{m:.1}  {th:>4}  {qs:.4} ({survey:.3})   {qw:.4} ({walter:.3})");
-        assert!((qs / survey - 1.0).abs() < 2e-3, "survey m={m} θ={th}: {qs} vs {survey}");
-        assert!((qw / walter - 1.0).abs() < 2e-3, "walter m={m} θ={th}: {qw} vs {walter}");
+        assert!(
+            (qs / survey - 1.0).abs() < 2e-3,
+            "survey m={m} θ={th}: {qs} vs {survey}"
+        );
+        assert!(
+            (qw / walter - 1.0).abs() < 2e-3,
+            "walter m={m} θ={th}: {qw} vs {walter}"
+        );
     }
 }
 
 /// Independent f64 reference for Walter + separable Smith (Walter's G1 approximation), by
 /// quadrature over the half vector: ρ(wo) = ∫ D(h) G(wi,wo) (wo·h)/(wo.z) [wi.z>0] dωh.
 fn smith_albedo_reference(m: f64, theta_deg: f64) -> f64 {
-    let wo = [theta_deg.to_radians().sin(), 0.0, theta_deg.to_radians().cos()];
+    let wo = [
+        theta_deg.to_radians().sin(),
+        0.0,
+        theta_deg.to_radians().cos(),
+    ];
     let g1 = |w: [f64; 3]| -> f64 {
         if w[2] <= 0.0 {
             return 0.0;
@@ -143,7 +175,11 @@ fn smith_albedo_reference(m: f64, theta_deg: f64) -> f64 {
             if oh <= 0.0 {
                 continue;
             }
-            let wi = [2.0 * oh * h[0] - wo[0], 2.0 * oh * h[1] - wo[1], 2.0 * oh * h[2] - wo[2]];
+            let wi = [
+                2.0 * oh * h[0] - wo[0],
+                2.0 * oh * h[1] - wo[1],
+                2.0 * oh * h[2] - wo[2],
+            ];
             if wi[2] <= 0.0 {
                 continue;
             }
@@ -156,14 +192,27 @@ fn smith_albedo_reference(m: f64, theta_deg: f64) -> f64 {
 #[test]
 fn walter_smith_albedo_matches_an_independent_quadrature() {
     // Third column of §7 is the height-correlated Smith; ours is separable, which is ≤ it.
-    let hc = [(0.5, 0.0, 0.943), (0.5, 60.0, 0.869), (1.0, 0.0, 0.462), (1.0, 85.0, 0.959)];
+    let hc = [
+        (0.5, 0.0, 0.943),
+        (0.5, 60.0, 0.869),
+        (1.0, 0.0, 0.462),
+        (1.0, 85.0, 0.959),
+    ];
     for (m, th, hc_ref) in hc {
-        let w = white(m, Distribution::Beckmann, Geometry::Smith, Normalization::Walter);
+        let w = white(
+            m,
+            Distribution::Beckmann,
+            Geometry::Smith,
+            Normalization::Walter,
+        );
         let q = albedo_quadrature(&w, dir_from_theta_deg(th, 0.0), 400);
         let r = smith_albedo_reference(m as f64, th as f64);
         eprintln!("smith m={m} θ={th}: {q:.4} (f64 reference {r:.4}, height-correlated {hc_ref})");
         assert!((q / r - 1.0).abs() < 2e-3, "m={m} θ={th}: {q} vs {r}");
-        assert!(q <= hc_ref * 1.004, "separable above height-correlated: {q} > {hc_ref}");
+        assert!(
+            q <= hc_ref * 1.004,
+            "separable above height-correlated: {q} > {hc_ref}"
+        );
     }
 }
 
@@ -176,13 +225,21 @@ fn walter_form_conserves_energy_and_survey_form_does_not() {
                     let wo = dir_from_theta_deg(th, 0.0);
                     let w = white(m, distribution, geometry, Normalization::Walter);
                     let q = albedo_quadrature(&w, wo, 300);
-                    assert!(q <= 1.003, "{distribution:?} {geometry:?} m={m} θ={th}: {q}");
+                    assert!(
+                        q <= 1.003,
+                        "{distribution:?} {geometry:?} m={m} θ={th}: {q}"
+                    );
                     assert!(q > 0.2, "{distribution:?} {geometry:?} m={m} θ={th}: {q}");
                 }
             }
         }
     }
-    let s = white(0.1, Distribution::Ggx, Geometry::Smith, Normalization::Survey);
+    let s = white(
+        0.1,
+        Distribution::Ggx,
+        Geometry::Smith,
+        Normalization::Survey,
+    );
     let q = albedo_quadrature(&s, Vec3::Z, 300);
     assert!(q > 3.9, "survey GGX at normal incidence {q}");
 }
@@ -211,7 +268,12 @@ fn chi2_variants() -> Vec<(String, CookTorrance)> {
     // Delta mirror with a diffuse lobe: the non-delta part is (1 − P_delta)·cos/π.
     v.push((
         "mirror kd=0.5".into(),
-        CookTorrance { kd: Vec3::splat(0.5), ks: Vec3::splat(0.5), roughness: 0.0, ..Default::default() },
+        CookTorrance {
+            kd: Vec3::splat(0.5),
+            ks: Vec3::splat(0.5),
+            roughness: 0.0,
+            ..Default::default()
+        },
     ));
     v
 }
@@ -227,15 +289,27 @@ fn sampler_matches_pdf() {
             // Narrow lobes near grazing have sub-degree azimuthal structure (the half vector's
             // tangential offset scales with given.z + wi.z): a finer pdf sub-grid than the
             // default 6 × 6 is needed to integrate the expected counts.
-            let cfg = Chi2Config { sub: 16, ..Default::default() };
+            let cfg = Chi2Config {
+                sub: 16,
+                ..Default::default()
+            };
             let r = chi2_test_with(m, wo, 100_000, 3, cfg);
-            eprintln!("{name} θ={th}: p={:.3} dof={} ∫pdf={:.4}", r.p_value, r.dof, r.pdf_integral);
+            eprintln!(
+                "{name} θ={th}: p={:.3} dof={} ∫pdf={:.4}",
+                r.p_value, r.dof, r.pdf_integral
+            );
             assert_eq!(r.zero_pdf_hits, 0, "{name} θ={th}: {r:?}");
             assert!(r.p_value > level, "{name} θ={th}: {r:?}");
-            assert!((r.pdf_integral - r.sample_fraction).abs() < 0.01, "{name} θ={th}: {r:?}");
+            assert!(
+                (r.pdf_integral - r.sample_fraction).abs() < 0.01,
+                "{name} θ={th}: {r:?}"
+            );
             let c = sample_consistency(m, wo, 5000, 8);
             assert_eq!(c.bad_samples + c.delta_with_pdf, 0, "{name}: {c:?}");
-            assert!(c.pdf_rel_error < 1e-4 && c.weight_rel_error < 1e-3, "{name}: {c:?}");
+            assert!(
+                c.pdf_rel_error < 1e-4 && c.weight_rel_error < 1e-3,
+                "{name}: {c:?}"
+            );
         }
     }
 }
@@ -272,7 +346,10 @@ fn reciprocal() {
         assert!(e < 1e-4, "{name}: {e}");
     }
     for geometry in [Geometry::VCavity, Geometry::Smith] {
-        let m = CookTorrance { geometry, ..Default::default() };
+        let m = CookTorrance {
+            geometry,
+            ..Default::default()
+        };
         assert!(reciprocity_error(&m, 20_000, 6) < 1e-4);
     }
 }
@@ -281,28 +358,69 @@ fn reciprocal() {
 #[test]
 fn fresnel_and_g1_reference_values() {
     let th = [0.0f32, 30.0, 45.0, 60.0, 75.0, 80.0, 85.0, 89.0];
-    let exact = [0.040000, 0.041523, 0.050240, 0.089187, 0.253061, 0.387704, 0.612800, 0.904185];
-    let schlick = [0.040000, 0.040041, 0.042069, 0.070000, 0.254730, 0.409910, 0.648492, 0.919102];
+    let exact = [
+        0.040000, 0.041523, 0.050240, 0.089187, 0.253061, 0.387704, 0.612800, 0.904185,
+    ];
+    let schlick = [
+        0.040000, 0.040041, 0.042069, 0.070000, 0.254730, 0.409910, 0.648492, 0.919102,
+    ];
     for i in 0..th.len() {
         let c = th[i].to_radians().cos();
         let fe = fresnel_dielectric(c, 1.5);
         let fc = fresnel_conductor1(c, 1.5, 0.0);
         let fs = fresnel_schlick(c, Vec3::splat(0.04)).x;
-        assert!((fe - exact[i]).abs() < 2e-6, "eq. 7 at {}: {fe} vs {}", th[i], exact[i]);
-        assert!((fc - exact[i]).abs() < 2e-6, "conductor k=0 at {}: {fc}", th[i]);
+        assert!(
+            (fe - exact[i]).abs() < 2e-6,
+            "eq. 7 at {}: {fe} vs {}",
+            th[i],
+            exact[i]
+        );
+        assert!(
+            (fc - exact[i]).abs() < 2e-6,
+            "conductor k=0 at {}: {fc}",
+            th[i]
+        );
         assert!((fs - schlick[i]).abs() < 2e-6, "schlick at {}: {fs}", th[i]);
     }
     for (n, k, vals) in [
-        (0.2f32, 3.0f32, [(0.0f32, 0.923372f32), (45.0, 0.921320), (60.0, 0.918411), (80.0, 0.938558), (89.0, 0.992126)]),
-        (1.2, 7.0, [(0.0, 0.910847), (45.0, 0.906616), (60.0, 0.894815), (80.0, 0.847715), (89.0, 0.959204)]),
+        (
+            0.2f32,
+            3.0f32,
+            [
+                (0.0f32, 0.923372f32),
+                (45.0, 0.921320),
+                (60.0, 0.918411),
+                (80.0, 0.938558),
+                (89.0, 0.992126),
+            ],
+        ),
+        (
+            1.2,
+            7.0,
+            [
+                (0.0, 0.910847),
+                (45.0, 0.906616),
+                (60.0, 0.894815),
+                (80.0, 0.847715),
+                (89.0, 0.959204),
+            ],
+        ),
     ] {
         for (t, v) in vals {
             let f = fresnel_conductor1(t.to_radians().cos(), n, k);
-            assert!((f - v).abs() < 3e-6, "conductor ({n}, {k}) at {t}: {f} vs {v}");
+            assert!(
+                (f - v).abs() < 3e-6,
+                "conductor ({n}, {k}) at {t}: {f} vs {v}"
+            );
         }
     }
     // G1 with a = 1/(α tanθ): α = 1, tanθ = 1/a.
-    for (a, v) in [(0.25f32, 0.589610f32), (0.5, 0.831252), (1.0, 0.976593), (1.5, 0.999755)] {
+    for (a, v) in [
+        (0.25f32, 0.589610f32),
+        (0.5, 0.831252),
+        (1.0, 0.976593),
+        (1.5, 0.999755),
+    ] {
         let w = Vec3::new(1.0, 0.0, a).normalize();
         let g = smith_g1_beckmann_walter(w, 1.0);
         assert!((g - v).abs() < 2e-6, "G1({a}) = {g} vs {v}");
@@ -331,28 +449,42 @@ fn cornell_gold_rough_is_expressible() {
     eprintln!("gold albedo at 0°: {a:?}, F0 {f0}");
     assert!(a.x > a.y && a.y > a.z, "{a:?}");
     for c in 0..3 {
-        assert!((a[c] / f0[c] as f64 - 1.0).abs() < 0.02 && a[c] < 1.0, "{a:?} vs F0 {f0}");
+        assert!(
+            (a[c] / f0[c] as f64 - 1.0).abs() < 0.02 && a[c] < 1.0,
+            "{a:?} vs F0 {f0}"
+        );
     }
     // The JSON's name for the roughness is not ours.
     let e = material(&src.replace("roughness =", "roughness_alpha =")).unwrap_err();
-    assert!(e.contains("roughness_alpha") && e.contains("unknown field"), "{e}");
+    assert!(
+        e.contains("roughness_alpha") && e.contains("unknown field"),
+        "{e}"
+    );
 }
 
 #[test]
 fn default_is_the_survey_model_and_warns_about_its_energy() {
     let (m, warnings) = material("model = \"cook_torrance\"\n").unwrap();
     let p = m.brdf.pack();
-    assert_eq!((p.0[7], p.0[11], p.0[15], p.0[16], p.0[8]), (4.0, 0.0, 0.0, 0.0, 1.5));
+    assert_eq!(
+        (p.0[7], p.0[11], p.0[15], p.0[16], p.0[8]),
+        (4.0, 0.0, 0.0, 0.0, 1.5)
+    );
     assert!(
         warnings.len() == 1 && warnings[0].contains("walter") && warnings[0].contains("4"),
         "{warnings:?}"
     );
     let (_, warnings) =
-        material("model = \"cook_torrance\"\nnormalization = \"walter\"\nkd = 0.3\nks = 0.7\n").unwrap();
+        material("model = \"cook_torrance\"\nnormalization = \"walter\"\nkd = 0.3\nks = 0.7\n")
+            .unwrap();
     assert!(warnings.is_empty());
     let (_, warnings) =
-        material("model = \"cook_torrance\"\nnormalization = \"walter\"\nkd = 0.5\nks = 0.7\n").unwrap();
-    assert!(warnings.len() == 1 && warnings[0].contains("kd + ks"), "{warnings:?}");
+        material("model = \"cook_torrance\"\nnormalization = \"walter\"\nkd = 0.5\nks = 0.7\n")
+            .unwrap();
+    assert!(
+        warnings.len() == 1 && warnings[0].contains("kd + ks"),
+        "{warnings:?}"
+    );
 }
 
 #[test]
@@ -364,7 +496,11 @@ fn bad_parameters_are_rejected() {
         ("geometry = \"smith_hc\"", "geometry", "unknown value"),
         ("normalization = \"pi\"", "normalization", "unknown value"),
         ("eta = [1, 1, 1]", "eta", "fresnel = \"conductor\""),
-        ("fresnel = \"conductor\"\nior = 1.3", "ior", "fresnel = \"dielectric\""),
+        (
+            "fresnel = \"conductor\"\nior = 1.3",
+            "ior",
+            "fresnel = \"dielectric\"",
+        ),
         ("fresnel = \"conductor\"\neta = [0, 1, 1]", "eta", "> 0"),
         ("fresnel = \"schlick\"\nf0 = 1.5", "f0", "out of range"),
         ("ior = 0.5", "ior", "out of range"),
@@ -373,13 +509,21 @@ fn bad_parameters_are_rejected() {
     for (body, field, msg) in cases {
         let src = format!("model = \"cook_torrance\"\n{body}\n");
         let e = material(&src).unwrap_err();
-        assert!(e.contains("test.toml:") && e.contains(field) && e.contains(msg), "{body}: {e}");
+        assert!(
+            e.contains("test.toml:") && e.contains(field) && e.contains(msg),
+            "{body}: {e}"
+        );
     }
 }
 
 #[test]
 fn sample_weights_are_finite_at_grazing() {
-    let m = CookTorrance { kd: Vec3::splat(0.3), ks: Vec3::splat(0.7), roughness: 0.02, ..Default::default() };
+    let m = CookTorrance {
+        kd: Vec3::splat(0.3),
+        ks: Vec3::splat(0.7),
+        roughness: 0.02,
+        ..Default::default()
+    };
     for th in [89.0, 89.9, 89.99] {
         let wo = dir_from_theta_deg(th, 0.0);
         for i in 0..2000u32 {

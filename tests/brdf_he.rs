@@ -16,7 +16,12 @@ use std::collections::BTreeMap;
 fn material(src: &str) -> Result<(Material, Vec<String>), String> {
     let fields: BTreeMap<String, toml::Spanned<toml::Value>> =
         toml::from_str(src).map_err(|e| e.to_string())?;
-    let origin = Origin { file: "test.toml", source: src, material: "m", span: 0..src.len() };
+    let origin = Origin {
+        file: "test.toml",
+        source: src,
+        material: "m",
+        span: 0..src.len(),
+    };
     parse_material(origin, fields).map_err(|e| e.to_string())
 }
 
@@ -54,7 +59,9 @@ fn series_f64(g: f64, c: f64) -> f64 {
 #[test]
 fn windowed_series_matches_a_direct_f64_sum() {
     let mut worst = 0.0f64;
-    for g in [1e-3f64, 0.1, 1.0, 5.0, 18.0, 53.0, 60.0, 100.0, 1000.0, 1e4, 1e5, 1e6] {
+    for g in [
+        1e-3f64, 0.1, 1.0, 5.0, 18.0, 53.0, 60.0, 100.0, 1000.0, 1e4, 1e5, 1e6,
+    ] {
         for cf in [0.0, 0.3, 1.0, 10.0] {
             let c = cf * g.max(1.0);
             let want = series_f64(g, c);
@@ -71,9 +78,17 @@ fn windowed_series_matches_a_direct_f64_sum() {
 /// directional-diffuse term (F = 1) vs Torrance–Sparrow with Beckmann m = 2σ₀/τ times He's S.
 #[test]
 fn rough_limit_is_torrance_sparrow() {
-    let m = He { sigma0: 2.0, tau: 10.0, ..Default::default() };
+    let m = He {
+        sigma0: 2.0,
+        tau: 10.0,
+        ..Default::default()
+    };
     let wi = dir_from_theta_deg(30.0, 0.0);
-    let table = [(30.0, 0.66350, 0.66315), (45.0, 0.75450, 0.75412), (60.0, 0.82220, 0.82197)];
+    let table = [
+        (30.0, 0.66350, 0.66315),
+        (45.0, 0.75450, 0.75412),
+        (60.0, 0.82220, 0.82197),
+    ];
     for (th, he_ref, ts_ref) in table {
         let wo = dir_from_theta_deg(th, 180.0);
         let sigma = he::effective_sigma(&m, wi, wo);
@@ -86,9 +101,18 @@ fn rough_limit_is_torrance_sparrow() {
         let d = (-t2 / (mm * mm)).exp() / (std::f64::consts::PI * mm * mm * h.z.powi(4));
         let s = (he::shadow_s1(2.0, 10.0, wi) * he::shadow_s1(2.0, 10.0, wo)) as f64;
         let ts = d * s / (4.0 * wi64.z * wo64.z);
-        eprintln!("wo {th}°: He dd {dd:.5} (ref {he_ref}), TS·S {ts:.5} (ref {ts_ref}), ratio {:.5}", dd / ts);
-        assert!((dd / he_ref - 1.0).abs() < 3e-4, "He dd at {th}: {dd} vs {he_ref}");
-        assert!((ts / ts_ref - 1.0).abs() < 3e-4, "TS at {th}: {ts} vs {ts_ref}");
+        eprintln!(
+            "wo {th}°: He dd {dd:.5} (ref {he_ref}), TS·S {ts:.5} (ref {ts_ref}), ratio {:.5}",
+            dd / ts
+        );
+        assert!(
+            (dd / he_ref - 1.0).abs() < 3e-4,
+            "He dd at {th}: {dd} vs {he_ref}"
+        );
+        assert!(
+            (ts / ts_ref - 1.0).abs() < 3e-4,
+            "TS at {th}: {ts} vs {ts_ref}"
+        );
         assert!((dd / ts - 1.0).abs() < 1e-3, "He/TS at {th}: {}", dd / ts);
     }
 }
@@ -102,13 +126,20 @@ fn specular_weight_table() {
         (0.2, [0.00, 0.0018, 0.82]),
     ];
     for (sigma0, vals) in table {
-        let m = He { sigma0, tau: 10.0, ..Default::default() };
+        let m = He {
+            sigma0,
+            tau: 10.0,
+            ..Default::default()
+        };
         for (th, want) in [0.0, 60.0, 85.0].into_iter().zip(vals) {
             let w = dir_from_theta_deg(th, 0.0);
             let got = he::specular_attenuation(&m, 0.5, w);
             eprintln!("σ₀ {sigma0} θ {th}: {got:.4} (ref {want})");
             let tol = if want == 0.0018 { 5e-5 } else { 0.005 };
-            assert!((got - want).abs() <= tol, "σ₀={sigma0} θ={th}: {got} vs {want}");
+            assert!(
+                (got - want).abs() <= tol,
+                "σ₀={sigma0} θ={th}: {got} vs {want}"
+            );
         }
     }
 }
@@ -116,8 +147,25 @@ fn specular_weight_table() {
 fn variants() -> Vec<(&'static str, He)> {
     vec![
         ("default (Al, σ₀ 0.18, τ 3)", He::default()),
-        ("smooth σ₀ 0.02 τ 5 + diffuse", He { sigma0: 0.02, tau: 5.0, diffuse: Vec3::splat(0.3), ior: Vec3::splat(1.5), k: Vec3::ZERO, ..Default::default() }),
-        ("rough σ₀ 1 τ 8", He { sigma0: 1.0, tau: 8.0, ..Default::default() }),
+        (
+            "smooth σ₀ 0.02 τ 5 + diffuse",
+            He {
+                sigma0: 0.02,
+                tau: 5.0,
+                diffuse: Vec3::splat(0.3),
+                ior: Vec3::splat(1.5),
+                k: Vec3::ZERO,
+                ..Default::default()
+            },
+        ),
+        (
+            "rough σ₀ 1 τ 8",
+            He {
+                sigma0: 1.0,
+                tau: 8.0,
+                ..Default::default()
+            },
+        ),
     ]
 }
 
@@ -126,17 +174,26 @@ fn sampler_matches_pdf() {
     let vs = variants();
     let angles = [10.0, 45.0, 75.0];
     let level = sidak(0.01, vs.len() * angles.len());
-    let cfg = Chi2Config { sub: 12, ..Default::default() };
+    let cfg = Chi2Config {
+        sub: 12,
+        ..Default::default()
+    };
     for (name, m) in &vs {
         for th in angles {
             let wo = dir_from_theta_deg(th, 20.0);
             let r = chi2_test_with(m, wo, 60_000, 4, cfg);
-            eprintln!("{name} θ={th}: p={:.3} dof={} ∫pdf={:.4}", r.p_value, r.dof, r.pdf_integral);
+            eprintln!(
+                "{name} θ={th}: p={:.3} dof={} ∫pdf={:.4}",
+                r.p_value, r.dof, r.pdf_integral
+            );
             assert_eq!(r.zero_pdf_hits, 0, "{name} θ={th}: {r:?}");
             assert!(r.p_value > level, "{name} θ={th}: {r:?}");
             let c = sample_consistency(m, wo, 3000, 8);
             assert_eq!(c.bad_samples + c.delta_with_pdf, 0, "{name}: {c:?}");
-            assert!(c.pdf_rel_error < 1e-4 && c.weight_rel_error < 1e-3, "{name}: {c:?}");
+            assert!(
+                c.pdf_rel_error < 1e-4 && c.weight_rel_error < 1e-3,
+                "{name}: {c:?}"
+            );
         }
     }
 }
@@ -153,9 +210,16 @@ fn sampled_albedo_matches_quadrature_plus_delta() {
             let n = 30_000;
             let (s, var) = albedo_sampled(&m, wo, n, 21);
             let sd = (var / n as f64).sqrt();
-            eprintln!("{name} {th}: {q:.4} + {delta:.4} = {:.4} | {s:.4} ± {sd:.4}", q + delta);
+            eprintln!(
+                "{name} {th}: {q:.4} + {delta:.4} = {:.4} | {s:.4} ± {sd:.4}",
+                q + delta
+            );
             let tol = 4.0 * sd + 5e-3 * (q + delta);
-            assert!((s - (q + delta)).abs() < tol, "{name} θ={th}: {s} vs {} (tol {tol})", q + delta);
+            assert!(
+                (s - (q + delta)).abs() < tol,
+                "{name} θ={th}: {s} vs {} (tol {tol})",
+                q + delta
+            );
             // The first-surface terms (dd + specular) stay below 1; the uniform-diffuse a(λ)
             // is a free constant not coupled to them (survey §2.3), so the total can exceed 1:
             // the smooth dielectric with diffuse 0.3 reflects 1.20 at 89° (F = 0.90 + 0.30).
@@ -193,12 +257,19 @@ fn parameters_and_defines() {
         ("tau = 0", "tau", "> 0"),
         ("ior = [1.5, 0, 1.5]", "ior", "> 0"),
         ("k = -1", "k", "out of range"),
-        ("wavelengths = [650, 550, 450]", "wavelengths", "out of range"),
+        (
+            "wavelengths = [650, 550, 450]",
+            "wavelengths",
+            "out of range",
+        ),
         ("diffuse = 1.2", "diffuse", "out of range"),
         ("roughness = 0.2", "roughness", "unknown field"),
     ];
     for (body, field, msg) in cases {
         let e = material(&format!("model = \"he\"\n{body}\n")).unwrap_err();
-        assert!(e.contains("test.toml:2") && e.contains(field) && e.contains(msg), "{body}: {e}");
+        assert!(
+            e.contains("test.toml:2") && e.contains(field) && e.contains(msg),
+            "{body}: {e}"
+        );
     }
 }

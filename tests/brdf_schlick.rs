@@ -16,7 +16,12 @@ use std::collections::BTreeMap;
 fn material(src: &str) -> Result<(Material, Vec<String>), String> {
     let fields: BTreeMap<String, toml::Spanned<toml::Value>> =
         toml::from_str(src).map_err(|e| e.to_string())?;
-    let origin = Origin { file: "test.toml", source: src, material: "m", span: 0..src.len() };
+    let origin = Origin {
+        file: "test.toml",
+        source: src,
+        material: "m",
+        span: 0..src.len(),
+    };
     parse_material(origin, fields).map_err(|e| e.to_string())
 }
 
@@ -49,7 +54,12 @@ impl Brdf for GlossyOnly {
         if given.dot(h) <= 0.0 || wi.z <= 0.0 || pdf <= 0.0 {
             return None;
         }
-        Some(BrdfSample { wi, weight: self.eval(wi, given) * wi.z / pdf, pdf, delta: false })
+        Some(BrdfSample {
+            wi,
+            weight: self.eval(wi, given) * wi.z / pdf,
+            pdf,
+            delta: false,
+        })
     }
     fn pack(&self) -> Params {
         Params::default()
@@ -77,12 +87,16 @@ fn albedo_table_of_section_10() {
             // lobes (r ≤ 0.05 at 85–89°), which differ from a fine f64 quadrature by up to
             // 1.6 % (see `grazing_entries_match_an_f64_half_vector_quadrature`).
             let tol = if th >= 85.0 && r < 0.1 { 2e-2 } else { 5e-3 };
-            assert!((q / want as f64 - 1.0).abs() < tol, "r={r} θ={th}: {q} vs {want}");
+            assert!((q / want - 1.0).abs() < tol, "r={r} θ={th}: {q} vs {want}");
         }
         eprintln!("{line}");
     }
     // At r = 0.5 the continuum form is exactly the glossy lobe (b = 1, a = c = 0).
-    let m = Schlick { c: Vec3::ONE, r: 0.5, ..Default::default() };
+    let m = Schlick {
+        c: Vec3::ONE,
+        r: 0.5,
+        ..Default::default()
+    };
     let q = albedo_quadrature(&m, dir_from_theta_deg(60.0, 0.0), 300);
     assert!((q - 0.435).abs() < 2e-3, "{q}");
 }
@@ -90,7 +104,11 @@ fn albedo_table_of_section_10() {
 /// Independent f64 reference for the glossy albedo (C = 1, p = 1): quadrature over the GGX
 /// (α² = r) half-vector warp, ρ(wo) = ∫ (B cosθi / pdf) with B cosθi/pdf = cosθi (wo·h)/(q q' t).
 fn glossy_albedo_f64(r: f64, theta_deg: f64, n: usize) -> f64 {
-    let wo = [theta_deg.to_radians().sin(), 0.0, theta_deg.to_radians().cos()];
+    let wo = [
+        theta_deg.to_radians().sin(),
+        0.0,
+        theta_deg.to_radians().cos(),
+    ];
     let mut s = 0.0;
     for iu in 0..n {
         let u = (iu as f64 + 0.5) / n as f64;
@@ -114,7 +132,12 @@ fn glossy_albedo_f64(r: f64, theta_deg: f64, n: usize) -> f64 {
 
 #[test]
 fn grazing_entries_match_an_f64_half_vector_quadrature() {
-    for (r, th) in [(0.005f32, 85.0f32), (0.005, 89.0), (0.05, 89.0), (0.2, 85.0)] {
+    for (r, th) in [
+        (0.005f32, 85.0f32),
+        (0.005, 89.0),
+        (0.05, 89.0),
+        (0.2, 85.0),
+    ] {
         let q = albedo_quadrature(&GlossyOnly { r, p: 1.0 }, dir_from_theta_deg(th, 0.0), 1600);
         let want = glossy_albedo_f64(r as f64, th as f64, 2500);
         eprintln!("r={r} θ={th}: {q:.4} vs f64 {want:.4}");
@@ -131,14 +154,23 @@ fn azimuth_factor_loses_the_documented_energy() {
     for (p, want) in [(0.5, 0.971), (0.1, 0.744), (0.01, 0.381)] {
         let q = albedo_quadrature(&GlossyOnly { r: 0.02, p }, Vec3::Z, 400);
         eprintln!("p={p}: albedo ratio {:.4} (mean A {want})", q / iso);
-        assert!((q / iso - want).abs() < 0.01, "p={p}: {} vs {want}", q / iso);
+        assert!(
+            (q / iso - want).abs() < 0.01,
+            "p={p}: {} vs {want}",
+            q / iso
+        );
     }
 }
 
 #[test]
 fn survey_forms_basic_and_attenuated_diverge_at_grazing() {
     for form in [Form::Basic, Form::Attenuated] {
-        let m = Schlick { c: Vec3::ONE, r: 0.3, form, ..Default::default() };
+        let m = Schlick {
+            c: Vec3::ONE,
+            r: 0.3,
+            form,
+            ..Default::default()
+        };
         let a60 = albedo_quadrature(&m, dir_from_theta_deg(60.0, 0.0), 300);
         let a89 = albedo_quadrature(&m, dir_from_theta_deg(89.0, 0.0), 600);
         let a895 = albedo_quadrature(&m, dir_from_theta_deg(89.5, 0.0), 600);
@@ -147,7 +179,11 @@ fn survey_forms_basic_and_attenuated_diverge_at_grazing() {
     }
     // The continuum form stays ≤ 1 for r ≥ 0.25 at every angle.
     for r in [0.25, 0.5, 0.8, 1.0] {
-        let m = Schlick { c: Vec3::ONE, r, ..Default::default() };
+        let m = Schlick {
+            c: Vec3::ONE,
+            r,
+            ..Default::default()
+        };
         for th in [0.0, 30.0, 60.0, 80.0, 89.0] {
             let q = albedo_quadrature(&m, dir_from_theta_deg(th, 0.0), 300);
             assert!(q <= 1.002, "r={r} θ={th}: {q}");
@@ -158,11 +194,47 @@ fn survey_forms_basic_and_attenuated_diverge_at_grazing() {
 fn variants() -> Vec<(&'static str, Schlick)> {
     let d = Schlick::default();
     vec![
-        ("continuum r 0.2", Schlick { c: Vec3::new(0.9, 0.6, 0.3), ..d.clone() }),
-        ("continuum r 0.3 p 0.1 rot 30", Schlick { r: 0.3, p: 0.1, rotation: 30.0, ..d.clone() }),
-        ("continuum r 0.7 p 0.5", Schlick { r: 0.7, p: 0.5, ..d.clone() }),
-        ("attenuated r 0.3 p 0.5", Schlick { r: 0.3, p: 0.5, form: Form::Attenuated, ..d.clone() }),
-        ("basic r 0.2", Schlick { r: 0.2, form: Form::Basic, ..d.clone() }),
+        (
+            "continuum r 0.2",
+            Schlick {
+                c: Vec3::new(0.9, 0.6, 0.3),
+                ..d.clone()
+            },
+        ),
+        (
+            "continuum r 0.3 p 0.1 rot 30",
+            Schlick {
+                r: 0.3,
+                p: 0.1,
+                rotation: 30.0,
+                ..d.clone()
+            },
+        ),
+        (
+            "continuum r 0.7 p 0.5",
+            Schlick {
+                r: 0.7,
+                p: 0.5,
+                ..d.clone()
+            },
+        ),
+        (
+            "attenuated r 0.3 p 0.5",
+            Schlick {
+                r: 0.3,
+                p: 0.5,
+                form: Form::Attenuated,
+                ..d.clone()
+            },
+        ),
+        (
+            "basic r 0.2",
+            Schlick {
+                r: 0.2,
+                form: Form::Basic,
+                ..d.clone()
+            },
+        ),
         (
             "layered varnish c .05 r .1 / c2 .7 r2 .8 p2 .3",
             Schlick {
@@ -184,17 +256,26 @@ fn sampler_matches_pdf() {
     let vs = variants();
     let angles = [10.0, 45.0, 75.0];
     let level = sidak(0.01, vs.len() * angles.len());
-    let cfg = Chi2Config { sub: 12, ..Default::default() };
+    let cfg = Chi2Config {
+        sub: 12,
+        ..Default::default()
+    };
     for (name, m) in &vs {
         for th in angles {
             let wo = dir_from_theta_deg(th, 70.0);
             let r = chi2_test_with(m, wo, 100_000, 6, cfg);
-            eprintln!("{name} θ={th}: p={:.3} dof={} ∫pdf={:.4}", r.p_value, r.dof, r.pdf_integral);
+            eprintln!(
+                "{name} θ={th}: p={:.3} dof={} ∫pdf={:.4}",
+                r.p_value, r.dof, r.pdf_integral
+            );
             assert_eq!(r.zero_pdf_hits, 0, "{name} θ={th}: {r:?}");
             assert!(r.p_value > level, "{name} θ={th}: {r:?}");
             let c = sample_consistency(m, wo, 5000, 8);
             assert_eq!(c.bad_samples + c.delta_with_pdf, 0, "{name}: {c:?}");
-            assert!(c.pdf_rel_error < 1e-4 && c.weight_rel_error < 1e-3, "{name}: {c:?}");
+            assert!(
+                c.pdf_rel_error < 1e-4 && c.weight_rel_error < 1e-3,
+                "{name}: {c:?}"
+            );
         }
     }
 }
@@ -216,9 +297,16 @@ fn sampled_albedo_matches_quadrature_plus_delta() {
             let n = 100_000;
             let (s, var) = albedo_sampled(&m, wo, n, 31);
             let sd = (var / n as f64).sqrt();
-            eprintln!("{name} {th}: {q:.4} + {delta:.4} = {:.4} | sampled {s:.4} ± {sd:.4}", q + delta);
+            eprintln!(
+                "{name} {th}: {q:.4} + {delta:.4} = {:.4} | sampled {s:.4} ± {sd:.4}",
+                q + delta
+            );
             let tol = 4.0 * sd + 3e-3 * (q + delta);
-            assert!((s - (q + delta)).abs() < tol, "{name} θ={th}: {s} vs {}", q + delta);
+            assert!(
+                (s - (q + delta)).abs() < tol,
+                "{name} θ={th}: {s} vs {}",
+                q + delta
+            );
         }
     }
 }
@@ -237,8 +325,12 @@ fn parameters_defines_and_errors() {
     assert!(w.is_empty() && m.brdf.defines().is_empty());
     let p = m.brdf.pack();
     assert_eq!((p.0[3], p.0[8], p.0[10], p.0[11]), (0.2, 1.0, 2.0, 0.0));
-    let (m, _) = material("model = \"schlick\"\nc2 = [0.5, 0.3, 0.1]\nr2 = 0.9\np2 = 0.5\n").unwrap();
-    assert_eq!(m.brdf.defines(), vec!["SCHLICK_LAYERED", "SCHLICK_ANISOTROPIC"]);
+    let (m, _) =
+        material("model = \"schlick\"\nc2 = [0.5, 0.3, 0.1]\nr2 = 0.9\np2 = 0.5\n").unwrap();
+    assert_eq!(
+        m.brdf.defines(),
+        vec!["SCHLICK_LAYERED", "SCHLICK_ANISOTROPIC"]
+    );
     let (m, _) = material("model = \"schlick\"\np = 0.3\nrotation = 90\n").unwrap();
     assert_eq!(m.brdf.defines(), vec!["SCHLICK_ANISOTROPIC"]);
     assert!(m.brdf.pack().0[12].abs() < 1e-6 && (m.brdf.pack().0[13] - 1.0).abs() < 1e-6);
@@ -255,6 +347,9 @@ fn parameters_defines_and_errors() {
     ];
     for (body, field, msg) in cases {
         let e = material(&format!("model = \"schlick\"\n{body}\n")).unwrap_err();
-        assert!(e.contains("test.toml:2") && e.contains(field) && e.contains(msg), "{body}: {e}");
+        assert!(
+            e.contains("test.toml:2") && e.contains(field) && e.contains(msg),
+            "{body}: {e}"
+        );
     }
 }

@@ -157,7 +157,11 @@ pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
         "smith" => Geometry::Smith,
         _ => Geometry::VCavity,
     };
-    let fresnel = match r.choice("fresnel", &["dielectric", "conductor", "schlick"], "dielectric")? {
+    let fresnel = match r.choice(
+        "fresnel",
+        &["dielectric", "conductor", "schlick"],
+        "dielectric",
+    )? {
         "conductor" => Fresnel::Conductor,
         "schlick" => Fresnel::Schlick,
         _ => Fresnel::Dielectric,
@@ -259,7 +263,8 @@ pub fn geometry(m: &CookTorrance, wi: Vec3, wo: Vec3, h: Vec3) -> f32 {
         }
         Geometry::Smith => match m.distribution {
             Distribution::Beckmann => {
-                smith_g1_beckmann_walter(wi, m.roughness) * smith_g1_beckmann_walter(wo, m.roughness)
+                smith_g1_beckmann_walter(wi, m.roughness)
+                    * smith_g1_beckmann_walter(wo, m.roughness)
             }
             Distribution::Ggx => smith_g1_ggx(wi, m.roughness) * smith_g1_ggx(wo, m.roughness),
         },
@@ -330,7 +335,12 @@ pub fn sample(m: &CookTorrance, given: Vec3, u_lobe: f32, u: Vec2) -> Option<Brd
         if m.is_mirror() {
             let wi = reflect_z(given);
             let weight = m.ks * fresnel(m, given.z) * (m.norm_factor() / ps);
-            return Some(BrdfSample { wi, weight, pdf: 0.0, delta: true });
+            return Some(BrdfSample {
+                wi,
+                weight,
+                pdf: 0.0,
+                delta: true,
+            });
         }
         let h = match m.distribution {
             Distribution::Beckmann => sample_beckmann_h(u, m.roughness),
@@ -351,7 +361,12 @@ pub fn sample(m: &CookTorrance, given: Vec3, u_lobe: f32, u: Vec2) -> Option<Brd
         return None;
     }
     let weight = eval(m, wi, given) * (wi.z / p);
-    Some(BrdfSample { wi, weight, pdf: p, delta: false })
+    Some(BrdfSample {
+        wi,
+        weight,
+        pdf: p,
+        delta: false,
+    })
 }
 
 impl Brdf for CookTorrance {
@@ -373,8 +388,10 @@ impl Brdf for CookTorrance {
             Fresnel::Conductor => self.eta,
             Fresnel::Schlick => self.f0,
         };
-        p.set3(8, a).set(11, (self.distribution == Distribution::Ggx) as u32 as f32);
-        p.set3(12, self.k).set(15, (self.geometry == Geometry::Smith) as u32 as f32);
+        p.set3(8, a)
+            .set(11, (self.distribution == Distribution::Ggx) as u32 as f32);
+        p.set3(12, self.k)
+            .set(15, (self.geometry == Geometry::Smith) as u32 as f32);
         let f = match self.fresnel {
             Fresnel::Dielectric => 0.0,
             Fresnel::Conductor => 1.0,
@@ -436,7 +453,10 @@ mod tests {
             for &a in &dirs {
                 for &b in &dirs {
                     let f = eval(&m, a, b);
-                    assert!(f.is_finite() && f.min_element() >= 0.0, "{m:?} {a} {b}: {f}");
+                    assert!(
+                        f.is_finite() && f.min_element() >= 0.0,
+                        "{m:?} {a} {b}: {f}"
+                    );
                     let p = pdf(&m, a, b);
                     assert!(p.is_finite() && p >= 0.0, "{m:?} {a} {b}: {p}");
                 }
@@ -444,7 +464,10 @@ mod tests {
                     let u = Vec2::new((i % 8) as f32 / 8.0, (i / 8) as f32 / 8.0);
                     for ul in [0.0, 0.5, 0.95] {
                         if let Some(s) = sample(&m, a, ul, u) {
-                            assert!(s.weight.is_finite() && s.pdf.is_finite(), "{m:?} {a}: {s:?}");
+                            assert!(
+                                s.weight.is_finite() && s.pdf.is_finite(),
+                                "{m:?} {a}: {s:?}"
+                            );
                             assert!(s.wi.z > 0.0 && (s.wi.length() - 1.0).abs() < 1e-4);
                         }
                     }
@@ -455,7 +478,10 @@ mod tests {
 
     #[test]
     fn exact_mirror_configuration_and_normal_incidence() {
-        let m = CookTorrance { roughness: 0.1, ..Default::default() };
+        let m = CookTorrance {
+            roughness: 0.1,
+            ..Default::default()
+        };
         let w = dir(30.0, 0.0);
         let f = eval(&m, w, reflect_z(w));
         // D(n) = 1/(π m²), G = 1, F(cos 30°): survey form F·D·G/(cos²).

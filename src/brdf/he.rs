@@ -112,7 +112,14 @@ pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
     let k = r.rgb("k", d.k, 0.0, 100.0)?;
     let wavelengths = r.rgb("wavelengths", d.wavelengths, 0.2, 5.0)?;
     let diffuse = r.rgb("diffuse", d.diffuse, 0.0, 1.0)?;
-    let m = He { sigma0, tau, ior, k, wavelengths, diffuse };
+    let m = He {
+        sigma0,
+        tau,
+        ior,
+        k,
+        wavelengths,
+        diffuse,
+    };
     if sigma0 > 0.25 * tau {
         r.warn(
             "sigma0",
@@ -245,7 +252,10 @@ pub fn series(g: f32, c: f32) -> f32 {
             break;
         }
         let ln_m = mm.ln();
-        let e = -mm * phi_ln(g / mm - 1.0) - half_ln_2pi - 0.5 * ln_m - stirling_remainder(mm)
+        let e = -mm * phi_ln(g / mm - 1.0)
+            - half_ln_2pi
+            - 0.5 * ln_m
+            - stirling_remainder(mm)
             - ln_m
             - c / mm;
         sum += e.exp();
@@ -326,8 +336,8 @@ pub fn lobe_probabilities(m: &He, given: Vec3) -> (f32, f32, f32, f32) {
         let a = 4.0 * PI * sigma * given.z / lambda;
         1.0 - (-a * a).exp()
     };
-    let wdd = luminance(f * Vec3::new(gs(l.x), gs(l.y), gs(l.z)))
-        * shadow_s1(m.sigma0, m.tau, given);
+    let wdd =
+        luminance(f * Vec3::new(gs(l.x), gs(l.y), gs(l.z))) * shadow_s1(m.sigma0, m.tau, given);
     let wb = 0.9 * wdd;
     let wc = luminance(m.diffuse) + 0.1 * wdd;
     let total = spec + wb + wc;
@@ -370,7 +380,12 @@ pub fn sample(m: &He, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
     let wi = if u_lobe < pd {
         let wi = reflect_z(given);
         let weight = specular_reflectance(m, given) / pd;
-        return Some(BrdfSample { wi, weight, pdf: 0.0, delta: true });
+        return Some(BrdfSample {
+            wi,
+            weight,
+            pdf: 0.0,
+            delta: true,
+        });
     } else if u_lobe < pd + pb {
         let h = sample_beckmann_h(u, ms);
         if given.dot(h) <= 0.0 {
@@ -388,7 +403,12 @@ pub fn sample(m: &He, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
         return None;
     }
     let weight = eval(m, wi, given) * (wi.z / p);
-    Some(BrdfSample { wi, weight, pdf: p, delta: false })
+    Some(BrdfSample {
+        wi,
+        weight,
+        pdf: p,
+        delta: false,
+    })
 }
 
 impl Brdf for He {
@@ -403,8 +423,13 @@ impl Brdf for He {
     }
     fn pack(&self) -> Params {
         let mut p = Params::default();
-        p.set(0, self.sigma0).set(1, self.tau).set(2, (self.sigma0 > 0.0) as u32 as f32);
-        p.set3(4, self.ior).set3(8, self.k).set3(12, self.wavelengths).set3(16, self.diffuse);
+        p.set(0, self.sigma0)
+            .set(1, self.tau)
+            .set(2, (self.sigma0 > 0.0) as u32 as f32);
+        p.set3(4, self.ior)
+            .set3(8, self.k)
+            .set3(12, self.wavelengths)
+            .set3(16, self.diffuse);
         p
     }
     fn defines(&self) -> Vec<&'static str> {
@@ -433,16 +458,24 @@ mod tests {
             let e = eps as f64;
             let want = e - (1.0 + e).ln();
             let got = phi_ln(eps) as f64;
-            assert!((got - want).abs() <= 2e-6 * want + 1e-12, "{eps}: {got} vs {want}");
+            assert!(
+                (got - want).abs() <= 2e-6 * want + 1e-12,
+                "{eps}: {got} vs {want}"
+            );
         }
     }
 
     #[test]
     fn newton_solves_the_effective_roughness_equation() {
-        for f0 in [1e-20f32, 1e-6, 0.01, 0.3, 1.0, 1.2, 1.7, 3.0, 100.0, 1e10, 1e30] {
+        for f0 in [
+            1e-20f32, 1e-6, 0.01, 0.3, 1.0, 1.2, 1.7, 3.0, 100.0, 1e10, 1e30,
+        ] {
             let x = solve_z0(f0) as f64;
             let lhs = x.ln() + 0.5 * x * x;
-            assert!((lhs - (f0 as f64).ln()).abs() < 2e-6 * (1.0 + (f0 as f64).ln().abs()), "{f0}: {x}");
+            assert!(
+                (lhs - (f0 as f64).ln()).abs() < 2e-6 * (1.0 + (f0 as f64).ln().abs()),
+                "{f0}: {x}"
+            );
         }
         assert_eq!(solve_z0(0.0), 0.0);
     }
@@ -451,10 +484,27 @@ mod tests {
     fn finite_everywhere() {
         let ms = [
             He::default(),
-            He { sigma0: 0.0, diffuse: Vec3::splat(0.3), ..Default::default() },
-            He { sigma0: 0.01, tau: 10.0, ..Default::default() },
-            He { sigma0: 5.0, tau: 10.0, diffuse: Vec3::splat(0.1), ..Default::default() },
-            He { sigma0: 40.0, tau: 100.0, ..Default::default() },
+            He {
+                sigma0: 0.0,
+                diffuse: Vec3::splat(0.3),
+                ..Default::default()
+            },
+            He {
+                sigma0: 0.01,
+                tau: 10.0,
+                ..Default::default()
+            },
+            He {
+                sigma0: 5.0,
+                tau: 10.0,
+                diffuse: Vec3::splat(0.1),
+                ..Default::default()
+            },
+            He {
+                sigma0: 40.0,
+                tau: 100.0,
+                ..Default::default()
+            },
         ];
         let dirs = [
             dir(0.0, 0.0),
@@ -470,7 +520,10 @@ mod tests {
             for &a in &dirs {
                 for &b in &dirs {
                     let f = eval(m, a, b);
-                    assert!(f.is_finite() && f.min_element() >= 0.0, "{m:?} {a} {b}: {f}");
+                    assert!(
+                        f.is_finite() && f.min_element() >= 0.0,
+                        "{m:?} {a} {b}: {f}"
+                    );
                     let p = pdf(m, a, b);
                     assert!(p.is_finite() && p >= 0.0, "{m:?} {a} {b}: {p}");
                 }
@@ -478,7 +531,10 @@ mod tests {
                     let u = Vec2::new((i % 8) as f32 / 8.0, (i / 8) as f32 / 8.0);
                     for ul in [0.0, 0.3, 0.7, 0.99] {
                         if let Some(s) = sample(m, a, ul, u) {
-                            assert!(s.weight.is_finite() && s.pdf.is_finite(), "{m:?} {a}: {s:?}");
+                            assert!(
+                                s.weight.is_finite() && s.pdf.is_finite(),
+                                "{m:?} {a}: {s:?}"
+                            );
                         }
                     }
                 }
@@ -488,7 +544,10 @@ mod tests {
 
     #[test]
     fn smooth_surface_is_a_fresnel_mirror() {
-        let m = He { sigma0: 0.0, ..Default::default() };
+        let m = He {
+            sigma0: 0.0,
+            ..Default::default()
+        };
         let w = dir(40.0, 10.0);
         let s = sample(&m, w, 0.0, Vec2::splat(0.5)).unwrap();
         assert!(s.delta);

@@ -150,7 +150,10 @@ pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
     let rotation = r.scalar("rotation", 0.0, -360.0, 360.0)?;
     if p < P_MIN || (layered && p2 < P_MIN) {
         let key = if p < P_MIN { "p" } else { "p2" };
-        r.warn(key, format!("isotropy below {P_MIN} is clamped to {P_MIN} (A(w) ~ p^(-1/2))"));
+        r.warn(
+            key,
+            format!("isotropy below {P_MIN} is clamped to {P_MIN} (A(w) ~ p^(-1/2))"),
+        );
     }
     if form != Form::Continuum {
         r.warn(
@@ -159,7 +162,17 @@ pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
              bound toward grazing angles (form = \"continuum\" is bounded except near 89° for r < 0.25)",
         );
     }
-    Ok(Arc::new(Schlick { c, r: rough, p, c2, r2, p2, layered, form, rotation }))
+    Ok(Arc::new(Schlick {
+        c,
+        r: rough,
+        p,
+        c2,
+        r2,
+        p2,
+        layered,
+        form,
+        rotation,
+    }))
 }
 
 /// S(u) = C + (1 − C)(1 − u)⁵ (eq. 18).
@@ -219,7 +232,9 @@ pub fn glossy(r: f32, p: f32, cs: f32, sn: f32, wi: Vec3, wo: Vec3, h: Vec3) -> 
     zenith(r, h) * azimuth2(p, cs, sn, h).sqrt() / (4.0 * PI * q_of(r, wi.z) * q_of(r, wo.z))
 }
 
-/// One layer's non-delta D(t, v, v', w) for `form` (eqs. 24–26), without S.
+/// One layer's non-delta D(t, v, v', w) for `form` (eqs. 24–26), without S. (The argument
+/// list mirrors the GLSL twin `schlick_layer_d`.)
+#[allow(clippy::too_many_arguments)]
 pub fn layer_d(form: Form, r: f32, p: f32, cs: f32, sn: f32, wi: Vec3, wo: Vec3, h: Vec3) -> f32 {
     let vv = (wi.z * wo.z).max(1e-20);
     match form {
@@ -388,7 +403,12 @@ pub fn sample(m: &Schlick, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSamp
     let pr = lobe_probabilities(m, given);
     let wi = if u_lobe < pr[3] {
         let weight = mirror_reflectance(m, given) / pr[3];
-        return Some(BrdfSample { wi: reflect_z(given), weight, pdf: 0.0, delta: true });
+        return Some(BrdfSample {
+            wi: reflect_z(given),
+            weight,
+            pdf: 0.0,
+            delta: true,
+        });
     } else if u_lobe < pr[3] + pr[0] + pr[1] {
         let h = if u_lobe < pr[3] + pr[0] {
             sample_glossy_h(m.r, m.p, cs, sn, u)
@@ -412,7 +432,12 @@ pub fn sample(m: &Schlick, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSamp
         return None;
     }
     let weight = eval(m, wi, given) * (wi.z / p);
-    Some(BrdfSample { wi, weight, pdf: p, delta: false })
+    Some(BrdfSample {
+        wi,
+        weight,
+        pdf: p,
+        delta: false,
+    })
 }
 
 impl Brdf for Schlick {
@@ -428,13 +453,19 @@ impl Brdf for Schlick {
     fn pack(&self) -> Params {
         let mut p = Params::default();
         let (cs, sn) = self.rotation_cs();
-        p.set3(0, self.c).set(3, self.r).set3(4, self.c2).set(7, self.r2);
+        p.set3(0, self.c)
+            .set(3, self.r)
+            .set3(4, self.c2)
+            .set(7, self.r2);
         let form = match self.form {
             Form::Basic => 0.0,
             Form::Attenuated => 1.0,
             Form::Continuum => 2.0,
         };
-        p.set(8, self.p).set(9, self.p2).set(10, form).set(11, self.layered as u32 as f32);
+        p.set(8, self.p)
+            .set(9, self.p2)
+            .set(10, form)
+            .set(11, self.layered as u32 as f32);
         p.set(12, cs).set(13, sn);
         p
     }
@@ -468,8 +499,22 @@ mod tests {
         let mut ms = Vec::new();
         for form in [Form::Basic, Form::Attenuated, Form::Continuum] {
             for (r, p) in [(0.0, 1.0), (1e-5, 0.0), (0.3, 0.01), (0.5, 1.0), (1.0, 0.5)] {
-                ms.push(Schlick { r, p, form, rotation: 30.0, ..Default::default() });
-                ms.push(Schlick { r, p, form, layered: true, r2: 1.0 - r, p2: p, ..Default::default() });
+                ms.push(Schlick {
+                    r,
+                    p,
+                    form,
+                    rotation: 30.0,
+                    ..Default::default()
+                });
+                ms.push(Schlick {
+                    r,
+                    p,
+                    form,
+                    layered: true,
+                    r2: 1.0 - r,
+                    p2: p,
+                    ..Default::default()
+                });
             }
         }
         let dirs = [
@@ -487,7 +532,10 @@ mod tests {
             for &a in &dirs {
                 for &b in &dirs {
                     let f = eval(m, a, b);
-                    assert!(f.is_finite() && f.min_element() >= 0.0, "{m:?} {a} {b}: {f}");
+                    assert!(
+                        f.is_finite() && f.min_element() >= 0.0,
+                        "{m:?} {a} {b}: {f}"
+                    );
                     let p = pdf(m, a, b);
                     assert!(p.is_finite() && p >= 0.0, "{m:?} {a} {b}: {p}");
                 }
@@ -495,7 +543,10 @@ mod tests {
                     let u = Vec2::new((i % 8) as f32 / 8.0, (i / 8) as f32 / 8.0);
                     for ul in [0.0, 0.3, 0.6, 0.99] {
                         if let Some(s) = sample(m, a, ul, u) {
-                            assert!(s.weight.is_finite() && s.pdf.is_finite(), "{m:?} {a}: {s:?}");
+                            assert!(
+                                s.weight.is_finite() && s.pdf.is_finite(),
+                                "{m:?} {a}: {s:?}"
+                            );
                         }
                     }
                 }
@@ -521,7 +572,11 @@ mod tests {
 
     #[test]
     fn r_zero_continuum_is_a_mirror() {
-        let m = Schlick { r: 0.0, c: Vec3::splat(0.3), ..Default::default() };
+        let m = Schlick {
+            r: 0.0,
+            c: Vec3::splat(0.3),
+            ..Default::default()
+        };
         let given = dir(50.0, 0.0);
         let s = sample(&m, given, 0.5, Vec2::splat(0.3)).unwrap();
         assert!(s.delta);
