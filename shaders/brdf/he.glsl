@@ -152,6 +152,13 @@ vec3 he_eval(Material m, vec3 wi, vec3 wo) {
 #endif
 }
 
+// 1 − e^(−x) without cancellation for small x.
+float he_one_minus_exp_neg(float x) {
+    if (x < 0.01) return x * (1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0))));
+    precise float r = 1.0 - exp(-x);
+    return r;
+}
+
 // (P_delta, P_beckmann, P_cosine, m_s) for the known direction.
 vec4 he_lobe_probabilities(Material m, vec3 given) {
     float sigma0 = m.p[0].x;
@@ -161,7 +168,8 @@ vec4 he_lobe_probabilities(Material m, vec3 given) {
     float sigma = he_effective_sigma(m, given, given);
     vec3 l = m.p[3].xyz;
     vec3 a = 4.0 * PI * sigma * given.z / l;
-    vec3 gs = vec3(1.0) - exp(-a * a);
+    vec3 gs = vec3(he_one_minus_exp_neg(a.x * a.x), he_one_minus_exp_neg(a.y * a.y),
+                   he_one_minus_exp_neg(a.z * a.z));
     float wdd = luminance(f * gs) * he_shadow_s1(sigma0, tau, given);
     float wb = 0.9 * wdd;
     float wc = luminance(m.p[4].xyz) + 0.1 * wdd;

@@ -325,6 +325,15 @@ pub fn eval(m: &He, wi: Vec3, wo: Vec3) -> Vec3 {
     ud + f * dd
 }
 
+/// 1 − e^(−x) for x ≥ 0 without cancellation for small x (GLSL has no expm1): a 4-term
+/// series below 0.01 (error < 1e-12 relative), the direct form above.
+pub fn one_minus_exp_neg(x: f32) -> f32 {
+    if x < 0.01 {
+        return x * (1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0))));
+    }
+    1.0 - (-x).exp()
+}
+
 /// Lobe selection for a known direction: (P_delta, P_beckmann, P_cosine) and the Beckmann
 /// slope m_s.
 pub fn lobe_probabilities(m: &He, given: Vec3) -> (f32, f32, f32, f32) {
@@ -334,7 +343,7 @@ pub fn lobe_probabilities(m: &He, given: Vec3) -> (f32, f32, f32, f32) {
     let l = m.wavelengths;
     let gs = |lambda: f32| {
         let a = 4.0 * PI * sigma * given.z / lambda;
-        1.0 - (-a * a).exp()
+        one_minus_exp_neg(a * a)
     };
     let wdd =
         luminance(f * Vec3::new(gs(l.x), gs(l.y), gs(l.z))) * shadow_s1(m.sigma0, m.tau, given);
