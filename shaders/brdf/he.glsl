@@ -128,11 +128,18 @@ float he_specular_attenuation(Material m, float lambda, vec3 w) {
     return exp(-a * a) * s1 * s1;
 }
 
+vec3 he_specular_exp(Material m, float sigma, vec3 w) {
+    vec3 l = m.p[3].xyz;
+    float k = 4.0 * PI * sigma * w.z;
+    vec3 a = vec3(k / l.x, k / l.y, k / l.z);
+    return vec3(exp(-a.x * a.x), exp(-a.y * a.y), exp(-a.z * a.z));
+}
+
 vec3 he_specular_reflectance(Material m, vec3 w) {
     vec3 f = fresnel_conductor(w.z, m.p[1].xyz, m.p[2].xyz);
-    vec3 l = m.p[3].xyz;
-    return f * vec3(he_specular_attenuation(m, l.x, w), he_specular_attenuation(m, l.y, w),
-                    he_specular_attenuation(m, l.z, w));
+    float sigma = he_effective_sigma(m, w, w);
+    float s1 = he_shadow_s1(m.p[0].x, m.p[0].y, w);
+    return f * he_specular_exp(m, sigma, w) * (s1 * s1);
 }
 
 vec3 he_eval(Material m, vec3 wi, vec3 wo) {
@@ -163,14 +170,16 @@ float he_one_minus_exp_neg(float x) {
 vec4 he_lobe_probabilities(Material m, vec3 given) {
     float sigma0 = m.p[0].x;
     float tau = m.p[0].y;
-    float spec = luminance(he_specular_reflectance(m, given));
     vec3 f = fresnel_conductor(given.z, m.p[1].xyz, m.p[2].xyz);
     float sigma = he_effective_sigma(m, given, given);
+    float s1 = he_shadow_s1(sigma0, tau, given);
     vec3 l = m.p[3].xyz;
-    vec3 a = 4.0 * PI * sigma * given.z / l;
+    float spec = luminance(f * he_specular_exp(m, sigma, given) * (s1 * s1));
+    float k = 4.0 * PI * sigma * given.z;
+    vec3 a = vec3(k / l.x, k / l.y, k / l.z);
     vec3 gs = vec3(he_one_minus_exp_neg(a.x * a.x), he_one_minus_exp_neg(a.y * a.y),
                    he_one_minus_exp_neg(a.z * a.z));
-    float wdd = luminance(f * gs) * he_shadow_s1(sigma0, tau, given);
+    float wdd = luminance(f * gs) * s1;
     float wb = 0.9 * wdd;
     float wc = luminance(m.p[4].xyz) + 0.1 * wdd;
     float total = spec + wb + wc;

@@ -293,15 +293,20 @@ pub fn specular_attenuation(m: &He, lambda: f32, w: Vec3) -> f32 {
     (-a * a).exp() * s1 * s1
 }
 
+/// e^(−g_s) per channel for the effective roughness σ at incidence cosθ = w.z.
+fn specular_exp(m: &He, sigma: f32, w: Vec3) -> Vec3 {
+    let l = m.wavelengths;
+    let k = 4.0 * PI * sigma * w.z;
+    let a = Vec3::new(k / l.x, k / l.y, k / l.z);
+    Vec3::new((-a.x * a.x).exp(), (-a.y * a.y).exp(), (-a.z * a.z).exp())
+}
+
 /// The delta lobe's reflectance F(cosθ)·e^(−g_s)·S₁² per channel.
 pub fn specular_reflectance(m: &He, w: Vec3) -> Vec3 {
     let f = fresnel_conductor(w.z, m.ior, m.k);
-    let l = m.wavelengths;
-    f * Vec3::new(
-        specular_attenuation(m, l.x, w),
-        specular_attenuation(m, l.y, w),
-        specular_attenuation(m, l.z, w),
-    )
+    let sigma = effective_sigma(m, w, w);
+    let s1 = shadow_s1(m.sigma0, m.tau, w);
+    f * specular_exp(m, sigma, w) * (s1 * s1)
 }
 
 /// f_dd + f_ud (eqs. 10, 15); the specular delta is not seen.
@@ -337,16 +342,19 @@ pub fn one_minus_exp_neg(x: f32) -> f32 {
 /// Lobe selection for a known direction: (P_delta, P_beckmann, P_cosine) and the Beckmann
 /// slope m_s.
 pub fn lobe_probabilities(m: &He, given: Vec3) -> (f32, f32, f32, f32) {
-    let spec = luminance(specular_reflectance(m, given));
     let f = fresnel_conductor(given.z, m.ior, m.k);
     let sigma = effective_sigma(m, given, given);
+    let s1 = shadow_s1(m.sigma0, m.tau, given);
     let l = m.wavelengths;
-    let gs = |lambda: f32| {
-        let a = 4.0 * PI * sigma * given.z / lambda;
-        one_minus_exp_neg(a * a)
-    };
-    let wdd =
-        luminance(f * Vec3::new(gs(l.x), gs(l.y), gs(l.z))) * shadow_s1(m.sigma0, m.tau, given);
+    let spec = luminance(f * specular_exp(m, sigma, given) * (s1 * s1));
+    let k = 4.0 * PI * sigma * given.z;
+    let a = Vec3::new(k / l.x, k / l.y, k / l.z);
+    let gs = Vec3::new(
+        one_minus_exp_neg(a.x * a.x),
+        one_minus_exp_neg(a.y * a.y),
+        one_minus_exp_neg(a.z * a.z),
+    );
+    let wdd = luminance(f * gs) * s1;
     let wb = 0.9 * wdd;
     let wc = luminance(m.diffuse) + 0.1 * wdd;
     let total = spec + wb + wc;
