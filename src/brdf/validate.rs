@@ -309,6 +309,18 @@ pub fn albedo_quadrature(b: &dyn Brdf, given: Vec3, n: usize) -> f64 {
 
 /// [`albedo_quadrature`] per channel.
 pub fn albedo_quadrature_rgb(b: &dyn Brdf, given: Vec3, n: usize) -> DVec3 {
+    quadrature(b, given, n, false)
+}
+
+/// The albedo with the *light* direction held fixed: ρ(wi) = ∫ f(wi, wo) cosθo dωo with
+/// wi = `light` (the convention of brdf-models.md §1 and of its tables). Equal to
+/// [`albedo_quadrature`] for reciprocal models; for the survey's Phong (eq. 4) the two differ,
+/// and the path tracer (which samples wi given wo) sees [`albedo_quadrature`].
+pub fn albedo_quadrature_light(b: &dyn Brdf, light: Vec3, n: usize) -> f64 {
+    mean3(quadrature(b, light, n, true))
+}
+
+fn quadrature(b: &dyn Brdf, fixed: Vec3, n: usize, fixed_is_light: bool) -> DVec3 {
     let nt = n.max(1);
     let np = 2 * nt;
     let dtheta = 0.5 * PI / nt as f64;
@@ -329,7 +341,10 @@ pub fn albedo_quadrature_rgb(b: &dyn Brdf, given: Vec3, n: usize) -> DVec3 {
                     (tm.sin() * pm.sin()) as f32,
                     tm.cos() as f32,
                 );
-                let f = dvec(b.eval(wi, given));
+                let f = match fixed_is_light {
+                    false => dvec(b.eval(wi, fixed)),
+                    true => dvec(b.eval(fixed, wi)),
+                };
                 if f.is_finite() {
                     row += f;
                 }
