@@ -18,6 +18,7 @@
 
 pub mod common;
 pub mod lambert;
+pub mod oren_nayar;
 pub mod params;
 pub mod validate;
 
@@ -92,7 +93,16 @@ pub struct ModelInfo {
 }
 
 /// Every model, in a fixed order; the index is the model id on the GPU.
-pub static MODELS: &[ModelInfo] = &[ModelInfo { name: "lambert", parse: lambert::parse }];
+pub static MODELS: &[ModelInfo] = &[
+    ModelInfo {
+        name: "lambert",
+        parse: lambert::parse,
+    },
+    ModelInfo {
+        name: "oren_nayar",
+        parse: oren_nayar::parse,
+    },
+];
 
 /// A named material instance: which model and its parameters.
 #[derive(Clone, Debug)]
@@ -118,7 +128,10 @@ pub fn parse_material(
         false => return Err(reader.error("model", "missing: every material names its model")),
         true => reader.choice("model", &model_names(), "lambert")?,
     };
-    let model = MODELS.iter().position(|m| m.name == name).expect("choice returns a known model");
+    let model = MODELS
+        .iter()
+        .position(|m| m.name == name)
+        .expect("choice returns a known model");
     let brdf = (MODELS[model].parse)(&mut reader)?;
     let warnings = reader.finish()?;
     Ok((Material { model, brdf }, warnings))
