@@ -93,15 +93,10 @@ pub struct ModelInfo {
 }
 
 /// Every model, in a fixed order; the index is the model id on the GPU.
+#[rustfmt::skip]
 pub static MODELS: &[ModelInfo] = &[
-    ModelInfo {
-        name: "lambert",
-        parse: lambert::parse,
-    },
-    ModelInfo {
-        name: "oren_nayar",
-        parse: oren_nayar::parse,
-    },
+    ModelInfo { name: "lambert", parse: lambert::parse },
+    ModelInfo { name: "oren_nayar", parse: oren_nayar::parse },
 ];
 
 /// A named material instance: which model and its parameters.
@@ -128,10 +123,7 @@ pub fn parse_material(
         false => return Err(reader.error("model", "missing: every material names its model")),
         true => reader.choice("model", &model_names(), "lambert")?,
     };
-    let model = MODELS
-        .iter()
-        .position(|m| m.name == name)
-        .expect("choice returns a known model");
+    let model = MODELS.iter().position(|m| m.name == name).expect("choice returns a known model");
     let brdf = (MODELS[model].parse)(&mut reader)?;
     let warnings = reader.finish()?;
     Ok((Material { model, brdf }, warnings))

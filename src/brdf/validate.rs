@@ -56,12 +56,7 @@ pub struct Chi2Config {
 
 impl Default for Chi2Config {
     fn default() -> Self {
-        Chi2Config {
-            theta_res: 40,
-            phi_res: 80,
-            sub: 6,
-            min_expected: 5.0,
-        }
+        Chi2Config { theta_res: 40, phi_res: 80, sub: 6, min_expected: 5.0 }
     }
 }
 
@@ -76,22 +71,13 @@ pub fn dir_from_theta_deg(theta_deg: f32, phi_deg: f32) -> Vec3 {
 /// The harness's uniform random number for (seed, sample index, dimension).
 #[inline]
 fn rand(seed: u64, i: usize, dim: u32) -> f32 {
-    random_f32(
-        seed as u32,
-        (seed >> 32) as u32,
-        i as u32,
-        (i >> 32) as u32,
-        dim,
-    )
+    random_f32(seed as u32, (seed >> 32) as u32, i as u32, (i >> 32) as u32, dim)
 }
 
 /// The three random numbers of sample `i`: (u_lobe, u).
 #[inline]
 fn sample_inputs(seed: u64, i: usize) -> (f32, Vec2) {
-    (
-        rand(seed, i, 0),
-        Vec2::new(rand(seed, i, 1), rand(seed, i, 2)),
-    )
+    (rand(seed, i, 0), Vec2::new(rand(seed, i, 1), rand(seed, i, 2)))
 }
 
 fn dvec(v: Vec3) -> DVec3 {
@@ -189,11 +175,8 @@ pub fn chi2_test_with(
 
     // Cells (expected, observed), plus the "outside" cell.
     let n = samples as f64;
-    let mut cells: Vec<(f64, f64)> = expected
-        .iter()
-        .zip(&observed)
-        .map(|(e, o)| (e * n, *o as f64))
-        .collect();
+    let mut cells: Vec<(f64, f64)> =
+        expected.iter().zip(&observed).map(|(e, o)| (e * n, *o as f64)).collect();
     cells.push((
         ((1.0 - pdf_integral) * n).max(0.0),
         (samples as u64 - inside) as f64 - zero_pdf_hits as f64,
@@ -223,11 +206,7 @@ pub fn chi2_test_with(
         ncells += 1;
     }
     let dof = ncells.saturating_sub(1);
-    let p_value = if dof == 0 {
-        1.0
-    } else {
-        chi2_survival(dof as f64, stat)
-    };
+    let p_value = if dof == 0 { 1.0 } else { chi2_survival(dof as f64, stat) };
     Chi2Result {
         p_value,
         dof,
@@ -493,11 +472,7 @@ mod tests {
     #[test]
     fn sidak_level() {
         assert!((sidak(0.01, 1) - 0.01).abs() < 1e-15);
-        assert!(
-            (sidak(0.01, 10) - 0.001_004_528_708).abs() < 1e-12,
-            "{}",
-            sidak(0.01, 10)
-        );
+        assert!((sidak(0.01, 10) - 0.001_004_528_708).abs() < 1e-12, "{}", sidak(0.01, 10));
     }
 
     #[test]
