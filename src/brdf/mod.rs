@@ -20,6 +20,7 @@ pub mod common;
 pub mod lambert;
 pub mod oren_nayar;
 pub mod params;
+pub mod phong;
 pub mod validate;
 
 use glam::{Vec2, Vec3};
@@ -97,6 +98,7 @@ pub struct ModelInfo {
 pub static MODELS: &[ModelInfo] = &[
     ModelInfo { name: "lambert", parse: lambert::parse },
     ModelInfo { name: "oren_nayar", parse: oren_nayar::parse },
+    ModelInfo { name: "phong", parse: phong::parse },
 ];
 
 /// A named material instance: which model and its parameters.
