@@ -16,6 +16,7 @@
 //!
 //! Adding a model: a Rust file here, a GLSL file in `shaders/brdf/`, one line in [`MODELS`].
 
+pub mod blinn_phong;
 pub mod common;
 pub mod lambert;
 pub mod oren_nayar;
@@ -99,6 +100,7 @@ pub static MODELS: &[ModelInfo] = &[
     ModelInfo { name: "lambert", parse: lambert::parse },
     ModelInfo { name: "oren_nayar", parse: oren_nayar::parse },
     ModelInfo { name: "phong", parse: phong::parse },
+    ModelInfo { name: "blinn_phong", parse: blinn_phong::parse },
 ];
 
 /// A named material instance: which model and its parameters.
