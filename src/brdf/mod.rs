@@ -23,6 +23,7 @@ pub mod oren_nayar;
 pub mod params;
 pub mod phong;
 pub mod validate;
+pub mod ward;
 
 use glam::{Vec2, Vec3};
 pub use params::{Origin, ParamError, ParamReader};
@@ -101,6 +102,7 @@ pub static MODELS: &[ModelInfo] = &[
     ModelInfo { name: "oren_nayar", parse: oren_nayar::parse },
     ModelInfo { name: "phong", parse: phong::parse },
     ModelInfo { name: "blinn_phong", parse: blinn_phong::parse },
+    ModelInfo { name: "ward", parse: ward::parse },
 ];
 
 /// A named material instance: which model and its parameters.
