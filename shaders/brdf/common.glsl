@@ -1,7 +1,7 @@
 // Building blocks shared by the models. Rust twin: src/brdf/common.rs.
 #ifndef BRDF_COMMON_GLSL
 #define BRDF_COMMON_GLSL
-#include "../common.glsl"  // relative: a bare "common.glsl" resolves to this file itself
+#include "brdf/../common.glsl"  // = shaders/common.glsl both for glslangValidator -I (a bare "common.glsl" finds this file first) and for vk::ShaderCompiler (root-relative, no "../" above the root)
 
 // Cosine-weighted hemisphere sample, concentric mapping (Shirley & Chiu 1997). pdf = cosθ/π.
 vec3 sample_cosine_hemisphere(vec2 u) {
