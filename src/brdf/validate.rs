@@ -48,7 +48,9 @@ pub struct Chi2Config {
     pub theta_res: usize,
     /// Cells in φ, uniform over [0, 2π).
     pub phi_res: usize,
-    /// Midpoint sub-grid per cell (sub × sub pdf evaluations) for the expected counts.
+    /// Each cell is split into sub × sub parts, each integrated by the adaptive 3 × 3
+    /// Gauss–Legendre rule, for the expected counts (the parts must be small enough that some
+    /// node sees every lobe: 4 gives nodes ~0.003 rad apart).
     pub sub: usize,
     /// Cells whose expected count is below this are pooled.
     pub min_expected: f64,
@@ -56,7 +58,7 @@ pub struct Chi2Config {
 
 impl Default for Chi2Config {
     fn default() -> Self {
-        Chi2Config { theta_res: 40, phi_res: 80, sub: 6, min_expected: 5.0 }
+        Chi2Config { theta_res: 40, phi_res: 80, sub: 4, min_expected: 5.0 }
     }
 }
 
@@ -89,8 +91,8 @@ fn mean3(v: DVec3) -> f64 {
 }
 
 /// Mitsuba/pbrt-style χ² test of `sample` against `pdf` for a fixed `given` direction:
-/// 40 × 80 cells over the upper hemisphere (θ, φ uniform), the pdf integrated per cell on a
-/// 6 × 6 midpoint sub-grid (exact sinθ weight), cells with expected count < 5 pooled, plus one
+/// 40 × 80 cells over the upper hemisphere (θ, φ uniform), the pdf integrated per cell by an
+/// adaptive Gauss–Legendre rule on 4 × 4 parts, cells with expected count < 5 pooled, plus one
 /// cell for "no non-delta sample in the upper hemisphere" (delta samples, rejected samples)
 /// whose expected count is samples·(1 − ∫pdf). Deterministic for a given seed.
 pub fn chi2_test(b: &dyn Brdf, given: Vec3, samples: usize, seed: u64) -> Chi2Result {
@@ -144,28 +146,26 @@ pub fn chi2_test_with(
         }
     }
 
-    // Expected counts: ∫cell pdf dω on a midpoint sub-grid, exact in sinθ.
+    // Expected counts: ∫cell pdf dω, each cell split into sub × sub parts integrated by the
+    // adaptive Gauss–Legendre rule of the albedo quadrature.
+    let g = |theta: f64, phi: f64| -> DVec3 {
+        let (st, ct) = theta.sin_cos();
+        let w = Vec3::new((st * phi.cos()) as f32, (st * phi.sin()) as f32, ct as f32);
+        let p = b.pdf(given, w) as f64;
+        DVec3::splat(if p.is_finite() && p > 0.0 { p * st } else { 0.0 })
+    };
+    let abs_density = 1e-7 / (0.5 * PI * 2.0 * PI);
+    let (st, sp) = (dtheta / sub as f64, dphi / sub as f64);
     let expected: Vec<f64> = (0..nt * np)
         .into_par_iter()
         .map(|c| {
             let (it, ip) = (c / np, c % np);
             let mut sum = 0.0f64;
             for a in 0..sub {
-                let t0 = (it as f64 + a as f64 / sub as f64) * dtheta;
-                let t1 = t0 + dtheta / sub as f64;
-                let tm = 0.5 * (t0 + t1);
-                let wt = (t0.cos() - t1.cos()) * dphi / sub as f64;
+                let t0 = it as f64 * dtheta + a as f64 * st;
                 for k in 0..sub {
-                    let pm = (ip as f64 + (k as f64 + 0.5) / sub as f64) * dphi;
-                    let w = Vec3::new(
-                        (tm.sin() * pm.cos()) as f32,
-                        (tm.sin() * pm.sin()) as f32,
-                        tm.cos() as f32,
-                    );
-                    let p = b.pdf(given, w) as f64;
-                    if p.is_finite() && p > 0.0 {
-                        sum += p * wt;
-                    }
+                    let p0 = ip as f64 * dphi + k as f64 * sp;
+                    sum += adaptive_cell(&g, t0, t0 + st, p0, p0 + sp, abs_density, 0).x;
                 }
             }
             sum
