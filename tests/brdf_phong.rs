@@ -34,13 +34,18 @@ fn default_is_the_survey_form() {
 
 #[test]
 fn sampler_matches_pdf() {
+    let mut min_p = 1.0f64;
+    // A different seed per configuration: the Šidák level assumes independent tests.
+    let mut seed = 100u64;
     let level = sidak(0.01, 18);
     for form in FORMS {
         for n in [1.0, 30.0, 500.0] {
             let m = phong(0.4, 0.6, n, form);
             for th in [0.0, 45.0, 80.0] {
                 let wo = dir_from_theta_deg(th, 10.0);
-                let r = chi2_test(m.brdf.as_ref(), wo, 200_000, 23);
+                seed += 1;
+                let r = chi2_test(m.brdf.as_ref(), wo, 200_000, seed);
+                min_p = min_p.min(r.p_value);
                 assert_eq!(r.zero_pdf_hits, 0, "{form} n={n} {th}°: {r:?}");
                 assert!(r.p_value > level, "{form} n={n} {th}°: {r:?}");
                 assert!((r.pdf_integral - r.sample_fraction).abs() < 0.01, "{r:?}");
@@ -50,6 +55,7 @@ fn sampler_matches_pdf() {
             }
         }
     }
+    eprintln!("smallest χ² p-value {min_p:.4} (level {level:.5})");
 }
 
 /// brdf-models.md §5 (k_s = 1, light direction fixed): survey albedo 2.09 at 0° and 7.95 at
