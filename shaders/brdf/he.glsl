@@ -159,13 +159,6 @@ vec3 he_eval(Material m, vec3 wi, vec3 wo) {
 #endif
 }
 
-// 1 − e^(−x) without cancellation for small x.
-float he_one_minus_exp_neg(float x) {
-    if (x < 0.01) return x * (1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0))));
-    precise float r = 1.0 - exp(-x);
-    return r;
-}
-
 // (P_delta, P_beckmann, P_cosine, m_s) for the known direction.
 vec4 he_lobe_probabilities(Material m, vec3 given) {
     float sigma0 = m.p[0].x;
@@ -177,8 +170,8 @@ vec4 he_lobe_probabilities(Material m, vec3 given) {
     float spec = luminance(f * he_specular_exp(m, sigma, given) * (s1 * s1));
     float k = 4.0 * PI * sigma * given.z;
     vec3 a = vec3(k / l.x, k / l.y, k / l.z);
-    vec3 gs = vec3(he_one_minus_exp_neg(a.x * a.x), he_one_minus_exp_neg(a.y * a.y),
-                   he_one_minus_exp_neg(a.z * a.z));
+    vec3 gs = vec3(-expm1_f(-a.x * a.x), -expm1_f(-a.y * a.y),
+                   -expm1_f(-a.z * a.z));
     float wdd = luminance(f * gs) * s1;
     float wb = 0.9 * wdd;
     float wc = luminance(m.p[4].xyz) + 0.1 * wdd;

@@ -62,7 +62,7 @@
 //! p[12..15] wavelengths, p[16..19] diffuse.
 
 use super::common::{
-    beckmann_d, cosine_hemisphere_pdf, erfc, fresnel_conductor, luminance, reflect_about,
+    beckmann_d, cosine_hemisphere_pdf, erfc, expm1_f, fresnel_conductor, luminance, reflect_about,
     reflect_z, same_hemisphere_up, sample_beckmann_h, sample_cosine_hemisphere,
 };
 use super::{Brdf, BrdfSample, ParamError, ParamReader, Params};
@@ -330,15 +330,6 @@ pub fn eval(m: &He, wi: Vec3, wo: Vec3) -> Vec3 {
     ud + f * dd
 }
 
-/// 1 − e^(−x) for x ≥ 0 without cancellation for small x (GLSL has no expm1): a 4-term
-/// series below 0.01 (error < 1e-12 relative), the direct form above.
-pub fn one_minus_exp_neg(x: f32) -> f32 {
-    if x < 0.01 {
-        return x * (1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0))));
-    }
-    1.0 - (-x).exp()
-}
-
 /// Lobe selection for a known direction: (P_delta, P_beckmann, P_cosine) and the Beckmann
 /// slope m_s.
 pub fn lobe_probabilities(m: &He, given: Vec3) -> (f32, f32, f32, f32) {
@@ -350,9 +341,9 @@ pub fn lobe_probabilities(m: &He, given: Vec3) -> (f32, f32, f32, f32) {
     let k = 4.0 * PI * sigma * given.z;
     let a = Vec3::new(k / l.x, k / l.y, k / l.z);
     let gs = Vec3::new(
-        one_minus_exp_neg(a.x * a.x),
-        one_minus_exp_neg(a.y * a.y),
-        one_minus_exp_neg(a.z * a.z),
+        -expm1_f(-a.x * a.x),
+        -expm1_f(-a.y * a.y),
+        -expm1_f(-a.z * a.z),
     );
     let wdd = luminance(f * gs) * s1;
     let wb = 0.9 * wdd;

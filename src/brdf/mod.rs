@@ -16,13 +16,17 @@
 //!
 //! Adding a model: a Rust file here, a GLSL file in `shaders/brdf/`, one line in [`MODELS`].
 
+pub mod blinn_phong;
 pub mod common;
 pub mod cook_torrance;
 pub mod he;
 pub mod lambert;
+pub mod oren_nayar;
 pub mod params;
+pub mod phong;
 pub mod schlick;
 pub mod validate;
+pub mod ward;
 
 use glam::{Vec2, Vec3};
 pub use params::{Origin, ParamError, ParamReader};
@@ -95,10 +99,15 @@ pub struct ModelInfo {
 }
 
 /// Every model, in a fixed order; the index is the model id on the GPU.
+#[rustfmt::skip]
 pub static MODELS: &[ModelInfo] = &[
     ModelInfo { name: "lambert", parse: lambert::parse },
+    ModelInfo { name: "oren_nayar", parse: oren_nayar::parse },
+    ModelInfo { name: "phong", parse: phong::parse },
+    ModelInfo { name: "blinn_phong", parse: blinn_phong::parse },
     ModelInfo { name: "cook_torrance", parse: cook_torrance::parse },
     ModelInfo { name: "he", parse: he::parse },
+    ModelInfo { name: "ward", parse: ward::parse },
     ModelInfo { name: "schlick", parse: schlick::parse },
 ];
 

@@ -1,0 +1,83 @@
+// Blinn–Phong 1977, survey eq. 5 (half vector) with Phong's eq. 4: `classic`; or Giesen's
+// normalized lobe. Parameters, defaults, ranges, reciprocity/energy notes:
+// src/brdf/blinn_phong.rs.
+// Record: p[0].xyz = kd, p[0].w = exponent, p[1].xyz = ks, p[1].w = form (0 classic,
+// 1 normalized), p[2].x = probability of sampling the specular lobe, p[2].y = k_n.
+#ifndef BRDF_BLINN_PHONG_GLSL
+#define BRDF_BLINN_PHONG_GLSL
+#include "brdf/common.glsl"
+
+#define BLINN_PHONG_COS_FLOOR 1e-6
+
+// Unit half vector h of a and b and x = 1 - h.z; false when a + b ~ 0.
+bool blinn_phong_half(vec3 a, vec3 b, out vec3 h, out float x) {
+    vec3 hv = a + b;
+    float len2 = dot(hv, hv);
+    h = vec3(0.0, 0.0, 1.0);
+    x = 0.0;
+    if (len2 <= 1e-20) return false;
+    h = hv / sqrt(len2);
+    float sin2 = (hv.x * hv.x + hv.y * hv.y) / len2;
+    x = sin2 / (1.0 + max(h.z, 0.0));
+    return true;
+}
+
+float blinn_phong_sample_exponent(Material m) {
+    return m.p[1].w > 0.5 ? m.p[0].w + 1.0 : m.p[0].w;
+}
+
+vec3 blinn_phong_eval(Material m, vec3 wi, vec3 wo) {
+    if (!same_hemisphere_up(wi, wo)) return vec3(0.0);
+    vec3 diffuse = m.p[0].xyz * INV_PI;
+    vec3 h;
+    float x;
+    if (!blinn_phong_half(wi, wo, h, x)) return diffuse;
+    float l = pow_one_minus(x, m.p[0].w);
+    float spec = m.p[1].w > 0.5 ? l * m.p[2].y : l / max(wi.z, BLINN_PHONG_COS_FLOOR);
+    return diffuse + m.p[1].xyz * spec;
+}
+
+float blinn_phong_pdf(Material m, vec3 given, vec3 sampled) {
+    if (!same_hemisphere_up(given, sampled)) return 0.0;
+    float p_spec = m.p[2].x;
+    float pd = cosine_hemisphere_pdf(sampled.z);
+    float ps = 0.0;
+    vec3 h;
+    float x;
+    if (blinn_phong_half(given, sampled, h, x)) {
+        float e = blinn_phong_sample_exponent(m);
+        float pdf_h = (e + 1.0) * (0.5 * INV_PI) * pow_one_minus(x, e);
+        ps = pdf_h / (4.0 * max(dot(given, h), 1e-10));
+    }
+    return (1.0 - p_spec) * pd + p_spec * ps;
+}
+
+bool blinn_phong_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s) {
+    s.wi = vec3(0.0, 0.0, 1.0);
+    s.weight = vec3(0.0);
+    s.pdf = 0.0;
+    s.delta = false;
+    if (given.z <= 0.0) return false;
+    vec3 wi;
+    if (u_lobe < m.p[2].x) {
+        // cos(theta_h) = u'^(1/(e+1)), u' = 1 - u.x in (0, 1].
+        float l = log(1.0 - u.x) / (blinn_phong_sample_exponent(m) + 1.0);
+        float cos_h = exp(l);
+        float sin_h = sqrt(max(-expm1_f(2.0 * l), 0.0));
+        float phi = 2.0 * PI * u.y;
+        vec3 h = vec3(sin_h * cos(phi), sin_h * sin(phi), cos_h);
+        if (dot(given, h) <= 0.0) return false;
+        wi = reflect_about(given, h);
+    } else {
+        wi = sample_cosine_hemisphere(u);
+    }
+    if (wi.z <= 0.0) return false;
+    float p = blinn_phong_pdf(m, given, wi);
+    if (p <= 0.0) return false;
+    s.wi = wi;
+    s.pdf = p;
+    s.weight = blinn_phong_eval(m, wi, given) * (wi.z / p);
+    return true;
+}
+
+#endif

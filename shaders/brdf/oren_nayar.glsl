@@ -1,0 +1,58 @@
+// Oren–Nayar 1994, survey §2.1.2 (no equation in the survey; the paper's full and qualitative
+// models). Parameters, defaults, ranges, reciprocity/energy notes: src/brdf/oren_nayar.rs.
+// Record: p[0].xyz = albedo, p[0].w = sigma (radians), p[1].x = variant (0 full, 1 qualitative).
+#ifndef BRDF_OREN_NAYAR_GLSL
+#define BRDF_OREN_NAYAR_GLSL
+#include "brdf/common.glsl"
+
+vec3 oren_nayar_eval(Material m, vec3 wi, vec3 wo) {
+    if (!same_hemisphere_up(wi, wo)) return vec3(0.0);
+    vec3 albedo = m.p[0].xyz;
+    float s2 = m.p[0].w * m.p[0].w;
+    float a = 1.0 - 0.5 * s2 / (s2 + 0.33);
+    float b = 0.45 * s2 / (s2 + 0.09);
+    float sin_i = length(wi.xy);
+    float sin_o = length(wo.xy);
+    float sxy = wi.x * wo.x + wi.y * wo.y;  // sin(theta_i) sin(theta_o) cos(dphi)
+    float cos_beta = max(max(wi.z, wo.z), 1e-6);
+    if (m.p[1].x > 0.5) {
+        return albedo * (INV_PI * (a + b * max(sxy, 0.0) / cos_beta));
+    }
+    float cos_dphi = (sin_i < 1e-4 || sin_o < 1e-4) ? 0.0 : clamp(sxy / (sin_i * sin_o), -1.0, 1.0);
+    float theta_i = atan(sin_i, wi.z);
+    float theta_o = atan(sin_o, wo.z);
+    float alpha = max(theta_i, theta_o);
+    float beta = min(theta_i, theta_o);
+    float sin_alpha = max(sin_i, sin_o);
+    float sin_beta = min(sin_i, sin_o);
+    float tan_beta = sin_beta / cos_beta;
+    float tan_half = (sin_alpha + sin_beta) / max(wi.z + wo.z, 1e-6);  // tan((alpha+beta)/2)
+    float two_beta_pi = 2.0 * beta / PI;
+    float c2 = cos_dphi >= 0.0 ? b * sin_alpha
+                               : b * (sin_alpha - two_beta_pi * two_beta_pi * two_beta_pi);
+    float t = 4.0 * alpha * beta / (PI * PI);
+    float c3 = 0.125 * s2 / (s2 + 0.09) * t * t;
+    float l1 = max(a + cos_dphi * c2 * tan_beta + (1.0 - abs(cos_dphi)) * c3 * tan_half, 0.0);
+    float l2 = 0.17 * s2 / (s2 + 0.13) * (1.0 - cos_dphi * two_beta_pi * two_beta_pi);
+    return (albedo * l1 + albedo * albedo * l2) * INV_PI;
+}
+
+float oren_nayar_pdf(Material m, vec3 given, vec3 sampled) {
+    if (!same_hemisphere_up(given, sampled)) return 0.0;
+    return cosine_hemisphere_pdf(sampled.z);
+}
+
+bool oren_nayar_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s) {
+    s.wi = vec3(0.0, 0.0, 1.0);
+    s.weight = vec3(0.0);
+    s.pdf = 0.0;
+    s.delta = false;
+    if (given.z <= 0.0) return false;
+    s.wi = sample_cosine_hemisphere(u);
+    s.pdf = cosine_hemisphere_pdf(s.wi.z);
+    if (s.pdf <= 0.0) return false;
+    s.weight = oren_nayar_eval(m, s.wi, given) * PI;  // f cos / (cos/pi)
+    return true;
+}
+
+#endif

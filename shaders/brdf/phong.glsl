@@ -1,0 +1,63 @@
+// Phong 1975, survey eq. 4 (+ eq. 3 diffuse) or the normalized Lafortune–Willems form.
+// Parameters, defaults, ranges, reciprocity/energy notes: src/brdf/phong.rs.
+// Record: p[0].xyz = kd, p[0].w = exponent, p[1].xyz = ks, p[1].w = form (0 survey,
+// 1 normalized), p[2].x = probability of sampling the specular lobe.
+#ifndef BRDF_PHONG_GLSL
+#define BRDF_PHONG_GLSL
+#include "brdf/common.glsl"
+
+#define PHONG_COS_FLOOR 1e-6
+
+// max(0, refl(wi).wo)^n, accurate for large n.
+float phong_lobe(float n, vec3 wi, vec3 wo) {
+    return pow_one_minus(one_minus_dot(reflect_z(wi), wo), n);
+}
+
+vec3 phong_eval(Material m, vec3 wi, vec3 wo) {
+    if (!same_hemisphere_up(wi, wo)) return vec3(0.0);
+    float n = m.p[0].w;
+    float l = phong_lobe(n, wi, wo);
+    float spec = m.p[1].w > 0.5 ? l * (n + 2.0) * (0.5 * INV_PI)
+                                : l / max(wi.z, PHONG_COS_FLOOR);
+    return m.p[0].xyz * INV_PI + m.p[1].xyz * spec;
+}
+
+float phong_pdf(Material m, vec3 given, vec3 sampled) {
+    if (!same_hemisphere_up(given, sampled)) return 0.0;
+    float n = m.p[0].w;
+    float p_spec = m.p[2].x;
+    float pd = cosine_hemisphere_pdf(sampled.z);
+    float ps = (n + 1.0) * (0.5 * INV_PI) * phong_lobe(n, given, sampled);
+    return (1.0 - p_spec) * pd + p_spec * ps;
+}
+
+bool phong_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s) {
+    s.wi = vec3(0.0, 0.0, 1.0);
+    s.weight = vec3(0.0);
+    s.pdf = 0.0;
+    s.delta = false;
+    if (given.z <= 0.0) return false;
+    vec3 wi;
+    if (u_lobe < m.p[2].x) {
+        vec3 r = reflect_z(given);
+        vec3 t, b;
+        orthonormal_basis(r, t, b);
+        // cos(alpha) = u'^(1/(n+1)), u' = 1 - u.x in (0, 1].
+        float l = log(1.0 - u.x) / (m.p[0].w + 1.0);
+        float cos_a = exp(l);
+        float sin_a = sqrt(max(-expm1_f(2.0 * l), 0.0));
+        float phi = 2.0 * PI * u.y;
+        wi = t * (sin_a * cos(phi)) + b * (sin_a * sin(phi)) + r * cos_a;
+    } else {
+        wi = sample_cosine_hemisphere(u);
+    }
+    if (wi.z <= 0.0) return false;
+    float p = phong_pdf(m, given, wi);
+    if (p <= 0.0) return false;
+    s.wi = wi;
+    s.pdf = p;
+    s.weight = phong_eval(m, wi, given) * (wi.z / p);
+    return true;
+}
+
+#endif

@@ -1,0 +1,235 @@
+//! Oren–Nayar (1994): rough diffuse surfaces of V-cavity facets, each Lambertian. Survey
+//! §2.1.2 (the survey describes the model in words and cites [Oren and Nayar 1994]; it gives no
+//! equation, so the formulas are the paper's, in the form of brdf-models.md §4).
+//!
+//! | parameter | unit | default | range | meaning |
+//! |---|---|---|---|---|
+//! | `albedo` | RGB, unitless | `[0.5, 0.5, 0.5]` | [0, 1] | facet albedo ρ |
+//! | `sigma` | radians | `0.3` | [0, π/2] | std-dev σ of the facet slope angle (σ = 0 is Lambert) |
+//! | `variant` | — | `"full"` | `full`, `qualitative` | the paper's full model or its qualitative simplification |
+//!
+//! **Default `full`.** The survey presents Oren–Nayar only as "a generalization of the Lambert
+//! model" by reference to the 1994 paper; the model of that paper is the full one (C1, C2, C3
+//! and the interreflection term L2). The paper itself offers the qualitative model as a cheaper
+//! approximation, so a user who names only the model gets the full one.
+//!
+//! Full model (α = max(θi, θo), β = min(θi, θo), Δφ = φo − φi, s = σ²):
+//! * C1 = 1 − 0.5 s/(s + 0.33);
+//! * C2 = 0.45 s/(s + 0.09)·sinα if cosΔφ ≥ 0, else 0.45 s/(s + 0.09)·(sinα − (2β/π)³);
+//! * C3 = 0.125 s/(s + 0.09)·(4αβ/π²)²;
+//! * L1 = ρ/π·[C1 + cosΔφ·C2·tanβ + (1 − |cosΔφ|)·C3·tan((α + β)/2)];
+//! * L2 = 0.17 ρ²/π · s/(s + 0.13) · [1 − cosΔφ·(2β/π)²];  f = max(L1, 0) + L2.
+//!
+//! Qualitative model: f = ρ/π·[A + B·max(0, cosΔφ)·sinα·tanβ], A = C1, B = 0.45 s/(s + 0.09),
+//! evaluated trig-free as ρ/π·[A + B·max(0, s_xy)/max(cosθi, cosθo)] with
+//! s_xy = wi.x·wo.x + wi.y·wo.y = sinθi sinθo cosΔφ.
+//!
+//! **Reciprocity and energy.** Both variants are reciprocal (symmetric in θi, θo and Δφ).
+//! Neither conserves energy exactly: the qualitative model drops the interreflections, so its
+//! albedo at normal incidence is ρ·A (0.920 at σ = 0.25, 0.785 at σ = 0.5, 0.624 at σ = 1 for
+//! ρ = 1), and both exceed 1 near grazing when ρ ≈ 1 (at σ = 0.25, 85°: qualitative 1.007,
+//! full 1.030; Fujii: the full model breaks conservation for ρ > 0.97, so `albedo` > 0.97 gives a
+//! warning). For large σ at grazing back-scatter the full L1 can go negative (the C2 term with
+//! cosΔφ < 0); it is clamped to 0 — the only departure from the paper.
+//!
+//! Numerics: sinθ from the xy components (no 1 − cos² cancellation), θ by atan2, tanβ and
+//! tan((α+β)/2) as sine ratios (half-angle identity) with denominators floored at 1e-6, cosΔφ = 0
+//! when either direction is within 1e-4 of the pole (pbrt).
+//!
+//! Sampling: cosine-weighted (pdf = cosθ/π), weight = π·f.
+//!
+//! GPU record: `p[0].xyz` = albedo, `p[0].w` = σ, `p[1].x` = variant (0 full, 1 qualitative).
+
+use super::common::{cosine_hemisphere_pdf, same_hemisphere_up, sample_cosine_hemisphere};
+use super::{Brdf, BrdfSample, ParamError, ParamReader, Params};
+use glam::{Vec2, Vec3};
+use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, PI};
+use std::sync::Arc;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Variant {
+    Full,
+    Qualitative,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct OrenNayar {
+    pub albedo: Vec3,
+    pub sigma: f32,
+    pub variant: Variant,
+}
+
+pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
+    let albedo = r.rgb("albedo", Vec3::splat(0.5), 0.0, 1.0)?;
+    let sigma = r.scalar("sigma", 0.3, 0.0, f32::INFINITY)?;
+    if sigma > FRAC_PI_2 {
+        return Err(r.error(
+            "sigma",
+            format!(
+                "{sigma} is out of range: must be in [0, π/2] radians (σ is the slope-angle \
+                 std-dev in radians; {sigma}° would be {:.4})",
+                sigma.to_radians()
+            ),
+        ));
+    }
+    let variant = match r.choice("variant", &["full", "qualitative"], "full")? {
+        "qualitative" => Variant::Qualitative,
+        _ => Variant::Full,
+    };
+    if albedo.max_element() > 0.97 {
+        r.warn(
+            "albedo",
+            "Oren–Nayar reflects more than it receives near grazing incidence for albedo > 0.97 \
+             (albedo 1.03 at 85° for σ = 0.25, full model)",
+        );
+    }
+    Ok(Arc::new(OrenNayar { albedo, sigma, variant }))
+}
+
+/// f_r of Oren & Nayar 1994 (survey §2.1.2), without the cosine.
+pub fn eval(m: &OrenNayar, wi: Vec3, wo: Vec3) -> Vec3 {
+    if !same_hemisphere_up(wi, wo) {
+        return Vec3::ZERO;
+    }
+    let s2 = m.sigma * m.sigma;
+    let a = 1.0 - 0.5 * s2 / (s2 + 0.33);
+    let b = 0.45 * s2 / (s2 + 0.09);
+    let sin_i = Vec2::new(wi.x, wi.y).length();
+    let sin_o = Vec2::new(wo.x, wo.y).length();
+    // sinθi sinθo cosΔφ, exactly.
+    let sxy = wi.x * wo.x + wi.y * wo.y;
+    let cos_beta = wi.z.max(wo.z).max(1e-6);
+    if m.variant == Variant::Qualitative {
+        return m.albedo * (FRAC_1_PI * (a + b * sxy.max(0.0) / cos_beta));
+    }
+    let cos_dphi =
+        if sin_i < 1e-4 || sin_o < 1e-4 { 0.0 } else { (sxy / (sin_i * sin_o)).clamp(-1.0, 1.0) };
+    let theta_i = sin_i.atan2(wi.z);
+    let theta_o = sin_o.atan2(wo.z);
+    let alpha = theta_i.max(theta_o);
+    let beta = theta_i.min(theta_o);
+    let sin_alpha = sin_i.max(sin_o);
+    let sin_beta = sin_i.min(sin_o);
+    let tan_beta = sin_beta / cos_beta;
+    // tan((α + β)/2) = (sinα + sinβ)/(cosα + cosβ).
+    let tan_half = (sin_alpha + sin_beta) / (wi.z + wo.z).max(1e-6);
+    let two_beta_pi = 2.0 * beta / PI;
+    let c2 = if cos_dphi >= 0.0 {
+        b * sin_alpha
+    } else {
+        b * (sin_alpha - two_beta_pi * two_beta_pi * two_beta_pi)
+    };
+    let t = 4.0 * alpha * beta / (PI * PI);
+    let c3 = 0.125 * s2 / (s2 + 0.09) * t * t;
+    let l1 = (a + cos_dphi * c2 * tan_beta + (1.0 - cos_dphi.abs()) * c3 * tan_half).max(0.0);
+    let l2 = 0.17 * s2 / (s2 + 0.13) * (1.0 - cos_dphi * two_beta_pi * two_beta_pi);
+    (m.albedo * l1 + m.albedo * m.albedo * l2) * FRAC_1_PI
+}
+
+pub fn pdf(_m: &OrenNayar, given: Vec3, sampled: Vec3) -> f32 {
+    if !same_hemisphere_up(given, sampled) {
+        return 0.0;
+    }
+    cosine_hemisphere_pdf(sampled.z)
+}
+
+pub fn sample(m: &OrenNayar, given: Vec3, u: Vec2) -> Option<BrdfSample> {
+    if given.z <= 0.0 {
+        return None;
+    }
+    let wi = sample_cosine_hemisphere(u);
+    let pdf = cosine_hemisphere_pdf(wi.z);
+    if pdf <= 0.0 {
+        return None;
+    }
+    // f·cosθ/(cosθ/π) = π·f, without the 0/0 at the horizon.
+    let weight = eval(m, wi, given) * PI;
+    Some(BrdfSample { wi, weight, pdf, delta: false })
+}
+
+impl Brdf for OrenNayar {
+    fn eval(&self, wi: Vec3, wo: Vec3) -> Vec3 {
+        eval(self, wi, wo)
+    }
+    fn pdf(&self, given: Vec3, sampled: Vec3) -> f32 {
+        pdf(self, given, sampled)
+    }
+    fn sample(&self, given: Vec3, _u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
+        sample(self, given, u)
+    }
+    fn pack(&self) -> Params {
+        let mut p = Params::default();
+        p.set3(0, self.albedo).set(3, self.sigma);
+        p.set(4, if self.variant == Variant::Qualitative { 1.0 } else { 0.0 });
+        p
+    }
+    fn scatters(&self) -> bool {
+        self.albedo != Vec3::ZERO
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::brdf::validate::dir_from_theta_deg;
+
+    fn on(sigma: f32, variant: Variant) -> OrenNayar {
+        OrenNayar { albedo: Vec3::ONE, sigma, variant }
+    }
+
+    #[test]
+    fn sigma_zero_is_lambert() {
+        for v in [Variant::Full, Variant::Qualitative] {
+            let m = on(0.0, v);
+            for (a, b) in [(0.0, 0.0), (30.0, 70.0), (89.9, 10.0), (60.0, 60.0)] {
+                let f = eval(&m, dir_from_theta_deg(a, 0.0), dir_from_theta_deg(b, 120.0));
+                assert!((f - Vec3::splat(FRAC_1_PI)).abs().max_element() < 1e-6, "{f}");
+            }
+        }
+    }
+
+    #[test]
+    fn finite_at_edges() {
+        let dirs = [
+            Vec3::Z,
+            dir_from_theta_deg(89.999, 0.0),
+            dir_from_theta_deg(89.999, 180.0),
+            Vec3::new(1.0, 0.0, 1e-30),
+            Vec3::new(-1.0, 0.0, 1e-30),
+            Vec3::new(0.0, 1.0, f32::MIN_POSITIVE),
+            dir_from_theta_deg(1e-3, 90.0),
+            dir_from_theta_deg(45.0, 45.0),
+        ];
+        for sigma in [0.0, 0.25, 1.0, FRAC_PI_2] {
+            for v in [Variant::Full, Variant::Qualitative] {
+                let m = on(sigma, v);
+                for a in dirs {
+                    for b in dirs {
+                        let f = eval(&m, a, b);
+                        assert!(
+                            f.is_finite() && f.min_element() >= 0.0,
+                            "{sigma} {v:?} {a} {b}: {f}"
+                        );
+                        let s = sample(&m, a, Vec2::new(0.3, 0.7)).unwrap();
+                        assert!(s.weight.is_finite() && s.pdf > 0.0);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn trig_free_qualitative_equals_angle_form() {
+        let (sigma, a_deg, b_deg, dphi) = (0.6f32, 35.0f32, 70.0f32, 40.0f32);
+        let m = on(sigma, Variant::Qualitative);
+        let f = eval(&m, dir_from_theta_deg(a_deg, 10.0), dir_from_theta_deg(b_deg, 10.0 + dphi)).x;
+        let s2 = sigma * sigma;
+        let (a, b) = (1.0 - 0.5 * s2 / (s2 + 0.33), 0.45 * s2 / (s2 + 0.09));
+        let expect = FRAC_1_PI
+            * (a + b
+                * dphi.to_radians().cos()
+                * b_deg.to_radians().sin()
+                * a_deg.to_radians().tan());
+        assert!((f - expect).abs() < 1e-5 * expect, "{f} vs {expect}");
+    }
+}

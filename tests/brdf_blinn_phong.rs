@@ -1,0 +1,168 @@
+//! Blinn–Phong (survey eq. 5 with Phong's eq. 4: `classic`; Giesen-normalized: `normalized`)
+//! through the validation harness.
+
+use brdfwave::brdf::validate::{
+    albedo_quadrature, albedo_quadrature_light, albedo_sampled, chi2_test, dir_from_theta_deg,
+    reciprocity_error, sample_consistency, sidak,
+};
+use brdfwave::brdf::{parse_material, Material, Origin};
+use std::collections::BTreeMap;
+use std::f64::consts::PI;
+
+fn material(src: &str) -> Result<(Material, Vec<String>), String> {
+    let fields: BTreeMap<String, toml::Spanned<toml::Value>> =
+        toml::from_str(src).map_err(|e| e.to_string())?;
+    let origin = Origin { file: "test.toml", source: src, material: "m", span: 0..src.len() };
+    parse_material(origin, fields).map_err(|e| e.to_string())
+}
+
+fn bp(kd: f32, ks: f32, n: f32, form: &str) -> Material {
+    let src = format!(
+        "model = \"blinn_phong\"\nkd = {kd}\nks = {ks}\nexponent = {n}\nform = \"{form}\"\n"
+    );
+    material(&src).unwrap().0
+}
+
+const FORMS: [&str; 2] = ["classic", "normalized"];
+const ANGLES: [f32; 5] = [0.0, 30.0, 60.0, 80.0, 89.0];
+
+#[test]
+fn default_is_the_classic_form() {
+    let (m, w) = material("model = \"blinn_phong\"\n").unwrap();
+    assert!(w.is_empty(), "{w:?}");
+    let c = bp(0.5, 0.3, 80.0, "classic");
+    let (a, b) = (dir_from_theta_deg(50.0, 0.0), dir_from_theta_deg(45.0, 170.0));
+    assert_eq!(m.brdf.eval(a, b), c.brdf.eval(a, b));
+}
+
+#[test]
+fn sampler_matches_pdf() {
+    let mut min_p = 1.0f64;
+    // A different seed per configuration: the Šidák level assumes independent tests.
+    let mut seed = 100u64;
+    let level = sidak(0.01, 18);
+    for form in FORMS {
+        for n in [1.0, 40.0, 1000.0] {
+            let m = bp(0.4, 0.6, n, form);
+            for th in [0.0, 45.0, 80.0] {
+                let wo = dir_from_theta_deg(th, 10.0);
+                seed += 1;
+                let r = chi2_test(m.brdf.as_ref(), wo, 200_000, seed);
+                min_p = min_p.min(r.p_value);
+                assert_eq!(r.zero_pdf_hits, 0, "{form} n={n} {th}°: {r:?}");
+                assert!(r.p_value > level, "{form} n={n} {th}°: {r:?}");
+                assert!((r.pdf_integral - r.sample_fraction).abs() < 0.01, "{r:?}");
+                let c = sample_consistency(m.brdf.as_ref(), wo, 20_000, 5);
+                assert!(c.bad_samples == 0 && c.pdf_rel_error < 1e-5, "{c:?}");
+                assert!(c.weight_rel_error < 1e-4, "{form} n={n} {th}°: {c:?}");
+            }
+        }
+    }
+    eprintln!("smallest χ² p-value {min_p:.4} (level {level:.5})");
+}
+
+/// Analytic values at normal incidence (k_s = 1, k_d = 0), derived with c = cos(θ/2):
+/// classic, viewer fixed: 8π(1 − 2^{−(n+2)/2})/(n+2); classic, light fixed:
+/// 8π[2(1 − 2^{−(n+4)/2})/(n+4) − (1 − 2^{−(n+2)/2})/(n+2)]; normalized: exactly 1 (Giesen;
+/// brdf-models.md §6 quotes 0.9999 from quadrature).
+#[test]
+fn white_furnace_against_reference_values() {
+    let z = dir_from_theta_deg(0.0, 0.0);
+    for n in [1.0f64, 10.0, 100.0] {
+        let c = bp(0.0, 1.0, n as f32, "classic");
+        let v = albedo_quadrature(c.brdf.as_ref(), z, 100);
+        let l = albedo_quadrature_light(c.brdf.as_ref(), z, 100);
+        let ev = 8.0 * PI * (1.0 - (-(n + 2.0) / 2.0).exp2()) / (n + 2.0);
+        let el = 8.0
+            * PI
+            * (2.0 * (1.0 - (-(n + 4.0) / 2.0).exp2()) / (n + 4.0)
+                - (1.0 - (-(n + 2.0) / 2.0).exp2()) / (n + 2.0));
+        eprintln!("classic n={n}: 0° viewer fixed {v:.4} (analytic {ev:.4}), light fixed {l:.4} (analytic {el:.4})");
+        assert!((v - ev).abs() < 2e-3 * ev && (l - el).abs() < 2e-3 * el, "{n}");
+        let m = bp(0.0, 1.0, n as f32, "normalized");
+        let a = albedo_quadrature(m.brdf.as_ref(), z, 100);
+        eprintln!("normalized n={n}: 0° {a:.5} (analytic 1)");
+        assert!((a - 1.0).abs() < 2e-3, "{n}: {a}");
+    }
+    for (form, n) in [
+        ("classic", 1.0),
+        ("classic", 80.0),
+        ("normalized", 1.0),
+        ("normalized", 80.0),
+        ("normalized", 2000.0),
+    ] {
+        let m = bp(0.0, 1.0, n, form);
+        let row: Vec<f64> = ANGLES
+            .iter()
+            .map(|&t| albedo_quadrature(m.brdf.as_ref(), dir_from_theta_deg(t, 0.0), 100))
+            .collect();
+        let light: Vec<f64> = ANGLES
+            .iter()
+            .map(|&t| albedo_quadrature_light(m.brdf.as_ref(), dir_from_theta_deg(t, 0.0), 100))
+            .collect();
+        eprintln!("{form:10} n={n:6}: viewer fixed {row:.4?}\n{:20}light fixed  {light:.4?}", "");
+        if form == "normalized" {
+            for (a, b) in row.iter().zip(&light) {
+                assert!(*a <= 1.0 + 2e-3 && (a - b).abs() < 2e-3, "{n}: {row:?} {light:?}");
+            }
+        } else if n == 1.0 {
+            assert!(
+                row.iter().all(|a| *a > 2.0),
+                "classic n=1 reflects > 2× what it receives: {row:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn sampled_albedo_agrees_with_quadrature() {
+    for form in FORMS {
+        for n in [3.0, 300.0] {
+            let m = bp(0.3, 0.6, n, form);
+            for t in ANGLES {
+                let wo = dir_from_theta_deg(t, 0.0);
+                let q = albedo_quadrature(m.brdf.as_ref(), wo, 100);
+                let ns = 100_000;
+                let (s, var) = albedo_sampled(m.brdf.as_ref(), wo, ns, 3);
+                let se = (var / ns as f64).sqrt();
+                assert!(
+                    (s - q).abs() < 5.0 * se + 2e-3 * q,
+                    "{form} n={n} {t}°: sampled {s} ± {se}, quadrature {q}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn reciprocity() {
+    let e = reciprocity_error(bp(0.3, 0.6, 10.0, "normalized").brdf.as_ref(), 20_000, 9);
+    assert!(e < 1e-5, "normalized: {e}");
+    let m = bp(0.0, 1.0, 10.0, "classic");
+    assert!(reciprocity_error(m.brdf.as_ref(), 20_000, 9) > 0.5);
+    for (ta, tb) in [(20.0, 50.0), (60.0, 10.0), (80.0, 75.0)] {
+        let a = dir_from_theta_deg(ta, 0.0);
+        let b = dir_from_theta_deg(tb, 170.0);
+        let ratio = m.brdf.eval(a, b).x / m.brdf.eval(b, a).x;
+        let expect = b.z / a.z;
+        assert!((ratio / expect - 1.0).abs() < 1e-5, "{ta} {tb}: {ratio} vs {expect}");
+    }
+}
+
+#[test]
+fn bad_parameters() {
+    let e = material("model = \"blinn_phong\"\nexponent = 2e6\n").unwrap_err();
+    assert!(
+        e.contains("test.toml:2") && e.contains("exponent") && e.contains("out of range"),
+        "{e}"
+    );
+    let e = material("model = \"blinn_phong\"\nform = \"survey\"\n").unwrap_err();
+    assert!(e.contains("form") && e.contains("classic, normalized"), "{e}");
+    let e = material("model = \"blinn_phong\"\nkd = [0.1, 0.2, -0.3]\n").unwrap_err();
+    assert!(e.contains("kd") && e.contains("-0.3"), "{e}");
+    let (_, w) =
+        material("model = \"blinn_phong\"\nform = \"normalized\"\nkd = 0.6\nks = 0.6\n").unwrap();
+    assert!(w.len() == 1 && w[0].contains("kd + ks = 1.200"), "{w:?}");
+    let (_, w) = material("model = \"blinn_phong\"\nexponent = 1\nks = 0.5\n").unwrap();
+    assert!(w.len() == 1 && w[0].contains("classic"), "{w:?}");
+}

@@ -1,0 +1,139 @@
+//! Oren–Nayar (survey §2.1.2) through the validation harness: sampler vs pdf, white-furnace
+//! albedo against brdf-models.md §4, reciprocity, sampled vs quadrature albedo, bad parameters.
+
+use brdfwave::brdf::validate::{
+    albedo_quadrature, albedo_sampled, chi2_test, dir_from_theta_deg, reciprocity_error,
+    sample_consistency, sidak,
+};
+use brdfwave::brdf::{parse_material, Material, Origin};
+use std::collections::BTreeMap;
+
+fn material(src: &str) -> Result<(Material, Vec<String>), String> {
+    let fields: BTreeMap<String, toml::Spanned<toml::Value>> =
+        toml::from_str(src).map_err(|e| e.to_string())?;
+    let origin = Origin { file: "test.toml", source: src, material: "m", span: 0..src.len() };
+    parse_material(origin, fields).map_err(|e| e.to_string())
+}
+
+fn on(albedo: f32, sigma: f32, variant: &str) -> Material {
+    let src = format!(
+        "model = \"oren_nayar\"\nalbedo = {albedo}\nsigma = {sigma}\nvariant = \"{variant}\"\n"
+    );
+    material(&src).unwrap().0
+}
+
+const VARIANTS: [&str; 2] = ["full", "qualitative"];
+const ANGLES: [f32; 5] = [0.0, 30.0, 60.0, 80.0, 89.0];
+
+#[test]
+fn default_is_the_full_model() {
+    let (m, w) = material("model = \"oren_nayar\"\n").unwrap();
+    assert!(w.is_empty());
+    let full = on(0.5, 0.3, "full");
+    let (a, b) = (dir_from_theta_deg(60.0, 0.0), dir_from_theta_deg(40.0, 30.0));
+    assert_eq!(m.brdf.eval(a, b), full.brdf.eval(a, b));
+    assert_ne!(m.brdf.eval(a, b), on(0.5, 0.3, "qualitative").brdf.eval(a, b));
+}
+
+#[test]
+fn sampler_matches_pdf() {
+    let mut min_p = 1.0f64;
+    // A different seed per configuration: the Šidák level assumes independent tests.
+    let mut seed = 100u64;
+    let level = sidak(0.01, 6);
+    for v in VARIANTS {
+        let m = on(0.8, 0.5, v);
+        for th in [0.0, 50.0, 85.0] {
+            let wo = dir_from_theta_deg(th, 30.0);
+            seed += 1;
+            let r = chi2_test(m.brdf.as_ref(), wo, 200_000, seed);
+            min_p = min_p.min(r.p_value);
+            assert_eq!(r.zero_pdf_hits, 0, "{v} {th}°: {r:?}");
+            assert!(r.p_value > level, "{v} {th}°: {r:?}");
+            let c = sample_consistency(m.brdf.as_ref(), wo, 20_000, 5);
+            assert!(c.bad_samples == 0 && c.pdf_rel_error < 1e-5, "{c:?}");
+            assert!(c.weight_rel_error < 1e-4, "{v} {th}°: {c:?}");
+        }
+    }
+    eprintln!("smallest χ² p-value {min_p:.4} (level {level:.5})");
+}
+
+/// brdf-models.md §4: the qualitative albedo at normal incidence is exactly ρ·A (0.920, 0.785,
+/// 0.624 for σ = 0.25, 0.5, 1 and ρ = 1); near grazing at σ = 0.25 both exceed 1 (qualitative
+/// 1.007, full 1.030 at 85°).
+#[test]
+fn white_furnace_against_reference_values() {
+    for (sigma, expect) in [(0.25, 0.920), (0.5, 0.785), (1.0, 0.624)] {
+        let m = on(1.0, sigma, "qualitative");
+        let a = albedo_quadrature(m.brdf.as_ref(), dir_from_theta_deg(0.0, 0.0), 100);
+        eprintln!("qualitative σ={sigma} 0°: {a:.4} (reference {expect})");
+        assert!((a - expect).abs() < 1e-3, "σ {sigma}: {a}");
+    }
+    for (v, expect) in [("qualitative", 1.007), ("full", 1.030)] {
+        let m = on(1.0, 0.25, v);
+        let a = albedo_quadrature(m.brdf.as_ref(), dir_from_theta_deg(85.0, 0.0), 100);
+        eprintln!("{v} σ=0.25 85°: {a:.4} (reference {expect})");
+        assert!((a - expect).abs() < 0.005 * expect, "{v}: {a}");
+    }
+    // The table for the report, and: σ = 0 is Lambert; below 1 away from grazing for ρ = 1.
+    for v in VARIANTS {
+        for sigma in [0.0f32, 0.25, 0.5, 1.0] {
+            let m = on(1.0, sigma, v);
+            let row: Vec<f64> = ANGLES
+                .iter()
+                .map(|&t| albedo_quadrature(m.brdf.as_ref(), dir_from_theta_deg(t, 0.0), 100))
+                .collect();
+            eprintln!("{v:12} σ={sigma:4}: {row:.4?}");
+            for (t, a) in ANGLES.iter().zip(&row) {
+                assert!(a.is_finite() && *a > 0.5, "{v} σ {sigma} {t}°: {a}");
+                if sigma == 0.0 {
+                    assert!((a - 1.0).abs() < 1e-4, "{v} σ 0 {t}°: {a}");
+                } else if *t <= 60.0 {
+                    assert!(*a < 1.0, "{v} σ {sigma} {t}°: {a}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn sampled_albedo_agrees_with_quadrature() {
+    for v in VARIANTS {
+        let m = on(0.9, 0.7, v);
+        for t in ANGLES {
+            let wo = dir_from_theta_deg(t, 0.0);
+            let q = albedo_quadrature(m.brdf.as_ref(), wo, 100);
+            let n = 100_000;
+            let (s, var) = albedo_sampled(m.brdf.as_ref(), wo, n, 3);
+            let se = (var / n as f64).sqrt();
+            assert!(
+                (s - q).abs() < 5.0 * se + 2e-3 * q,
+                "{v} {t}°: sampled {s} ± {se}, quadrature {q}"
+            );
+        }
+    }
+}
+
+#[test]
+fn reciprocal() {
+    for v in VARIANTS {
+        for sigma in [0.2, 0.8, 1.5] {
+            let e = reciprocity_error(on(0.7, sigma, v).brdf.as_ref(), 20_000, 9);
+            assert!(e < 1e-5, "{v} σ {sigma}: {e}");
+        }
+    }
+}
+
+#[test]
+fn bad_parameters() {
+    let e = material("model = \"oren_nayar\"\nsigma = 20\n").unwrap_err();
+    assert!(e.contains("test.toml:2") && e.contains("sigma") && e.contains("radians"), "{e}");
+    let e = material("model = \"oren_nayar\"\nsigma = -0.1\n").unwrap_err();
+    assert!(e.contains("sigma") && e.contains("out of range"), "{e}");
+    let e = material("model = \"oren_nayar\"\nvariant = \"fast\"\n").unwrap_err();
+    assert!(e.contains("variant") && e.contains("full, qualitative"), "{e}");
+    let e = material("model = \"oren_nayar\"\nroughness = 0.3\n").unwrap_err();
+    assert!(e.contains("roughness") && e.contains("unknown field"), "{e}");
+    let (_, w) = material("model = \"oren_nayar\"\nalbedo = 0.99\n").unwrap();
+    assert!(w.len() == 1 && w[0].contains("albedo") && w[0].contains("0.97"), "{w:?}");
+}
