@@ -120,56 +120,6 @@ pub fn one_minus_dot(a: Vec3, b: Vec3) -> f32 {
     0.5 * (a - b).length_squared()
 }
 
-#[cfg(test)]
-mod models_a_tests {
-    use super::*;
-
-    #[test]
-    fn expm1_and_log1p_match_libm() {
-        let mut x = -5.0f64;
-        while x < 5.0 {
-            for s in [1e-7f64, 1e-4, 1e-2, 1.0] {
-                let v = x * s;
-                let e = libm::expm1(v);
-                assert!(
-                    ((expm1_f(v as f32) as f64) - e).abs() <= 4e-7 * e.abs().max(1e-30),
-                    "expm1 {v}"
-                );
-                if v > -0.999 {
-                    let l = libm::log1p(v);
-                    assert!(
-                        ((log1p_f(v as f32) as f64) - l).abs() <= 4e-7 * l.abs().max(1e-30),
-                        "log1p {v}"
-                    );
-                }
-            }
-            x += 0.0371;
-        }
-    }
-
-    #[test]
-    fn pow_one_minus_is_accurate_for_huge_exponents() {
-        // (1 − x)^n for x = 1e-7, n = 1e6: e^{−0.1} ≈ 0.904837 (pow(1 − x, n) in f32 gives 0.89).
-        let v = pow_one_minus(1e-7, 1e6) as f64;
-        let exact = (1e6 * libm::log1p(-1e-7)).exp();
-        assert!((v - exact).abs() < 1e-6, "{v} vs {exact}");
-        assert_eq!(pow_one_minus(1.0, 5.0), 0.0);
-        assert_eq!(pow_one_minus(0.5, 0.0), 1.0);
-    }
-
-    #[test]
-    fn basis_is_orthonormal() {
-        for n in
-            [Vec3::Z, -Vec3::Z, Vec3::new(0.6, 0.0, 0.8), Vec3::new(-0.36, 0.48, -0.8), Vec3::X]
-        {
-            let (t, b) = orthonormal_basis(n);
-            assert!(t.dot(b).abs() < 1e-6 && t.dot(n).abs() < 1e-6 && b.dot(n).abs() < 1e-6);
-            assert!((t.length() - 1.0).abs() < 1e-6 && (b.length() - 1.0).abs() < 1e-6);
-            assert!((t.cross(b) - n).length() < 1e-5);
-        }
-    }
-}
-
 // ───────────────────────────────────────────────────────────────────────────────────────────
 // models-b section: special functions, Fresnel, microfacet NDFs and Smith masking used by
 // cook_torrance, he and schlick (luminance, reflect_z and reflect_about are in the models-a
@@ -350,4 +300,54 @@ pub fn sample_beckmann_h(u: Vec2, alpha: f32) -> Vec3 {
 pub fn sample_ggx_h(u: Vec2, alpha: f32) -> Vec3 {
     let tan2 = alpha * alpha * u.x / (1.0 - u.x).max(1e-30);
     half_vector_from_tan2(tan2, u.y)
+}
+
+#[cfg(test)]
+mod models_a_tests {
+    use super::*;
+
+    #[test]
+    fn expm1_and_log1p_match_libm() {
+        let mut x = -5.0f64;
+        while x < 5.0 {
+            for s in [1e-7f64, 1e-4, 1e-2, 1.0] {
+                let v = x * s;
+                let e = libm::expm1(v);
+                assert!(
+                    ((expm1_f(v as f32) as f64) - e).abs() <= 4e-7 * e.abs().max(1e-30),
+                    "expm1 {v}"
+                );
+                if v > -0.999 {
+                    let l = libm::log1p(v);
+                    assert!(
+                        ((log1p_f(v as f32) as f64) - l).abs() <= 4e-7 * l.abs().max(1e-30),
+                        "log1p {v}"
+                    );
+                }
+            }
+            x += 0.0371;
+        }
+    }
+
+    #[test]
+    fn pow_one_minus_is_accurate_for_huge_exponents() {
+        // (1 − x)^n for x = 1e-7, n = 1e6: e^{−0.1} ≈ 0.904837 (pow(1 − x, n) in f32 gives 0.89).
+        let v = pow_one_minus(1e-7, 1e6) as f64;
+        let exact = (1e6 * libm::log1p(-1e-7)).exp();
+        assert!((v - exact).abs() < 1e-6, "{v} vs {exact}");
+        assert_eq!(pow_one_minus(1.0, 5.0), 0.0);
+        assert_eq!(pow_one_minus(0.5, 0.0), 1.0);
+    }
+
+    #[test]
+    fn basis_is_orthonormal() {
+        for n in
+            [Vec3::Z, -Vec3::Z, Vec3::new(0.6, 0.0, 0.8), Vec3::new(-0.36, 0.48, -0.8), Vec3::X]
+        {
+            let (t, b) = orthonormal_basis(n);
+            assert!(t.dot(b).abs() < 1e-6 && t.dot(n).abs() < 1e-6 && b.dot(n).abs() < 1e-6);
+            assert!((t.length() - 1.0).abs() < 1e-6 && (b.length() - 1.0).abs() < 1e-6);
+            assert!((t.cross(b) - n).length() < 1e-5);
+        }
+    }
 }
