@@ -76,4 +76,134 @@ float one_minus_dot(vec3 a, vec3 b) {
     return 0.5 * dot(d, d);
 }
 
+// ─────────────────────────────────────────────────────────────────────────────────────────────
+// models-b section: special functions, Fresnel, microfacet NDFs and Smith masking used by
+// cook_torrance, he and schlick. Rust twins of the same names in src/brdf/common.rs.
+// ─────────────────────────────────────────────────────────────────────────────────────────────
+
+// erfc with relative accuracy (Numerical Recipes erfcc form), |x| clamped to 10.
+float erfc(float x) {
+    float z = min(abs(x), 10.0);
+    float t = 1.0 / (1.0 + 0.5 * z);
+    float p = -1.2655122
+        + t * (1.0000237
+        + t * (0.37409196
+        + t * (0.09678418
+        + t * (-0.18628806
+        + t * (0.27886807
+        + t * (-1.13520398
+        + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277))))))));
+    float r = t * exp(-z * z + p);
+    return x >= 0.0 ? r : 2.0 - r;
+}
+
+// Survey eq. 7, unpolarised dielectric Fresnel (see the Rust twin for the guards).
+float fresnel_dielectric(float c, float n) {
+    c = clamp(c, 0.0, 1.0);
+    if (n == 1.0) return 0.0;
+    precise float g2 = n * n + c * c - 1.0;
+    if (g2 <= 0.0) return 1.0;
+    float g = sqrt(g2);
+    precise float a = (g - c) / (g + c);
+    precise float num = c * (g + c) - 1.0;
+    precise float den = c * (g - c) + 1.0;
+    float b = num / den;
+    return clamp(0.5 * a * a * (1.0 + b * b), 0.0, 1.0);
+}
+
+// Exact conductor Fresnel, one channel (real-arithmetic form; see the Rust twin).
+float fresnel_conductor1(float c, float eta, float k) {
+    c = clamp(c, 0.0, 1.0);
+    float c2 = c * c;
+    precise float s2 = max(1.0 - c2, 0.0);
+    precise float x = eta * eta - k * k - s2;
+    float ek = eta * k;
+    float t = sqrt(x * x + 4.0 * ek * ek);
+    float a2;
+    float b2;
+    if (x >= 0.0) {
+        a2 = 0.5 * (t + x);
+        b2 = a2 > 0.0 ? ek * ek / a2 : 0.0;
+    } else {
+        b2 = 0.5 * (t - x);
+        a2 = b2 > 0.0 ? ek * ek / b2 : 0.0;
+    }
+    float a = sqrt(a2);
+    float ab2 = a2 + b2;
+    precise float rs_num = ab2 - 2.0 * a * c + c2;
+    float rs_den = ab2 + 2.0 * a * c + c2;
+    float rs = rs_den > 0.0 ? rs_num / rs_den : 1.0;
+    precise float p_num = c2 * ab2 - 2.0 * a * c * s2 + s2 * s2;
+    float p_den = c2 * ab2 + 2.0 * a * c * s2 + s2 * s2;
+    float rp = p_den > 0.0 ? rs * p_num / p_den : rs;
+    return clamp(0.5 * (rs + rp), 0.0, 1.0);
+}
+
+vec3 fresnel_conductor(float c, vec3 eta, vec3 k) {
+    return vec3(fresnel_conductor1(c, eta.x, k.x), fresnel_conductor1(c, eta.y, k.y),
+                fresnel_conductor1(c, eta.z, k.z));
+}
+
+// Schlick's approximation (survey eq. 18), fifth power by multiplications.
+vec3 fresnel_schlick(float c, vec3 f0) {
+    precise float m = clamp(1.0 - clamp(c, 0.0, 1.0), 0.0, 1.0);
+    float m2 = m * m;
+    float m5 = m2 * m2 * m;
+    return f0 + (vec3(1.0) - f0) * m5;
+}
+
+float tan2_theta(vec3 w) { return (w.x * w.x + w.y * w.y) / (w.z * w.z); }
+
+// Normalised isotropic Beckmann NDF (survey eq. 6 / π).
+float beckmann_d(vec3 h, float alpha) {
+    if (h.z <= 0.0) return 0.0;
+    float a2 = alpha * alpha;
+    float c2 = h.z * h.z;
+    float e = exp(-tan2_theta(h) / a2);
+    return e / (PI * a2 * c2 * c2);
+}
+
+// Normalised isotropic GGX NDF.
+float ggx_d(vec3 h, float alpha) {
+    if (h.z <= 0.0) return 0.0;
+    float a2 = alpha * alpha;
+    float d = h.z * h.z * a2 + h.x * h.x + h.y * h.y;
+    if (d <= 0.0) return 0.0;
+    return a2 / (PI * d * d);
+}
+
+// Smith G1 for Beckmann, Walter et al. 2007's rational approximation.
+float smith_g1_beckmann_walter(vec3 w, float alpha) {
+    if (w.z <= 0.0) return 0.0;
+    float s = sqrt(w.x * w.x + w.y * w.y);
+    if (w.z >= 1.6 * alpha * s) return 1.0;
+    float a = w.z / (alpha * s);
+    return (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a);
+}
+
+// Exact Smith G1 for GGX.
+float smith_g1_ggx(vec3 w, float alpha) {
+    if (w.z <= 0.0) return 0.0;
+    float s2 = w.x * w.x + w.y * w.y;
+    float r = sqrt(w.z * w.z + alpha * alpha * s2);
+    return 2.0 * w.z / (w.z + r);
+}
+
+vec3 half_vector_from_tan2(float tan2, float u) {
+    float cos_t = 1.0 / sqrt(1.0 + tan2);
+    float sin_t = sqrt(tan2) * cos_t;
+    float phi = 2.0 * PI * u;
+    return vec3(sin_t * cos(phi), sin_t * sin(phi), cos_t);
+}
+
+vec3 sample_beckmann_h(vec2 u, float alpha) {
+    float tan2 = -alpha * alpha * log(max(1.0 - u.x, 1e-30));
+    return half_vector_from_tan2(max(tan2, 0.0), u.y);
+}
+
+vec3 sample_ggx_h(vec2 u, float alpha) {
+    float tan2 = alpha * alpha * u.x / max(1.0 - u.x, 1e-30);
+    return half_vector_from_tan2(tan2, u.y);
+}
+
 #endif

@@ -19,10 +19,13 @@
 pub mod blinn_phong;
 pub mod common;
 pub mod inline;
+pub mod cook_torrance;
+pub mod he;
 pub mod lambert;
 pub mod oren_nayar;
 pub mod params;
 pub mod phong;
+pub mod schlick;
 pub mod validate;
 pub mod ward;
 
@@ -103,7 +106,10 @@ pub static MODELS: &[ModelInfo] = &[
     ModelInfo { name: "oren_nayar", parse: oren_nayar::parse },
     ModelInfo { name: "phong", parse: phong::parse },
     ModelInfo { name: "blinn_phong", parse: blinn_phong::parse },
+    ModelInfo { name: "cook_torrance", parse: cook_torrance::parse },
+    ModelInfo { name: "he", parse: he::parse },
     ModelInfo { name: "ward", parse: ward::parse },
+    ModelInfo { name: "schlick", parse: schlick::parse },
 ];
 
 /// A named material instance: which model and its parameters.

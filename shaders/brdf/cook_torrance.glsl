@@ -1,0 +1,99 @@
+// Cook–Torrance (1982), survey eqs. 6–9, plus kd/π. Rust twin: src/brdf/cook_torrance.rs
+// (parameter table, defaults, the 4× note on the survey normalisation, sampling).
+// Record: p[0].xyz kd, p[0].w roughness, p[1].xyz ks, p[1].w N (4 survey, 1 walter),
+// p[2].xyz Fresnel A (ior / eta / f0), p[2].w distribution (0 beckmann, 1 ggx),
+// p[3].xyz k, p[3].w geometry (0 v_cavity, 1 smith), p[4].x fresnel (0 diel., 1 cond., 2 schlick).
+#include "brdf/common.glsl"
+
+#define CT_MIRROR_ROUGHNESS 1e-3
+
+vec3 ct_fresnel(Material m, float c) {
+    int kind = int(m.p[4].x + 0.5);
+    if (kind == 0) return vec3(fresnel_dielectric(c, m.p[2].x));
+    if (kind == 1) return fresnel_conductor(c, m.p[2].xyz, m.p[3].xyz);
+    return fresnel_schlick(c, m.p[2].xyz);
+}
+
+float ct_ndf(Material m, vec3 h) {
+    if (m.p[2].w < 0.5) return beckmann_d(h, m.p[0].w);
+    return ggx_d(h, m.p[0].w);
+}
+
+float ct_geometry(Material m, vec3 wi, vec3 wo, vec3 h) {
+    float alpha = m.p[0].w;
+    if (m.p[3].w < 0.5) {
+        float c = dot(wo, h);
+        if (c <= 0.0) return 0.0;
+        float g_mask = 2.0 * h.z * wo.z / c;
+        float g_shadow = 2.0 * h.z * wi.z / c;
+        return min(min(g_mask, g_shadow), 1.0);
+    }
+    if (m.p[2].w < 0.5) return smith_g1_beckmann_walter(wi, alpha) * smith_g1_beckmann_walter(wo, alpha);
+    return smith_g1_ggx(wi, alpha) * smith_g1_ggx(wo, alpha);
+}
+
+vec3 cook_torrance_eval(Material m, vec3 wi, vec3 wo) {
+    if (!same_hemisphere_up(wi, wo)) return vec3(0.0);
+    vec3 diffuse = m.p[0].xyz * INV_PI;
+    if (m.p[0].w < CT_MIRROR_ROUGHNESS) return diffuse;
+    vec3 h = normalize(wi + wo);
+    float c = dot(wi, h);
+    float d = ct_ndf(m, h);
+    float g = ct_geometry(m, wi, wo, h);
+    float denom = max(4.0 * wi.z * wo.z, 1e-20);
+    float s = d * g / denom * m.p[1].w;
+    return diffuse + m.p[1].xyz * ct_fresnel(m, c) * s;
+}
+
+float ct_specular_probability(Material m, float cos_given) {
+    float ws = luminance(m.p[1].xyz * ct_fresnel(m, cos_given)) * m.p[1].w;
+    float wd = luminance(m.p[0].xyz);
+    if (wd <= 0.0) return 1.0;
+    if (ws <= 0.0) return 0.0;
+    return clamp(ws / (ws + wd), 0.1, 0.9);
+}
+
+float ct_specular_pdf(Material m, vec3 given, vec3 sampled) {
+    vec3 h = normalize(given + sampled);
+    float c = dot(given, h);
+    if (c <= 0.0) return 0.0;
+    return ct_ndf(m, h) * h.z / (4.0 * c);
+}
+
+float cook_torrance_pdf(Material m, vec3 given, vec3 sampled) {
+    if (!same_hemisphere_up(given, sampled)) return 0.0;
+    float ps = ct_specular_probability(m, given.z);
+    float p = (1.0 - ps) * cosine_hemisphere_pdf(sampled.z);
+    if (!(m.p[0].w < CT_MIRROR_ROUGHNESS) && ps > 0.0) p += ps * ct_specular_pdf(m, given, sampled);
+    return p;
+}
+
+bool cook_torrance_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s) {
+    s.wi = vec3(0.0, 0.0, 1.0);
+    s.weight = vec3(0.0);
+    s.pdf = 0.0;
+    s.delta = false;
+    if (given.z <= 0.0) return false;
+    float ps = ct_specular_probability(m, given.z);
+    vec3 wi;
+    if (u_lobe < ps) {
+        if (m.p[0].w < CT_MIRROR_ROUGHNESS) {
+            s.wi = reflect_z(given);
+            s.weight = m.p[1].xyz * ct_fresnel(m, given.z) * (m.p[1].w / ps);
+            s.delta = true;
+            return true;
+        }
+        vec3 h = m.p[2].w < 0.5 ? sample_beckmann_h(u, m.p[0].w) : sample_ggx_h(u, m.p[0].w);
+        if (dot(given, h) <= 0.0) return false;
+        wi = reflect_about(given, h);
+    } else {
+        wi = sample_cosine_hemisphere(u);
+    }
+    if (wi.z <= 0.0) return false;
+    float p = cook_torrance_pdf(m, given, wi);
+    if (p <= 0.0) return false;
+    s.wi = wi;
+    s.pdf = p;
+    s.weight = cook_torrance_eval(m, wi, given) * (wi.z / p);
+    return true;
+}

@@ -1,0 +1,229 @@
+// He, Torrance, Sillion & Greenberg 1991, survey eqs. 10–15 (formulas of brdf-models.md §8).
+// Rust twin: src/brdf/he.rs (parameter table, corrections to the survey's eq. 15, the series
+// window/cap and its accuracy, sampling).
+// Record: p[0].x σ₀, p[0].y τ, p[0].z 1 if σ₀ > 0, p[1].xyz ior, p[2].xyz κ,
+// p[3].xyz wavelengths (µm), p[4].xyz diffuse.
+// Define HE_SERIES to compile the directional-diffuse series (every material with σ₀ > 0
+// requests it); without it f_dd is 0, exact for σ₀ = 0.
+#include "brdf/common.glsl"
+
+#define HE_MAX_TERMS 128
+#define HE_NEWTON_STEPS 6
+
+float he_shadow_arg(float sigma0, float tau, vec3 w) {
+    float s = sqrt(w.x * w.x + w.y * w.y);
+    float den = 2.0 * sigma0 * s;
+    if (den <= 1e-30 || tau * w.z >= 30.0 * den) return 30.0;
+    return tau * max(w.z, 0.0) / den;
+}
+
+float he_shadow_s1(float sigma0, float tau, vec3 w) {
+    if (w.z <= 0.0) return 0.0;
+    float a = he_shadow_arg(sigma0, tau, w);
+    float n = a * (1.0 - 0.5 * erfc(a));
+    float e = exp(-a * a) * (0.5 / sqrt(PI));
+    return n / (n + e);
+}
+
+float he_k_term(float sigma0, float tau, vec3 w) {
+    float s = sqrt(w.x * w.x + w.y * w.y);
+    if (s <= 0.0) return 0.0;
+    float tn = s >= 1e6 * w.z ? 1e6 : s / w.z;
+    return tn * erfc(he_shadow_arg(sigma0, tau, w));
+}
+
+float he_solve_z0(float f0) {
+    if (f0 <= 1e-30) return 0.0;
+    float l = log(f0);
+    float x;
+    if (f0 <= 1.0) x = f0;
+    else if (l < 0.5) x = 1.0;
+    else x = sqrt(2.0 * l);
+    for (int i = 0; i < HE_NEWTON_STEPS; ++i) {
+        precise float g = log(x) + 0.5 * x * x - l;
+        x -= g / (1.0 / x + x);
+        x = max(x, 1e-30);
+    }
+    return x;
+}
+
+float he_effective_sigma(Material m, vec3 wi, vec3 wo) {
+    float sigma0 = m.p[0].x;
+    float tau = m.p[0].y;
+    if (sigma0 <= 0.0) return 0.0;
+    float f0 = (he_k_term(sigma0, tau, wi) + he_k_term(sigma0, tau, wo)) / sqrt(8.0 * PI);
+    float x = he_solve_z0(f0);
+    return sigma0 / sqrt(1.0 + x * x);
+}
+
+// φ(ε) = ε − ln(1 + ε) without cancellation near 0 (series in z = ε/(2+ε)).
+float he_phi_ln(float eps) {
+    float z = eps / (2.0 + eps);
+    if (abs(z) > 1.0 / 3.0) {
+        precise float d = eps - log(1.0 + eps);
+        return d;
+    }
+    float z2 = z * z;
+    float s = 1.0 / 3.0
+        + z2 * (1.0 / 5.0
+        + z2 * (1.0 / 7.0
+        + z2 * (1.0 / 9.0 + z2 * (1.0 / 11.0 + z2 * (1.0 / 13.0 + z2 * (1.0 / 15.0))))));
+    precise float r = 2.0 * z2 / (1.0 - z) - 2.0 * z * z2 * s;
+    return r;
+}
+
+float he_stirling_remainder(float m) {
+    if (m < 1.5) return 0.08106147;
+    if (m < 2.5) return 0.0413407;
+    if (m < 3.5) return 0.027677926;
+    float i = 1.0 / m;
+    float i2 = i * i;
+    return i * (1.0 / 12.0 - i2 * (1.0 / 360.0 - i2 * (1.0 / 1260.0)));
+}
+
+// Σ_{m≥1} gᵐ e^(−g)/(m!·m) e^(−c/m): log space, window [max(1, g−8√g), g+8√g+10], at most
+// HE_MAX_TERMS strided terms.
+float he_series(float g, float c) {
+    if (g <= 1e-30) return 0.0;
+    float sg = sqrt(g);
+    float lo = max(ceil(g - 8.0 * sg), 1.0);
+    float hi = floor(g + 8.0 * sg + 10.0);
+    float count = hi - lo + 1.0;
+    float stride = max(ceil(count / float(HE_MAX_TERMS)), 1.0);
+    float half_ln_2pi = 0.5 * log(2.0 * PI);
+    float sum = 0.0;
+    for (int j = 0; j < HE_MAX_TERMS; ++j) {
+        float mm = lo + float(j) * stride;
+        if (mm > hi) break;
+        float ln_m = log(mm);
+        float e = -mm * he_phi_ln(g / mm - 1.0) - half_ln_2pi - 0.5 * ln_m - he_stirling_remainder(mm)
+            - ln_m - c / mm;
+        sum += exp(e);
+    }
+    return sum * stride;
+}
+
+float he_dd_unit(Material m, float lambda, float sigma, vec3 wi, vec3 wo) {
+    float sigma0 = m.p[0].x;
+    float tau = m.p[0].y;
+    vec3 v = wi + wo;
+    float vz = wi.z + wo.z;
+    if (vz <= 1e-6) return 0.0;
+    float vxy2 = v.x * v.x + v.y * v.y;
+    float gg = dot(v, v) / vz;
+    float geo = gg * gg;
+    float s = he_shadow_s1(sigma0, tau, wi) * he_shadow_s1(sigma0, tau, wo);
+    float kw = 2.0 * PI / lambda;
+    float ks = kw * sigma * vz;
+    float g = ks * ks;
+    float c = 0.25 * kw * kw * vxy2 * tau * tau;
+    float d_over_pi = PI * tau * tau / (4.0 * lambda * lambda) * he_series(g, c);
+    return geo * s * d_over_pi / max(wi.z * wo.z, 1e-30);
+}
+
+float he_specular_attenuation(Material m, float lambda, vec3 w) {
+    float sigma = he_effective_sigma(m, w, w);
+    float s1 = he_shadow_s1(m.p[0].x, m.p[0].y, w);
+    float a = 4.0 * PI * sigma * w.z / lambda;
+    return exp(-a * a) * s1 * s1;
+}
+
+vec3 he_specular_exp(Material m, float sigma, vec3 w) {
+    vec3 l = m.p[3].xyz;
+    float k = 4.0 * PI * sigma * w.z;
+    vec3 a = vec3(k / l.x, k / l.y, k / l.z);
+    return vec3(exp(-a.x * a.x), exp(-a.y * a.y), exp(-a.z * a.z));
+}
+
+vec3 he_specular_reflectance(Material m, vec3 w) {
+    vec3 f = fresnel_conductor(w.z, m.p[1].xyz, m.p[2].xyz);
+    float sigma = he_effective_sigma(m, w, w);
+    float s1 = he_shadow_s1(m.p[0].x, m.p[0].y, w);
+    return f * he_specular_exp(m, sigma, w) * (s1 * s1);
+}
+
+vec3 he_eval(Material m, vec3 wi, vec3 wo) {
+    if (!same_hemisphere_up(wi, wo)) return vec3(0.0);
+    vec3 ud = m.p[4].xyz * INV_PI;
+    if (m.p[0].x <= 0.0) return ud;
+#ifdef HE_SERIES
+    float sigma = he_effective_sigma(m, wi, wo);
+    vec3 h = normalize(wi + wo);
+    vec3 f = fresnel_conductor(dot(wi, h), m.p[1].xyz, m.p[2].xyz);
+    vec3 l = m.p[3].xyz;
+    vec3 dd = vec3(he_dd_unit(m, l.x, sigma, wi, wo), he_dd_unit(m, l.y, sigma, wi, wo),
+                   he_dd_unit(m, l.z, sigma, wi, wo));
+    return ud + f * dd;
+#else
+    return ud;
+#endif
+}
+
+// (P_delta, P_beckmann, P_cosine, m_s) for the known direction.
+vec4 he_lobe_probabilities(Material m, vec3 given) {
+    float sigma0 = m.p[0].x;
+    float tau = m.p[0].y;
+    vec3 f = fresnel_conductor(given.z, m.p[1].xyz, m.p[2].xyz);
+    float sigma = he_effective_sigma(m, given, given);
+    float s1 = he_shadow_s1(sigma0, tau, given);
+    vec3 l = m.p[3].xyz;
+    float spec = luminance(f * he_specular_exp(m, sigma, given) * (s1 * s1));
+    float k = 4.0 * PI * sigma * given.z;
+    vec3 a = vec3(k / l.x, k / l.y, k / l.z);
+    vec3 gs = vec3(-expm1_f(-a.x * a.x), -expm1_f(-a.y * a.y),
+                   -expm1_f(-a.z * a.z));
+    float wdd = luminance(f * gs) * s1;
+    float wb = 0.9 * wdd;
+    float wc = luminance(m.p[4].xyz) + 0.1 * wdd;
+    float total = spec + wb + wc;
+    float lmax = max(max(l.x, l.y), l.z);
+    float rough = 2.0 * sigma0 / tau;
+    float diffr = lmax / (2.0 * PI * tau * max(given.z, 1e-6));
+    float ms = clamp(sqrt(rough * rough + diffr * diffr), 1e-4, 1.0);
+    if (total <= 0.0) return vec4(0.0, 0.0, 1.0, ms);
+    return vec4(spec / total, wb / total, wc / total, ms);
+}
+
+float he_beckmann_lobe_pdf(float ms, vec3 given, vec3 sampled) {
+    vec3 h = normalize(given + sampled);
+    float c = dot(given, h);
+    if (c <= 0.0) return 0.0;
+    return beckmann_d(h, ms) * h.z / (4.0 * c);
+}
+
+float he_pdf(Material m, vec3 given, vec3 sampled) {
+    if (!same_hemisphere_up(given, sampled)) return 0.0;
+    vec4 lp = he_lobe_probabilities(m, given);
+    float p = lp.z * cosine_hemisphere_pdf(sampled.z);
+    if (lp.y > 0.0) p += lp.y * he_beckmann_lobe_pdf(lp.w, given, sampled);
+    return p;
+}
+
+bool he_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s) {
+    s.wi = vec3(0.0, 0.0, 1.0);
+    s.weight = vec3(0.0);
+    s.pdf = 0.0;
+    s.delta = false;
+    if (given.z <= 0.0) return false;
+    vec4 lp = he_lobe_probabilities(m, given);
+    vec3 wi;
+    if (u_lobe < lp.x) {
+        s.wi = reflect_z(given);
+        s.weight = he_specular_reflectance(m, given) / lp.x;
+        s.delta = true;
+        return true;
+    } else if (u_lobe < lp.x + lp.y) {
+        vec3 h = sample_beckmann_h(u, lp.w);
+        if (dot(given, h) <= 0.0) return false;
+        wi = reflect_about(given, h);
+    } else {
+        wi = sample_cosine_hemisphere(u);
+    }
+    if (wi.z <= 0.0) return false;
+    float p = he_pdf(m, given, wi);
+    if (p <= 0.0) return false;
+    s.wi = wi;
+    s.pdf = p;
+    s.weight = he_eval(m, wi, given) * (wi.z / p);
+    return true;
+}

@@ -1,0 +1,512 @@
+//! Cook–Torrance (1982): microfacet specular lobe plus an optional Lambertian diffuse lobe.
+//! Survey eqs. 6 (Beckmann D), 7 (dielectric Fresnel), 8 (V-cavity G) and 9 (the BRDF).
+//!
+//! | parameter | unit | default | range | meaning |
+//! |---|---|---|---|---|
+//! | `kd` | RGB | `[0, 0, 0]` | [0, 1] | Lambertian diffuse albedo (survey: "simply adding" a diffuse part) |
+//! | `ks` | RGB | `[1, 1, 1]` | [0, 1] | scale of the specular lobe |
+//! | `roughness` | rms slope m | `0.3` | [0, 4] | Beckmann m = GGX α; below 1e-3 the lobe is a delta mirror |
+//! | `distribution` | — | `beckmann` | `beckmann` (eq. 6) \| `ggx` | microfacet NDF |
+//! | `geometry` | — | `v_cavity` | `v_cavity` (eq. 8) \| `smith` | masking-shadowing G |
+//! | `fresnel` | — | `dielectric` | `dielectric` \| `conductor` \| `schlick` | Fresnel term at c = wi·h |
+//! | `ior` | — | `1.5` | [1, 100] | relative index, `fresnel = "dielectric"` (eq. 7) |
+//! | `eta`, `k` | RGB | Au-like `[0.143, 0.375, 1.442]`, `[3.983, 2.386, 1.603]` | η ∈ (0, 100], κ ∈ [0, 100] | complex index η + iκ, `fresnel = "conductor"` (exact formula) |
+//! | `f0` | RGB | `[0.04, 0.04, 0.04]` | [0, 1] | normal-incidence reflectance, `fresnel = "schlick"` |
+//! | `normalization` | — | `survey` | `survey` (eq. 9) \| `walter` | see below |
+//!
+//! f_r = kd/π + ks · F(wi·h) · D(h) · G · N / (4 cosθi cosθo), with D normalised
+//! (∫ D cosθh dω = 1) and N = 4 for `survey`, N = 1 for `walter`.
+//!
+//! **The survey's form (the default) is 4× too bright.** Eq. 9 reads f = (F/π)·D·G/(cosθi cosθo)
+//! with the *un-normalised* Beckmann of eq. 6, whose integral ∫ D cosθh dω is π, not 1. Writing
+//! D₆ = π·D, eq. 9 is F·D·G/(cosθi cosθo) = 4 × the Torrance–Sparrow / Walter et al. 2007 BRDF
+//! F·D·G/(4 cosθi cosθo): with F = 1 and m = 0.1 it reflects 4.0 times the incident energy at
+//! normal incidence (brdf-models.md §7). `normalization = "walter"` divides by 4 and is
+//! energy-conserving for kd + ks ≤ 1 (the specular albedo is ≤ F ≤ 1). For `ggx` the survey
+//! form uses π·D_GGX in place of eq. 6, so the ratio survey/walter is exactly 4 for both NDFs.
+//! Both forms are reciprocal (F depends on wi·h = wo·h, D and G are symmetric).
+//!
+//! `geometry = "smith"` is the separable G1(wi)·G1(wo): for Beckmann G1 is Walter et al. 2007's
+//! rational approximation (within 0.35 % of exact), for GGX the exact G1. `v_cavity` is eq. 8,
+//! min(1, 2 cosθh cosθo/(wo·h), 2 cosθh cosθi/(wi·h)). The Cornell box's glossy material
+//! (`cornell_box.json`, `gold_rough`) is `distribution = "beckmann"`, `roughness = 0.2`
+//! (its `roughness_alpha`), `geometry = "smith"`, `fresnel = "conductor"` with its `eta`, `k`,
+//! `normalization = "walter"`, `kd = 0`, `ks = 1`.
+//!
+//! Roughness below [`MIRROR_ROUGHNESS`] (1e-3, as pbrt-v4) makes the specular lobe a delta
+//! mirror with weight ks·F(cosθ)·N (N = 4 for `survey`: the m → 0 limit of eq. 9, G → 1).
+//!
+//! Sampling: with probability P_s (∝ luminance(ks·F(cosθ_given))·N against luminance(kd),
+//! clamped to [0.1, 0.9] when both lobes exist) the NDF half-vector sampler (Beckmann:
+//! tan²θh = −m² ln(1−u); GGX: tan²θh = α² u/(1−u)), reflecting `given` about h; otherwise a
+//! cosine-weighted direction. pdf = P_s·D(h) cosθh/(4 given·h) + (1 − P_s)·cosθ/π; with the
+//! delta mirror, P_s is P_delta and pdf = (1 − P_delta)·cosθ/π. Reflected samples below the
+//! horizon are rejected (weight 0), never renormalised.
+//!
+//! GPU record (`p[k]`, `vec4 p[7]` in GLSL as p[k/4][k%4]):
+//! p[0..3] kd, p[3] roughness, p[4..7] ks, p[7] N (4 survey, 1 walter),
+//! p[8..11] Fresnel parameter A (dielectric: ior in all three; conductor: η; schlick: f0),
+//! p[11] distribution (0 beckmann, 1 ggx), p[12..15] κ (conductor), p[15] geometry
+//! (0 v_cavity, 1 smith), p[16] fresnel (0 dielectric, 1 conductor, 2 schlick).
+
+use super::common::{
+    beckmann_d, cosine_hemisphere_pdf, fresnel_conductor, fresnel_dielectric, fresnel_schlick,
+    ggx_d, luminance, reflect_about, reflect_z, same_hemisphere_up, sample_beckmann_h,
+    sample_cosine_hemisphere, sample_ggx_h, smith_g1_beckmann_walter, smith_g1_ggx,
+};
+use super::{Brdf, BrdfSample, ParamError, ParamReader, Params};
+use glam::{Vec2, Vec3};
+use std::f32::consts::FRAC_1_PI;
+use std::sync::Arc;
+
+/// Below this rms slope the specular lobe is a delta mirror.
+pub const MIRROR_ROUGHNESS: f32 = 1e-3;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Distribution {
+    /// Survey eq. 6 (normalised: divided by π).
+    Beckmann,
+    /// GGX / Trowbridge–Reitz.
+    Ggx,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Geometry {
+    /// Survey eq. 8, the V-cavity (V-groove) term.
+    VCavity,
+    /// Separable Smith G1(wi)·G1(wo).
+    Smith,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Fresnel {
+    /// Survey eq. 7 with `ior`.
+    Dielectric,
+    /// Exact complex-index formula with `eta`, `k`.
+    Conductor,
+    /// Schlick's approximation with `f0`.
+    Schlick,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Normalization {
+    /// Survey eq. 9 as written: 4× the microfacet BRDF.
+    Survey,
+    /// Walter et al. 2007: F·D·G/(4 cosθi cosθo).
+    Walter,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct CookTorrance {
+    pub kd: Vec3,
+    pub ks: Vec3,
+    pub roughness: f32,
+    pub distribution: Distribution,
+    pub geometry: Geometry,
+    pub fresnel: Fresnel,
+    pub ior: f32,
+    pub eta: Vec3,
+    pub k: Vec3,
+    pub f0: Vec3,
+    pub normalization: Normalization,
+}
+
+impl Default for CookTorrance {
+    /// The survey's model: Beckmann, V-cavity, dielectric Fresnel (n = 1.5), eq. 9 as written.
+    fn default() -> Self {
+        CookTorrance {
+            kd: Vec3::ZERO,
+            ks: Vec3::ONE,
+            roughness: 0.3,
+            distribution: Distribution::Beckmann,
+            geometry: Geometry::VCavity,
+            fresnel: Fresnel::Dielectric,
+            ior: 1.5,
+            eta: Vec3::new(0.143_036, 0.375_307, 1.442_05),
+            k: Vec3::new(3.983, 2.385_56, 1.603_36),
+            f0: Vec3::splat(0.04),
+            normalization: Normalization::Survey,
+        }
+    }
+}
+
+impl CookTorrance {
+    /// N of the header: 4 for the survey's eq. 9, 1 for Walter.
+    pub fn norm_factor(&self) -> f32 {
+        match self.normalization {
+            Normalization::Survey => 4.0,
+            Normalization::Walter => 1.0,
+        }
+    }
+    /// Whether the specular lobe is a delta mirror.
+    pub fn is_mirror(&self) -> bool {
+        self.roughness < MIRROR_ROUGHNESS
+    }
+}
+
+pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
+    let d = CookTorrance::default();
+    let kd = r.rgb("kd", d.kd, 0.0, 1.0)?;
+    let ks = r.rgb("ks", d.ks, 0.0, 1.0)?;
+    let roughness = r.scalar("roughness", d.roughness, 0.0, 4.0)?;
+    let distribution = match r.choice("distribution", &["beckmann", "ggx"], "beckmann")? {
+        "ggx" => Distribution::Ggx,
+        _ => Distribution::Beckmann,
+    };
+    let geometry = match r.choice("geometry", &["v_cavity", "smith"], "v_cavity")? {
+        "smith" => Geometry::Smith,
+        _ => Geometry::VCavity,
+    };
+    let fresnel = match r.choice(
+        "fresnel",
+        &["dielectric", "conductor", "schlick"],
+        "dielectric",
+    )? {
+        "conductor" => Fresnel::Conductor,
+        "schlick" => Fresnel::Schlick,
+        _ => Fresnel::Dielectric,
+    };
+    let normalization = match r.choice("normalization", &["survey", "walter"], "survey")? {
+        "walter" => Normalization::Walter,
+        _ => Normalization::Survey,
+    };
+    // Fresnel parameters apply to one Fresnel choice each.
+    let owner = |key: &str| match key {
+        "ior" => Fresnel::Dielectric,
+        "eta" | "k" => Fresnel::Conductor,
+        _ => Fresnel::Schlick,
+    };
+    for key in ["ior", "eta", "k", "f0"] {
+        if r.has(key) && owner(key) != fresnel {
+            let want = match owner(key) {
+                Fresnel::Dielectric => "dielectric",
+                Fresnel::Conductor => "conductor",
+                Fresnel::Schlick => "schlick",
+            };
+            return Err(r.error(key, format!("applies only with fresnel = \"{want}\"")));
+        }
+    }
+    let ior = r.scalar("ior", d.ior, 1.0, 100.0)?;
+    let eta = r.rgb("eta", d.eta, 0.0, 100.0)?;
+    if eta.min_element() <= 0.0 {
+        return Err(r.error("eta", "must be > 0 in every channel"));
+    }
+    let k = r.rgb("k", d.k, 0.0, 100.0)?;
+    let f0 = r.rgb("f0", d.f0, 0.0, 1.0)?;
+    let m = CookTorrance {
+        kd,
+        ks,
+        roughness,
+        distribution,
+        geometry,
+        fresnel,
+        ior,
+        eta,
+        k,
+        f0,
+        normalization,
+    };
+    let n = m.norm_factor();
+    if (kd + n * ks).max_element() > 1.0 {
+        let msg = match m.normalization {
+            Normalization::Survey => format!(
+                "kd + 4·ks = {:.3} > 1: the survey's eq. 9 is 4× the microfacet BRDF and can \
+                 reflect more energy than it receives; normalization = \"walter\" conserves \
+                 energy for kd + ks ≤ 1",
+                (kd + n * ks).max_element()
+            ),
+            Normalization::Walter => format!(
+                "kd + ks = {:.3} > 1: the material can reflect more energy than it receives",
+                (kd + ks).max_element()
+            ),
+        };
+        r.warn(
+            if m.normalization == Normalization::Survey && !r.has("normalization") {
+                "normalization"
+            } else {
+                "ks"
+            },
+            msg,
+        );
+    }
+    Ok(Arc::new(m))
+}
+
+/// Fresnel reflectance at cos c (c = wi·h, or cosθ for the mirror).
+pub fn fresnel(m: &CookTorrance, c: f32) -> Vec3 {
+    match m.fresnel {
+        Fresnel::Dielectric => Vec3::splat(fresnel_dielectric(c, m.ior)),
+        Fresnel::Conductor => fresnel_conductor(c, m.eta, m.k),
+        Fresnel::Schlick => fresnel_schlick(c, m.f0),
+    }
+}
+
+/// The normalised NDF D(h) (eq. 6 / π for Beckmann).
+pub fn ndf(m: &CookTorrance, h: Vec3) -> f32 {
+    match m.distribution {
+        Distribution::Beckmann => beckmann_d(h, m.roughness),
+        Distribution::Ggx => ggx_d(h, m.roughness),
+    }
+}
+
+/// Masking-shadowing G(wi, wo, h): eq. 8 (V-cavity) or separable Smith.
+pub fn geometry(m: &CookTorrance, wi: Vec3, wo: Vec3, h: Vec3) -> f32 {
+    match m.geometry {
+        Geometry::VCavity => {
+            let c = wo.dot(h);
+            if c <= 0.0 {
+                return 0.0;
+            }
+            let g_mask = 2.0 * h.z * wo.z / c;
+            let g_shadow = 2.0 * h.z * wi.z / c;
+            g_mask.min(g_shadow).min(1.0)
+        }
+        Geometry::Smith => match m.distribution {
+            Distribution::Beckmann => {
+                smith_g1_beckmann_walter(wi, m.roughness)
+                    * smith_g1_beckmann_walter(wo, m.roughness)
+            }
+            Distribution::Ggx => smith_g1_ggx(wi, m.roughness) * smith_g1_ggx(wo, m.roughness),
+        },
+    }
+}
+
+/// f_r(wi, wo), survey eq. 9 (×¼ for `walter`), plus kd/π. The delta mirror is not seen.
+pub fn eval(m: &CookTorrance, wi: Vec3, wo: Vec3) -> Vec3 {
+    if !same_hemisphere_up(wi, wo) {
+        return Vec3::ZERO;
+    }
+    let diffuse = m.kd * FRAC_1_PI;
+    if m.is_mirror() {
+        return diffuse;
+    }
+    let h = (wi + wo).normalize();
+    let c = wi.dot(h);
+    let d = ndf(m, h);
+    let g = geometry(m, wi, wo, h);
+    let denom = (4.0 * wi.z * wo.z).max(1e-20);
+    // D·G/(4 cos cos), then the exact power-of-two factor N: survey = 4 × walter bit for bit.
+    let s = d * g / denom * m.norm_factor();
+    diffuse + m.ks * fresnel(m, c) * s
+}
+
+/// Probability of choosing the specular lobe (the delta mirror when rough < 1e-3) given the
+/// cosine of the known direction.
+pub fn specular_probability(m: &CookTorrance, cos_given: f32) -> f32 {
+    let ws = luminance(m.ks * fresnel(m, cos_given)) * m.norm_factor();
+    let wd = luminance(m.kd);
+    if wd <= 0.0 {
+        return 1.0;
+    }
+    if ws <= 0.0 {
+        return 0.0;
+    }
+    (ws / (ws + wd)).clamp(0.1, 0.9)
+}
+
+/// Solid-angle density of the half-vector sampler mapped to `sampled`: D(h) cosθh/(4 given·h).
+fn specular_pdf(m: &CookTorrance, given: Vec3, sampled: Vec3) -> f32 {
+    let h = (given + sampled).normalize();
+    let c = given.dot(h);
+    if c <= 0.0 {
+        return 0.0;
+    }
+    ndf(m, h) * h.z / (4.0 * c)
+}
+
+pub fn pdf(m: &CookTorrance, given: Vec3, sampled: Vec3) -> f32 {
+    if !same_hemisphere_up(given, sampled) {
+        return 0.0;
+    }
+    let ps = specular_probability(m, given.z);
+    let mut p = (1.0 - ps) * cosine_hemisphere_pdf(sampled.z);
+    if !m.is_mirror() && ps > 0.0 {
+        p += ps * specular_pdf(m, given, sampled);
+    }
+    p
+}
+
+pub fn sample(m: &CookTorrance, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
+    if given.z <= 0.0 {
+        return None;
+    }
+    let ps = specular_probability(m, given.z);
+    let wi = if u_lobe < ps {
+        if m.is_mirror() {
+            let wi = reflect_z(given);
+            let weight = m.ks * fresnel(m, given.z) * (m.norm_factor() / ps);
+            return Some(BrdfSample {
+                wi,
+                weight,
+                pdf: 0.0,
+                delta: true,
+            });
+        }
+        let h = match m.distribution {
+            Distribution::Beckmann => sample_beckmann_h(u, m.roughness),
+            Distribution::Ggx => sample_ggx_h(u, m.roughness),
+        };
+        if given.dot(h) <= 0.0 {
+            return None;
+        }
+        reflect_about(given, h)
+    } else {
+        sample_cosine_hemisphere(u)
+    };
+    if wi.z <= 0.0 {
+        return None;
+    }
+    let p = pdf(m, given, wi);
+    if p <= 0.0 {
+        return None;
+    }
+    let weight = eval(m, wi, given) * (wi.z / p);
+    Some(BrdfSample {
+        wi,
+        weight,
+        pdf: p,
+        delta: false,
+    })
+}
+
+impl Brdf for CookTorrance {
+    fn eval(&self, wi: Vec3, wo: Vec3) -> Vec3 {
+        eval(self, wi, wo)
+    }
+    fn pdf(&self, given: Vec3, sampled: Vec3) -> f32 {
+        pdf(self, given, sampled)
+    }
+    fn sample(&self, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
+        sample(self, given, u_lobe, u)
+    }
+    fn pack(&self) -> Params {
+        let mut p = Params::default();
+        p.set3(0, self.kd).set(3, self.roughness);
+        p.set3(4, self.ks).set(7, self.norm_factor());
+        let a = match self.fresnel {
+            Fresnel::Dielectric => Vec3::splat(self.ior),
+            Fresnel::Conductor => self.eta,
+            Fresnel::Schlick => self.f0,
+        };
+        p.set3(8, a)
+            .set(11, (self.distribution == Distribution::Ggx) as u32 as f32);
+        p.set3(12, self.k)
+            .set(15, (self.geometry == Geometry::Smith) as u32 as f32);
+        let f = match self.fresnel {
+            Fresnel::Dielectric => 0.0,
+            Fresnel::Conductor => 1.0,
+            Fresnel::Schlick => 2.0,
+        };
+        p.set(16, f);
+        p
+    }
+    fn scatters(&self) -> bool {
+        self.kd != Vec3::ZERO || self.ks != Vec3::ZERO
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn dir(theta_deg: f32, phi_deg: f32) -> Vec3 {
+        let (st, ct) = theta_deg.to_radians().sin_cos();
+        let (sp, cp) = phi_deg.to_radians().sin_cos();
+        Vec3::new(st * cp, st * sp, ct)
+    }
+
+    fn variants() -> Vec<CookTorrance> {
+        let mut v = Vec::new();
+        for distribution in [Distribution::Beckmann, Distribution::Ggx] {
+            for geometry in [Geometry::VCavity, Geometry::Smith] {
+                for fresnel in [Fresnel::Dielectric, Fresnel::Conductor, Fresnel::Schlick] {
+                    for roughness in [0.0, 1e-3, 0.01, 0.3, 1.0] {
+                        v.push(CookTorrance {
+                            kd: Vec3::splat(0.2),
+                            roughness,
+                            distribution,
+                            geometry,
+                            fresnel,
+                            ..Default::default()
+                        });
+                    }
+                }
+            }
+        }
+        v
+    }
+
+    #[test]
+    fn finite_at_edge_configurations() {
+        let dirs = [
+            dir(0.0, 0.0),
+            dir(1e-3, 10.0),
+            dir(45.0, 0.0),
+            dir(45.0, 180.0),
+            dir(89.9, 0.0),
+            dir(89.9, 180.0),
+            dir(89.999, 90.0),
+            Vec3::new(1.0, 0.0, 1e-7).normalize(),
+            Vec3::new(-1.0, 0.0, 1e-7).normalize(),
+        ];
+        for m in variants() {
+            for &a in &dirs {
+                for &b in &dirs {
+                    let f = eval(&m, a, b);
+                    assert!(
+                        f.is_finite() && f.min_element() >= 0.0,
+                        "{m:?} {a} {b}: {f}"
+                    );
+                    let p = pdf(&m, a, b);
+                    assert!(p.is_finite() && p >= 0.0, "{m:?} {a} {b}: {p}");
+                }
+                for i in 0..64 {
+                    let u = Vec2::new((i % 8) as f32 / 8.0, (i / 8) as f32 / 8.0);
+                    for ul in [0.0, 0.5, 0.95] {
+                        if let Some(s) = sample(&m, a, ul, u) {
+                            assert!(
+                                s.weight.is_finite() && s.pdf.is_finite(),
+                                "{m:?} {a}: {s:?}"
+                            );
+                            assert!(s.wi.z > 0.0 && (s.wi.length() - 1.0).abs() < 1e-4);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn exact_mirror_configuration_and_normal_incidence() {
+        let m = CookTorrance {
+            roughness: 0.1,
+            ..Default::default()
+        };
+        let w = dir(30.0, 0.0);
+        let f = eval(&m, w, reflect_z(w));
+        // D(n) = 1/(π m²), G = 1, F(cos 30°): survey form F·D·G/(cos²).
+        let expect = fresnel_dielectric(w.z, 1.5) / (std::f32::consts::PI * 0.01) / (w.z * w.z);
+        assert!((f.x / expect - 1.0).abs() < 1e-5, "{f} {expect}");
+        let n = Vec3::Z;
+        let f = eval(&m, n, n);
+        let expect = 0.04 / (std::f32::consts::PI * 0.01);
+        assert!((f.x / expect - 1.0).abs() < 1e-5, "{f} {expect}");
+    }
+
+    #[test]
+    fn zero_roughness_is_a_delta_mirror_with_fresnel_weight() {
+        let m = CookTorrance {
+            roughness: 0.0,
+            normalization: Normalization::Walter,
+            ..Default::default()
+        };
+        let given = dir(60.0, 30.0);
+        let s = sample(&m, given, 0.3, Vec2::splat(0.5)).unwrap();
+        assert!(s.delta && s.pdf == 0.0);
+        assert!((s.wi - reflect_z(given)).length() < 1e-6);
+        let f = fresnel_dielectric(0.5, 1.5);
+        assert!((s.weight.x - f).abs() < 1e-6, "{s:?} {f}");
+        assert_eq!(eval(&m, s.wi, given), Vec3::ZERO);
+        assert_eq!(pdf(&m, given, s.wi), 0.0);
+    }
+}

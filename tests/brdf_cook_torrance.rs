@@ -1,0 +1,530 @@
+//! Cook–Torrance (survey eqs. 6–9) through the validation harness: the survey form is exactly
+//! 4× the Walter form, the albedo table of brdf-models.md §7, energy conservation of the
+//! Walter form, χ² of the sampler, sampled vs quadrature albedo (delta mirror included),
+//! reciprocity, the Fresnel reference values of §12.2 and the parameter errors.
+
+use brdfwave::brdf::common::{
+    fresnel_conductor1, fresnel_dielectric, fresnel_schlick, smith_g1_beckmann_walter,
+};
+use brdfwave::brdf::cook_torrance::{
+    self, CookTorrance, Distribution, Fresnel, Geometry, Normalization,
+};
+use brdfwave::brdf::validate::{
+    albedo_quadrature, albedo_quadrature_rgb, albedo_sampled, chi2_test_with, dir_from_theta_deg,
+    reciprocity_error, sample_consistency, sidak, Chi2Config,
+};
+use brdfwave::brdf::{parse_material, Brdf, Material, Origin};
+use glam::{Vec2, Vec3};
+use std::collections::BTreeMap;
+
+fn material(src: &str) -> Result<(Material, Vec<String>), String> {
+    let fields: BTreeMap<String, toml::Spanned<toml::Value>> =
+        toml::from_str(src).map_err(|e| e.to_string())?;
+    let origin = Origin {
+        file: "test.toml",
+        source: src,
+        material: "m",
+        span: 0..src.len(),
+    };
+    parse_material(origin, fields).map_err(|e| e.to_string())
+}
+
+/// F ≡ 1 (Schlick with f0 = 1), no diffuse: the setting of the §7 table.
+fn white(m: f32, distribution: Distribution, geometry: Geometry, n: Normalization) -> CookTorrance {
+    CookTorrance {
+        kd: Vec3::ZERO,
+        ks: Vec3::ONE,
+        roughness: m,
+        distribution,
+        geometry,
+        fresnel: Fresnel::Schlick,
+        f0: Vec3::ONE,
+        normalization: n,
+        ..Default::default()
+    }
+}
+
+fn rand_dir(i: u32, d: u32) -> Vec3 {
+    let u = brdfwave::rng::random_f32(99, i, 0, 0, d);
+    let v = brdfwave::rng::random_f32(99, i, 0, 0, d + 1);
+    let z = 1.0 - u;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * std::f32::consts::PI * v;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+#[test]
+fn survey_is_exactly_four_times_walter() {
+    for distribution in [Distribution::Beckmann, Distribution::Ggx] {
+        for geometry in [Geometry::VCavity, Geometry::Smith] {
+            for fresnel in [Fresnel::Dielectric, Fresnel::Conductor, Fresnel::Schlick] {
+                let mk = |normalization| CookTorrance {
+                    roughness: 0.35,
+                    distribution,
+                    geometry,
+                    fresnel,
+                    normalization,
+                    ..Default::default()
+                };
+                let (s, w) = (mk(Normalization::Survey), mk(Normalization::Walter));
+                for i in 0..2000 {
+                    let (a, b) = (rand_dir(i, 0), rand_dir(i, 2));
+                    let (fs, fw) = (cook_torrance::eval(&s, a, b), cook_torrance::eval(&w, a, b));
+                    // Exact wherever the value is a normal float (subnormals lose bits).
+                    if fw.min_element() > 1e-30 {
+                        assert_eq!(
+                            fs,
+                            4.0 * fw,
+                            "{distribution:?} {geometry:?} {fresnel:?} {a} {b}"
+                        );
+                    } else {
+                        assert!((fs - 4.0 * fw).abs().max_element() < 1e-35);
+                    }
+                }
+                let wo = dir_from_theta_deg(40.0, 0.0);
+                let (qs, qw) = (albedo_quadrature(&s, wo, 40), albedo_quadrature(&w, wo, 40));
+                assert!((qs / qw - 4.0).abs() < 1e-5, "albedo ratio {}", qs / qw);
+            }
+        }
+    }
+}
+
+/// brdf-models.md §7, F = 1: albedo of the survey form and of Walter + V-cavity.
+#[test]
+fn albedo_table_of_section_7() {
+    // (m, θ, survey, walter + V-cavity)
+    let table = [
+        (0.1, 0.0, 4.000, 1.000),
+        (0.1, 60.0, 3.996, 0.999),
+        (0.1, 85.0, 3.750, 0.938),
+        (0.5, 0.0, 3.570, 0.892),
+        (0.5, 60.0, 3.548, 0.887),
+        (0.5, 85.0, 3.909, 0.977),
+        (1.0, 0.0, 1.814, 0.453),
+        (1.0, 60.0, 3.167, 0.792),
+        (1.0, 85.0, 3.878, 0.969),
+    ];
+    eprintln!("m     θ    survey (ref)      walter+v_cavity (ref)");
+    for (m, th, survey, walter) in table {
+        let wo = dir_from_theta_deg(th, 0.0);
+        let s = white(
+            m,
+            Distribution::Beckmann,
+            Geometry::VCavity,
+            Normalization::Survey,
+        );
+        let w = white(
+            m,
+            Distribution::Beckmann,
+            Geometry::VCavity,
+            Normalization::Walter,
+        );
+        let qs = albedo_quadrature(&s, wo, 60);
+        let qw = albedo_quadrature(&w, wo, 60);
+        eprintln!("{m:.1}  {th:>4}  {qs:.4} ({survey:.3})   {qw:.4} ({walter:.3})");
+        assert!(
+            (qs / survey - 1.0).abs() < 2e-3,
+            "survey m={m} θ={th}: {qs} vs {survey}"
+        );
+        assert!(
+            (qw / walter - 1.0).abs() < 2e-3,
+            "walter m={m} θ={th}: {qw} vs {walter}"
+        );
+    }
+}
+
+/// Independent f64 reference for Walter + separable Smith (Walter's G1 approximation), by
+/// quadrature over the half vector: ρ(wo) = ∫ D(h) G(wi,wo) (wo·h)/(wo.z) [wi.z>0] dωh.
+fn smith_albedo_reference(m: f64, theta_deg: f64) -> f64 {
+    let wo = [
+        theta_deg.to_radians().sin(),
+        0.0,
+        theta_deg.to_radians().cos(),
+    ];
+    let g1 = |w: [f64; 3]| -> f64 {
+        if w[2] <= 0.0 {
+            return 0.0;
+        }
+        let s = (w[0] * w[0] + w[1] * w[1]).sqrt();
+        if s == 0.0 {
+            return 1.0;
+        }
+        let a = w[2] / (m * s);
+        if a >= 1.6 {
+            1.0
+        } else {
+            (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a)
+        }
+    };
+    // θh via the Beckmann CDF warp: tan²θh = −m² ln(1−u), density D cosθh: integrate
+    // ∫ (D cosθh dωh) · G (wo·h)/(wo.z cosθh).
+    let (nu, np) = (600usize, 600usize);
+    let mut sum = 0.0;
+    for iu in 0..nu {
+        let u = (iu as f64 + 0.5) / nu as f64;
+        let t2 = -m * m * (1.0 - u).ln();
+        let ct = 1.0 / (1.0 + t2).sqrt();
+        let st = t2.sqrt() * ct;
+        for ip in 0..np {
+            let phi = 2.0 * std::f64::consts::PI * (ip as f64 + 0.5) / np as f64;
+            let h = [st * phi.cos(), st * phi.sin(), ct];
+            let oh = wo[0] * h[0] + wo[1] * h[1] + wo[2] * h[2];
+            if oh <= 0.0 {
+                continue;
+            }
+            let wi = [
+                2.0 * oh * h[0] - wo[0],
+                2.0 * oh * h[1] - wo[1],
+                2.0 * oh * h[2] - wo[2],
+            ];
+            if wi[2] <= 0.0 {
+                continue;
+            }
+            sum += g1(wi) * g1(wo) * oh / (wo[2] * ct);
+        }
+    }
+    sum / (nu * np) as f64
+}
+
+#[test]
+fn walter_smith_albedo_matches_an_independent_quadrature() {
+    // Third column of §7 is the height-correlated Smith; ours is separable, which is ≤ it.
+    let hc = [
+        (0.5, 0.0, 0.943),
+        (0.5, 60.0, 0.869),
+        (1.0, 0.0, 0.462),
+        (1.0, 85.0, 0.959),
+    ];
+    for (m, th, hc_ref) in hc {
+        let w = white(
+            m,
+            Distribution::Beckmann,
+            Geometry::Smith,
+            Normalization::Walter,
+        );
+        let q = albedo_quadrature(&w, dir_from_theta_deg(th, 0.0), 60);
+        let r = smith_albedo_reference(m as f64, th as f64);
+        eprintln!("smith m={m} θ={th}: {q:.4} (f64 reference {r:.4}, height-correlated {hc_ref})");
+        assert!((q / r - 1.0).abs() < 2e-3, "m={m} θ={th}: {q} vs {r}");
+        assert!(
+            q <= hc_ref * 1.004,
+            "separable above height-correlated: {q} > {hc_ref}"
+        );
+    }
+}
+
+#[test]
+fn walter_form_conserves_energy_and_survey_form_does_not() {
+    for distribution in [Distribution::Beckmann, Distribution::Ggx] {
+        for geometry in [Geometry::VCavity, Geometry::Smith] {
+            for m in [0.05, 0.3, 1.0] {
+                for th in [0.0, 30.0, 60.0, 80.0, 89.0] {
+                    let wo = dir_from_theta_deg(th, 0.0);
+                    let w = white(m, distribution, geometry, Normalization::Walter);
+                    let q = albedo_quadrature(&w, wo, 60);
+                    assert!(
+                        q <= 1.003,
+                        "{distribution:?} {geometry:?} m={m} θ={th}: {q}"
+                    );
+                    assert!(q > 0.2, "{distribution:?} {geometry:?} m={m} θ={th}: {q}");
+                }
+            }
+        }
+    }
+    let s = white(
+        0.1,
+        Distribution::Ggx,
+        Geometry::Smith,
+        Normalization::Survey,
+    );
+    let q = albedo_quadrature(&s, Vec3::Z, 60);
+    assert!(q > 3.9, "survey GGX at normal incidence {q}");
+}
+
+fn chi2_variants() -> Vec<(String, CookTorrance)> {
+    let mut v = Vec::new();
+    for distribution in [Distribution::Beckmann, Distribution::Ggx] {
+        for (kd, fresnel) in [(0.0, Fresnel::Conductor), (0.5, Fresnel::Dielectric)] {
+            for m in [0.08, 0.5] {
+                v.push((
+                    format!("{distribution:?} kd={kd} {fresnel:?} m={m}"),
+                    CookTorrance {
+                        kd: Vec3::splat(kd),
+                        ks: Vec3::splat(0.5),
+                        roughness: m,
+                        distribution,
+                        geometry: Geometry::Smith,
+                        fresnel,
+                        normalization: Normalization::Walter,
+                        ..Default::default()
+                    },
+                ));
+            }
+        }
+    }
+    // Delta mirror with a diffuse lobe: the non-delta part is (1 − P_delta)·cos/π.
+    v.push((
+        "mirror kd=0.5".into(),
+        CookTorrance {
+            kd: Vec3::splat(0.5),
+            ks: Vec3::splat(0.5),
+            roughness: 0.0,
+            ..Default::default()
+        },
+    ));
+    v
+}
+
+#[test]
+fn sampler_matches_pdf() {
+    let vs = chi2_variants();
+    let angles = [10.0, 45.0, 80.0];
+    let level = sidak(0.01, vs.len() * angles.len());
+    for (name, m) in &vs {
+        for th in angles {
+            let wo = dir_from_theta_deg(th, 30.0);
+            // Narrow lobes near grazing have sub-degree azimuthal structure (the half vector's
+            // tangential offset scales with given.z + wi.z): a finer pdf sub-grid than the
+            // default 6 × 6 is needed to integrate the expected counts.
+            let cfg = Chi2Config::default();
+            let r = chi2_test_with(m, wo, 100_000, 3, cfg);
+            eprintln!(
+                "{name} θ={th}: p={:.3} dof={} ∫pdf={:.4}",
+                r.p_value, r.dof, r.pdf_integral
+            );
+            assert_eq!(r.zero_pdf_hits, 0, "{name} θ={th}: {r:?}");
+            assert!(r.p_value > level, "{name} θ={th}: {r:?}");
+            assert!(
+                (r.pdf_integral - r.sample_fraction).abs() < 0.01,
+                "{name} θ={th}: {r:?}"
+            );
+            let c = sample_consistency(m, wo, 5000, 8);
+            assert_eq!(c.bad_samples + c.delta_with_pdf, 0, "{name}: {c:?}");
+            assert!(
+                c.pdf_rel_error < 1e-4 && c.weight_rel_error < 1e-3,
+                "{name}: {c:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn sampled_albedo_matches_quadrature_including_the_delta_mirror() {
+    for (name, m) in chi2_variants() {
+        for th in [0.0, 30.0, 60.0, 80.0, 89.0] {
+            let wo = dir_from_theta_deg(th, 10.0);
+            // The quadrature needs a fine grid for a narrow lobe at grazing incidence.
+            let q = albedo_quadrature(&m, wo, if th >= 80.0 { 120 } else { 60 });
+            let delta = if m.is_mirror() {
+                // The delta lobe's reflectance, seen only by the sampler.
+                let f = m.ks * cook_torrance::fresnel(&m, wo.z) * m.norm_factor();
+                ((f.x + f.y + f.z) / 3.0) as f64
+            } else {
+                0.0
+            };
+            let n = 100_000;
+            let (s, var) = albedo_sampled(&m, wo, n, 17);
+            let tol = 4.0 * (var / n as f64).sqrt() + 3e-3 * (q + delta);
+            assert!(
+                (s - (q + delta)).abs() < tol,
+                "{name} θ={th}: sampled {s} vs quadrature {q} + delta {delta} (tol {tol})"
+            );
+        }
+    }
+}
+
+#[test]
+fn reciprocal() {
+    for (name, m) in chi2_variants() {
+        let e = reciprocity_error(&m, 20_000, 5);
+        assert!(e < 1e-4, "{name}: {e}");
+    }
+    for geometry in [Geometry::VCavity, Geometry::Smith] {
+        let m = CookTorrance {
+            geometry,
+            ..Default::default()
+        };
+        assert!(reciprocity_error(&m, 20_000, 6) < 1e-4);
+    }
+}
+
+/// brdf-models.md §12.2 (exact and Schlick Fresnel) and §12.1 (Walter's G1 approximation).
+#[test]
+fn fresnel_and_g1_reference_values() {
+    let th = [0.0f32, 30.0, 45.0, 60.0, 75.0, 80.0, 85.0, 89.0];
+    let exact = [
+        0.040000, 0.041523, 0.050240, 0.089187, 0.253061, 0.387704, 0.612800, 0.904185,
+    ];
+    let schlick = [
+        0.040000, 0.040041, 0.042069, 0.070000, 0.254730, 0.409910, 0.648492, 0.919102,
+    ];
+    for i in 0..th.len() {
+        let c = th[i].to_radians().cos();
+        let fe = fresnel_dielectric(c, 1.5);
+        let fc = fresnel_conductor1(c, 1.5, 0.0);
+        let fs = fresnel_schlick(c, Vec3::splat(0.04)).x;
+        assert!(
+            (fe - exact[i]).abs() < 2e-6,
+            "eq. 7 at {}: {fe} vs {}",
+            th[i],
+            exact[i]
+        );
+        assert!(
+            (fc - exact[i]).abs() < 2e-6,
+            "conductor k=0 at {}: {fc}",
+            th[i]
+        );
+        assert!((fs - schlick[i]).abs() < 2e-6, "schlick at {}: {fs}", th[i]);
+    }
+    for (n, k, vals) in [
+        (
+            0.2f32,
+            3.0f32,
+            [
+                (0.0f32, 0.923372f32),
+                (45.0, 0.921320),
+                (60.0, 0.918411),
+                (80.0, 0.938558),
+                (89.0, 0.992126),
+            ],
+        ),
+        (
+            1.2,
+            7.0,
+            [
+                (0.0, 0.910847),
+                (45.0, 0.906616),
+                (60.0, 0.894815),
+                (80.0, 0.847715),
+                (89.0, 0.959204),
+            ],
+        ),
+    ] {
+        for (t, v) in vals {
+            let f = fresnel_conductor1(t.to_radians().cos(), n, k);
+            assert!(
+                (f - v).abs() < 3e-6,
+                "conductor ({n}, {k}) at {t}: {f} vs {v}"
+            );
+        }
+    }
+    // G1 with a = 1/(α tanθ): α = 1, tanθ = 1/a.
+    for (a, v) in [
+        (0.25f32, 0.589610f32),
+        (0.5, 0.831252),
+        (1.0, 0.976593),
+        (1.5, 0.999755),
+    ] {
+        let w = Vec3::new(1.0, 0.0, a).normalize();
+        let g = smith_g1_beckmann_walter(w, 1.0);
+        assert!((g - v).abs() < 2e-6, "G1({a}) = {g} vs {v}");
+    }
+}
+
+/// The Cornell box's glossy material (cornell_box.json `gold_rough`) in our scene names.
+#[test]
+fn cornell_gold_rough_is_expressible() {
+    let src = "model = \"cook_torrance\"\ndistribution = \"beckmann\"\nroughness = 0.2\n\
+               geometry = \"smith\"\nfresnel = \"conductor\"\neta = [0.143036, 0.375307, 1.44205]\n\
+               k = [3.983, 2.38556, 1.60336]\nnormalization = \"walter\"\nkd = [0, 0, 0]\nks = [1, 1, 1]\n";
+    let (m, warnings) = material(src).unwrap();
+    assert!(warnings.is_empty(), "{warnings:?}");
+    assert_eq!(m.model_name(), "cook_torrance");
+    let p = m.brdf.pack();
+    assert_eq!(p.0[3], 0.2);
+    assert_eq!(p.0[7], 1.0);
+    // Gold: red reflects most; the albedo per channel is below 1 and below F0.
+    let a = albedo_quadrature_rgb(m.brdf.as_ref(), Vec3::Z, 60);
+    let f0 = Vec3::new(
+        fresnel_conductor1(1.0, 0.143036, 3.983),
+        fresnel_conductor1(1.0, 0.375307, 2.38556),
+        fresnel_conductor1(1.0, 1.44205, 1.60336),
+    );
+    eprintln!("gold albedo at 0°: {a:?}, F0 {f0}");
+    assert!(a.x > a.y && a.y > a.z, "{a:?}");
+    for c in 0..3 {
+        assert!(
+            (a[c] / f0[c] as f64 - 1.0).abs() < 0.02 && a[c] < 1.0,
+            "{a:?} vs F0 {f0}"
+        );
+    }
+    // The JSON's name for the roughness is not ours.
+    let e = material(&src.replace("roughness =", "roughness_alpha =")).unwrap_err();
+    assert!(
+        e.contains("roughness_alpha") && e.contains("unknown field"),
+        "{e}"
+    );
+}
+
+#[test]
+fn default_is_the_survey_model_and_warns_about_its_energy() {
+    let (m, warnings) = material("model = \"cook_torrance\"\n").unwrap();
+    let p = m.brdf.pack();
+    assert_eq!(
+        (p.0[7], p.0[11], p.0[15], p.0[16], p.0[8]),
+        (4.0, 0.0, 0.0, 0.0, 1.5)
+    );
+    assert!(
+        warnings.len() == 1 && warnings[0].contains("walter") && warnings[0].contains("4"),
+        "{warnings:?}"
+    );
+    let (_, warnings) =
+        material("model = \"cook_torrance\"\nnormalization = \"walter\"\nkd = 0.3\nks = 0.7\n")
+            .unwrap();
+    assert!(warnings.is_empty());
+    let (_, warnings) =
+        material("model = \"cook_torrance\"\nnormalization = \"walter\"\nkd = 0.5\nks = 0.7\n")
+            .unwrap();
+    assert!(
+        warnings.len() == 1 && warnings[0].contains("kd + ks"),
+        "{warnings:?}"
+    );
+}
+
+#[test]
+fn bad_parameters_are_rejected() {
+    let cases = [
+        ("roughness = -0.1", "roughness", "out of range"),
+        ("roughness = nan", "roughness", "not a finite"),
+        ("distribution = \"phong\"", "distribution", "unknown value"),
+        ("geometry = \"smith_hc\"", "geometry", "unknown value"),
+        ("normalization = \"pi\"", "normalization", "unknown value"),
+        ("eta = [1, 1, 1]", "eta", "fresnel = \"conductor\""),
+        (
+            "fresnel = \"conductor\"\nior = 1.3",
+            "ior",
+            "fresnel = \"dielectric\"",
+        ),
+        ("fresnel = \"conductor\"\neta = [0, 1, 1]", "eta", "> 0"),
+        ("fresnel = \"schlick\"\nf0 = 1.5", "f0", "out of range"),
+        ("ior = 0.5", "ior", "out of range"),
+        ("kd = [0.1, 0.2]", "kd", "array of 2"),
+    ];
+    for (body, field, msg) in cases {
+        let src = format!("model = \"cook_torrance\"\n{body}\n");
+        let e = material(&src).unwrap_err();
+        assert!(
+            e.contains("test.toml:") && e.contains(field) && e.contains(msg),
+            "{body}: {e}"
+        );
+    }
+}
+
+#[test]
+fn sample_weights_are_finite_at_grazing() {
+    let m = CookTorrance {
+        kd: Vec3::splat(0.3),
+        ks: Vec3::splat(0.7),
+        roughness: 0.02,
+        ..Default::default()
+    };
+    for th in [89.0, 89.9, 89.99] {
+        let wo = dir_from_theta_deg(th, 0.0);
+        for i in 0..2000u32 {
+            let u = Vec2::new((i % 50) as f32 / 50.0, (i / 50) as f32 / 40.0);
+            if let Some(s) = m.sample(wo, (i % 7) as f32 / 7.0, u) {
+                assert!(s.weight.is_finite() && s.pdf.is_finite(), "{s:?}");
+            }
+        }
+    }
+}
