@@ -1,18 +1,51 @@
-//! Materials given inline on the command line (`--material 'model = "ward", ks = 1, …'`).
+//! Materials given inline on the command line: the inside of a TOML inline table, as in
+//! `--material 'model = "ward", ks = [1, 1, 1], alpha_x = 0.2, alpha_y = 0.1'`, or the same
+//! fields one per line.
 
 use super::{parse_material, Material, Origin};
 use anyhow::{anyhow, Result};
 use std::collections::BTreeMap;
 use toml::{Spanned, Value};
 
-/// Parse an inline TOML table into a material; warnings go to stderr.
+#[derive(serde::Deserialize)]
+struct Wrapped {
+    material: BTreeMap<String, Spanned<Value>>,
+}
+
+/// Parse an inline material into a material; warnings go to stderr.
 pub fn parse_inline(src: &str) -> Result<Material> {
-    let fields: BTreeMap<String, Spanned<Value>> =
-        toml::from_str(src).map_err(|e| anyhow!("--material: not a TOML table: {e}"))?;
-    let origin = Origin { file: "--material", source: src, material: "inline", span: 0..src.len() };
+    // Comma-separated fields are the inside of an inline table; newline-separated fields are a
+    // table body. Try the first, then the second.
+    let wrapped = format!("material = {{ {} }}", src.trim());
+    let (source, fields) = match toml::from_str::<Wrapped>(&wrapped) {
+        Ok(w) => (wrapped.clone(), w.material),
+        Err(first) => match toml::from_str::<BTreeMap<String, Spanned<Value>>>(src) {
+            Ok(f) => (src.to_string(), f),
+            Err(_) => return Err(anyhow!("--material: not a TOML table of fields: {first}")),
+        },
+    };
+    let origin = Origin { file: "--material", source: &source, material: "inline", span: 0..source.len() };
     let (m, warnings) = parse_material(origin, fields)?;
     for w in warnings {
         eprintln!("{w}");
     }
     Ok(m)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn comma_and_newline_forms_parse_and_bad_fields_are_named() {
+        let a = parse_inline(r#"model = "lambert", albedo = [0.2, 0.5, 0.9]"#).unwrap();
+        let b = parse_inline("model = \"lambert\"\nalbedo = [0.2, 0.5, 0.9]").unwrap();
+        assert_eq!(a.model_name(), "lambert");
+        assert_eq!(a.brdf.pack(), b.brdf.pack());
+        let e = parse_inline(r#"model = "lambert", albedo = -1"#).unwrap_err().to_string();
+        assert!(e.contains("--material") && e.contains("albedo") && e.contains("out of range"), "{e}");
+        let e = parse_inline(r#"model = "lambert", albdo = 1"#).unwrap_err().to_string();
+        assert!(e.contains("albdo") && e.contains("unknown field"), "{e}");
+        assert!(parse_inline("model = ").is_err());
+    }
 }
