@@ -357,7 +357,10 @@ pub fn check_writable(path: &Path) -> Result<(), ImageError> {
         _ => Path::new("."),
     };
     if !dir.is_dir() {
-        return Err(ImageError::MissingDirectory { path: path.to_path_buf(), dir: dir.to_path_buf() });
+        return Err(ImageError::MissingDirectory {
+            path: path.to_path_buf(),
+            dir: dir.to_path_buf(),
+        });
     }
     Ok(())
 }

@@ -61,7 +61,11 @@ impl LightTable {
         if let Some(last) = cdf.last_mut() {
             *last = 1.0;
         }
-        LightTable { prims, cdf, total_weight: total as f32 }
+        LightTable {
+            prims,
+            cdf,
+            total_weight: total as f32,
+        }
     }
 
     pub fn is_empty(&self) -> bool {

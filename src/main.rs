@@ -2,7 +2,9 @@
 //! images, and measure the reflectance models.
 
 use anyhow::{bail, Context as _, Result};
-use brdfwave::{bvh, cpu::CpuRenderer, gpu::GpuRenderer, imageio, metrics, output::RenderOutput, scene, vk};
+use brdfwave::{
+    bvh, cpu::CpuRenderer, gpu::GpuRenderer, imageio, metrics, output::RenderOutput, scene, vk,
+};
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
@@ -10,7 +12,11 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 #[derive(Parser)]
-#[command(name = "brdfwave", version, about = "Vulkan wavefront path tracer for the survey's surface models")]
+#[command(
+    name = "brdfwave",
+    version,
+    about = "Vulkan wavefront path tracer for the survey's surface models"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -114,11 +120,21 @@ enum BrdfCommand {
 }
 
 fn parse_res(s: &str) -> std::result::Result<(u32, u32), String> {
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("'{s}' is not WxH (e.g. 256x256)"))?;
-    let w: u32 = w.trim().parse().map_err(|_| format!("bad width in '{s}'"))?;
-    let h: u32 = h.trim().parse().map_err(|_| format!("bad height in '{s}'"))?;
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("'{s}' is not WxH (e.g. 256x256)"))?;
+    let w: u32 = w
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad width in '{s}'"))?;
+    let h: u32 = h
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad height in '{s}'"))?;
     if w == 0 || h == 0 || w > 16384 || h > 16384 {
-        return Err(format!("resolution '{s}' must be between 1x1 and 16384x16384"));
+        return Err(format!(
+            "resolution '{s}' must be between 1x1 and 16384x16384"
+        ));
     }
     Ok((w, h))
 }
@@ -126,10 +142,37 @@ fn parse_res(s: &str) -> std::result::Result<(u32, u32), String> {
 fn main() {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Render { scene, backend, spp, res, max_depth, seed, out, variance_out, device, validation, json } => {
-            render(RenderArgs { scene, backend, spp, res, max_depth, seed, out, variance_out, device, validation, json })
-        }
-        Command::Diff { test, reference, error_map, json } => diff(&test, &reference, error_map.as_deref(), json),
+        Command::Render {
+            scene,
+            backend,
+            spp,
+            res,
+            max_depth,
+            seed,
+            out,
+            variance_out,
+            device,
+            validation,
+            json,
+        } => render(RenderArgs {
+            scene,
+            backend,
+            spp,
+            res,
+            max_depth,
+            seed,
+            out,
+            variance_out,
+            device,
+            validation,
+            json,
+        }),
+        Command::Diff {
+            test,
+            reference,
+            error_map,
+            json,
+        } => diff(&test, &reference, error_map.as_deref(), json),
         Command::Brdf { command } => brdf_command(command),
         Command::Devices => vk::Context::list_devices().map(|d| {
             for name in d {
@@ -160,9 +203,11 @@ struct RenderArgs {
 fn progress_bar(len: u64, what: &str) -> ProgressBar {
     let pb = ProgressBar::new(len);
     pb.set_style(
-        ProgressStyle::with_template(&format!("{{spinner}} {what} [{{bar:40}}] {{pos}}/{{len}} {{elapsed}} eta {{eta}}"))
-            .expect("valid template")
-            .progress_chars("=> "),
+        ProgressStyle::with_template(&format!(
+            "{{spinner}} {what} [{{bar:40}}] {{pos}}/{{len}} {{elapsed}} eta {{eta}}"
+        ))
+        .expect("valid template")
+        .progress_chars("=> "),
     );
     pb
 }
@@ -193,7 +238,11 @@ fn render(a: RenderArgs) -> Result<()> {
         sc.integrator.seed = s;
     }
     let outs = if a.out.is_empty() {
-        let stem = a.scene.file_stem().and_then(|s| s.to_str()).unwrap_or("render");
+        let stem = a
+            .scene
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("render");
         std::fs::create_dir_all("out").context("creating the default output directory out/")?;
         vec![PathBuf::from(format!("out/{stem}.png"))]
     } else {
@@ -210,7 +259,10 @@ fn render(a: RenderArgs) -> Result<()> {
     let (output, device, seconds_setup, seconds_render): (RenderOutput, String, f64, f64);
     match a.backend {
         Backend::Gpu => {
-            let ctx = vk::Context::new(&vk::ContextOptions { device: a.device.clone(), validation: a.validation })?;
+            let ctx = vk::Context::new(&vk::ContextOptions {
+                device: a.device.clone(),
+                validation: a.validation,
+            })?;
             let compiler = vk::ShaderCompiler::new()?;
             let mut r = GpuRenderer::new(&ctx, &sc, &bvh, &compiler)?;
             seconds_setup = t0.elapsed().as_secs_f64();
@@ -227,7 +279,11 @@ fn render(a: RenderArgs) -> Result<()> {
             // Tear down now so that messages raised at device destruction (leaks) count too.
             let msgs = ctx.finish();
             if !msgs.is_empty() {
-                bail!("the validation layer reported {} message(s):\n{}", msgs.len(), msgs.join("\n"));
+                bail!(
+                    "the validation layer reported {} message(s):\n{}",
+                    msgs.len(),
+                    msgs.join("\n")
+                );
             }
         }
         Backend::Cpu => {
@@ -281,18 +337,34 @@ fn render(a: RenderArgs) -> Result<()> {
         print_summary(&summary);
     }
     if output.nonfinite_samples > 0 {
-        eprintln!("warning: {} non-finite samples were dropped", output.nonfinite_samples);
+        eprintln!(
+            "warning: {} non-finite samples were dropped",
+            output.nonfinite_samples
+        );
     }
     Ok(())
 }
 
 fn print_summary(s: &serde_json::Value) {
-    println!("backend        {} on {}", s["backend"].as_str().unwrap_or(""), s["device"].as_str().unwrap_or(""));
-    println!("image          {}x{}, {} spp, max depth {}", s["width"], s["height"], s["spp"], s["max_depth"]);
+    println!(
+        "backend        {} on {}",
+        s["backend"].as_str().unwrap_or(""),
+        s["device"].as_str().unwrap_or("")
+    );
+    println!(
+        "image          {}x{}, {} spp, max depth {}",
+        s["width"], s["height"], s["spp"], s["max_depth"]
+    );
     if let Some(p) = s.get("pipelines") {
         println!(
             "pipelines      {} (compile {:.3} s, create {:.3} s)",
-            p.as_array().map(|a| a.iter().filter_map(|x| x.as_str()).collect::<Vec<_>>().join(", ")).unwrap_or_default(),
+            p.as_array()
+                .map(|a| a
+                    .iter()
+                    .filter_map(|x| x.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "))
+                .unwrap_or_default(),
             s["seconds_shader_compile"].as_f64().unwrap_or(0.0),
             s["seconds_pipeline_create"].as_f64().unwrap_or(0.0)
         );
@@ -312,7 +384,13 @@ fn print_summary(s: &serde_json::Value) {
     if let Some(st) = s["stage_seconds"].as_array().filter(|a| !a.is_empty()) {
         let parts: Vec<String> = st
             .iter()
-            .map(|e| format!("{} {:.3}", e["stage"].as_str().unwrap_or(""), e["seconds"].as_f64().unwrap_or(0.0)))
+            .map(|e| {
+                format!(
+                    "{} {:.3}",
+                    e["stage"].as_str().unwrap_or(""),
+                    e["seconds"].as_f64().unwrap_or(0.0)
+                )
+            })
             .collect();
         println!("stages (s)     {}", parts.join(", "));
     }
@@ -353,13 +431,22 @@ fn brdf_command(cmd: BrdfCommand) -> Result<()> {
     use brdfwave::brdf::inline::parse_inline;
     use brdfwave::brdf_tools as tools;
     match cmd {
-        BrdfCommand::Eval { material, dirs, backend, out, device } => {
+        BrdfCommand::Eval {
+            material,
+            dirs,
+            backend,
+            out,
+            device,
+        } => {
             let m = parse_inline(&material)?;
             let pairs = tools::read_direction_csv(&dirs)?;
             let values = match backend {
                 Backend::Cpu => tools::eval_cpu(&m, &pairs),
                 Backend::Gpu => {
-                    let ctx = vk::Context::new(&vk::ContextOptions { device, validation: false })?;
+                    let ctx = vk::Context::new(&vk::ContextOptions {
+                        device,
+                        validation: false,
+                    })?;
                     let compiler = vk::ShaderCompiler::new()?;
                     brdfwave::gpu::brdf_probe::eval(&ctx, &compiler, &m, &pairs)?
                 }
@@ -370,23 +457,37 @@ fn brdf_command(cmd: BrdfCommand) -> Result<()> {
                 None => print!("{csv}"),
             }
         }
-        BrdfCommand::Plot { material, theta_i, out } => {
+        BrdfCommand::Plot {
+            material,
+            theta_i,
+            out,
+        } => {
             if !(0.0..90.0).contains(&theta_i) {
                 bail!("--theta-i must be in [0, 90) degrees, got {theta_i}");
             }
             let m = parse_inline(&material)?;
             let img = tools::plot_lobe(m.brdf.as_ref(), theta_i);
             let mut bytes = Vec::new();
-            img.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)?;
+            img.write_to(
+                &mut std::io::Cursor::new(&mut bytes),
+                image::ImageFormat::Png,
+            )?;
             tools::write_atomic(&out, &bytes)?;
             println!("wrote {}", out.display());
         }
-        BrdfCommand::Report { out, no_gpu, device } => {
+        BrdfCommand::Report {
+            out,
+            no_gpu,
+            device,
+        } => {
             std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
             let gpu = if no_gpu {
                 None
             } else {
-                let ctx = vk::Context::new(&vk::ContextOptions { device, validation: false })?;
+                let ctx = vk::Context::new(&vk::ContextOptions {
+                    device,
+                    validation: false,
+                })?;
                 let compiler = vk::ShaderCompiler::new()?;
                 Some((ctx, compiler))
             };
@@ -403,8 +504,14 @@ fn brdf_command(cmd: BrdfCommand) -> Result<()> {
                 }
                 let img = tools::plot_lobe(m.brdf.as_ref(), 45.0);
                 let mut bytes = Vec::new();
-                img.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)?;
-                tools::write_atomic(&out.join(format!("lobe_{}.png", tools::slug(label))), &bytes)?;
+                img.write_to(
+                    &mut std::io::Cursor::new(&mut bytes),
+                    image::ImageFormat::Png,
+                )?;
+                tools::write_atomic(
+                    &out.join(format!("lobe_{}.png", tools::slug(label))),
+                    &bytes,
+                )?;
                 rows.push(row);
             }
             let device_name = gpu.as_ref().map(|(c, _)| c.device_name.clone());
@@ -412,7 +519,10 @@ fn brdf_command(cmd: BrdfCommand) -> Result<()> {
             tools::write_atomic(&out.join("report.md"), md.as_bytes())?;
             tools::write_atomic(&out.join("report.csv"), tools::report_csv(&rows).as_bytes())?;
             print!("{md}");
-            println!("\nwrote {}/report.md, report.csv and lobe_*.png", out.display());
+            println!(
+                "\nwrote {}/report.md, report.csv and lobe_*.png",
+                out.display()
+            );
         }
     }
     Ok(())
@@ -420,13 +530,20 @@ fn brdf_command(cmd: BrdfCommand) -> Result<()> {
 
 /// Nanoseconds per BRDF evaluation on the GPU: the probe kernel over 2^20 random pairs, timed
 /// by GPU timestamps around the dispatch (uploads and pipeline creation excluded).
-fn gpu_eval_cost(ctx: &vk::Context, compiler: &vk::ShaderCompiler, m: &brdfwave::brdf::Material) -> Result<f64> {
+fn gpu_eval_cost(
+    ctx: &vk::Context,
+    compiler: &vk::ShaderCompiler,
+    m: &brdfwave::brdf::Material,
+) -> Result<f64> {
     let n = 1u32 << 20;
     let pairs: Vec<(glam::Vec3, glam::Vec3)> = (0..n)
         .map(|i| {
             let u = |d| brdfwave::rng::random_f32(9, i, 0, 0, d);
             let s = brdfwave::brdf::common::sample_cosine_hemisphere;
-            (s(glam::Vec2::new(u(0), u(1))), s(glam::Vec2::new(u(2), u(3))))
+            (
+                s(glam::Vec2::new(u(0), u(1))),
+                s(glam::Vec2::new(u(2), u(3))),
+            )
         })
         .collect();
     let (_, seconds) = brdfwave::gpu::brdf_probe::eval_timed(ctx, compiler, m, &pairs)?;

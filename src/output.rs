@@ -26,7 +26,11 @@ pub fn mean_and_variance(sum: [f64; 3], sum2: [f64; 3], n: u32) -> ([f32; 3], [f
     for c in 0..3 {
         let mean = sum[c] / n;
         m[c] = mean as f32;
-        v[c] = if n > 1.0 { ((sum2[c] - n * mean * mean) / (n - 1.0)).max(0.0) as f32 } else { 0.0 };
+        v[c] = if n > 1.0 {
+            ((sum2[c] - n * mean * mean) / (n - 1.0)).max(0.0) as f32
+        } else {
+            0.0
+        };
     }
     (m, v)
 }

@@ -12,7 +12,12 @@ use std::f64::consts::PI;
 fn material(src: &str) -> Result<(Material, Vec<String>), String> {
     let fields: BTreeMap<String, toml::Spanned<toml::Value>> =
         toml::from_str(src).map_err(|e| e.to_string())?;
-    let origin = Origin { file: "test.toml", source: src, material: "m", span: 0..src.len() };
+    let origin = Origin {
+        file: "test.toml",
+        source: src,
+        material: "m",
+        span: 0..src.len(),
+    };
     parse_material(origin, fields).map_err(|e| e.to_string())
 }
 
@@ -31,7 +36,10 @@ fn default_is_the_classic_form() {
     let (m, w) = material("model = \"blinn_phong\"\n").unwrap();
     assert!(w.is_empty(), "{w:?}");
     let c = bp(0.5, 0.3, 80.0, "classic");
-    let (a, b) = (dir_from_theta_deg(50.0, 0.0), dir_from_theta_deg(45.0, 170.0));
+    let (a, b) = (
+        dir_from_theta_deg(50.0, 0.0),
+        dir_from_theta_deg(45.0, 170.0),
+    );
     assert_eq!(m.brdf.eval(a, b), c.brdf.eval(a, b));
 }
 
@@ -78,7 +86,10 @@ fn white_furnace_against_reference_values() {
             * (2.0 * (1.0 - (-(n + 4.0) / 2.0).exp2()) / (n + 4.0)
                 - (1.0 - (-(n + 2.0) / 2.0).exp2()) / (n + 2.0));
         eprintln!("classic n={n}: 0° viewer fixed {v:.4} (analytic {ev:.4}), light fixed {l:.4} (analytic {el:.4})");
-        assert!((v - ev).abs() < 2e-3 * ev && (l - el).abs() < 2e-3 * el, "{n}");
+        assert!(
+            (v - ev).abs() < 2e-3 * ev && (l - el).abs() < 2e-3 * el,
+            "{n}"
+        );
         let m = bp(0.0, 1.0, n as f32, "normalized");
         let a = albedo_quadrature(m.brdf.as_ref(), z, 100);
         eprintln!("normalized n={n}: 0° {a:.5} (analytic 1)");
@@ -100,10 +111,16 @@ fn white_furnace_against_reference_values() {
             .iter()
             .map(|&t| albedo_quadrature_light(m.brdf.as_ref(), dir_from_theta_deg(t, 0.0), 100))
             .collect();
-        eprintln!("{form:10} n={n:6}: viewer fixed {row:.4?}\n{:20}light fixed  {light:.4?}", "");
+        eprintln!(
+            "{form:10} n={n:6}: viewer fixed {row:.4?}\n{:20}light fixed  {light:.4?}",
+            ""
+        );
         if form == "normalized" {
             for (a, b) in row.iter().zip(&light) {
-                assert!(*a <= 1.0 + 2e-3 && (a - b).abs() < 2e-3, "{n}: {row:?} {light:?}");
+                assert!(
+                    *a <= 1.0 + 2e-3 && (a - b).abs() < 2e-3,
+                    "{n}: {row:?} {light:?}"
+                );
             }
         } else if n == 1.0 {
             assert!(
@@ -145,7 +162,10 @@ fn reciprocity() {
         let b = dir_from_theta_deg(tb, 170.0);
         let ratio = m.brdf.eval(a, b).x / m.brdf.eval(b, a).x;
         let expect = b.z / a.z;
-        assert!((ratio / expect - 1.0).abs() < 1e-5, "{ta} {tb}: {ratio} vs {expect}");
+        assert!(
+            (ratio / expect - 1.0).abs() < 1e-5,
+            "{ta} {tb}: {ratio} vs {expect}"
+        );
     }
 }
 
@@ -157,7 +177,10 @@ fn bad_parameters() {
         "{e}"
     );
     let e = material("model = \"blinn_phong\"\nform = \"survey\"\n").unwrap_err();
-    assert!(e.contains("form") && e.contains("classic, normalized"), "{e}");
+    assert!(
+        e.contains("form") && e.contains("classic, normalized"),
+        "{e}"
+    );
     let e = material("model = \"blinn_phong\"\nkd = [0.1, 0.2, -0.3]\n").unwrap_err();
     assert!(e.contains("kd") && e.contains("-0.3"), "{e}");
     let (_, w) =

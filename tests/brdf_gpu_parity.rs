@@ -60,7 +60,16 @@ fn close(g: f32, c: f32, scale: f32) -> bool {
 #[test]
 fn every_model_of_the_survey_is_built_in() {
     let names: Vec<&str> = MODELS.iter().map(|m| m.name).collect();
-    for m in ["lambert", "oren_nayar", "phong", "blinn_phong", "cook_torrance", "he", "ward", "schlick"] {
+    for m in [
+        "lambert",
+        "oren_nayar",
+        "phong",
+        "blinn_phong",
+        "cook_torrance",
+        "he",
+        "ward",
+        "schlick",
+    ] {
         assert!(names.contains(&m), "model {m} missing; have {names:?}");
     }
 }
@@ -83,7 +92,10 @@ fn gpu_and_cpu_agree_on_eval_pdf_and_sample_for_every_model() {
     for src in MATERIALS {
         let m = parse_inline(src).unwrap_or_else(|e| panic!("{src}: {e:#}"));
         let gpu = brdf_probe::eval(&ctx, &compiler, &m, &pairs).unwrap();
-        let cpu: Vec<(Vec3, f32)> = pairs.iter().map(|(a, b)| (m.brdf.eval(*a, *b), m.brdf.pdf(*a, *b))).collect();
+        let cpu: Vec<(Vec3, f32)> = pairs
+            .iter()
+            .map(|(a, b)| (m.brdf.eval(*a, *b), m.brdf.pdf(*a, *b)))
+            .collect();
         let fscale = cpu.iter().map(|c| c.0.max_element()).fold(0.0f32, f32::max);
         let pscale = cpu.iter().map(|c| c.1).fold(0.0f32, f32::max);
         let mut bad = 0;
@@ -92,12 +104,18 @@ fn gpu_and_cpu_agree_on_eval_pdf_and_sample_for_every_model() {
             if !ok {
                 bad += 1;
                 if bad <= 3 {
-                    failures.push(format!("{src}: pair {:?}: gpu f {gf:?} pdf {gp} vs cpu f {cf:?} pdf {cp}", pairs[k]));
+                    failures.push(format!(
+                        "{src}: pair {:?}: gpu f {gf:?} pdf {gp} vs cpu f {cf:?} pdf {cp}",
+                        pairs[k]
+                    ));
                 }
             }
         }
         if bad > 0 {
-            failures.push(format!("{src}: {bad} of {} eval/pdf values differ", pairs.len()));
+            failures.push(format!(
+                "{src}: {bad} of {} eval/pdf values differ",
+                pairs.len()
+            ));
         }
 
         // Sampling with the same random numbers.
@@ -130,11 +148,18 @@ fn gpu_and_cpu_agree_on_eval_pdf_and_sample_for_every_model() {
         }
         // Ties at branch boundaries (lobe choice, horizon) may flip a handful of samples.
         if mismatched > inputs.len() / 200 {
-            failures.push(format!("{src}: {mismatched} of {} samples differ", inputs.len()));
+            failures.push(format!(
+                "{src}: {mismatched} of {} samples differ",
+                inputs.len()
+            ));
         }
     }
     let msgs = ctx.validation_messages();
     assert!(msgs.is_empty(), "validation: {msgs:?}");
-    assert!(failures.is_empty(), "GPU/CPU BRDF disagreements:\n{}", failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "GPU/CPU BRDF disagreements:\n{}",
+        failures.join("\n")
+    );
     common::finish(ctx);
 }

@@ -11,14 +11,22 @@ use std::collections::BTreeMap;
 fn material(src: &str) -> Result<(Material, Vec<String>), String> {
     let fields: BTreeMap<String, toml::Spanned<toml::Value>> =
         toml::from_str(src).map_err(|e| e.to_string())?;
-    let origin = Origin { file: "test.toml", source: src, material: "m", span: 0..src.len() };
+    let origin = Origin {
+        file: "test.toml",
+        source: src,
+        material: "m",
+        span: 0..src.len(),
+    };
     parse_material(origin, fields).map_err(|e| e.to_string())
 }
 
 fn lambert(rho: [f32; 3]) -> Material {
-    material(&format!("model = \"lambert\"\nalbedo = [{}, {}, {}]\n", rho[0], rho[1], rho[2]))
-        .unwrap()
-        .0
+    material(&format!(
+        "model = \"lambert\"\nalbedo = [{}, {}, {}]\n",
+        rho[0], rho[1], rho[2]
+    ))
+    .unwrap()
+    .0
 }
 
 const ANGLES: [f32; 5] = [0.0, 30.0, 60.0, 80.0, 89.0];
@@ -32,7 +40,10 @@ fn albedo_is_rho_at_every_angle() {
         assert!((q - 0.5).abs() < 1e-6, "quadrature albedo {q} at {th}°");
         let (s, var) = albedo_sampled(m.brdf.as_ref(), wo, 10_000, 7);
         // The weight is ρ exactly, so the estimator has no variance at all.
-        assert!((s - 0.5).abs() < 1e-6 && var < 1e-10, "sampled albedo {s} ± {var} at {th}°");
+        assert!(
+            (s - 0.5).abs() < 1e-6 && var < 1e-10,
+            "sampled albedo {s} ± {var} at {th}°"
+        );
     }
 }
 
@@ -97,7 +108,10 @@ fn reciprocal() {
 #[test]
 fn bad_parameters_are_rejected() {
     let e = material("model = \"lambert\"\nalbedo = [0.5, 1.5, 0.5]\n").unwrap_err();
-    assert!(e.contains("test.toml:2") && e.contains("albedo") && e.contains("out of range"), "{e}");
+    assert!(
+        e.contains("test.toml:2") && e.contains("albedo") && e.contains("out of range"),
+        "{e}"
+    );
     let e = material("model = \"lambert\"\nalbedo = [0.5, 0.5]\n").unwrap_err();
     assert!(e.contains("albedo") && e.contains("array of 2"), "{e}");
     let e = material("model = \"lambert\"\nalbdo = 0.5\n").unwrap_err();

@@ -11,7 +11,12 @@ use std::collections::BTreeMap;
 fn material(src: &str) -> Result<(Material, Vec<String>), String> {
     let fields: BTreeMap<String, toml::Spanned<toml::Value>> =
         toml::from_str(src).map_err(|e| e.to_string())?;
-    let origin = Origin { file: "test.toml", source: src, material: "m", span: 0..src.len() };
+    let origin = Origin {
+        file: "test.toml",
+        source: src,
+        material: "m",
+        span: 0..src.len(),
+    };
     parse_material(origin, fields).map_err(|e| e.to_string())
 }
 
@@ -30,9 +35,15 @@ fn default_is_the_full_model() {
     let (m, w) = material("model = \"oren_nayar\"\n").unwrap();
     assert!(w.is_empty());
     let full = on(0.5, 0.3, "full");
-    let (a, b) = (dir_from_theta_deg(60.0, 0.0), dir_from_theta_deg(40.0, 30.0));
+    let (a, b) = (
+        dir_from_theta_deg(60.0, 0.0),
+        dir_from_theta_deg(40.0, 30.0),
+    );
     assert_eq!(m.brdf.eval(a, b), full.brdf.eval(a, b));
-    assert_ne!(m.brdf.eval(a, b), on(0.5, 0.3, "qualitative").brdf.eval(a, b));
+    assert_ne!(
+        m.brdf.eval(a, b),
+        on(0.5, 0.3, "qualitative").brdf.eval(a, b)
+    );
 }
 
 #[test]
@@ -127,13 +138,25 @@ fn reciprocal() {
 #[test]
 fn bad_parameters() {
     let e = material("model = \"oren_nayar\"\nsigma = 20\n").unwrap_err();
-    assert!(e.contains("test.toml:2") && e.contains("sigma") && e.contains("radians"), "{e}");
+    assert!(
+        e.contains("test.toml:2") && e.contains("sigma") && e.contains("radians"),
+        "{e}"
+    );
     let e = material("model = \"oren_nayar\"\nsigma = -0.1\n").unwrap_err();
     assert!(e.contains("sigma") && e.contains("out of range"), "{e}");
     let e = material("model = \"oren_nayar\"\nvariant = \"fast\"\n").unwrap_err();
-    assert!(e.contains("variant") && e.contains("full, qualitative"), "{e}");
+    assert!(
+        e.contains("variant") && e.contains("full, qualitative"),
+        "{e}"
+    );
     let e = material("model = \"oren_nayar\"\nroughness = 0.3\n").unwrap_err();
-    assert!(e.contains("roughness") && e.contains("unknown field"), "{e}");
+    assert!(
+        e.contains("roughness") && e.contains("unknown field"),
+        "{e}"
+    );
     let (_, w) = material("model = \"oren_nayar\"\nalbedo = 0.99\n").unwrap();
-    assert!(w.len() == 1 && w[0].contains("albedo") && w[0].contains("0.97"), "{w:?}");
+    assert!(
+        w.len() == 1 && w[0].contains("albedo") && w[0].contains("0.97"),
+        "{w:?}"
+    );
 }

@@ -10,7 +10,12 @@ use std::collections::BTreeMap;
 fn material(src: &str) -> Result<(Material, Vec<String>), String> {
     let fields: BTreeMap<String, toml::Spanned<toml::Value>> =
         toml::from_str(src).map_err(|e| e.to_string())?;
-    let origin = Origin { file: "test.toml", source: src, material: "m", span: 0..src.len() };
+    let origin = Origin {
+        file: "test.toml",
+        source: src,
+        material: "m",
+        span: 0..src.len(),
+    };
     parse_material(origin, fields).map_err(|e| e.to_string())
 }
 
@@ -28,7 +33,10 @@ fn default_is_the_survey_form() {
     let (m, w) = material("model = \"phong\"\n").unwrap();
     assert!(w.is_empty(), "{w:?}");
     let s = phong(0.5, 0.3, 20.0, "survey");
-    let (a, b) = (dir_from_theta_deg(50.0, 0.0), dir_from_theta_deg(45.0, 170.0));
+    let (a, b) = (
+        dir_from_theta_deg(50.0, 0.0),
+        dir_from_theta_deg(45.0, 170.0),
+    );
     assert_eq!(m.brdf.eval(a, b), s.brdf.eval(a, b));
 }
 
@@ -108,10 +116,16 @@ fn white_furnace_against_reference_values() {
             .iter()
             .map(|&t| albedo_quadrature_light(m.brdf.as_ref(), dir_from_theta_deg(t, 0.0), 100))
             .collect();
-        eprintln!("{form:10} n={n:6}: viewer fixed {row:.4?}\n{:20}light fixed  {light:.4?}", "");
+        eprintln!(
+            "{form:10} n={n:6}: viewer fixed {row:.4?}\n{:20}light fixed  {light:.4?}",
+            ""
+        );
         if form == "normalized" {
             for (a, b) in row.iter().zip(&light) {
-                assert!(*a <= 1.0 + 2e-3 && (a - b).abs() < 2e-3, "{n}: {row:?} {light:?}");
+                assert!(
+                    *a <= 1.0 + 2e-3 && (a - b).abs() < 2e-3,
+                    "{n}: {row:?} {light:?}"
+                );
             }
         }
     }
@@ -153,7 +167,10 @@ fn reciprocity() {
         let b = dir_from_theta_deg(tb, 170.0);
         let ratio = m.brdf.eval(a, b).x / m.brdf.eval(b, a).x;
         let expect = b.z / a.z;
-        assert!((ratio / expect - 1.0).abs() < 1e-5, "{ta} {tb}: {ratio} vs {expect}");
+        assert!(
+            (ratio / expect - 1.0).abs() < 1e-5,
+            "{ta} {tb}: {ratio} vs {expect}"
+        );
     }
 }
 
@@ -167,9 +184,15 @@ fn bad_parameters() {
     let e = material("model = \"phong\"\nks = nan\n").unwrap_err();
     assert!(e.contains("ks") && e.contains("finite"), "{e}");
     let e = material("model = \"phong\"\nform = \"blinn\"\n").unwrap_err();
-    assert!(e.contains("form") && e.contains("survey, normalized"), "{e}");
+    assert!(
+        e.contains("form") && e.contains("survey, normalized"),
+        "{e}"
+    );
     let e = material("model = \"phong\"\nshininess = 3\n").unwrap_err();
-    assert!(e.contains("shininess") && e.contains("unknown field"), "{e}");
+    assert!(
+        e.contains("shininess") && e.contains("unknown field"),
+        "{e}"
+    );
     let (_, w) =
         material("model = \"phong\"\nform = \"normalized\"\nkd = 0.7\nks = 0.5\n").unwrap();
     assert!(w.len() == 1 && w[0].contains("kd + ks = 1.200"), "{w:?}");

@@ -20,13 +20,29 @@ fn cornell_box_gpu_matches_cpu_with_the_same_seed() {
     if agree.channel_fraction < 0.99 {
         let a = save("same-seed-gpu.exr", &gpu.mean);
         save("same-seed-cpu.exr", &cpu.mean);
-        save("same-seed-error.png", &metrics::error_map(&gpu.mean, &cpu.mean).unwrap());
-        panic!("need 99% of pixel-channels to agree: {agree}images in {}", a.parent().unwrap().display());
+        save(
+            "same-seed-error.png",
+            &metrics::error_map(&gpu.mean, &cpu.mean).unwrap(),
+        );
+        panic!(
+            "need 99% of pixel-channels to agree: {agree}images in {}",
+            a.parent().unwrap().display()
+        );
     }
     // The two sides also traced the same number of rays, up to the few diverging paths.
     let rel = |a: u64, b: u64| (a as f64 - b as f64).abs() / b as f64;
-    assert!(rel(gpu.extension_rays, cpu.extension_rays) < 0.01, "{} vs {}", gpu.extension_rays, cpu.extension_rays);
-    assert!(rel(gpu.shadow_rays, cpu.shadow_rays) < 0.01, "{} vs {}", gpu.shadow_rays, cpu.shadow_rays);
+    assert!(
+        rel(gpu.extension_rays, cpu.extension_rays) < 0.01,
+        "{} vs {}",
+        gpu.extension_rays,
+        cpu.extension_rays
+    );
+    assert!(
+        rel(gpu.shadow_rays, cpu.shadow_rays) < 0.01,
+        "{} vs {}",
+        gpu.shadow_rays,
+        cpu.shadow_rays
+    );
     finish(ctx);
 }
 
@@ -38,8 +54,21 @@ fn cornell_box_gpu_and_cpu_agree_statistically_with_independent_seeds() {
     let cpu = render_cpu(&scene("cornell-box.toml", 24, 24, 128, 8, 2));
     // Both sides run the same estimator, so the pooled (Student) variance is the calibrated
     // choice (Welch is anti-conservative for skewed per-sample distributions).
-    let opts = metrics::ZTestOptions { alpha: 0.01, variance: metrics::VarianceModel::Pooled, ..Default::default() };
-    let r = metrics::z_test_with(&gpu.mean, &gpu.variance, gpu.spp as u64, &cpu.mean, &cpu.variance, cpu.spp as u64, &opts).unwrap();
+    let opts = metrics::ZTestOptions {
+        alpha: 0.01,
+        variance: metrics::VarianceModel::Pooled,
+        ..Default::default()
+    };
+    let r = metrics::z_test_with(
+        &gpu.mean,
+        &gpu.variance,
+        gpu.spp as u64,
+        &cpu.mean,
+        &cpu.variance,
+        cpu.spp as u64,
+        &opts,
+    )
+    .unwrap();
     if !r.pass {
         save("z-gpu.exr", &gpu.mean);
         save("z-cpu.exr", &cpu.mean);
@@ -52,11 +81,16 @@ fn cornell_box_gpu_and_cpu_agree_statistically_with_independent_seeds() {
 fn analytic_furnace(out: &brdfwave::output::RenderOutput, expected: f64) {
     let n = out.mean.data.len() as f64 * out.spp as f64;
     for c in 0..3 {
-        let mean: f64 = out.mean.data.iter().map(|p| p[c] as f64).sum::<f64>() / out.mean.data.len() as f64;
-        let var: f64 = out.variance.data.iter().map(|p| p[c] as f64).sum::<f64>() / out.variance.data.len() as f64;
+        let mean: f64 =
+            out.mean.data.iter().map(|p| p[c] as f64).sum::<f64>() / out.mean.data.len() as f64;
+        let var: f64 = out.variance.data.iter().map(|p| p[c] as f64).sum::<f64>()
+            / out.variance.data.len() as f64;
         let se = (var / n).sqrt();
         assert!(var > 0.0, "the estimator should have some variance");
-        assert!((mean - expected).abs() < 5.0 * se + 1e-5, "channel {c}: mean {mean} vs exact {expected} (standard error {se})");
+        assert!(
+            (mean - expected).abs() < 5.0 * se + 1e-5,
+            "channel {c}: mean {mean} vs exact {expected} (standard error {se})"
+        );
     }
 }
 
@@ -88,7 +122,10 @@ fn white_furnace_sphere_is_exact_on_both_backends() {
             assert!((corner[c] - 1.0).abs() < 1e-6, "{name}: corner {corner:?}");
         }
         for p in &out.mean.data {
-            assert!(p.iter().all(|&v| (0.8 - 1e-5..=1.0 + 1e-6).contains(&v)), "{name}: pixel {p:?}");
+            assert!(
+                p.iter().all(|&v| (0.8 - 1e-5..=1.0 + 1e-6).contains(&v)),
+                "{name}: pixel {p:?}"
+            );
         }
     }
     finish(ctx);
@@ -104,9 +141,15 @@ fn depth_one_shows_only_the_light_on_both_backends() {
         assert!(lit > 0, "{name}: the light is visible from the camera");
         for p in &out.mean.data {
             // A pixel sees the light fully, partly (at its edge) or not at all.
-            assert!(p[0] <= 17.0 + 1e-4 && (p[0] == 0.0) == (p[1] == 0.0), "{name}: {p:?}");
+            assert!(
+                p[0] <= 17.0 + 1e-4 && (p[0] == 0.0) == (p[1] == 0.0),
+                "{name}: {p:?}"
+            );
             if p[0] > 0.0 {
-                assert!((p[1] / p[0] - 12.0 / 17.0).abs() < 1e-4, "{name}: not the light's colour: {p:?}");
+                assert!(
+                    (p[1] / p[0] - 12.0 / 17.0).abs() < 1e-4,
+                    "{name}: not the light's colour: {p:?}"
+                );
             }
         }
     }
@@ -123,7 +166,10 @@ fn a_lambert_only_scene_builds_only_the_lambert_shade_pipeline() {
     let s = scene("cornell-box.toml", 8, 8, 1, 2, 0);
     let ctx = context();
     let (_, pipelines) = render_gpu(&ctx, &s);
-    let shade: Vec<&String> = pipelines.iter().filter(|p| p.starts_with("shade_")).collect();
+    let shade: Vec<&String> = pipelines
+        .iter()
+        .filter(|p| p.starts_with("shade_"))
+        .collect();
     assert_eq!(shade, vec!["shade_lambert"], "all pipelines: {pipelines:?}");
     finish(ctx);
 }

@@ -17,7 +17,10 @@ fn same_seed_parity(name: &str, w: u32, h: u32, spp: u32, depth: u32) -> Vec<Str
     if agree.channel_fraction < 0.98 {
         save(&format!("{stem}-gpu.exr"), &gpu.mean);
         save(&format!("{stem}-cpu.exr"), &cpu.mean);
-        save(&format!("{stem}-error.png"), &metrics::error_map(&gpu.mean, &cpu.mean).unwrap());
+        save(
+            &format!("{stem}-error.png"),
+            &metrics::error_map(&gpu.mean, &cpu.mean).unwrap(),
+        );
         panic!("{name}: need 98% of pixel-channels to agree: {agree}");
     }
     finish(ctx);
@@ -27,15 +30,33 @@ fn same_seed_parity(name: &str, w: u32, h: u32, spp: u32, depth: u32) -> Vec<Str
 #[test]
 fn lineup_gpu_matches_cpu_and_builds_one_shade_pipeline_per_model() {
     let pipelines = same_seed_parity("lineup.toml", 160, 50, 4, 5);
-    let mut shade: Vec<&str> = pipelines.iter().filter_map(|p| p.strip_prefix("shade_")).collect();
+    let mut shade: Vec<&str> = pipelines
+        .iter()
+        .filter_map(|p| p.strip_prefix("shade_"))
+        .collect();
     shade.sort();
-    assert_eq!(shade, ["blinn_phong", "cook_torrance", "he", "lambert", "oren_nayar", "phong", "schlick", "ward"]);
+    assert_eq!(
+        shade,
+        [
+            "blinn_phong",
+            "cook_torrance",
+            "he",
+            "lambert",
+            "oren_nayar",
+            "phong",
+            "schlick",
+            "ward"
+        ]
+    );
 }
 
 #[test]
 fn glossy_cornell_box_gpu_matches_cpu() {
     let pipelines = same_seed_parity("cornell-box-glossy.toml", 64, 64, 4, 8);
-    let shade: Vec<&String> = pipelines.iter().filter(|p| p.starts_with("shade_")).collect();
+    let shade: Vec<&String> = pipelines
+        .iter()
+        .filter(|p| p.starts_with("shade_"))
+        .collect();
     assert_eq!(shade, ["shade_lambert", "shade_cook_torrance"]);
 }
 

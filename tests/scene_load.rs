@@ -61,9 +61,18 @@ fn cornell_box_matches_the_published_data() {
     assert_eq!(s.camera.up, v3(&cam["up"]));
     assert_eq!(s.camera.fov_y_deg, cam["fov_deg"].as_f64().unwrap() as f32);
     assert_eq!(cam["fov_axis"], "y");
-    assert_eq!(s.width as u64, cam["default_resolution"][0].as_u64().unwrap());
-    assert_eq!(s.height as u64, cam["default_resolution"][1].as_u64().unwrap());
-    assert_eq!(s.integrator.max_depth as u64, json["integrator"]["max_depth"].as_u64().unwrap());
+    assert_eq!(
+        s.width as u64,
+        cam["default_resolution"][0].as_u64().unwrap()
+    );
+    assert_eq!(
+        s.height as u64,
+        cam["default_resolution"][1].as_u64().unwrap()
+    );
+    assert_eq!(
+        s.integrator.max_depth as u64,
+        json["integrator"]["max_depth"].as_u64().unwrap()
+    );
     assert!(!s.integrator.russian_roulette);
     assert_eq!(s.environment, Vec3::ZERO);
 
@@ -74,9 +83,16 @@ fn cornell_box_matches_the_published_data() {
         assert_eq!(m.model_name(), j["model"].as_str().unwrap());
         // Lambert packs its albedo in p[0].xyz.
         let p = m.brdf.pack().0;
-        assert_eq!(Vec3::new(p[0], p[1], p[2]), v3(&j["albedo"]), "albedo of {name}");
+        assert_eq!(
+            Vec3::new(p[0], p[1], p[2]),
+            v3(&j["albedo"]),
+            "albedo of {name}"
+        );
     }
-    assert!(!s.materials[3].brdf.scatters(), "the light surface is black");
+    assert!(
+        !s.materials[3].brdf.scatters(),
+        "the light surface is black"
+    );
 
     // Geometry: every quad as published, split (v0,v1,v2), (v0,v2,v3).
     let shapes = json["shapes"].as_object().unwrap();
@@ -84,8 +100,10 @@ fn cornell_box_matches_the_published_data() {
     let mut expected = Vec::new();
     for name in CORNELL_ORDER {
         let shape = &shapes[name];
-        let material =
-            s.material_names.iter().position(|n| n == shape["material"].as_str().unwrap());
+        let material = s
+            .material_names
+            .iter()
+            .position(|n| n == shape["material"].as_str().unwrap());
         let emitter = shape.get("emitter").map(|_| 0u32);
         for q in shape["quads"].as_array().unwrap() {
             let p: Vec<Vec3> = q.as_array().unwrap().iter().map(v3).collect();
@@ -136,7 +154,10 @@ fn cornell_box_normals_follow_the_conventions() {
         for t in tris(name) {
             let n = unit_normal(t);
             assert!(n.dot(inside - centroid(t)) > 0.0, "{name} faces out: {n}");
-            assert!(n.dot(axis) > 0.999, "{name}: normal {n}, expected about {axis}");
+            assert!(
+                n.dot(axis) > 0.999,
+                "{name}: normal {n}, expected about {axis}"
+            );
         }
     }
     // The blocks face outward: away from their own centre; the sides are vertical.
@@ -145,7 +166,10 @@ fn cornell_box_normals_follow_the_conventions() {
         let centre = ts.iter().map(centroid).sum::<Vec3>() / ts.len() as f32;
         for (k, t) in ts.iter().enumerate() {
             let n = unit_normal(t);
-            assert!(n.dot(centroid(t) - centre) > 0.0, "{name} triangle {k} faces in: {n}");
+            assert!(
+                n.dot(centroid(t) - centre) > 0.0,
+                "{name} triangle {k} faces in: {n}"
+            );
             if k < 2 {
                 assert!(n.dot(Vec3::Y) > 0.9999, "{name} top: {n}");
             } else {
@@ -176,7 +200,10 @@ fn furnace_sphere_puts_the_camera_inside_an_emitting_inward_sphere() {
     assert!((s.camera.position - sp.center).length() < sp.radius);
     assert_eq!(sp.emitter, Some(0));
     assert_eq!(s.emitters[0].radiance, Vec3::splat(0.5));
-    assert_eq!(s.materials[sp.material as usize].brdf.pack().0[..3], [0.5; 3]);
+    assert_eq!(
+        s.materials[sp.material as usize].brdf.pack().0[..3],
+        [0.5; 3]
+    );
     assert_eq!((s.width, s.height), (32, 32));
     assert_eq!(s.environment, Vec3::ZERO);
     assert!(!s.integrator.russian_roulette);
@@ -193,7 +220,10 @@ fn white_furnace_is_a_grey_sphere_in_a_white_environment() {
     assert!((s.camera.position - sp.center).length() > sp.radius);
     assert_eq!(sp.emitter, None);
     assert!(s.emitters.is_empty());
-    assert_eq!(s.materials[sp.material as usize].brdf.pack().0[..3], [0.8; 3]);
+    assert_eq!(
+        s.materials[sp.material as usize].brdf.pack().0[..3],
+        [0.8; 3]
+    );
 }
 
 #[test]
@@ -205,7 +235,9 @@ fn obj_example_loads_the_mesh_with_its_normals_and_transforms() {
     let (floor, rest) = s.triangles.split_at(2);
     let (ball, rest) = rest.split_at(80);
     let (egg, lamp) = rest.split_at(80);
-    assert!(floor.iter().all(|t| (unit_normal(t) - Vec3::Y).length() < 1e-6));
+    assert!(floor
+        .iter()
+        .all(|t| (unit_normal(t) - Vec3::Y).length() < 1e-6));
     assert!(lamp
         .iter()
         .all(|t| (unit_normal(t) + Vec3::Y).length() < 1e-6 && t.emitter == Some(0)));
@@ -233,7 +265,10 @@ fn obj_example_loads_the_mesh_with_its_normals_and_transforms() {
         let n = t.n.expect("normals survive the transform");
         for (v, n) in t.v.iter().zip(n) {
             let p = rot.inverse() * (*v - translate) / scale;
-            assert!((p.length() - 1.0).abs() < 1e-5, "vertex {v} is not on the ellipsoid");
+            assert!(
+                (p.length() - 1.0).abs() < 1e-5,
+                "vertex {v} is not on the ellipsoid"
+            );
             let expected = (rot * (p / scale)).normalize();
             assert!((n - expected).length() < 1e-4, "{n} vs {expected}");
             assert!(n.dot(unit_normal(t)) > 0.0);
@@ -261,8 +296,14 @@ fn obj_texture_coordinates_are_kept() {
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
     let quad = &s.triangles[..];
     assert_eq!(quad.len(), 2);
-    assert_eq!(quad[0].uv, Some([glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::ONE]));
-    assert_eq!(quad[1].uv, Some([glam::Vec2::ZERO, glam::Vec2::ONE, glam::Vec2::Y]));
+    assert_eq!(
+        quad[0].uv,
+        Some([glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::ONE])
+    );
+    assert_eq!(
+        quad[1].uv,
+        Some([glam::Vec2::ZERO, glam::Vec2::ONE, glam::Vec2::Y])
+    );
     assert_eq!(quad[0].n, None);
     // Counter-clockwise seen from +z: the front side is +z.
     assert!((unit_normal(&quad[0]) - Vec3::Z).length() < 1e-6);
@@ -274,10 +315,16 @@ fn obj_mtl_materials_are_ignored_with_a_warning() {
     let (_dir, path) = scene_with_obj(&obj, "");
     let s = load(&path).unwrap();
     assert_eq!(s.triangles.len(), 2);
-    assert!(s.triangles.iter().all(|t| s.material_names[t.material as usize] == "m"));
+    assert!(s
+        .triangles
+        .iter()
+        .all(|t| s.material_names[t.material as usize] == "m"));
     assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
     let w = &s.warnings[0];
-    assert!(w.starts_with("warning: ") && w.contains("scene.toml:20:") && w.contains("MTL"), "{w}");
+    assert!(
+        w.starts_with("warning: ") && w.contains("scene.toml:20:") && w.contains("MTL"),
+        "{w}"
+    );
 }
 
 #[test]
@@ -286,7 +333,11 @@ fn obj_zero_area_triangles_are_skipped_with_a_warning() {
     let (_dir, path) = scene_with_obj(obj, "");
     let s = load(&path).unwrap();
     assert_eq!(s.triangles.len(), 1);
-    assert!(s.warnings.iter().any(|w| w.contains("skipped 1 zero-area")), "{:?}", s.warnings);
+    assert!(
+        s.warnings.iter().any(|w| w.contains("skipped 1 zero-area")),
+        "{:?}",
+        s.warnings
+    );
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -320,7 +371,9 @@ fn with(from: &str, to: &str) -> String {
 /// 1-based line of the first occurrence of `needle` in `src` (the test's own idea of where
 /// the fault is).
 fn line_of(src: &str, needle: &str) -> usize {
-    let at = src.find(needle).unwrap_or_else(|| panic!("test bug: '{needle}' not in the scene"));
+    let at = src
+        .find(needle)
+        .unwrap_or_else(|| panic!("test bug: '{needle}' not in the scene"));
     src[..at].matches('\n').count() + 1
 }
 
@@ -336,8 +389,14 @@ fn error_of(src: &str) -> String {
 fn expect_error(src: &str, at: &str, field: &str, what: &str) {
     let msg = error_of(src);
     let line = line_of(src, at);
-    assert!(msg.starts_with(&format!("dir/bad.toml:{line}: ")), "want line {line}: {msg}");
-    assert!(msg.contains(&format!("field '{field}'")), "want field '{field}': {msg}");
+    assert!(
+        msg.starts_with(&format!("dir/bad.toml:{line}: ")),
+        "want line {line}: {msg}"
+    );
+    assert!(
+        msg.contains(&format!("field '{field}'")),
+        "want field '{field}': {msg}"
+    );
     assert!(msg.contains(what), "want '{what}': {msg}");
 }
 
@@ -353,7 +412,12 @@ fn the_base_scene_is_valid() {
 fn unknown_fields_are_errors_everywhere() {
     let top = format!("samples = 4\n{BASE}");
     expect_error(&top, "samples", "samples", "unknown field");
-    expect_error(&with("fov_y", "fov = 40.0\nfov_y"), "fov =", "camera.fov", "unknown field");
+    expect_error(
+        &with("fov_y", "fov = 40.0\nfov_y"),
+        "fov =",
+        "camera.fov",
+        "unknown field",
+    );
     expect_error(
         &with("height = 8", "height = 8\ndepth = 1"),
         "depth",
@@ -381,13 +445,25 @@ fn unknown_fields_are_errors_everywhere() {
         "sphere = { center = [0.0, 0.0, 0.0], radius = 1.0 }",
         "sphere.center = [0.0, 0.0, 0.0]\nsphere.radius = 1.0\nsphere.inwards = true",
     );
-    expect_error(&dotted, "sphere.inwards", "shapes[0].sphere.inwards", "unknown field");
+    expect_error(
+        &dotted,
+        "sphere.inwards",
+        "shapes[0].sphere.inwards",
+        "unknown field",
+    );
     // A material parameter the model does not take (the brdf module's message).
-    let msg = error_of(&with("model = \"lambert\"", "model = \"lambert\"\nalbedoo = 0.5"));
-    let line =
-        line_of(&with("model = \"lambert\"", "model = \"lambert\"\nalbedoo = 0.5"), "albedoo");
+    let msg = error_of(&with(
+        "model = \"lambert\"",
+        "model = \"lambert\"\nalbedoo = 0.5",
+    ));
+    let line = line_of(
+        &with("model = \"lambert\"", "model = \"lambert\"\nalbedoo = 0.5"),
+        "albedoo",
+    );
     assert!(
-        msg.starts_with(&format!("dir/bad.toml:{line}: material 'm', field 'albedoo'")),
+        msg.starts_with(&format!(
+            "dir/bad.toml:{line}: material 'm', field 'albedoo'"
+        )),
         "{msg}"
     );
 }
@@ -403,12 +479,30 @@ fn transform_fields_are_checked() {
     let check = |src: String, field: &str, what: &str| {
         let msg = load_str(&src, &path).expect_err("must fail").to_string();
         let line = line_of(&src, "transform");
-        assert!(msg.starts_with(&format!("{}:{line}: ", path.display())), "{msg}");
-        assert!(msg.contains(&format!("field '{field}'")) && msg.contains(what), "{msg}");
+        assert!(
+            msg.starts_with(&format!("{}:{line}: ", path.display())),
+            "{msg}"
+        );
+        assert!(
+            msg.contains(&format!("field '{field}'")) && msg.contains(what),
+            "{msg}"
+        );
     };
-    check(scene("{ rotate_x_deg = 3.0 }"), "shapes[1].transform.rotate_x_deg", "unknown field");
-    check(scene("{ scale = 0.0 }"), "shapes[1].transform.scale", "must be > 0");
-    check(scene("{ scale = [1.0, -1.0, 1.0] }"), "shapes[1].transform.scale", "must be > 0");
+    check(
+        scene("{ rotate_x_deg = 3.0 }"),
+        "shapes[1].transform.rotate_x_deg",
+        "unknown field",
+    );
+    check(
+        scene("{ scale = 0.0 }"),
+        "shapes[1].transform.scale",
+        "must be > 0",
+    );
+    check(
+        scene("{ scale = [1.0, -1.0, 1.0] }"),
+        "shapes[1].transform.scale",
+        "must be > 0",
+    );
     check(
         scene("{ translate = [1.0, nan, 1.0] }"),
         "shapes[1].transform.translate",
@@ -431,7 +525,10 @@ fn transform_fields_are_checked() {
         ok.triangles[0].v[1]
     );
     // Transforms belong to OBJ shapes only.
-    let src = with("radius = 1.0 }", "radius = 1.0 }\ntransform = { scale = 2.0 }");
+    let src = with(
+        "radius = 1.0 }",
+        "radius = 1.0 }\ntransform = { scale = 2.0 }",
+    );
     expect_error(&src, "transform", "shapes[0].transform", "only to obj");
 }
 
@@ -443,23 +540,42 @@ fn material_references_are_checked() {
         "shapes[0].material",
         "unknown material 'nope' (defined materials: m)",
     );
-    expect_error(&with("material = \"m\"\n", ""), "[[shapes]]", "shapes[0].material", "missing");
-    let dup = with("[[shapes]]", "[materials.m]\nmodel = \"lambert\"\n\n[[shapes]]");
+    expect_error(
+        &with("material = \"m\"\n", ""),
+        "[[shapes]]",
+        "shapes[0].material",
+        "missing",
+    );
+    let dup = with(
+        "[[shapes]]",
+        "[materials.m]\nmodel = \"lambert\"\n\n[[shapes]]",
+    );
     let msg = error_of(&dup);
     let second = line_of(&dup, "[[shapes]]") - 3;
-    assert!(msg.starts_with(&format!("dir/bad.toml:{second}: ")), "{msg}");
+    assert!(
+        msg.starts_with(&format!("dir/bad.toml:{second}: ")),
+        "{msg}"
+    );
     assert!(msg.contains("duplicate key `m`"), "{msg}");
     // A material without a model, and an unknown model.
     let msg = error_of(&with("model = \"lambert\"", "albedo = 0.5"));
-    assert!(msg.starts_with("dir/bad.toml:10: material 'm', field 'model': missing"), "{msg}");
+    assert!(
+        msg.starts_with("dir/bad.toml:10: material 'm', field 'model': missing"),
+        "{msg}"
+    );
     let msg = error_of(&with("model = \"lambert\"", "model = \"torrance_sparrow\""));
     assert!(
-        msg.starts_with("dir/bad.toml:11: material 'm', field 'model': unknown value \"torrance_sparrow\""),
+        msg.starts_with(
+            "dir/bad.toml:11: material 'm', field 'model': unknown value \"torrance_sparrow\""
+        ),
         "{msg}"
     );
     // Unused materials are a warning.
     let s = load_str(
-        &with("[[shapes]]", "[materials.spare]\nmodel = \"lambert\"\n\n[[shapes]]"),
+        &with(
+            "[[shapes]]",
+            "[materials.spare]\nmodel = \"lambert\"\n\n[[shapes]]",
+        ),
         Path::new("w.toml"),
     )
     .unwrap();
@@ -486,7 +602,10 @@ fn obj_problems_name_the_obj_file_and_the_scene_line() {
         )),
         "{msg}"
     );
-    assert!(msg.contains(&dir.path().join("meshes/none.obj").display().to_string()), "{msg}");
+    assert!(
+        msg.contains(&dir.path().join("meshes/none.obj").display().to_string()),
+        "{msg}"
+    );
 
     // Index out of range: the OBJ line is named.
     let (_d, path) = scene_with_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "");
@@ -499,7 +618,10 @@ fn obj_problems_name_the_obj_file_and_the_scene_line() {
     // A relative texture index before any texture coordinate.
     let (_d, path) = scene_with_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/-100 2 3\n", "");
     let msg = load(&path).err().unwrap().to_string();
-    assert!(msg.contains("line 4") && msg.contains("texture coordinate index -100"), "{msg}");
+    assert!(
+        msg.contains("line 4") && msg.contains("texture coordinate index -100"),
+        "{msg}"
+    );
     // tobj's own parse errors.
     let (_d, path) = scene_with_obj("v 0 zero 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "");
     let msg = load(&path).err().unwrap().to_string();
@@ -511,7 +633,10 @@ fn obj_problems_name_the_obj_file_and_the_scene_line() {
     // Non-finite vertices.
     let (_d, path) = scene_with_obj("v 0 nan 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "");
     let msg = load(&path).err().unwrap().to_string();
-    assert!(msg.contains("scene.toml:20:") && msg.contains("not finite"), "{msg}");
+    assert!(
+        msg.contains("scene.toml:20:") && msg.contains("not finite"),
+        "{msg}"
+    );
 }
 
 #[test]
@@ -530,7 +655,12 @@ fn degenerate_triangles_are_errors_naming_shape_and_index() {
         "sphere = { center = [0.0, 0.0, 0.0], radius = 1.0 }",
         "triangles = [[[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 0, 0], [1, 1, 1], [2, 2, 2]]]",
     );
-    expect_error(&tris, "triangles", "shapes[0].triangles[1]", "triangle 1 has zero area");
+    expect_error(
+        &tris,
+        "triangles",
+        "shapes[0].triangles[1]",
+        "triangle 1 has zero area",
+    );
 }
 
 #[test]
@@ -548,7 +678,10 @@ fn non_finite_numbers_are_errors() {
         "not a finite number",
     );
     expect_error(
-        &with("position = [0.0, 0.0, -4.0]", "position = [0.0, 1e39, -4.0]"),
+        &with(
+            "position = [0.0, 0.0, -4.0]",
+            "position = [0.0, 1e39, -4.0]",
+        ),
         "position",
         "camera.position",
         "single-precision range",
@@ -592,15 +725,30 @@ fn out_of_range_values_are_errors() {
         "shapes[0].sphere.radius",
         "must be > 0",
     );
-    expect_error(&with("width = 8", "width = 0"), "width", "film.width", "must be in [1, 16384]");
+    expect_error(
+        &with("width = 8", "width = 0"),
+        "width",
+        "film.width",
+        "must be in [1, 16384]",
+    );
     expect_error(
         &with("height = 8", "height = 16385"),
         "height",
         "film.height",
         "must be in [1, 16384]",
     );
-    expect_error(&with("width = 8", "width = -8"), "width", "film.width", "expected u32");
-    expect_error(&with("width = 8", "width = \"8\""), "width", "film.width", "invalid type");
+    expect_error(
+        &with("width = 8", "width = -8"),
+        "width",
+        "film.width",
+        "expected u32",
+    );
+    expect_error(
+        &with("width = 8", "width = \"8\""),
+        "width",
+        "film.width",
+        "invalid type",
+    );
     for fov in ["0.0", "180.0", "-30", "200"] {
         expect_error(
             &with("fov_y = 40.0", &format!("fov_y = {fov}")),
@@ -621,7 +769,12 @@ fn out_of_range_values_are_errors() {
         "camera.up",
         "parallel to the viewing direction",
     );
-    expect_error(&with("fov_y", "up = [0.0, 0.0, 0.0]\nfov_y"), "up =", "camera.up", "zero length");
+    expect_error(
+        &with("fov_y", "up = [0.0, 0.0, 0.0]\nfov_y"),
+        "up =",
+        "camera.up",
+        "zero length",
+    );
     expect_error(
         &with("position = [0.0, 0.0, -4.0]", "position = [0.0, -4.0]"),
         "position",
@@ -638,7 +791,12 @@ fn out_of_range_values_are_errors() {
     expect_error(&env, "radiance", "environment.radiance", "negative");
     for field in ["spp", "max_depth", "rr_start_depth"] {
         let src = format!("{BASE}[integrator]\n{field} = 0\n");
-        expect_error(&src, &format!("{field} ="), &format!("integrator.{field}"), "must be >= 1");
+        expect_error(
+            &src,
+            &format!("{field} ="),
+            &format!("integrator.{field}"),
+            "must be >= 1",
+        );
     }
     let src = format!("{BASE}[integrator]\nspp = 1.5\n");
     expect_error(&src, "spp", "integrator.spp", "invalid type");
@@ -650,7 +808,10 @@ fn geometry_kinds_are_exactly_one_per_shape() {
     expect_error(&two, "obj =", "shapes[0].obj", "has both sphere and obj");
     let none = with("sphere = { center = [0.0, 0.0, 0.0], radius = 1.0 }\n", "");
     expect_error(&none, "[[shapes]]", "shapes[0]", "has no geometry");
-    let empty = with("sphere = { center = [0.0, 0.0, 0.0], radius = 1.0 }", "quads = []");
+    let empty = with(
+        "sphere = { center = [0.0, 0.0, 0.0], radius = 1.0 }",
+        "quads = []",
+    );
     expect_error(&empty, "quads", "shapes[0].quads", "empty");
     let short = with(
         "sphere = { center = [0.0, 0.0, 0.0], radius = 1.0 }",
@@ -664,18 +825,40 @@ fn missing_parts_are_errors() {
     // No shapes at all: no line to name.
     let src = BASE.split("[[shapes]]").next().unwrap();
     let msg = error_of(src);
-    assert!(msg.starts_with("dir/bad.toml: field 'shapes': the scene has no primitives"), "{msg}");
+    assert!(
+        msg.starts_with("dir/bad.toml: field 'shapes': the scene has no primitives"),
+        "{msg}"
+    );
     // Missing required tables and fields.
     let msg = error_of(&with("[film]\nwidth = 8\nheight = 8\n", ""));
-    assert!(msg.starts_with("dir/bad.toml: field 'film': missing"), "{msg}");
-    expect_error(&with("fov_y = 40.0\n", ""), "[camera]", "camera.fov_y", "missing");
-    expect_error(&with(", radius = 1.0", ""), "sphere", "shapes[0].sphere.radius", "missing");
+    assert!(
+        msg.starts_with("dir/bad.toml: field 'film': missing"),
+        "{msg}"
+    );
+    expect_error(
+        &with("fov_y = 40.0\n", ""),
+        "[camera]",
+        "camera.fov_y",
+        "missing",
+    );
+    expect_error(
+        &with(", radius = 1.0", ""),
+        "sphere",
+        "shapes[0].sphere.radius",
+        "missing",
+    );
     // Syntax errors name the line.
     let msg = error_of(&with("[film]", "[film"));
     assert!(msg.starts_with("dir/bad.toml:6: "), "{msg}");
     // An unreadable scene file names it.
-    let msg = load(Path::new("no/such/scene.toml")).err().unwrap().to_string();
-    assert!(msg.starts_with("no/such/scene.toml: cannot read the scene file"), "{msg}");
+    let msg = load(Path::new("no/such/scene.toml"))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        msg.starts_with("no/such/scene.toml: cannot read the scene file"),
+        "{msg}"
+    );
 }
 
 #[test]
@@ -695,7 +878,10 @@ environment.radiance = 1
     // Errors inside them are located as well.
     let bad = src.replace("albedo = 0.25", "albedo = 2.5");
     let msg = error_of(&bad);
-    assert!(msg.starts_with("dir/bad.toml:5: material 'm', field 'albedo'"), "{msg}");
+    assert!(
+        msg.starts_with("dir/bad.toml:5: material 'm', field 'albedo'"),
+        "{msg}"
+    );
     let bad = src.replace("radius = 1.0", "radius = -1.0");
     expect_error(&bad, "radius", "shapes[0].sphere.radius", "must be > 0");
 }
@@ -705,7 +891,10 @@ environment.radiance = 1
 fn truncated_input_never_panics() {
     let src = std::fs::read_to_string(repo("scenes/cornell-box.toml")).unwrap();
     let mut errors = 0;
-    for end in (0..src.len()).step_by(5).filter(|&e| src.is_char_boundary(e)) {
+    for end in (0..src.len())
+        .step_by(5)
+        .filter(|&e| src.is_char_boundary(e))
+    {
         match load_str(&src[..end], Path::new("cut.toml")) {
             Ok(_) => {}
             Err(e) => {
@@ -733,5 +922,8 @@ fn readme_example_loads() {
 #[test]
 fn missing_field_of_the_only_table_names_table_and_line() {
     let msg = error_of("[camera]\nposition = [0.0, 0.0, -4.0]\n");
-    assert!(msg.starts_with("dir/bad.toml:1: field 'camera.target': missing"), "{msg}");
+    assert!(
+        msg.starts_with("dir/bad.toml:1: field 'camera.target': missing"),
+        "{msg}"
+    );
 }

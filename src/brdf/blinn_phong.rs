@@ -84,9 +84,19 @@ fn spec_albedo_estimate(n: f32, form: Form) -> f32 {
 
 impl BlinnPhong {
     pub fn new(kd: Vec3, ks: Vec3, exponent: f32, form: Form) -> BlinnPhong {
-        let (d, s) = (luminance(kd), luminance(ks) * spec_albedo_estimate(exponent, form));
+        let (d, s) = (
+            luminance(kd),
+            luminance(ks) * spec_albedo_estimate(exponent, form),
+        );
         let p_spec = if d + s > 0.0 { s / (d + s) } else { 0.0 };
-        BlinnPhong { kd, ks, exponent, form, p_spec, k_n: giesen_norm(exponent) }
+        BlinnPhong {
+            kd,
+            ks,
+            exponent,
+            form,
+            p_spec,
+            k_n: giesen_norm(exponent),
+        }
     }
     pub fn p_spec(&self) -> f32 {
         self.p_spec
@@ -143,7 +153,9 @@ pub fn eval(m: &BlinnPhong, wi: Vec3, wo: Vec3) -> Vec3 {
         return Vec3::ZERO;
     }
     let diffuse = m.kd * FRAC_1_PI;
-    let Some((_, x)) = half_vector(wi, wo) else { return diffuse };
+    let Some((_, x)) = half_vector(wi, wo) else {
+        return diffuse;
+    };
     let l = pow_one_minus(x, m.exponent);
     let spec = match m.form {
         Form::Classic => l / wi.z.max(COS_FLOOR),
@@ -195,7 +207,12 @@ pub fn sample(m: &BlinnPhong, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfS
         return None;
     }
     let weight = eval(m, wi, given) * (wi.z / p);
-    Some(BrdfSample { wi, weight, pdf: p, delta: false })
+    Some(BrdfSample {
+        wi,
+        weight,
+        pdf: p,
+        delta: false,
+    })
 }
 
 impl Brdf for BlinnPhong {
@@ -211,7 +228,14 @@ impl Brdf for BlinnPhong {
     fn pack(&self) -> Params {
         let mut p = Params::default();
         p.set3(0, self.kd).set(3, self.exponent);
-        p.set3(4, self.ks).set(7, if self.form == Form::Normalized { 1.0 } else { 0.0 });
+        p.set3(4, self.ks).set(
+            7,
+            if self.form == Form::Normalized {
+                1.0
+            } else {
+                0.0
+            },
+        );
         p.set(8, self.p_spec).set(9, self.k_n);
         p
     }
@@ -258,8 +282,11 @@ mod tests {
                         );
                         assert!(p.is_finite() && p >= 0.0, "{form:?} {n} {a} {b} {p}");
                         for ul in [0.0, 0.99] {
-                            for u in [Vec2::ZERO, Vec2::new(0.999_999_9, 0.5), Vec2::new(0.5, 0.25)]
-                            {
+                            for u in [
+                                Vec2::ZERO,
+                                Vec2::new(0.999_999_9, 0.5),
+                                Vec2::new(0.5, 0.25),
+                            ] {
                                 if let Some(s) = sample(&m, a, ul, u) {
                                     assert!(s.weight.is_finite() && s.pdf > 0.0 && s.wi.z > 0.0);
                                     assert!((s.wi.length() - 1.0).abs() < 1e-5);

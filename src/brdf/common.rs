@@ -341,9 +341,13 @@ mod models_a_tests {
 
     #[test]
     fn basis_is_orthonormal() {
-        for n in
-            [Vec3::Z, -Vec3::Z, Vec3::new(0.6, 0.0, 0.8), Vec3::new(-0.36, 0.48, -0.8), Vec3::X]
-        {
+        for n in [
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::new(0.6, 0.0, 0.8),
+            Vec3::new(-0.36, 0.48, -0.8),
+            Vec3::X,
+        ] {
             let (t, b) = orthonormal_basis(n);
             assert!(t.dot(b).abs() < 1e-6 && t.dot(n).abs() < 1e-6 && b.dot(n).abs() < 1e-6);
             assert!((t.length() - 1.0).abs() < 1e-6 && (b.length() - 1.0).abs() < 1e-6);

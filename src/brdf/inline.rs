@@ -24,7 +24,12 @@ pub fn parse_inline(src: &str) -> Result<Material> {
             Err(_) => return Err(anyhow!("--material: not a TOML table of fields: {first}")),
         },
     };
-    let origin = Origin { file: "--material", source: &source, material: "inline", span: 0..source.len() };
+    let origin = Origin {
+        file: "--material",
+        source: &source,
+        material: "inline",
+        span: 0..source.len(),
+    };
     let (m, warnings) = parse_material(origin, fields)?;
     for w in warnings {
         eprintln!("{w}");
@@ -42,9 +47,16 @@ mod tests {
         let b = parse_inline("model = \"lambert\"\nalbedo = [0.2, 0.5, 0.9]").unwrap();
         assert_eq!(a.model_name(), "lambert");
         assert_eq!(a.brdf.pack(), b.brdf.pack());
-        let e = parse_inline(r#"model = "lambert", albedo = -1"#).unwrap_err().to_string();
-        assert!(e.contains("--material") && e.contains("albedo") && e.contains("out of range"), "{e}");
-        let e = parse_inline(r#"model = "lambert", albdo = 1"#).unwrap_err().to_string();
+        let e = parse_inline(r#"model = "lambert", albedo = -1"#)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("--material") && e.contains("albedo") && e.contains("out of range"),
+            "{e}"
+        );
+        let e = parse_inline(r#"model = "lambert", albdo = 1"#)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("albdo") && e.contains("unknown field"), "{e}");
         assert!(parse_inline("model = ").is_err());
     }

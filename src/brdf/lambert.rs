@@ -9,7 +9,7 @@
 //!
 //! GPU record: `p[0].xyz` = albedo.
 
-use super::common::{cosine_hemisphere_pdf, sample_cosine_hemisphere, same_hemisphere_up};
+use super::common::{cosine_hemisphere_pdf, same_hemisphere_up, sample_cosine_hemisphere};
 use super::{Brdf, BrdfSample, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
@@ -50,7 +50,12 @@ pub fn sample(m: &Lambert, given: Vec3, u: Vec2) -> Option<BrdfSample> {
         return None;
     }
     // f·cos/pdf = (ρ/π)·cos/(cos/π) = ρ, returned directly instead of as 0/0 at the horizon.
-    Some(BrdfSample { wi, weight: m.albedo, pdf, delta: false })
+    Some(BrdfSample {
+        wi,
+        weight: m.albedo,
+        pdf,
+        delta: false,
+    })
 }
 
 impl Brdf for Lambert {

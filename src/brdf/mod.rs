@@ -18,9 +18,9 @@
 
 pub mod blinn_phong;
 pub mod common;
-pub mod inline;
 pub mod cook_torrance;
 pub mod he;
+pub mod inline;
 pub mod lambert;
 pub mod oren_nayar;
 pub mod params;
@@ -136,7 +136,10 @@ pub fn parse_material(
         false => return Err(reader.error("model", "missing: every material names its model")),
         true => reader.choice("model", &model_names(), "lambert")?,
     };
-    let model = MODELS.iter().position(|m| m.name == name).expect("choice returns a known model");
+    let model = MODELS
+        .iter()
+        .position(|m| m.name == name)
+        .expect("choice returns a known model");
     let brdf = (MODELS[model].parse)(&mut reader)?;
     let warnings = reader.finish()?;
     Ok((Material { model, brdf }, warnings))

@@ -83,7 +83,11 @@ pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
              (albedo 1.03 at 85° for σ = 0.25, full model)",
         );
     }
-    Ok(Arc::new(OrenNayar { albedo, sigma, variant }))
+    Ok(Arc::new(OrenNayar {
+        albedo,
+        sigma,
+        variant,
+    }))
 }
 
 /// f_r of Oren & Nayar 1994 (survey §2.1.2), without the cosine.
@@ -102,8 +106,11 @@ pub fn eval(m: &OrenNayar, wi: Vec3, wo: Vec3) -> Vec3 {
     if m.variant == Variant::Qualitative {
         return m.albedo * (FRAC_1_PI * (a + b * sxy.max(0.0) / cos_beta));
     }
-    let cos_dphi =
-        if sin_i < 1e-4 || sin_o < 1e-4 { 0.0 } else { (sxy / (sin_i * sin_o)).clamp(-1.0, 1.0) };
+    let cos_dphi = if sin_i < 1e-4 || sin_o < 1e-4 {
+        0.0
+    } else {
+        (sxy / (sin_i * sin_o)).clamp(-1.0, 1.0)
+    };
     let theta_i = sin_i.atan2(wi.z);
     let theta_o = sin_o.atan2(wo.z);
     let alpha = theta_i.max(theta_o);
@@ -144,7 +151,12 @@ pub fn sample(m: &OrenNayar, given: Vec3, u: Vec2) -> Option<BrdfSample> {
     }
     // f·cosθ/(cosθ/π) = π·f, without the 0/0 at the horizon.
     let weight = eval(m, wi, given) * PI;
-    Some(BrdfSample { wi, weight, pdf, delta: false })
+    Some(BrdfSample {
+        wi,
+        weight,
+        pdf,
+        delta: false,
+    })
 }
 
 impl Brdf for OrenNayar {
@@ -160,7 +172,14 @@ impl Brdf for OrenNayar {
     fn pack(&self) -> Params {
         let mut p = Params::default();
         p.set3(0, self.albedo).set(3, self.sigma);
-        p.set(4, if self.variant == Variant::Qualitative { 1.0 } else { 0.0 });
+        p.set(
+            4,
+            if self.variant == Variant::Qualitative {
+                1.0
+            } else {
+                0.0
+            },
+        );
         p
     }
     fn scatters(&self) -> bool {
@@ -174,7 +193,11 @@ mod tests {
     use crate::brdf::validate::dir_from_theta_deg;
 
     fn on(sigma: f32, variant: Variant) -> OrenNayar {
-        OrenNayar { albedo: Vec3::ONE, sigma, variant }
+        OrenNayar {
+            albedo: Vec3::ONE,
+            sigma,
+            variant,
+        }
     }
 
     #[test]
@@ -183,7 +206,10 @@ mod tests {
             let m = on(0.0, v);
             for (a, b) in [(0.0, 0.0), (30.0, 70.0), (89.9, 10.0), (60.0, 60.0)] {
                 let f = eval(&m, dir_from_theta_deg(a, 0.0), dir_from_theta_deg(b, 120.0));
-                assert!((f - Vec3::splat(FRAC_1_PI)).abs().max_element() < 1e-6, "{f}");
+                assert!(
+                    (f - Vec3::splat(FRAC_1_PI)).abs().max_element() < 1e-6,
+                    "{f}"
+                );
             }
         }
     }
@@ -222,7 +248,12 @@ mod tests {
     fn trig_free_qualitative_equals_angle_form() {
         let (sigma, a_deg, b_deg, dphi) = (0.6f32, 35.0f32, 70.0f32, 40.0f32);
         let m = on(sigma, Variant::Qualitative);
-        let f = eval(&m, dir_from_theta_deg(a_deg, 10.0), dir_from_theta_deg(b_deg, 10.0 + dphi)).x;
+        let f = eval(
+            &m,
+            dir_from_theta_deg(a_deg, 10.0),
+            dir_from_theta_deg(b_deg, 10.0 + dphi),
+        )
+        .x;
         let s2 = sigma * sigma;
         let (a, b) = (1.0 - 0.5 * s2 / (s2 + 0.33), 0.45 * s2 / (s2 + 0.09));
         let expect = FRAC_1_PI

@@ -31,7 +31,11 @@ pub struct Origin<'a> {
 /// Line number (1-based) of a byte offset in `source`.
 pub fn line_of(source: &str, offset: usize) -> usize {
     let end = offset.min(source.len());
-    source.as_bytes()[..end].iter().filter(|&&b| b == b'\n').count() + 1
+    source.as_bytes()[..end]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
 }
 
 pub struct ParamReader<'a> {
@@ -45,12 +49,21 @@ impl<'a> ParamReader<'a> {
     pub fn new(origin: Origin<'a>, fields: BTreeMap<String, Spanned<Value>>) -> Self {
         let mut used = BTreeSet::new();
         used.insert("model".to_string());
-        ParamReader { origin, fields, used, warnings: Vec::new() }
+        ParamReader {
+            origin,
+            fields,
+            used,
+            warnings: Vec::new(),
+        }
     }
 
     /// `file:line: material 'name', field 'key': msg`.
     pub fn error(&self, key: &str, msg: impl std::fmt::Display) -> ParamError {
-        let span = self.fields.get(key).map(|v| v.span()).unwrap_or(self.origin.span.clone());
+        let span = self
+            .fields
+            .get(key)
+            .map(|v| v.span())
+            .unwrap_or(self.origin.span.clone());
         ParamError(format!(
             "{}:{}: material '{}', field '{}': {}",
             self.origin.file,
@@ -81,7 +94,10 @@ impl<'a> ParamReader<'a> {
             Value::Float(f) => *f,
             Value::Integer(i) => *i as f64,
             other => {
-                return Err(self.error(key, format!("expected a number, found {}", other.type_str())))
+                return Err(self.error(
+                    key,
+                    format!("expected a number, found {}", other.type_str()),
+                ))
             }
         };
         if !x.is_finite() {
@@ -107,7 +123,13 @@ impl<'a> ParamReader<'a> {
     }
 
     /// A scalar in `[min, max]`, or `default` when the field is absent.
-    pub fn scalar(&mut self, key: &str, default: f32, min: f32, max: f32) -> Result<f32, ParamError> {
+    pub fn scalar(
+        &mut self,
+        key: &str,
+        default: f32,
+        min: f32,
+        max: f32,
+    ) -> Result<f32, ParamError> {
         let x = match self.take(key).cloned() {
             None => return Ok(default),
             Some(v) => self.number(key, &v)?,
@@ -118,17 +140,28 @@ impl<'a> ParamReader<'a> {
 
     /// An RGB triple `[r, g, b]` (a single number means grey) with every channel in
     /// `[min, max]`, or `default` when the field is absent.
-    pub fn rgb(&mut self, key: &str, default: Vec3, min: f32, max: f32) -> Result<Vec3, ParamError> {
+    pub fn rgb(
+        &mut self,
+        key: &str,
+        default: Vec3,
+        min: f32,
+        max: f32,
+    ) -> Result<Vec3, ParamError> {
         let v = match self.take(key).cloned() {
             None => return Ok(default),
             Some(v) => v,
         };
         let c = match &v {
-            Value::Array(a) if a.len() == 3 => {
-                Vec3::new(self.number(key, &a[0])?, self.number(key, &a[1])?, self.number(key, &a[2])?)
-            }
+            Value::Array(a) if a.len() == 3 => Vec3::new(
+                self.number(key, &a[0])?,
+                self.number(key, &a[1])?,
+                self.number(key, &a[2])?,
+            ),
             Value::Array(a) => {
-                return Err(self.error(key, format!("expected [r, g, b], found an array of {}", a.len())))
+                return Err(self.error(
+                    key,
+                    format!("expected [r, g, b], found an array of {}", a.len()),
+                ))
             }
             other => Vec3::splat(self.number(key, other)?),
         };
@@ -153,7 +186,13 @@ impl<'a> ParamReader<'a> {
             .as_str()
             .ok_or_else(|| self.error(key, format!("expected a string, found {}", v.type_str())))?;
         options.iter().copied().find(|o| *o == s).ok_or_else(|| {
-            self.error(key, format!("unknown value \"{s}\": expected one of {}", options.join(", ")))
+            self.error(
+                key,
+                format!(
+                    "unknown value \"{s}\": expected one of {}",
+                    options.join(", ")
+                ),
+            )
         })
     }
 
@@ -164,7 +203,10 @@ impl<'a> ParamReader<'a> {
             known.retain(|k| *k != "model");
             return Err(self.error(
                 k,
-                format!("unknown field for this model (it takes: {})", known.join(", ")),
+                format!(
+                    "unknown field for this model (it takes: {})",
+                    known.join(", ")
+                ),
             ));
         }
         Ok(self.warnings)

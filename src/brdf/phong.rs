@@ -70,7 +70,13 @@ impl Phong {
         let es = spec_albedo_estimate(exponent, form);
         let (d, s) = (luminance(kd), luminance(ks) * es);
         let p_spec = if d + s > 0.0 { s / (d + s) } else { 0.0 };
-        Phong { kd, ks, exponent, form, p_spec }
+        Phong {
+            kd,
+            ks,
+            exponent,
+            form,
+            p_spec,
+        }
     }
     pub fn p_spec(&self) -> f32 {
         self.p_spec
@@ -161,7 +167,12 @@ pub fn sample(m: &Phong, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample
         return None;
     }
     let weight = eval(m, wi, given) * (wi.z / p);
-    Some(BrdfSample { wi, weight, pdf: p, delta: false })
+    Some(BrdfSample {
+        wi,
+        weight,
+        pdf: p,
+        delta: false,
+    })
 }
 
 impl Brdf for Phong {
@@ -177,7 +188,14 @@ impl Brdf for Phong {
     fn pack(&self) -> Params {
         let mut p = Params::default();
         p.set3(0, self.kd).set(3, self.exponent);
-        p.set3(4, self.ks).set(7, if self.form == Form::Normalized { 1.0 } else { 0.0 });
+        p.set3(4, self.ks).set(
+            7,
+            if self.form == Form::Normalized {
+                1.0
+            } else {
+                0.0
+            },
+        );
         p.set(8, self.p_spec);
         p
     }
@@ -215,8 +233,11 @@ mod tests {
                         );
                         assert!(p.is_finite() && p >= 0.0);
                         for ul in [0.0, 0.99] {
-                            for u in [Vec2::ZERO, Vec2::new(0.999_999_9, 0.5), Vec2::new(0.5, 0.25)]
-                            {
+                            for u in [
+                                Vec2::ZERO,
+                                Vec2::new(0.999_999_9, 0.5),
+                                Vec2::new(0.5, 0.25),
+                            ] {
                                 if let Some(s) = sample(&m, a, ul, u) {
                                     assert!(s.weight.is_finite() && s.pdf > 0.0 && s.wi.z > 0.0);
                                     assert!((s.wi.length() - 1.0).abs() < 1e-5);

@@ -58,7 +58,12 @@ pub struct Chi2Config {
 
 impl Default for Chi2Config {
     fn default() -> Self {
-        Chi2Config { theta_res: 40, phi_res: 80, sub: 4, min_expected: 5.0 }
+        Chi2Config {
+            theta_res: 40,
+            phi_res: 80,
+            sub: 4,
+            min_expected: 5.0,
+        }
     }
 }
 
@@ -73,13 +78,22 @@ pub fn dir_from_theta_deg(theta_deg: f32, phi_deg: f32) -> Vec3 {
 /// The harness's uniform random number for (seed, sample index, dimension).
 #[inline]
 fn rand(seed: u64, i: usize, dim: u32) -> f32 {
-    random_f32(seed as u32, (seed >> 32) as u32, i as u32, (i >> 32) as u32, dim)
+    random_f32(
+        seed as u32,
+        (seed >> 32) as u32,
+        i as u32,
+        (i >> 32) as u32,
+        dim,
+    )
 }
 
 /// The three random numbers of sample `i`: (u_lobe, u).
 #[inline]
 fn sample_inputs(seed: u64, i: usize) -> (f32, Vec2) {
-    (rand(seed, i, 0), Vec2::new(rand(seed, i, 1), rand(seed, i, 2)))
+    (
+        rand(seed, i, 0),
+        Vec2::new(rand(seed, i, 1), rand(seed, i, 2)),
+    )
 }
 
 fn dvec(v: Vec3) -> DVec3 {
@@ -152,7 +166,11 @@ pub fn chi2_test_with(
         let (st, ct) = theta.sin_cos();
         let w = Vec3::new((st * phi.cos()) as f32, (st * phi.sin()) as f32, ct as f32);
         let p = b.pdf(given, w) as f64;
-        DVec3::splat(if p.is_finite() && p > 0.0 { p * st } else { 0.0 })
+        DVec3::splat(if p.is_finite() && p > 0.0 {
+            p * st
+        } else {
+            0.0
+        })
     };
     let abs_density = 1e-7 / (0.5 * PI * 2.0 * PI);
     let (st, sp) = (dtheta / sub as f64, dphi / sub as f64);
@@ -175,8 +193,11 @@ pub fn chi2_test_with(
 
     // Cells (expected, observed), plus the "outside" cell.
     let n = samples as f64;
-    let mut cells: Vec<(f64, f64)> =
-        expected.iter().zip(&observed).map(|(e, o)| (e * n, *o as f64)).collect();
+    let mut cells: Vec<(f64, f64)> = expected
+        .iter()
+        .zip(&observed)
+        .map(|(e, o)| (e * n, *o as f64))
+        .collect();
     cells.push((
         ((1.0 - pdf_integral) * n).max(0.0),
         (samples as u64 - inside) as f64 - zero_pdf_hits as f64,
@@ -206,7 +227,11 @@ pub fn chi2_test_with(
         ncells += 1;
     }
     let dof = ncells.saturating_sub(1);
-    let p_value = if dof == 0 { 1.0 } else { chi2_survival(dof as f64, stat) };
+    let p_value = if dof == 0 {
+        1.0
+    } else {
+        chi2_survival(dof as f64, stat)
+    };
     Chi2Result {
         p_value,
         dof,
@@ -336,9 +361,15 @@ fn quadrature(b: &dyn Brdf, fixed: Vec3, n: usize, fixed_is_light: bool) -> DVec
 }
 
 /// Gauss–Legendre nodes and weights on [−1, 1].
-const GL2: [(f64, f64); 2] = [(-0.577_350_269_189_625_8, 1.0), (0.577_350_269_189_625_8, 1.0)];
-const GL3: [(f64, f64); 3] =
-    [(-0.774_596_669_241_483_4, 5.0 / 9.0), (0.0, 8.0 / 9.0), (0.774_596_669_241_483_4, 5.0 / 9.0)];
+const GL2: [(f64, f64); 2] = [
+    (-0.577_350_269_189_625_8, 1.0),
+    (0.577_350_269_189_625_8, 1.0),
+];
+const GL3: [(f64, f64); 3] = [
+    (-0.774_596_669_241_483_4, 5.0 / 9.0),
+    (0.0, 8.0 / 9.0),
+    (0.774_596_669_241_483_4, 5.0 / 9.0),
+];
 const MAX_DEPTH: u32 = 7;
 
 /// ∫∫ g over a (θ, φ) cell: the 3 × 3 Gauss–Legendre rule, split into four while it differs
@@ -519,7 +550,11 @@ mod tests {
     #[test]
     fn sidak_level() {
         assert!((sidak(0.01, 1) - 0.01).abs() < 1e-15);
-        assert!((sidak(0.01, 10) - 0.001_004_528_708).abs() < 1e-12, "{}", sidak(0.01, 10));
+        assert!(
+            (sidak(0.01, 10) - 0.001_004_528_708).abs() < 1e-12,
+            "{}",
+            sidak(0.01, 10)
+        );
     }
 
     #[test]

@@ -18,8 +18,8 @@ use crate::brdf::Brdf;
 use crate::bvh::{self, Bvh};
 use crate::camera::CameraBasis;
 use crate::imageio::Image;
-use crate::output::{mean_and_variance, RenderOutput};
 use crate::lights::{luminance, LightTable};
+use crate::output::{mean_and_variance, RenderOutput};
 use crate::rng::{dim, PathRng};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
@@ -43,7 +43,12 @@ pub struct CpuRenderer<'a> {
 
 impl<'a> CpuRenderer<'a> {
     pub fn new(scene: &'a Scene, bvh: &'a Bvh) -> Self {
-        CpuRenderer { scene, bvh, lights: LightTable::build(scene), camera: CameraBasis::new(scene) }
+        CpuRenderer {
+            scene,
+            bvh,
+            lights: LightTable::build(scene),
+            camera: CameraBasis::new(scene),
+        }
     }
 
     /// Render `scene.integrator.spp` samples per pixel. `progress` is called with the number of
@@ -67,7 +72,11 @@ impl<'a> CpuRenderer<'a> {
                         let mut sum = [0f64; 3];
                         let mut sum2 = [0f64; 3];
                         for sample in 0..spp {
-                            let rng = PathRng { seed: s.integrator.seed, pixel, sample };
+                            let rng = PathRng {
+                                seed: s.integrator.seed,
+                                pixel,
+                                sample,
+                            };
                             let l = self.trace_path(x, y, &rng, &mut stats);
                             if !l.is_finite() {
                                 bad += 1;
@@ -136,7 +145,10 @@ impl<'a> CpuRenderer<'a> {
                 let le = s.emitters[e as usize].radiance;
                 let w = if prev_pdf > 0.0 {
                     let cos_light = -d.dot(si.ng);
-                    power_heuristic(prev_pdf, light_pdf(&self.lights, le, hit.t * hit.t, cos_light))
+                    power_heuristic(
+                        prev_pdf,
+                        light_pdf(&self.lights, le, hit.t * hit.t, cos_light),
+                    )
                 } else {
                     1.0
                 };

@@ -37,8 +37,16 @@ pub fn default_tangent(n: Vec3) -> Vec3 {
 pub fn make_frame(n: Vec3, tangent_hint: Vec3) -> Frame {
     let mut t = tangent_hint - n * n.dot(tangent_hint);
     let len2 = t.length_squared();
-    t = if len2 > 1e-12 { t / len2.sqrt() } else { default_tangent(n) };
-    Frame { t, b: n.cross(t), n }
+    t = if len2 > 1e-12 {
+        t / len2.sqrt()
+    } else {
+        default_tangent(n)
+    };
+    Frame {
+        t,
+        b: n.cross(t),
+        n,
+    }
 }
 
 pub struct Surface {
@@ -119,7 +127,13 @@ pub struct LightSample {
 }
 
 /// Choose an emissive primitive by power and a point uniformly by area on it.
-pub fn sample_light(scene: &Scene, lights: &LightTable, u_sel: f32, u1: f32, u2: f32) -> LightSample {
+pub fn sample_light(
+    scene: &Scene,
+    lights: &LightTable,
+    u_sel: f32,
+    u1: f32,
+    u2: f32,
+) -> LightSample {
     let prim = lights.prims[lights.select(u_sel)];
     if prim & SPHERE_BIT != 0 {
         let s = &scene.spheres[(prim & !SPHERE_BIT) as usize];

@@ -17,9 +17,20 @@ struct Push {
 }
 
 /// Runs the probe kernel; returns the outputs and the kernel's GPU time in seconds (timestamps).
-fn run(ctx: &Context, compiler: &ShaderCompiler, m: &Material, inputs: &[[f32; 4]], mode: u32) -> Result<(Vec<[f32; 4]>, f64)> {
+fn run(
+    ctx: &Context,
+    compiler: &ShaderCompiler,
+    m: &Material,
+    inputs: &[[f32; 4]],
+    mode: u32,
+) -> Result<(Vec<[f32; 4]>, f64)> {
     let name = MODELS[m.model].name;
-    let mut defines: Vec<(String, String)> = m.brdf.defines().into_iter().map(|d| (d.to_string(), "1".to_string())).collect();
+    let mut defines: Vec<(String, String)> = m
+        .brdf
+        .defines()
+        .into_iter()
+        .map(|d| (d.to_string(), "1".to_string()))
+        .collect();
     defines.push(("BRDF_EVAL".into(), format!("{name}_eval")));
     defines.push(("BRDF_PDF".into(), format!("{name}_pdf")));
     defines.push(("BRDF_SAMPLE".into(), format!("{name}_sample")));
@@ -30,7 +41,12 @@ fn run(ctx: &Context, compiler: &ShaderCompiler, m: &Material, inputs: &[[f32; 4
     let record = scene_buffers::material_records_of(std::slice::from_ref(m));
     let mat = ctx.create_buffer_with_data("probe_material", &record, storage)?;
     let inp = ctx.create_buffer_with_data("probe_inputs", inputs, storage)?;
-    let out = ctx.create_buffer("probe_outputs", (inputs.len() * 16) as u64, storage, MemoryLocation::GpuToCpu)?;
+    let out = ctx.create_buffer(
+        "probe_outputs",
+        (inputs.len() * 16) as u64,
+        storage,
+        MemoryLocation::GpuToCpu,
+    )?;
     let set = ctx.create_descriptor_set(&pipeline, &[&mat, &inp, &out])?;
     let mut rec = ctx.begin()?;
     rec.bind(&pipeline, set);
@@ -41,7 +57,8 @@ fn run(ctx: &Context, compiler: &ShaderCompiler, m: &Material, inputs: &[[f32; 4
     rec.timestamp("end");
     ctx.submit_and_wait(rec)?;
     let stamps = ctx.read_timestamps()?;
-    let seconds = stamps.last().map(|s| s.1).unwrap_or(0.0) - stamps.first().map(|s| s.1).unwrap_or(0.0);
+    let seconds =
+        stamps.last().map(|s| s.1).unwrap_or(0.0) - stamps.first().map(|s| s.1).unwrap_or(0.0);
     let result: Vec<[f32; 4]> = ctx.download(&out)?;
     ctx.destroy_buffer(mat);
     ctx.destroy_buffer(inp);
@@ -51,7 +68,12 @@ fn run(ctx: &Context, compiler: &ShaderCompiler, m: &Material, inputs: &[[f32; 4
 }
 
 /// f(wi, wo) and pdf(given = wi, sampled = wo) for each pair, on the GPU.
-pub fn eval(ctx: &Context, compiler: &ShaderCompiler, m: &Material, pairs: &[(Vec3, Vec3)]) -> Result<Vec<(Vec3, f32)>> {
+pub fn eval(
+    ctx: &Context,
+    compiler: &ShaderCompiler,
+    m: &Material,
+    pairs: &[(Vec3, Vec3)],
+) -> Result<Vec<(Vec3, f32)>> {
     Ok(eval_timed(ctx, compiler, m, pairs)?.0)
 }
 
@@ -68,7 +90,12 @@ pub fn eval_timed(
         inputs.push([wo.x, wo.y, wo.z, 0.0]);
     }
     let (out, seconds) = run(ctx, compiler, m, &inputs, 0)?;
-    Ok((out.chunks(2).map(|c| (Vec3::new(c[0][0], c[0][1], c[0][2]), c[0][3])).collect(), seconds))
+    Ok((
+        out.chunks(2)
+            .map(|c| (Vec3::new(c[0][0], c[0][1], c[0][2]), c[0][3]))
+            .collect(),
+        seconds,
+    ))
 }
 
 /// `sample(given, u_lobe, u)` for each input, on the GPU.

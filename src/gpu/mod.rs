@@ -91,14 +91,23 @@ mod b {
 }
 
 impl<'a> GpuRenderer<'a> {
-    pub fn new(ctx: &'a Context, scene: &'a Scene, bvh: &Bvh, compiler: &ShaderCompiler) -> Result<Self> {
+    pub fn new(
+        ctx: &'a Context,
+        scene: &'a Scene,
+        bvh: &Bvh,
+        compiler: &ShaderCompiler,
+    ) -> Result<Self> {
         let mut setup = SetupStats::default();
         let pixels = scene.width as u64 * scene.height as u64;
         let capacity = pixels.min(MAX_CAPACITY as u64) as u32;
 
         // Which models need a queue: those of materials that scatter.
-        let used: BTreeSet<usize> =
-            scene.materials.iter().filter(|m| m.brdf.scatters()).map(|m| m.model).collect();
+        let used: BTreeSet<usize> = scene
+            .materials
+            .iter()
+            .filter(|m| m.brdf.scatters())
+            .map(|m| m.model)
+            .collect();
         let models: Vec<usize> = used.into_iter().collect();
         let queue_slot: Vec<u32> = scene
             .materials
@@ -130,16 +139,34 @@ impl<'a> GpuRenderer<'a> {
         let mut buffers = vec![
             ctx.create_buffer_with_data("bvh_nodes", scene_buffers::bvh_nodes(bvh), storage)?,
             ctx.create_buffer_with_data("bvh_prims", &bvh.prims, storage)?,
-            ctx.create_buffer_with_data("triangles", &scene_buffers::triangle_data(scene), storage)?,
+            ctx.create_buffer_with_data(
+                "triangles",
+                &scene_buffers::triangle_data(scene),
+                storage,
+            )?,
             ctx.create_buffer_with_data("spheres", &scene_buffers::sphere_data(scene), storage)?,
-            ctx.create_buffer_with_data("tri_attrs", &scene_buffers::triangle_attributes(scene), storage)?,
-            ctx.create_buffer_with_data("materials", &scene_buffers::material_records(scene, &queue_slot), storage)?,
+            ctx.create_buffer_with_data(
+                "tri_attrs",
+                &scene_buffers::triangle_attributes(scene),
+                storage,
+            )?,
+            ctx.create_buffer_with_data(
+                "materials",
+                &scene_buffers::material_records(scene, &queue_slot),
+                storage,
+            )?,
             ctx.create_buffer_with_data("lights", &scene_buffers::light_data(&lights), storage)?,
             ctx.create_buffer_with_data("emitters", &scene_buffers::emitter_data(scene), storage)?,
-            ctx.create_buffer_with_data("globals", &scene_buffers::globals(scene, &lights, num_queues, capacity), storage)?,
+            ctx.create_buffer_with_data(
+                "globals",
+                &scene_buffers::globals(scene, &lights, num_queues, capacity),
+                storage,
+            )?,
         ];
         let gpu = MemoryLocation::GpuOnly;
-        for name in ["ray_o", "ray_d", "beta", "radiance", "hit_rec", "shadow_o", "shadow_d", "shadow_l"] {
+        for name in [
+            "ray_o", "ray_d", "beta", "radiance", "hit_rec", "shadow_o", "shadow_d", "shadow_l",
+        ] {
             buffers.push(ctx.create_buffer(name, cap * 16, storage, gpu)?);
         }
         buffers.push(ctx.create_buffer("queues", queue_bytes, storage, gpu)?);
@@ -168,7 +195,9 @@ impl<'a> GpuRenderer<'a> {
 
         // Pipelines. On failure, everything made so far is destroyed before returning.
         let mut built: Vec<Kernel> = Vec::new();
-        let result = Self::build_kernels(ctx, scene, &models, &buffers, compiler, &mut setup, &mut built);
+        let result = Self::build_kernels(
+            ctx, scene, &models, &buffers, compiler, &mut setup, &mut built,
+        );
         if let Err(e) = result {
             for k in built {
                 ctx.destroy_pipeline(k.pipeline);
@@ -180,11 +209,26 @@ impl<'a> GpuRenderer<'a> {
         }
         let mut it = built.into_iter();
         let mut next = || it.next().expect("five stage kernels");
-        let (generate, prepare, extend, shadow, accumulate) = (next(), next(), next(), next(), next());
-        let shade: Vec<(u32, usize, Kernel)> =
-            it.enumerate().map(|(slot, k)| (slot as u32, models[slot], k)).collect();
+        let (generate, prepare, extend, shadow, accumulate) =
+            (next(), next(), next(), next(), next());
+        let shade: Vec<(u32, usize, Kernel)> = it
+            .enumerate()
+            .map(|(slot, k)| (slot as u32, models[slot], k))
+            .collect();
 
-        Ok(GpuRenderer { ctx, scene, buffers, generate, prepare, extend, shadow, accumulate, shade, capacity, setup })
+        Ok(GpuRenderer {
+            ctx,
+            scene,
+            buffers,
+            generate,
+            prepare,
+            extend,
+            shadow,
+            accumulate,
+            shade,
+            capacity,
+            setup,
+        })
     }
 
     /// Compile and create the stage pipelines (generate, prepare, extend, shadow, accumulate, in
@@ -198,14 +242,23 @@ impl<'a> GpuRenderer<'a> {
         setup: &mut SetupStats,
         built: &mut Vec<Kernel>,
     ) -> Result<()> {
-        let mut build = |name: &str, file: &str, defines: Vec<(String, String)>, overrides: Vec<(String, String)>| -> Result<()> {
+        let mut build = |name: &str,
+                         file: &str,
+                         defines: Vec<(String, String)>,
+                         overrides: Vec<(String, String)>|
+         -> Result<()> {
             let t = Instant::now();
             let spirv = compiler
                 .compile(file, &defines, &overrides)
                 .with_context(|| format!("compiling {file} for pipeline {name}"))?;
             setup.seconds_shader_compile += t.elapsed().as_secs_f64();
             let t = Instant::now();
-            let pipeline = ctx.create_compute_pipeline(name, &spirv, NUM_BINDINGS, std::mem::size_of::<Push>() as u32)?;
+            let pipeline = ctx.create_compute_pipeline(
+                name,
+                &spirv,
+                NUM_BINDINGS,
+                std::mem::size_of::<Push>() as u32,
+            )?;
             setup.seconds_pipeline_create += t.elapsed().as_secs_f64();
             let refs: Vec<&Buffer> = buffers.iter().collect();
             let set = match ctx.create_descriptor_set(&pipeline, &refs) {
@@ -227,15 +280,27 @@ impl<'a> GpuRenderer<'a> {
         for &model in models {
             let name = MODELS[model].name;
             let mut defines: BTreeSet<&'static str> = BTreeSet::new();
-            for m in scene.materials.iter().filter(|m| m.model == model && m.brdf.scatters()) {
+            for m in scene
+                .materials
+                .iter()
+                .filter(|m| m.model == model && m.brdf.scatters())
+            {
                 defines.extend(m.brdf.defines());
             }
-            let mut defs: Vec<(String, String)> = defines.into_iter().map(|d| (d.to_string(), "1".to_string())).collect();
+            let mut defs: Vec<(String, String)> = defines
+                .into_iter()
+                .map(|d| (d.to_string(), "1".to_string()))
+                .collect();
             defs.push(("BRDF_EVAL".into(), format!("{name}_eval")));
             defs.push(("BRDF_PDF".into(), format!("{name}_pdf")));
             defs.push(("BRDF_SAMPLE".into(), format!("{name}_sample")));
             let overrides = vec![("brdf/model.glsl".to_string(), format!("brdf/{name}.glsl"))];
-            build(&format!("shade_{name}"), "wavefront/shade.comp", defs, overrides)?;
+            build(
+                &format!("shade_{name}"),
+                "wavefront/shade.comp",
+                defs,
+                overrides,
+            )?;
         }
         Ok(())
     }
@@ -259,7 +324,12 @@ impl<'a> GpuRenderer<'a> {
             let mut offset = 0;
             while offset < pixels {
                 let n = (pixels - offset).min(self.capacity);
-                let mut push = Push { sample_index: sample, chunk_offset: offset, chunk_size: n, ..Default::default() };
+                let mut push = Push {
+                    sample_index: sample,
+                    chunk_offset: offset,
+                    chunk_size: n,
+                    ..Default::default()
+                };
                 let groups = n.div_ceil(LOCAL_SIZE);
                 rec.bind(&self.generate.pipeline, self.generate.set);
                 rec.push_constants(&self.generate.pipeline, &push);
@@ -352,7 +422,13 @@ impl<'a> GpuRenderer<'a> {
 impl Drop for GpuRenderer<'_> {
     fn drop(&mut self) {
         let ctx = self.ctx;
-        for k in [&self.generate, &self.prepare, &self.extend, &self.shadow, &self.accumulate] {
+        for k in [
+            &self.generate,
+            &self.prepare,
+            &self.extend,
+            &self.shadow,
+            &self.accumulate,
+        ] {
             ctx.destroy_pipeline_ref(&k.pipeline);
         }
         for (_, _, k) in &self.shade {

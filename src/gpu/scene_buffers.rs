@@ -84,18 +84,33 @@ fn records(materials: &[Material], queue_slot: &[u32]) -> Vec<[u32; RECORD_WORDS
 }
 
 pub fn light_data(lights: &LightTable) -> Vec<[u32; 2]> {
-    lights.prims.iter().zip(&lights.cdf).map(|(&p, &c)| [p, c.to_bits()]).collect()
+    lights
+        .prims
+        .iter()
+        .zip(&lights.cdf)
+        .map(|(&p, &c)| [p, c.to_bits()])
+        .collect()
 }
 
 pub fn emitter_data(scene: &Scene) -> Vec<[f32; 4]> {
-    scene.emitters.iter().map(|e| [e.radiance.x, e.radiance.y, e.radiance.z, 0.0]).collect()
+    scene
+        .emitters
+        .iter()
+        .map(|e| [e.radiance.x, e.radiance.y, e.radiance.z, 0.0])
+        .collect()
 }
 
 /// The `Globals` block (scalar layout) of state.glsl.
 pub fn globals(scene: &Scene, lights: &LightTable, num_queues: u32, capacity: u32) -> Vec<u32> {
     let cam = CameraBasis::new(scene);
     let mut w: Vec<u32> = Vec::with_capacity(32);
-    for v in [cam.origin, cam.forward, cam.right, cam.up, scene.environment] {
+    for v in [
+        cam.origin,
+        cam.forward,
+        cam.right,
+        cam.up,
+        scene.environment,
+    ] {
         w.extend(v.to_array().iter().map(|f| f.to_bits()));
     }
     let it = &scene.integrator;

@@ -73,8 +73,10 @@ fn located(file: &str, line: Option<usize>, field: Option<&str>, message: &str) 
 
 /// Read and load a scene file. Relative OBJ paths are resolved against the file's directory.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
-    let source = std::fs::read_to_string(path)
-        .map_err(|source| SceneError::Read { file: path.display().to_string(), source })?;
+    let source = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
+        file: path.display().to_string(),
+        source,
+    })?;
     load_str(&source, path)
 }
 
@@ -162,10 +164,16 @@ impl<'de, T: Deserialize<'de>> Visitor<'de> for SpVisitor<T> {
             let end: usize = map.next_value()?;
             expect_key(&mut map, SPANNED_VALUE)?;
             let value: T = map.next_value()?;
-            return Ok(Sp { span: Some(start..end), value });
+            return Ok(Sp {
+                span: Some(start..end),
+                value,
+            });
         }
         // A table without a span: its entries, starting with the key already read.
-        plain(MapAccessDeserializer::new(Replay { first: first.map(|k| k.0), map }))
+        plain(MapAccessDeserializer::new(Replay {
+            first: first.map(|k| k.0),
+            map,
+        }))
     }
 }
 
@@ -378,8 +386,9 @@ impl Cx<'_> {
         for prefix in ["missing field `", "unknown field `"] {
             if let Some(rest) = message.strip_prefix(prefix) {
                 let name = rest.split('`').next().unwrap_or_default().to_string();
-                let ends_with_name =
-                    field.as_deref().is_some_and(|p| p == name || p.ends_with(&format!(".{name}")));
+                let ends_with_name = field
+                    .as_deref()
+                    .is_some_and(|p| p == name || p.ends_with(&format!(".{name}")));
                 if !ends_with_name {
                     field = Some(match field {
                         Some(p) => format!("{p}.{name}"),
@@ -396,7 +405,12 @@ impl Cx<'_> {
                 }
             }
         }
-        SceneError::Invalid { file: self.file.clone(), line, field, message }
+        SceneError::Invalid {
+            file: self.file.clone(),
+            line,
+            field,
+            message,
+        }
     }
 }
 
@@ -452,7 +466,9 @@ impl<'de> Deserialize<'de> for Node {
 
 /// Whether the error span starts inside `outer`.
 fn starts_in(outer: &Option<Range<usize>>, inner: &Range<usize>) -> bool {
-    outer.as_ref().is_some_and(|o| o.start <= inner.start && (inner.start < o.end || o == inner))
+    outer
+        .as_ref()
+        .is_some_and(|o| o.start <= inner.start && (inner.start < o.end || o == inner))
 }
 
 /// Whether the error lies somewhere below `node` (also for tables without a span).
@@ -461,9 +477,9 @@ fn inside(node: &Sp<Node>, span: &Range<usize>) -> bool {
         return starts_in(&node.span, span);
     }
     match &node.value {
-        Node::Table(entries) => {
-            entries.iter().any(|(k, v)| starts_in(&k.span, span) || inside(v, span))
-        }
+        Node::Table(entries) => entries
+            .iter()
+            .any(|(k, v)| starts_in(&k.span, span) || inside(v, span)),
         Node::Array(items) => items.iter().any(|v| inside(v, span)),
         Node::Leaf => false,
     }
@@ -578,7 +594,10 @@ fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, SceneError> {
 
     let size = |v: &Sp<u32>, field: &str| {
         if v.value == 0 || v.value > MAX_FILM_SIZE {
-            let msg = format!("{} is out of range: must be in [1, {MAX_FILM_SIZE}]", v.value);
+            let msg = format!(
+                "{} is out of range: must be in [1, {MAX_FILM_SIZE}]",
+                v.value
+            );
             return Err(cx.err(v.span(), field, msg));
         }
         Ok(v.value)
@@ -594,8 +613,11 @@ fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, SceneError> {
             cx.at_least_one(&i.max_depth, "integrator.max_depth", d.max_depth)?;
         integrator.seed = i.seed.unwrap_or(d.seed);
         integrator.russian_roulette = i.russian_roulette.unwrap_or(d.russian_roulette);
-        integrator.rr_start_depth =
-            cx.at_least_one(&i.rr_start_depth, "integrator.rr_start_depth", d.rr_start_depth)?;
+        integrator.rr_start_depth = cx.at_least_one(
+            &i.rr_start_depth,
+            "integrator.rr_start_depth",
+            d.rr_start_depth,
+        )?;
     }
 
     let environment = match raw.environment.as_ref().and_then(|e| e.radiance.as_ref()) {
@@ -607,10 +629,13 @@ fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, SceneError> {
     let mut defs: Vec<(String, Option<Range<usize>>, MaterialTable)> = Vec::new();
     for (name, table) in raw.materials {
         // A table made by dotted keys has no span of its own: use its first field's.
-        let span = table
-            .span
-            .clone()
-            .or_else(|| table.value.values().filter_map(|v| v.span()).min_by_key(|s| s.start));
+        let span = table.span.clone().or_else(|| {
+            table
+                .value
+                .values()
+                .filter_map(|v| v.span())
+                .min_by_key(|s| s.start)
+        });
         defs.push((name, span, table.value));
     }
     defs.sort_by_key(|(_, span, _)| span.as_ref().map_or(0, |s| s.start));
@@ -629,16 +654,23 @@ fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, SceneError> {
             fields.insert(key, toml::Spanned::new(s, v.value));
         }
         let table_span = span.clone().unwrap_or(0..0);
-        let origin =
-            Origin { file: &cx.file, source: cx.source, material: &name, span: table_span };
+        let origin = Origin {
+            file: &cx.file,
+            source: cx.source,
+            material: &name,
+            span: table_span,
+        };
         let (m, w) = brdf::parse_material(origin, fields)?;
         cx.warnings.extend(w);
         materials.push(m);
         material_names.push(name);
         material_spans.push(span);
     }
-    let index: HashMap<&str, usize> =
-        material_names.iter().enumerate().map(|(i, n)| (n.as_str(), i)).collect();
+    let index: HashMap<&str, usize> = material_names
+        .iter()
+        .enumerate()
+        .map(|(i, n)| (n.as_str(), i))
+        .collect();
     let mut used = vec![false; materials.len()];
 
     let mut out = Shapes::default();
@@ -660,8 +692,10 @@ fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, SceneError> {
 
     for (k, u) in used.iter().enumerate() {
         if !u {
-            let (span, field) =
-                (material_spans[k].clone(), format!("materials.{}", material_names[k]));
+            let (span, field) = (
+                material_spans[k].clone(),
+                format!("materials.{}", material_names[k]),
+            );
             cx.warn(span, &field, "the material is defined but no shape uses it");
         }
     }
@@ -720,10 +754,18 @@ fn camera(cx: &Cx, c: &RawCamera) -> Result<Camera, SceneError> {
         return Err(cx.err(up_span, "camera.up", "the up vector has zero length"));
     }
     if dir.cross(upn).length() < 1e-4 {
-        let msg = format!("up {up} is parallel to the viewing direction {}", target - position);
+        let msg = format!(
+            "up {up} is parallel to the viewing direction {}",
+            target - position
+        );
         return Err(cx.err(up_span, "camera.up", msg));
     }
-    Ok(Camera { position, target, up, fov_y_deg: fov })
+    Ok(Camera {
+        position,
+        target,
+        up,
+        fov_y_deg: fov,
+    })
 }
 
 #[derive(Default)]
@@ -750,7 +792,9 @@ fn shape_primitives(
     let kinds: Vec<(&str, Option<Range<usize>>)> = [
         s.quads.as_ref().map(|q| ("quads", q.span())),
         s.triangles.as_ref().map(|q| ("triangles", q.span())),
-        s.sphere.as_ref().map(|q| ("sphere", q.span().or(q.value.radius.span()))),
+        s.sphere
+            .as_ref()
+            .map(|q| ("sphere", q.span().or(q.value.radius.span()))),
         s.obj.as_ref().map(|q| ("obj", q.span())),
     ]
     .into_iter()
@@ -791,7 +835,13 @@ fn shape_primitives(
         None => None,
     };
 
-    let tri = |v: [Vec3; 3]| Triangle { v, n: None, uv: None, material, emitter };
+    let tri = |v: [Vec3; 3]| Triangle {
+        v,
+        n: None,
+        uv: None,
+        material,
+        emitter,
+    };
     if let Some(quads) = &s.quads {
         if quads.value.is_empty() {
             let msg = format!("{label}: the list of quads is empty");
@@ -848,14 +898,25 @@ fn shape_primitives(
             let msg = format!("{radius} is out of range: the radius must be > 0");
             return Err(cx.err(r.radius.span(), &fr, msg));
         }
-        out.spheres.push(Sphere { center, radius, material, emitter, inward: r.inward });
+        out.spheres.push(Sphere {
+            center,
+            radius,
+            material,
+            emitter,
+            inward: r.inward,
+        });
     }
     if let Some(obj) = &s.obj {
         let xf = match &s.transform {
             Some(t) => transform(cx, f, &t.value)?,
             None => Transform::identity(),
         };
-        let mesh = ObjShape { field: format!("{f}.obj"), label, material, emitter };
+        let mesh = ObjShape {
+            field: format!("{f}.obj"),
+            label,
+            material,
+            emitter,
+        };
         obj_triangles(cx, &mesh, obj, &xf, &mut out.triangles)?;
     }
     Ok(())
@@ -871,11 +932,20 @@ struct Transform {
 
 impl Transform {
     fn identity() -> Self {
-        Transform { translate: Vec3::ZERO, scale: Vec3::ONE, cos: 1.0, sin: 0.0 }
+        Transform {
+            translate: Vec3::ZERO,
+            scale: Vec3::ONE,
+            cos: 1.0,
+            sin: 0.0,
+        }
     }
     /// Rotation about +y, counter-clockwise seen from above (+z turns toward +x).
     fn rot(&self, p: Vec3) -> Vec3 {
-        Vec3::new(self.cos * p.x + self.sin * p.z, p.y, -self.sin * p.x + self.cos * p.z)
+        Vec3::new(
+            self.cos * p.x + self.sin * p.z,
+            p.y,
+            -self.sin * p.x + self.cos * p.z,
+        )
     }
     fn point(&self, p: Vec3) -> Vec3 {
         self.translate + self.rot(self.scale * p)
@@ -980,12 +1050,25 @@ fn obj_triangles(
     let fo = shape.field.as_str();
     let span = obj.span();
     let rel = Path::new(&obj.value);
-    let full = if rel.is_absolute() { rel.to_path_buf() } else { cx.dir.join(rel) };
+    let full = if rel.is_absolute() {
+        rel.to_path_buf()
+    } else {
+        cx.dir.join(rel)
+    };
     let shown = full.display().to_string();
-    let text = std::fs::read_to_string(&full)
-        .map_err(|e| cx.err(span.clone(), fo, format!("cannot read OBJ file '{shown}': {e}")))?;
+    let text = std::fs::read_to_string(&full).map_err(|e| {
+        cx.err(
+            span.clone(),
+            fo,
+            format!("cannot read OBJ file '{shown}': {e}"),
+        )
+    })?;
     let uses_mtl = scan_obj(&text).map_err(|(line, msg)| {
-        cx.err(span.clone(), fo, format!("OBJ file '{shown}', line {line}: {msg}"))
+        cx.err(
+            span.clone(),
+            fo,
+            format!("OBJ file '{shown}', line {line}: {msg}"),
+        )
     })?;
     if uses_mtl {
         let msg = format!("OBJ file '{shown}' refers to MTL materials; they are ignored: every face uses this shape's material");
@@ -999,8 +1082,10 @@ fn obj_triangles(
     };
     // The MTL loader refuses every library: the scene file assigns the material.
     let loaded = std::panic::catch_unwind(|| {
-        tobj::load_obj_buf(&mut text.as_bytes(), &opts, |_| Err(tobj::LoadError::OpenFileFailed))
-            .map(|(models, _)| models)
+        tobj::load_obj_buf(&mut text.as_bytes(), &opts, |_| {
+            Err(tobj::LoadError::OpenFileFailed)
+        })
+        .map(|(models, _)| models)
     });
     let models = match loaded {
         Ok(Ok(m)) => m,
@@ -1127,7 +1212,10 @@ fn obj_triangles(
         cx.warn(
             span,
             fo,
-            format!("{}: OBJ file '{shown}' contains no usable triangles", shape.label),
+            format!(
+                "{}: OBJ file '{shown}' contains no usable triangles",
+                shape.label
+            ),
         );
     }
     Ok(())
@@ -1152,19 +1240,43 @@ mod tests {
         assert_eq!(doc.a.span, Some(4..7));
         assert_eq!(doc.a.value, 1.5);
         assert_eq!(doc.t.span.map(|s| line_of(src, s.start)), Some(3));
-        assert_eq!(doc.t.value["y"].span.clone().map(|s| line_of(src, s.start)), Some(4));
+        assert_eq!(
+            doc.t.value["y"].span.clone().map(|s| line_of(src, s.start)),
+            Some(4)
+        );
         assert!(doc.d.span.is_none());
         assert_eq!(doc.d.value["x"].value, 7);
-        assert_eq!(doc.d.value["x"].span.clone().map(|s| line_of(src, s.start)), Some(2));
+        assert_eq!(
+            doc.d.value["x"].span.clone().map(|s| line_of(src, s.start)),
+            Some(2)
+        );
     }
 
     #[test]
     fn obj_scan_checks_indices() {
-        assert_eq!(scan_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf -3 -2 -1\n"), Ok(false));
+        assert_eq!(
+            scan_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf -3 -2 -1\n"),
+            Ok(false)
+        );
         assert_eq!(scan_obj("v 0 0 0\nf 1 2 3\n").unwrap_err().0, 2);
-        assert_eq!(scan_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2 3\n").unwrap_err().0, 4);
-        assert_eq!(scan_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n").unwrap_err().0, 4);
-        assert_eq!(scan_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -4 1 2\n").unwrap_err().0, 4);
+        assert_eq!(
+            scan_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2 3\n")
+                .unwrap_err()
+                .0,
+            4
+        );
+        assert_eq!(
+            scan_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n")
+                .unwrap_err()
+                .0,
+            4
+        );
+        assert_eq!(
+            scan_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -4 1 2\n")
+                .unwrap_err()
+                .0,
+            4
+        );
         assert_eq!(scan_obj("v 0 0 0\nv 1 0 0\nf 1 2\n").unwrap_err().0, 3);
         assert_eq!(scan_obj("mtllib a.mtl\n"), Ok(true));
     }
@@ -1177,7 +1289,12 @@ mod tests {
         assert!((xf.point(Vec3::Z) - Vec3::X).length() < 1e-6);
         xf.scale = Vec3::new(2.0, 1.0, 1.0);
         // A normal of a plane x = y stretched in x: the normal tilts toward y.
-        let n = Transform { cos: 1.0, sin: 0.0, ..xf }.normal(Vec3::new(1.0, -1.0, 0.0));
+        let n = Transform {
+            cos: 1.0,
+            sin: 0.0,
+            ..xf
+        }
+        .normal(Vec3::new(1.0, -1.0, 0.0));
         assert!((n - Vec3::new(1.0, -2.0, 0.0).normalize()).length() < 1e-6);
     }
 

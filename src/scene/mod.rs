@@ -33,7 +33,13 @@ pub struct Integrator {
 
 impl Default for Integrator {
     fn default() -> Self {
-        Integrator { spp: 16, max_depth: 8, seed: 0, russian_roulette: false, rr_start_depth: 3 }
+        Integrator {
+            spp: 16,
+            max_depth: 8,
+            seed: 0,
+            russian_roulette: false,
+            rr_start_depth: 3,
+        }
     }
 }
 

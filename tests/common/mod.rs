@@ -27,7 +27,11 @@ pub fn scene(name: &str, w: u32, h: u32, spp: u32, max_depth: u32, seed: u32) ->
 /// A Vulkan context on the default device (lavapipe in CI) with validation enabled when the
 /// layer is installed. Fails (does not skip) when Vulkan is unavailable.
 pub fn context() -> Context {
-    Context::new(&ContextOptions { device: None, validation: true }).expect("a Vulkan device (install mesa-vulkan-drivers)")
+    Context::new(&ContextOptions {
+        device: None,
+        validation: true,
+    })
+    .expect("a Vulkan device (install mesa-vulkan-drivers)")
 }
 
 pub fn render_cpu(s: &Scene) -> RenderOutput {
@@ -46,7 +50,11 @@ pub fn render_gpu(ctx: &Context, s: &Scene) -> (RenderOutput, Vec<String>) {
         (out, r.setup.pipelines.clone())
     };
     let msgs = ctx.validation_messages();
-    assert!(msgs.is_empty(), "validation layer messages:\n{}", msgs.join("\n"));
+    assert!(
+        msgs.is_empty(),
+        "validation layer messages:\n{}",
+        msgs.join("\n")
+    );
     (out, pipelines)
 }
 
@@ -54,7 +62,11 @@ pub fn render_gpu(ctx: &Context, s: &Scene) -> (RenderOutput, Vec<String>) {
 /// destruction (leaked objects).
 pub fn finish(ctx: Context) {
     let msgs = ctx.finish();
-    assert!(msgs.is_empty(), "validation layer messages at teardown:\n{}", msgs.join("\n"));
+    assert!(
+        msgs.is_empty(),
+        "validation layer messages at teardown:\n{}",
+        msgs.join("\n")
+    );
 }
 
 /// Where tests write images for inspection on failure.
