@@ -9,6 +9,9 @@
 //! * `cpu` — the CPU reference path tracer;
 //! * `vk` — the Vulkan backend layer: device, buffers, shader compilation, pipelines;
 //! * `gpu` — the wavefront integrator built on `vk` (kernels in `shaders/wavefront/`);
+//! * `camera`, `lights` — camera rays and the emitter table both renderers sample;
+//! * `output` — what a render returns, whichever backend made it;
+//! * `brdf_tools` — `brdfwave brdf eval | plot | report`;
 //! * `imageio`, `metrics` — image files and image comparison.
 
 pub mod brdf;

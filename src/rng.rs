@@ -3,7 +3,7 @@
 //! Every random number is a pure function of (seed, pixel, sample index, bounce, dimension), so
 //! the result does not depend on the order in which queues are processed, and the CPU reference
 //! follows exactly the sample paths of the GPU renderer. The GLSL twin is `shaders/rng.glsl`;
-//! both must stay bit-identical (tested in `tests/gpu_parity.rs`).
+//! both must stay bit-identical (tested in `tests/rng_parity.rs`).
 //!
 //! Dimensions per bounce are listed in [`dim`].
 
