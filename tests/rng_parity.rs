@@ -27,9 +27,14 @@ void main() {
 #[test]
 fn random_numbers_are_bit_identical_on_gpu_and_cpu() {
     let ctx = common::context();
-    let compiler = ShaderCompiler::new().unwrap().with_source("test/rng_probe.comp", KERNEL).unwrap();
+    let compiler = ShaderCompiler::new()
+        .unwrap()
+        .with_source("test/rng_probe.comp", KERNEL)
+        .unwrap();
     let spirv = compiler.compile("test/rng_probe.comp", &[], &[]).unwrap();
-    let pipeline = ctx.create_compute_pipeline("rng_probe", &spirv, 2, 4).unwrap();
+    let pipeline = ctx
+        .create_compute_pipeline("rng_probe", &spirv, 2, 4)
+        .unwrap();
     let keys: Vec<[u32; 4]> = (0..20_000u32)
         .map(|i| {
             let h = rng::pcg_hash(i);
@@ -38,7 +43,14 @@ fn random_numbers_are_bit_identical_on_gpu_and_cpu() {
         .collect();
     let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
     let kb = ctx.create_buffer_with_data("keys", &keys, storage).unwrap();
-    let ob = ctx.create_buffer("outs", keys.len() as u64 * 8, storage, MemoryLocation::GpuToCpu).unwrap();
+    let ob = ctx
+        .create_buffer(
+            "outs",
+            keys.len() as u64 * 8,
+            storage,
+            MemoryLocation::GpuToCpu,
+        )
+        .unwrap();
     let set = ctx.create_descriptor_set(&pipeline, &[&kb, &ob]).unwrap();
     let mut rec = ctx.begin().unwrap();
     rec.bind(&pipeline, set);
@@ -49,7 +61,11 @@ fn random_numbers_are_bit_identical_on_gpu_and_cpu() {
     for (k, o) in keys.iter().zip(&outs) {
         let (b, d) = (k[3] >> 8, k[3] & 255);
         assert_eq!(o[0], rng::random_u32(k[0], k[1], k[2], b, d), "key {k:?}");
-        assert_eq!(o[1], rng::random_f32(k[0], k[1], k[2], b, d).to_bits(), "key {k:?}");
+        assert_eq!(
+            o[1],
+            rng::random_f32(k[0], k[1], k[2], b, d).to_bits(),
+            "key {k:?}"
+        );
     }
     ctx.destroy_buffer(kb);
     ctx.destroy_buffer(ob);
