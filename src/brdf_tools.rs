@@ -117,7 +117,9 @@ fn heat(t: f32) -> [u8; 3] {
 
 /// A lobe picture: left, a polar plot of luminance(f·cosθo) in the plane of incidence (wi at
 /// `theta_i_deg` on the +x side, the mirror direction on the −x side); right, the hemisphere of
-/// wo seen from above (orthographic, x right, y up) coloured by f·cosθo on a log scale.
+/// wo seen from above (orthographic, x right, y up) coloured by f·cosθo on a log scale. Both
+/// panels draw local +x to the right, so the light comes from the upper right in the polar plot
+/// and the mirror lobe sits on the left half of the hemisphere image.
 pub fn plot_lobe(b: &dyn Brdf, theta_i_deg: f32) -> image::RgbImage {
     let size = 512u32;
     let mut img = image::RgbImage::from_pixel(2 * size, size, image::Rgb([255, 255, 255]));
@@ -137,7 +139,7 @@ pub fn plot_lobe(b: &dyn Brdf, theta_i_deg: f32) -> image::RgbImage {
         .map(|s| s.1)
         .fold(0.0f32, f32::max)
         .max(1e-12);
-    let (cx, cy, rad) = (size as f32 / 2.0, size as f32 * 0.9, size as f32 * 0.8);
+    let (cx, cy, rad) = (size as f32 / 2.0, size as f32 * 0.9, size as f32 * 0.45);
     let put = |img: &mut image::RgbImage, x: f32, y: f32, c: [u8; 3]| {
         if x >= 0.0 && y >= 0.0 && (x as u32) < size && (y as u32) < size {
             img.put_pixel(x as u32, y as u32, image::Rgb(c));
@@ -148,7 +150,7 @@ pub fn plot_lobe(b: &dyn Brdf, theta_i_deg: f32) -> image::RgbImage {
         put(&mut img, cx + (t - 0.5) * 2.0 * rad, cy, [160, 160, 160]); // surface
         put(
             &mut img,
-            cx - t * rad * ti.sin(),
+            cx + t * rad * ti.sin(),
             cy - t * rad * ti.cos(),
             [60, 60, 220],
         ); // wi
@@ -167,11 +169,11 @@ pub fn plot_lobe(b: &dyn Brdf, theta_i_deg: f32) -> image::RgbImage {
             let f = s as f32 / 8.0;
             let th = w[0].0 * (1.0 - f) + w[1].0 * f;
             let r = (w[0].1 * (1.0 - f) + w[1].1 * f) / vmax * rad;
-            // Local +x is drawn to the left: the light (blue) comes from the upper left and the
-            // mirror lobe leaves to the upper right.
+            // Local +x is drawn to the right, as in the hemisphere panel: the light (blue) comes
+            // from the upper right and the mirror lobe leaves to the upper left.
             put(
                 &mut img,
-                cx - r * th.sin(),
+                cx + r * th.sin(),
                 cy - r * th.cos(),
                 [200, 30, 30],
             );
