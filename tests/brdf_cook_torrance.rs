@@ -11,22 +11,13 @@ use brdfwave::brdf::cook_torrance::{
 };
 use brdfwave::brdf::validate::{
     albedo_quadrature, albedo_quadrature_rgb, albedo_sampled, chi2_test_with, dir_from_theta_deg,
-    reciprocity_error, sample_consistency, sidak, Chi2Config,
+    material_from_toml, reciprocity_error, sample_consistency, sidak, Chi2Config,
 };
-use brdfwave::brdf::{parse_material, Brdf, Material, Origin};
+use brdfwave::brdf::{Brdf, Material};
 use glam::{Vec2, Vec3};
-use std::collections::BTreeMap;
 
 fn material(src: &str) -> Result<(Material, Vec<String>), String> {
-    let fields: BTreeMap<String, toml::Spanned<toml::Value>> =
-        toml::from_str(src).map_err(|e| e.to_string())?;
-    let origin = Origin {
-        file: "test.toml",
-        source: src,
-        material: "m",
-        span: 0..src.len(),
-    };
-    parse_material(origin, fields).map_err(|e| e.to_string())
+    material_from_toml("test.toml", src)
 }
 
 /// F ≡ 1 (Schlick with f0 = 1), no diffuse: the setting of the §7 table.

@@ -2,22 +2,13 @@
 //! sampler matches its pdf, the model is reciprocal, and bad parameters are rejected.
 
 use brdfwave::brdf::validate::{
-    albedo_quadrature, albedo_sampled, chi2_test, dir_from_theta_deg, reciprocity_error,
-    sample_consistency, sidak,
+    albedo_quadrature, albedo_sampled, chi2_test, dir_from_theta_deg, material_from_toml,
+    reciprocity_error, sample_consistency, sidak,
 };
-use brdfwave::brdf::{parse_material, Brdf, Material, Origin};
-use std::collections::BTreeMap;
+use brdfwave::brdf::{Brdf, Material};
 
 fn material(src: &str) -> Result<(Material, Vec<String>), String> {
-    let fields: BTreeMap<String, toml::Spanned<toml::Value>> =
-        toml::from_str(src).map_err(|e| e.to_string())?;
-    let origin = Origin {
-        file: "test.toml",
-        source: src,
-        material: "m",
-        span: 0..src.len(),
-    };
-    parse_material(origin, fields).map_err(|e| e.to_string())
+    material_from_toml("test.toml", src)
 }
 
 fn lambert(rho: [f32; 3]) -> Material {

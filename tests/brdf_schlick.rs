@@ -6,23 +6,14 @@
 
 use brdfwave::brdf::schlick::{self, Form, Schlick};
 use brdfwave::brdf::validate::{
-    albedo_quadrature, albedo_sampled, chi2_test_with, dir_from_theta_deg, reciprocity_error,
-    sample_consistency, sidak, Chi2Config,
+    albedo_quadrature, albedo_sampled, chi2_test_with, dir_from_theta_deg, material_from_toml,
+    reciprocity_error, sample_consistency, sidak, Chi2Config,
 };
-use brdfwave::brdf::{parse_material, Brdf, BrdfSample, Material, Origin, Params};
+use brdfwave::brdf::{Brdf, BrdfSample, Material, Params};
 use glam::{Vec2, Vec3};
-use std::collections::BTreeMap;
 
 fn material(src: &str) -> Result<(Material, Vec<String>), String> {
-    let fields: BTreeMap<String, toml::Spanned<toml::Value>> =
-        toml::from_str(src).map_err(|e| e.to_string())?;
-    let origin = Origin {
-        file: "test.toml",
-        source: src,
-        material: "m",
-        span: 0..src.len(),
-    };
-    parse_material(origin, fields).map_err(|e| e.to_string())
+    material_from_toml("test.toml", src)
 }
 
 /// The glossy lobe B = G G' Z A/(4π v v') alone with S ≡ 1 (C = 1): the quantity of the §10

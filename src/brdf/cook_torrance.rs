@@ -353,20 +353,7 @@ pub fn sample(m: &CookTorrance, given: Vec3, u_lobe: f32, u: Vec2) -> Option<Brd
     } else {
         sample_cosine_hemisphere(u)
     };
-    if wi.z <= 0.0 {
-        return None;
-    }
-    let p = pdf(m, given, wi);
-    if p <= 0.0 {
-        return None;
-    }
-    let weight = eval(m, wi, given) * (wi.z / p);
-    Some(BrdfSample {
-        wi,
-        weight,
-        pdf: p,
-        delta: false,
-    })
+    BrdfSample::scattered(wi, |wi| pdf(m, given, wi), |wi| eval(m, wi, given))
 }
 
 impl Brdf for CookTorrance {

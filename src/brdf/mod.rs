@@ -48,6 +48,32 @@ pub struct BrdfSample {
     pub delta: bool,
 }
 
+impl BrdfSample {
+    /// The common end of sampling a non-delta lobe, as every model's `sample` ends: refuse a
+    /// direction below the horizon or with zero density, otherwise weight = f·cosθ / pdf with the
+    /// pdf of the whole mixture (`pdf`) and the BRDF (`f`) evaluated at `wi`. The GLSL side ends
+    /// each `<model>_sample` with the same three steps.
+    pub fn scattered(
+        wi: Vec3,
+        pdf: impl FnOnce(Vec3) -> f32,
+        f: impl FnOnce(Vec3) -> Vec3,
+    ) -> Option<Self> {
+        if wi.z <= 0.0 {
+            return None;
+        }
+        let p = pdf(wi);
+        if p <= 0.0 {
+            return None;
+        }
+        Some(BrdfSample {
+            wi,
+            weight: f(wi) * (wi.z / p),
+            pdf: p,
+            delta: false,
+        })
+    }
+}
+
 /// Number of 32-bit words in a GPU material record (`struct Material` in `shaders/common.glsl`).
 pub const RECORD_WORDS: usize = 32;
 /// Words 0..4 are the header (model index, queue slot, flags, reserved); 4..32 the parameters.

@@ -15,11 +15,27 @@
 //! Scalars: where a function returns one number for an RGB model (albedo), it is the mean of
 //! the three channels; the `_rgb` variants return the channels.
 
-use super::{Brdf, BrdfSample};
+use super::{parse_material, Brdf, BrdfSample, Material, Origin};
 use crate::rng::random_f32;
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 use std::f64::consts::PI;
+
+/// A material from the fields of one scene-file material table (`model = "…"` and its
+/// parameters, one per line), as the scene loader reads it; errors name `file`, the line and
+/// the field. Returns the material and its warnings. For tests and tools that build materials
+/// from text.
+pub fn material_from_toml(file: &str, src: &str) -> Result<(Material, Vec<String>), String> {
+    let fields: std::collections::BTreeMap<String, toml::Spanned<toml::Value>> =
+        toml::from_str(src).map_err(|e| format!("{file}: {e}"))?;
+    let origin = Origin {
+        file,
+        source: src,
+        material: "m",
+        span: 0..src.len(),
+    };
+    parse_material(origin, fields).map_err(|e| e.to_string())
+}
 
 /// The outcome of [`chi2_test`].
 #[derive(Clone, Debug, PartialEq)]

@@ -281,19 +281,10 @@ pub fn sample(m: &Ward, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample>
     } else {
         sample_cosine_hemisphere(u)
     };
-    if wi.z <= 0.0 {
-        return None;
-    }
-    let p = pdf_local(m, g, wi);
-    if p <= 0.0 {
-        return None;
-    }
-    let weight = eval_local(m, wi, g) * (wi.z / p);
+    let s = BrdfSample::scattered(wi, |wi| pdf_local(m, g, wi), |wi| eval_local(m, wi, g))?;
     Some(BrdfSample {
-        wi: m.rotate_out(wi),
-        weight,
-        pdf: p,
-        delta: false,
+        wi: m.rotate_out(s.wi),
+        ..s
     })
 }
 
