@@ -10,10 +10,14 @@ layout(local_size_x = 64) in;
 layout(std430, set = 0, binding = 0) readonly buffer Mat { Material material; };
 // Inputs, 2 vec4 per item: (a.xyz, u_lobe), (b.xyz or (u.x, u.y, _), _).
 layout(std430, set = 0, binding = 1) readonly buffer Inputs { vec4 inputs[]; };
-// Outputs, 2 vec4 per item. Mode 0 (eval): (f, pdf), (0). Mode 1 (sample): (wi, pdf), (weight, ok | delta << 1).
+// Outputs, 2 vec4 per item. Mode 0 (eval): (f, pdf), (0). Mode 1 (sample): (wi, pdf), (weight,
+// ok | delta << 1). Mode 2 (cost): (sum of f over the reps, 0), (0).
 layout(std430, set = 0, binding = 2) writeonly buffer Outputs { vec4 outputs[]; };
 
-layout(push_constant) uniform Push { uint count; uint mode; } pc;
+layout(push_constant) uniform Push { uint count; uint mode; uint reps; } pc;
+
+// Mode 2 turns wo about the normal by this angle between evaluations (cos, sin of 0.1 rad).
+const float COST_C = 0.99500417, COST_S = 0.09983342;
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
@@ -25,6 +29,18 @@ void main() {
         vec3 f = BRDF_EVAL(material, a.xyz, b.xyz);
         float pdf = BRDF_PDF(material, a.xyz, b.xyz);
         outputs[2u * i] = vec4(f, pdf);
+        outputs[2u * i + 1u] = vec4(0.0);
+    } else if (pc.mode == 2u) {
+        // Evaluation cost: `reps` evaluations per invocation and one write, so that memory traffic
+        // does not hide the arithmetic. wo turns about the normal between evaluations (4 FMAs),
+        // so no evaluation can be hoisted out of the loop.
+        vec3 wi = a.xyz, wo = b.xyz;
+        vec3 sum = vec3(0.0);
+        for (uint r = 0u; r < pc.reps; ++r) {
+            sum += BRDF_EVAL(material, wi, wo);
+            wo = vec3(COST_C * wo.x - COST_S * wo.y, COST_S * wo.x + COST_C * wo.y, wo.z);
+        }
+        outputs[2u * i] = vec4(sum, 0.0);
         outputs[2u * i + 1u] = vec4(0.0);
     } else {
         BrdfSample s;

@@ -369,7 +369,7 @@ pub fn report_markdown(rows: &[ReportRow], gpu_device: Option<&str>) -> String {
         s,
         "Directional albedo ρ(θ) = ∫ f cosθo dωo of the luminance, by deterministic quadrature, plus delta (mirror) lobes by sampling; maximum over θ in 2° steps to 89°; \
          reciprocity error = max |f(a,b) − f(b,a)| / max(f) over 20,000 random pairs; χ² = smallest p-value of the sample-vs-pdf test at 10°, 45°, 75° \
-         (200,000 samples each); cost = nanoseconds per evaluation (CPU: one thread; GPU: {}); variance = of one sample of the sampled-albedo estimator at 30°.\n",
+         (200,000 samples each); cost = nanoseconds per evaluation of f (CPU: one thread, wall clock; GPU: {}, kernel time by timestamps over the evaluations of the whole device, 64 per invocation, so it is a throughput, not a latency); variance = of one sample of the sampled-albedo estimator at 30°.\n",
         gpu_device.unwrap_or("not measured")
     );
     let _ = writeln!(s, "| model | ρ(0°) | ρ(30°) | ρ(60°) | ρ(80°) | ρ(89°) | max ρ (at) | reciprocity err | χ² p | ns/eval CPU | ns/eval GPU | var(ρ̂) |");

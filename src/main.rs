@@ -500,7 +500,8 @@ fn brdf_command(cmd: BrdfCommand) -> Result<()> {
                 eprintln!("measuring {label}");
                 let (mut row, m) = tools::report_row(label, src)?;
                 if let Some((ctx, compiler)) = &gpu {
-                    row.ns_per_eval_gpu = Some(gpu_eval_cost(ctx, compiler, &m)?);
+                    row.ns_per_eval_gpu =
+                        Some(brdfwave::gpu::brdf_probe::eval_cost(ctx, compiler, &m)?);
                 }
                 let img = tools::plot_lobe(m.brdf.as_ref(), 45.0);
                 let mut bytes = Vec::new();
@@ -526,26 +527,4 @@ fn brdf_command(cmd: BrdfCommand) -> Result<()> {
         }
     }
     Ok(())
-}
-
-/// Nanoseconds per BRDF evaluation on the GPU: the probe kernel over 2^20 random pairs, timed
-/// by GPU timestamps around the dispatch (uploads and pipeline creation excluded).
-fn gpu_eval_cost(
-    ctx: &vk::Context,
-    compiler: &vk::ShaderCompiler,
-    m: &brdfwave::brdf::Material,
-) -> Result<f64> {
-    let n = 1u32 << 20;
-    let pairs: Vec<(glam::Vec3, glam::Vec3)> = (0..n)
-        .map(|i| {
-            let u = |d| brdfwave::rng::random_f32(9, i, 0, 0, d);
-            let s = brdfwave::brdf::common::sample_cosine_hemisphere;
-            (
-                s(glam::Vec2::new(u(0), u(1))),
-                s(glam::Vec2::new(u(2), u(3))),
-            )
-        })
-        .collect();
-    let (_, seconds) = brdfwave::gpu::brdf_probe::eval_timed(ctx, compiler, m, &pairs)?;
-    Ok(seconds * 1e9 / n as f64)
 }

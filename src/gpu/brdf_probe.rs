@@ -14,57 +14,114 @@ use gpu_allocator::MemoryLocation;
 struct Push {
     count: u32,
     mode: u32,
+    /// Mode 2: evaluations per invocation.
+    reps: u32,
 }
 
-/// Runs the probe kernel; returns the outputs and the kernel's GPU time in seconds (timestamps).
+const MODE_EVAL: u32 = 0;
+const MODE_SAMPLE: u32 = 1;
+const MODE_COST: u32 = 2;
+/// Evaluations per invocation in the cost mode.
+const COST_REPS: u32 = 64;
+
+/// The probe kernel compiled for one material's model.
+struct Probe<'a> {
+    ctx: &'a Context,
+    pipeline: Option<crate::vk::ComputePipeline>,
+    material: &'a Material,
+}
+
+impl<'a> Probe<'a> {
+    fn new(ctx: &'a Context, compiler: &ShaderCompiler, m: &'a Material) -> Result<Self> {
+        let name = MODELS[m.model].name;
+        let mut defines: Vec<(String, String)> = m
+            .brdf
+            .defines()
+            .into_iter()
+            .map(|d| (d.to_string(), "1".to_string()))
+            .collect();
+        defines.push(("BRDF_EVAL".into(), format!("{name}_eval")));
+        defines.push(("BRDF_PDF".into(), format!("{name}_pdf")));
+        defines.push(("BRDF_SAMPLE".into(), format!("{name}_sample")));
+        let overrides = vec![("brdf/model.glsl".to_string(), format!("brdf/{name}.glsl"))];
+        let spirv = compiler.compile("brdf_probe.comp", &defines, &overrides)?;
+        let pipeline = ctx.create_compute_pipeline(&format!("probe_{name}"), &spirv, 3, 12)?;
+        Ok(Probe {
+            ctx,
+            pipeline: Some(pipeline),
+            material: m,
+        })
+    }
+
+    /// Runs the kernel over `inputs`; returns the outputs and the kernel's GPU time in seconds
+    /// (timestamps).
+    fn run(&self, inputs: &[[f32; 4]], mode: u32, reps: u32) -> Result<(Vec<[f32; 4]>, f64)> {
+        let ctx = self.ctx;
+        let pipeline = self.pipeline.as_ref().expect("live probe");
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let record = scene_buffers::material_records_of(std::slice::from_ref(self.material));
+        let mat = ctx.create_buffer_with_data("probe_material", &record, storage)?;
+        let inp = match ctx.create_buffer_with_data("probe_inputs", inputs, storage) {
+            Ok(b) => b,
+            Err(e) => {
+                ctx.destroy_buffer(mat);
+                return Err(e);
+            }
+        };
+        // Device memory, read back through a staging copy: written to host memory, the kernel
+        // would time PCIe writes on a discrete GPU rather than the BRDF.
+        let out = match ctx.create_buffer(
+            "probe_outputs",
+            (inputs.len() * 16) as u64,
+            storage,
+            MemoryLocation::GpuOnly,
+        ) {
+            Ok(b) => b,
+            Err(e) => {
+                ctx.destroy_buffer(mat);
+                ctx.destroy_buffer(inp);
+                return Err(e);
+            }
+        };
+        let result = (|| {
+            let set = ctx.create_descriptor_set(pipeline, &[&mat, &inp, &out])?;
+            let mut rec = ctx.begin()?;
+            rec.bind(pipeline, set);
+            let count = (inputs.len() / 2) as u32;
+            rec.push_constants(pipeline, &Push { count, mode, reps });
+            rec.timestamp("begin");
+            rec.dispatch(count.div_ceil(64), 1, 1);
+            rec.timestamp("end");
+            ctx.submit_and_wait(rec)?;
+            let stamps = ctx.read_timestamps()?;
+            let seconds = stamps.last().map(|s| s.1).unwrap_or(0.0)
+                - stamps.first().map(|s| s.1).unwrap_or(0.0);
+            Ok((ctx.download(&out)?, seconds))
+        })();
+        ctx.destroy_buffer(mat);
+        ctx.destroy_buffer(inp);
+        ctx.destroy_buffer(out);
+        result
+    }
+}
+
+impl Drop for Probe<'_> {
+    fn drop(&mut self) {
+        if let Some(p) = self.pipeline.take() {
+            self.ctx.destroy_pipeline(p);
+        }
+    }
+}
+
 fn run(
     ctx: &Context,
     compiler: &ShaderCompiler,
     m: &Material,
     inputs: &[[f32; 4]],
     mode: u32,
+    reps: u32,
 ) -> Result<(Vec<[f32; 4]>, f64)> {
-    let name = MODELS[m.model].name;
-    let mut defines: Vec<(String, String)> = m
-        .brdf
-        .defines()
-        .into_iter()
-        .map(|d| (d.to_string(), "1".to_string()))
-        .collect();
-    defines.push(("BRDF_EVAL".into(), format!("{name}_eval")));
-    defines.push(("BRDF_PDF".into(), format!("{name}_pdf")));
-    defines.push(("BRDF_SAMPLE".into(), format!("{name}_sample")));
-    let overrides = vec![("brdf/model.glsl".to_string(), format!("brdf/{name}.glsl"))];
-    let spirv = compiler.compile("brdf_probe.comp", &defines, &overrides)?;
-    let pipeline = ctx.create_compute_pipeline(&format!("probe_{name}"), &spirv, 3, 8)?;
-    let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-    let record = scene_buffers::material_records_of(std::slice::from_ref(m));
-    let mat = ctx.create_buffer_with_data("probe_material", &record, storage)?;
-    let inp = ctx.create_buffer_with_data("probe_inputs", inputs, storage)?;
-    let out = ctx.create_buffer(
-        "probe_outputs",
-        (inputs.len() * 16) as u64,
-        storage,
-        MemoryLocation::GpuToCpu,
-    )?;
-    let set = ctx.create_descriptor_set(&pipeline, &[&mat, &inp, &out])?;
-    let mut rec = ctx.begin()?;
-    rec.bind(&pipeline, set);
-    let count = (inputs.len() / 2) as u32;
-    rec.push_constants(&pipeline, &Push { count, mode });
-    rec.timestamp("begin");
-    rec.dispatch(count.div_ceil(64), 1, 1);
-    rec.timestamp("end");
-    ctx.submit_and_wait(rec)?;
-    let stamps = ctx.read_timestamps()?;
-    let seconds =
-        stamps.last().map(|s| s.1).unwrap_or(0.0) - stamps.first().map(|s| s.1).unwrap_or(0.0);
-    let result: Vec<[f32; 4]> = ctx.download(&out)?;
-    ctx.destroy_buffer(mat);
-    ctx.destroy_buffer(inp);
-    ctx.destroy_buffer(out);
-    ctx.destroy_pipeline(pipeline);
-    Ok((result, seconds))
+    Probe::new(ctx, compiler, m)?.run(inputs, mode, reps)
 }
 
 /// f(wi, wo) and pdf(given = wi, sampled = wo) for each pair, on the GPU.
@@ -89,7 +146,7 @@ pub fn eval_timed(
         inputs.push([wi.x, wi.y, wi.z, 0.0]);
         inputs.push([wo.x, wo.y, wo.z, 0.0]);
     }
-    let (out, seconds) = run(ctx, compiler, m, &inputs, 0)?;
+    let (out, seconds) = run(ctx, compiler, m, &inputs, MODE_EVAL, 0)?;
     Ok((
         out.chunks(2)
             .map(|c| (Vec3::new(c[0][0], c[0][1], c[0][2]), c[0][3]))
@@ -110,7 +167,7 @@ pub fn sample(
         raw.push([g.x, g.y, g.z, *ul]);
         raw.push([u.x, u.y, 0.0, 0.0]);
     }
-    let (out, _) = run(ctx, compiler, m, &raw, 1)?;
+    let (out, _) = run(ctx, compiler, m, &raw, MODE_SAMPLE, 0)?;
     Ok(out
         .chunks(2)
         .map(|c| {
@@ -123,4 +180,37 @@ pub fn sample(
             })
         })
         .collect())
+}
+
+/// Nanoseconds per evaluation of f on the GPU, from GPU timestamps around the probe kernel in
+/// its cost mode ([`COST_REPS`] evaluations per invocation over cosine-distributed random
+/// direction pairs, one write each; uploads and pipeline creation excluded). A first small
+/// dispatch warms the pipeline up (lavapipe compiles a shader to machine code at its first
+/// dispatch, which its timestamps would otherwise include); then the number of invocations
+/// grows until the kernel runs for at least 20 ms, so that the figure means the same on
+/// lavapipe and on a large GPU.
+pub fn eval_cost(ctx: &Context, compiler: &ShaderCompiler, m: &Material) -> Result<f64> {
+    let probe = Probe::new(ctx, compiler, m)?;
+    let inputs = |n: u32| -> Vec<[f32; 4]> {
+        let mut v = Vec::with_capacity(2 * n as usize);
+        for i in 0..n {
+            let u = |d| crate::rng::random_f32(9, i, 0, 0, d);
+            let s = crate::brdf::common::sample_cosine_hemisphere;
+            let (a, b) = (s(Vec2::new(u(0), u(1))), s(Vec2::new(u(2), u(3))));
+            v.push([a.x, a.y, a.z, 0.0]);
+            v.push([b.x, b.y, b.z, 0.0]);
+        }
+        v
+    };
+    probe.run(&inputs(64), MODE_COST, COST_REPS)?;
+    let mut n = 1u32 << 12;
+    loop {
+        let (_, seconds) = probe.run(&inputs(n), MODE_COST, COST_REPS)?;
+        if seconds >= 0.02 || n >= 1 << 22 {
+            return Ok(seconds * 1e9 / (n as f64 * COST_REPS as f64));
+        }
+        // Aim at 40 ms, at most 16 times more work per step.
+        let grow = (0.04 / seconds.max(1e-7)).clamp(2.0, 16.0);
+        n = ((n as f64 * grow) as u64).min(1 << 22) as u32;
+    }
 }
