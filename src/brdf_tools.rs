@@ -216,6 +216,15 @@ pub fn plot_lobe(b: &dyn Brdf, theta_i_deg: f32) -> image::RgbImage {
     img
 }
 
+/// Three significant digits without an exponent: 5670, 4.28, 0.00431 (GPU costs span 10⁶).
+fn three_digits(v: f64) -> String {
+    if !(v.is_finite() && v > 0.0) {
+        return format!("{v}");
+    }
+    let decimals = (2 - v.log10().floor() as i32).max(0) as usize;
+    format!("{v:.decimals$}")
+}
+
 /// Representative parameters for the report: comparable gloss where the model has gloss.
 pub const REPRESENTATIVE: &[(&str, &str)] = &[
     ("lambert", r#"model = "lambert", albedo = 0.8"#),
@@ -389,7 +398,7 @@ pub fn report_markdown(rows: &[ReportRow], gpu_device: Option<&str>) -> String {
             r.reciprocity_error,
             r.chi2_p_value,
             r.ns_per_eval_cpu,
-            r.ns_per_eval_gpu.map(|v| format!("{v:.2}")).unwrap_or_else(|| "-".into()),
+            r.ns_per_eval_gpu.map(three_digits).unwrap_or_else(|| "-".into()),
             r.sampled_albedo_variance
         );
     }
@@ -429,4 +438,17 @@ pub fn slug(label: &str) -> String {
         .replace("__", "_")
         .trim_matches('_')
         .to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::three_digits;
+
+    #[test]
+    fn costs_keep_three_significant_digits() {
+        assert_eq!(three_digits(5467.1), "5467");
+        assert_eq!(three_digits(4.281), "4.28");
+        assert_eq!(three_digits(0.004312), "0.00431");
+        assert_eq!(three_digits(0.0), "0");
+    }
 }
