@@ -131,28 +131,16 @@ pub fn eval(
     m: &Material,
     pairs: &[(Vec3, Vec3)],
 ) -> Result<Vec<(Vec3, f32)>> {
-    Ok(eval_timed(ctx, compiler, m, pairs)?.0)
-}
-
-/// [`eval`] plus the kernel's GPU time in seconds.
-pub fn eval_timed(
-    ctx: &Context,
-    compiler: &ShaderCompiler,
-    m: &Material,
-    pairs: &[(Vec3, Vec3)],
-) -> Result<(Vec<(Vec3, f32)>, f64)> {
     let mut inputs = Vec::with_capacity(pairs.len() * 2);
     for (wi, wo) in pairs {
         inputs.push([wi.x, wi.y, wi.z, 0.0]);
         inputs.push([wo.x, wo.y, wo.z, 0.0]);
     }
-    let (out, seconds) = run(ctx, compiler, m, &inputs, MODE_EVAL, 0)?;
-    Ok((
-        out.chunks(2)
-            .map(|c| (Vec3::new(c[0][0], c[0][1], c[0][2]), c[0][3]))
-            .collect(),
-        seconds,
-    ))
+    let (out, _) = run(ctx, compiler, m, &inputs, MODE_EVAL, 0)?;
+    Ok(out
+        .chunks(2)
+        .map(|c| (Vec3::new(c[0][0], c[0][1], c[0][2]), c[0][3]))
+        .collect())
 }
 
 /// `sample(given, u_lobe, u)` for each input, on the GPU.
