@@ -58,6 +58,10 @@ enum Command {
         /// Enable the Khronos validation layer (fails the run if it reports anything).
         #[arg(long)]
         validation: bool,
+        /// GPU: most paths in flight at a time, 64 to 1048576 (the default). The image does not
+        /// depend on it.
+        #[arg(long)]
+        wave_paths: Option<u32>,
         /// Print the summary as one JSON object on stdout.
         #[arg(long)]
         json: bool,
@@ -153,6 +157,7 @@ fn main() {
             variance_out,
             device,
             validation,
+            wave_paths,
             json,
         } => render(RenderArgs {
             scene,
@@ -165,6 +170,7 @@ fn main() {
             variance_out,
             device,
             validation,
+            wave_paths,
             json,
         }),
         Command::Diff {
@@ -197,6 +203,7 @@ struct RenderArgs {
     variance_out: Option<PathBuf>,
     device: Option<String>,
     validation: bool,
+    wave_paths: Option<u32>,
     json: bool,
 }
 
@@ -237,6 +244,15 @@ fn render(a: RenderArgs) -> Result<()> {
     if let Some(s) = a.seed {
         sc.integrator.seed = s;
     }
+    if let Some(w) = a.wave_paths {
+        let max = brdfwave::gpu::MAX_CAPACITY;
+        if !(64..=max).contains(&w) {
+            bail!("--wave-paths must be between 64 and {max}, got {w}");
+        }
+        if a.backend == Backend::Cpu {
+            eprintln!("warning: --wave-paths applies to the GPU backend only; ignored");
+        }
+    }
     let outs = if a.out.is_empty() {
         let stem = a
             .scene
@@ -264,7 +280,8 @@ fn render(a: RenderArgs) -> Result<()> {
                 validation: a.validation,
             })?;
             let compiler = vk::ShaderCompiler::new()?;
-            let mut r = GpuRenderer::new(&ctx, &sc, &bvh, &compiler)?;
+            let wave = a.wave_paths.unwrap_or(brdfwave::gpu::MAX_CAPACITY);
+            let mut r = GpuRenderer::with_wave_paths(&ctx, &sc, &bvh, &compiler, wave)?;
             seconds_setup = t0.elapsed().as_secs_f64();
             let pb = progress_bar(sc.integrator.spp as u64, "samples");
             let t = Instant::now();
@@ -275,6 +292,7 @@ fn render(a: RenderArgs) -> Result<()> {
             summary["pipelines"] = json!(r.setup.pipelines);
             summary["seconds_shader_compile"] = json!(r.setup.seconds_shader_compile);
             summary["seconds_pipeline_create"] = json!(r.setup.seconds_pipeline_create);
+            summary["wave_paths"] = json!(r.setup.wave_paths);
             drop(r);
             // Tear down now so that messages raised at device destruction (leaks) count too.
             let msgs = ctx.finish();
@@ -368,6 +386,9 @@ fn print_summary(s: &serde_json::Value) {
             s["seconds_shader_compile"].as_f64().unwrap_or(0.0),
             s["seconds_pipeline_create"].as_f64().unwrap_or(0.0)
         );
+    }
+    if let Some(w) = s.get("wave_paths") {
+        println!("wave           {w} paths in flight");
     }
     println!(
         "time           set-up {:.3} s (BVH {:.3} s), render {:.3} s",

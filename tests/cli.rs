@@ -126,6 +126,8 @@ fn render_json_summary_on_both_backends() {
                 "{pipes:?}"
             );
             assert!(j["seconds_shader_compile"].as_f64().is_some());
+            // 32×32 pixels × 4 samples fit in one wave.
+            assert_eq!(j["wave_paths"], 4096);
             assert!(j["seconds_pipeline_create"].as_f64().is_some());
         }
         assert!(png.exists() && exr.exists());
@@ -173,6 +175,8 @@ fn bad_inputs_name_the_file_and_field() {
         "cpu",
     ]);
     assert!(err.contains("--spp"), "{err}");
+    let err = fails(&["render", "scenes/cornell-box.toml", "--wave-paths", "10"]);
+    assert!(err.contains("--wave-paths"), "{err}");
     let out = run(&["render", "scenes/cornell-box.toml", "--res", "12by12"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("12by12"));

@@ -46,6 +46,28 @@ fn cornell_box_gpu_matches_cpu_with_the_same_seed() {
     finish(ctx);
 }
 
+/// The wave size changes how paths are batched, never the image: one sample of a 64-pixel chunk
+/// per wave (the last chunk partial), two samples of the whole image per wave (the last wave
+/// one), and all five at once give bit-identical films and the same ray counts.
+#[test]
+fn the_image_does_not_depend_on_the_wave_size() {
+    let s = scene("cornell-box.toml", 24, 20, 5, 4, 3);
+    let ctx = context();
+    let (all, _) = render_gpu(&ctx, &s);
+    assert_eq!(all.nonfinite_samples, 0);
+    assert!(all.mean.mean().iter().all(|&c| c > 0.01), "a lit image");
+    for wave in [64, 1000] {
+        let (w, _) = render_gpu_wave(&ctx, &s, wave);
+        assert!(
+            w.mean.data == all.mean.data && w.variance.data == all.variance.data,
+            "wave of {wave} paths: the film differs"
+        );
+        assert_eq!(w.extension_rays, all.extension_rays, "wave {wave}");
+        assert_eq!(w.shadow_rays, all.shadow_rays, "wave {wave}");
+    }
+    finish(ctx);
+}
+
 /// Independent seeds: per-pixel two-sample test of the means (Mitsuba-style, Šidák-corrected).
 #[test]
 fn cornell_box_gpu_and_cpu_agree_statistically_with_independent_seeds() {

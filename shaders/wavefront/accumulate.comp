@@ -7,14 +7,22 @@
 layout(local_size_x = 64) in;
 
 void main() {
-    uint path = gl_GlobalInvocationID.x;
-    if (path >= pc.chunk_size) return;
-    vec3 l = radiance[path].xyz;
-    if (!is_finite_v(l)) {
-        atomicAdd(counters[COUNTER_NONFINITE], 1u);
-        return;
+    // One invocation per pixel adds its samples in sample order, so the film holds the same f32
+    // sums whatever the number of samples per wave.
+    uint p = gl_GlobalInvocationID.x;
+    if (p >= pc.chunk_pixels) return;
+    uint pixel = pc.chunk_offset + p;
+    vec3 sum = film[pixel].xyz;
+    vec3 sum2 = film2[pixel].xyz;
+    for (uint path = p; path < pc.chunk_size; path += pc.chunk_pixels) {
+        vec3 l = radiance[path].xyz;
+        if (!is_finite_v(l)) {
+            atomicAdd(counters[COUNTER_NONFINITE], 1u);
+            continue;
+        }
+        sum += l;
+        sum2 += l * l;
     }
-    uint pixel = pc.chunk_offset + path;
-    film[pixel].xyz += l;
-    film2[pixel].xyz += l * l;
+    film[pixel].xyz = sum;
+    film2[pixel].xyz = sum2;
 }

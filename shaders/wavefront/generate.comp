@@ -1,5 +1,5 @@
 #version 460
-// Stage 1: camera rays for one sample index over one chunk of pixels (box filter, uniform
+// Stage 1: camera rays for the wave's samples of one chunk of pixels (box filter, uniform
 // position in the pixel). Every path slot enters ray queue 0.
 #extension GL_GOOGLE_include_directive : require
 #include "wavefront/state.glsl"
@@ -9,7 +9,7 @@ void main() {
     uint path = gl_GlobalInvocationID.x;
     if (path == 0u) counters[COUNTER_RAY] = pc.chunk_size;
     if (path >= pc.chunk_size) return;
-    uint pixel = pc.chunk_offset + path;
+    uint pixel = path_pixel(path);
     uint x = pixel % g.width;
     uint y = pixel / g.width;
     float fx = float(x) + rand(path, 0u, DIM_PIXEL_X);

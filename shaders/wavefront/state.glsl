@@ -73,14 +73,22 @@ layout(std430, set = 0, binding = 21) buffer Film2 { vec4 film2[]; };
 #define QUEUE_SHADOW 2u
 #define QUEUE_MATERIAL 3u
 
+// A wave traces chunk_size = chunk_pixels × k paths: k consecutive samples of the pixels
+// [chunk_offset, chunk_offset + chunk_pixels). Small images take several samples per wave, so
+// that a large GPU has enough paths in flight; large images take one sample of one chunk.
 layout(push_constant) uniform Push {
     uint bounce;        // segment index d of the rays being traced / the vertex being shaded
-    uint sample_index;
+    uint sample_index;  // sample of the wave's first path
     uint chunk_offset;  // first pixel of this chunk
-    uint chunk_size;    // paths in this chunk
+    uint chunk_size;    // paths in this wave
     uint phase;         // prepare kernel: which arguments to write
     uint queue_slot;    // shade kernels: which material queue
+    uint chunk_pixels;  // pixels in this chunk (chunk_size is a multiple)
 } pc;
+
+// Path slot p holds pixel chunk_offset + p mod chunk_pixels, sample sample_index + p / chunk_pixels.
+uint path_pixel(uint path) { return pc.chunk_offset + path % pc.chunk_pixels; }
+uint path_sample(uint path) { return pc.sample_index + path / pc.chunk_pixels; }
 
 uint ray_queue_in() { return (pc.bounce + 1u) & 1u; }  // segment 1 reads queue 0
 uint ray_queue_out() { return pc.bounce & 1u; }
@@ -93,7 +101,7 @@ void queue_push(uint q, uint c, uint path) {
 }
 
 float rand(uint path, uint bounce, uint dim) {
-    return random_f32(g.seed, pc.chunk_offset + path, pc.sample_index, bounce, dim);
+    return random_f32(g.seed, path_pixel(path), path_sample(path), bounce, dim);
 }
 
 #endif

@@ -42,10 +42,16 @@ pub fn render_cpu(s: &Scene) -> RenderOutput {
 /// Render on the GPU; returns the output and the names of the pipelines built. Fails the test
 /// if the validation layer reported anything.
 pub fn render_gpu(ctx: &Context, s: &Scene) -> (RenderOutput, Vec<String>) {
+    render_gpu_wave(ctx, s, brdfwave::gpu::MAX_CAPACITY)
+}
+
+/// [`render_gpu`] with at most `wave_paths` paths in flight.
+pub fn render_gpu_wave(ctx: &Context, s: &Scene, wave_paths: u32) -> (RenderOutput, Vec<String>) {
     let b = bvh::build(s);
     let compiler = ShaderCompiler::new().expect("shader compiler");
     let (out, pipelines) = {
-        let mut r = GpuRenderer::new(ctx, s, &b, &compiler).expect("GPU renderer set-up");
+        let mut r = GpuRenderer::with_wave_paths(ctx, s, &b, &compiler, wave_paths)
+            .expect("GPU renderer set-up");
         let out = r.render(&|_| {}).expect("GPU render");
         (out, r.setup.pipelines.clone())
     };
