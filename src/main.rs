@@ -293,6 +293,7 @@ fn render(a: RenderArgs) -> Result<()> {
             summary["seconds_shader_compile"] = json!(r.setup.seconds_shader_compile);
             summary["seconds_pipeline_create"] = json!(r.setup.seconds_pipeline_create);
             summary["wave_paths"] = json!(r.setup.wave_paths);
+            summary["subgroup_queues"] = json!(r.setup.subgroup_queues);
             drop(r);
             // Tear down now so that messages raised at device destruction (leaks) count too.
             let msgs = ctx.finish();
@@ -388,7 +389,12 @@ fn print_summary(s: &serde_json::Value) {
         );
     }
     if let Some(w) = s.get("wave_paths") {
-        println!("wave           {w} paths in flight");
+        let sg = if s["subgroup_queues"] == true {
+            ", subgroup-aggregated queue pushes"
+        } else {
+            ""
+        };
+        println!("wave           {w} paths in flight{sg}");
     }
     println!(
         "time           set-up {:.3} s (BVH {:.3} s), render {:.3} s",

@@ -68,6 +68,26 @@ fn the_image_does_not_depend_on_the_wave_size() {
     finish(ctx);
 }
 
+/// Queue pushes aggregated over the subgroup (lavapipe and most GPUs have ballots) and one
+/// atomic per push (the fallback) fill the queues in different orders but give the same film.
+#[test]
+fn subgroup_and_plain_queue_pushes_give_the_same_image() {
+    let s = scene("cornell-box-glossy.toml", 24, 20, 3, 5, 9);
+    let mut ctx = context();
+    assert!(
+        ctx.features.subgroup_ballot,
+        "lavapipe has subgroup ballots in compute shaders"
+    );
+    let (sub, _) = render_gpu(&ctx, &s);
+    ctx.features.subgroup_ballot = false;
+    let (plain, _) = render_gpu(&ctx, &s);
+    assert_eq!(sub.nonfinite_samples + plain.nonfinite_samples, 0);
+    assert!(sub.mean.data == plain.mean.data, "the films differ");
+    assert_eq!(sub.extension_rays, plain.extension_rays);
+    assert_eq!(sub.shadow_rays, plain.shadow_rays);
+    finish(ctx);
+}
+
 /// Independent seeds: per-pixel two-sample test of the means (Mitsuba-style, Šidák-corrected).
 #[test]
 fn cornell_box_gpu_and_cpu_agree_statistically_with_independent_seeds() {

@@ -7,6 +7,9 @@
 #ifndef STATE_GLSL
 #define STATE_GLSL
 #extension GL_EXT_scalar_block_layout : require
+#ifdef SUBGROUP_QUEUES
+#extension GL_KHR_shader_subgroup_ballot : require
+#endif
 #include "common.glsl"
 #include "rng.glsl"
 
@@ -93,11 +96,27 @@ uint path_sample(uint path) { return pc.sample_index + path / pc.chunk_pixels; }
 uint ray_queue_in() { return (pc.bounce + 1u) & 1u; }  // segment 1 reads queue 0
 uint ray_queue_out() { return pc.bounce & 1u; }
 
-// Append a path index to queue q (counter c). One atomic per push; subgroup aggregation is a
-// measured-later optimisation.
+// Append a path index to queue q (counter c). With SUBGROUP_QUEUES (set where the device has
+// subgroup ballots), the invocations of a subgroup that push to the same queue take their slots
+// with one atomic between them: each round, those whose counter equals the first active
+// invocation's get consecutive slots. Without it, one atomic per push. The image does not depend
+// on queue order (random numbers are keyed on the path, not the slot).
 void queue_push(uint q, uint c, uint path) {
+#ifdef SUBGROUP_QUEUES
+    for (;;) {
+        if (c == subgroupBroadcastFirst(c)) {
+            uvec4 mask = subgroupBallot(true);
+            uint base = 0u;
+            if (subgroupElect()) base = atomicAdd(counters[c], subgroupBallotBitCount(mask));
+            base = subgroupBroadcastFirst(base);
+            queues[q * g.capacity + base + subgroupBallotExclusiveBitCount(mask)] = path;
+            return;
+        }
+    }
+#else
     uint slot = atomicAdd(counters[c], 1u);
     queues[q * g.capacity + slot] = path;
+#endif
 }
 
 float rand(uint path, uint bounce, uint dim) {

@@ -68,6 +68,8 @@ pub struct SetupStats {
     pub shader_cache_hits: u32,
     /// Path slots of a wave (all samples that fit of the whole image, or one chunk of it).
     pub wave_paths: u32,
+    /// Queue pushes are aggregated over the subgroup (the device has subgroup ballots).
+    pub subgroup_queues: bool,
 }
 
 struct Kernel {
@@ -135,6 +137,7 @@ impl<'a> GpuRenderer<'a> {
             wave_paths
         };
         setup.wave_paths = capacity;
+        setup.subgroup_queues = ctx.features.subgroup_ballot;
 
         // Which models need a queue: those of materials that scatter.
         let used: BTreeSet<usize> = scene
@@ -281,11 +284,19 @@ impl<'a> GpuRenderer<'a> {
         setup: &mut SetupStats,
         built: &mut Vec<Kernel>,
     ) -> Result<()> {
+        // Device-wide defines, added to every stage: subgroup-aggregated queue pushes where the
+        // device has subgroup ballots (see `queue_push` in state.glsl).
+        let device_defines: Vec<(String, String)> = if ctx.features.subgroup_ballot {
+            vec![("SUBGROUP_QUEUES".into(), "1".into())]
+        } else {
+            Vec::new()
+        };
         let mut build = |name: &str,
                          file: &str,
-                         defines: Vec<(String, String)>,
+                         mut defines: Vec<(String, String)>,
                          overrides: Vec<(String, String)>|
          -> Result<()> {
+            defines.extend(device_defines.iter().cloned());
             let t = Instant::now();
             let spirv = compiler
                 .compile(file, &defines, &overrides)

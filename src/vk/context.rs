@@ -35,6 +35,9 @@ pub struct DeviceFeatures {
     pub storage_buffer_8bit_access: bool,
     /// The compute queue writes timestamps (`timestampValidBits` > 0).
     pub timestamps: bool,
+    /// Compute shaders have the basic and ballot subgroup operations (Vulkan 1.1 core
+    /// properties; GL_KHR_shader_subgroup_ballot).
+    pub subgroup_ballot: bool,
 }
 
 /// The package that provides lavapipe, named in every "no Vulkan" error.
@@ -502,6 +505,15 @@ impl Context {
             .expect("usable device has a compute family");
         let props = unsafe { instance.get_physical_device_properties(pd) };
 
+        let subgroup_ballot = {
+            let mut sg = vk::PhysicalDeviceSubgroupProperties::default();
+            let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut sg);
+            unsafe { instance.get_physical_device_properties2(pd, &mut p2) };
+            sg.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
+                && sg
+                    .supported_operations
+                    .contains(vk::SubgroupFeatureFlags::BASIC | vk::SubgroupFeatureFlags::BALLOT)
+        };
         // Optional features: enable what is supported, nothing else.
         let (scalar, int8) = {
             let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
@@ -573,6 +585,7 @@ impl Context {
                 scalar_block_layout: scalar,
                 storage_buffer_8bit_access: int8,
                 timestamps: timestamp_valid_bits > 0,
+                subgroup_ballot,
             },
             validation,
             torn_down: false,
