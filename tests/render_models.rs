@@ -64,3 +64,11 @@ fn glossy_cornell_box_gpu_matches_cpu() {
 fn anisotropic_scene_gpu_matches_cpu() {
     same_seed_parity("anisotropic.toml", 120, 50, 4, 5);
 }
+
+/// Deep paths: 400 segments through all eight shade pipelines need more timestamp queries than
+/// one command buffer holds (about 12 per segment, 4096 in all), so the GPU renderer splits the
+/// wave over several submissions; the image still matches the CPU reference.
+#[test]
+fn deep_paths_split_the_command_buffer_and_still_match_the_cpu() {
+    same_seed_parity("lineup.toml", 64, 20, 2, 400);
+}

@@ -97,6 +97,7 @@ mod b {
     pub const FILM: usize = 20;
     pub const FILM2: usize = 21;
     pub const COUNTERS: usize = 18;
+    pub const ARGS: usize = 19;
 }
 
 impl<'a> GpuRenderer<'a> {
@@ -368,37 +369,43 @@ impl<'a> GpuRenderer<'a> {
         rec.fill_buffer(&self.buffers[b::COUNTERS], 0);
         ctx.submit_and_wait(rec)?;
 
+        // The waves, in order: k samples of the whole image when it fits in a wave, else one
+        // sample of one chunk of pixels. Consecutive waves share a command buffer (a batch) whose
+        // size doubles while a submission takes under BATCH_SECONDS, so a fast GPU is not held
+        // up by a wait per wave and a slow device still reports progress. A command buffer is
+        // also split, between two segments, before its timestamp queries run out.
+        let waves = waves(pixels, spp, self.capacity);
+        let stamps_per_segment = 4 + self.shade.len() as u32;
         let mut stage_seconds: Vec<(String, f64)> = Vec::new();
-        let mut sample = 0;
-        while sample < spp {
-            // Samples in this wave: as many as fit when the whole image fits, else one.
-            let k = if pixels <= self.capacity {
-                (self.capacity / pixels).min(spp - sample)
-            } else {
-                1
-            };
+        let mut batch = 1usize;
+        let mut next = 0usize;
+        while next < waves.len() {
+            let t_batch = Instant::now();
             let mut rec = ctx.begin()?;
             rec.timestamp("start");
-            let mut offset = 0;
-            while offset < pixels {
-                let chunk_pixels = (pixels - offset).min(self.capacity / k);
-                let n = chunk_pixels * k;
+            let end = (next + batch).min(waves.len());
+            for w in &waves[next..end] {
                 let mut push = Push {
-                    sample_index: sample,
-                    chunk_offset: offset,
-                    chunk_size: n,
-                    chunk_pixels,
+                    sample_index: w.sample,
+                    chunk_offset: w.offset,
+                    chunk_size: w.pixels * w.samples,
+                    chunk_pixels: w.pixels,
                     ..Default::default()
                 };
-                let groups = n.div_ceil(LOCAL_SIZE);
+                if rec.timestamps_left() < 2 + stamps_per_segment {
+                    rec = self.resubmit(rec, &mut stage_seconds)?;
+                }
                 rec.bind(&self.generate.pipeline, self.generate.set);
                 rec.push_constants(&self.generate.pipeline, &push);
-                rec.dispatch(groups, 1, 1);
+                rec.dispatch(push.chunk_size.div_ceil(LOCAL_SIZE), 1, 1);
                 rec.barrier();
                 rec.timestamp("generate");
                 for depth in 1..=scene.integrator.max_depth {
+                    if rec.timestamps_left() < 1 + stamps_per_segment {
+                        rec = self.resubmit(rec, &mut stage_seconds)?;
+                    }
                     push.bounce = depth;
-                    let args = &self.buffers[19];
+                    let args = &self.buffers[b::ARGS];
                     self.run_prepare(&mut rec, &mut push, 0);
                     rec.bind(&self.extend.pipeline, self.extend.set);
                     rec.push_constants(&self.extend.pipeline, &push);
@@ -424,24 +431,22 @@ impl<'a> GpuRenderer<'a> {
                     rec.barrier();
                     rec.timestamp("shadow");
                 }
+                if rec.timestamps_left() < 1 {
+                    rec = self.resubmit(rec, &mut stage_seconds)?;
+                }
                 rec.bind(&self.accumulate.pipeline, self.accumulate.set);
                 rec.push_constants(&self.accumulate.pipeline, &push);
-                rec.dispatch(chunk_pixels.div_ceil(LOCAL_SIZE), 1, 1);
+                rec.dispatch(w.pixels.div_ceil(LOCAL_SIZE), 1, 1);
                 rec.barrier();
                 rec.timestamp("accumulate");
-                offset += chunk_pixels;
             }
             ctx.submit_and_wait(rec)?;
-            let stamps = ctx.read_timestamps()?;
-            for w in stamps.windows(2) {
-                let (label, dt) = (&w[1].0, w[1].1 - w[0].1);
-                match stage_seconds.iter_mut().find(|(l, _)| l == label) {
-                    Some((_, t)) => *t += dt,
-                    None => stage_seconds.push((label.clone(), dt)),
-                }
+            add_stage_times(ctx.read_timestamps()?, &mut stage_seconds);
+            next = end;
+            progress(waves[next - 1].samples_done);
+            if t_batch.elapsed().as_secs_f64() < BATCH_SECONDS {
+                batch = (batch * 2).min(MAX_BATCH);
             }
-            sample += k;
-            progress(sample);
         }
 
         let counters: Vec<u32> = ctx.download(&self.buffers[b::COUNTERS])?;
@@ -468,6 +473,22 @@ impl<'a> GpuRenderer<'a> {
             shadow_rays,
             stage_seconds,
         })
+    }
+
+    /// Submits `rec` and waits, adds its stage times, and begins the next command buffer.
+    fn resubmit<'c>(
+        &self,
+        rec: crate::vk::Recorder<'c>,
+        stage_seconds: &mut Vec<(String, f64)>,
+    ) -> Result<crate::vk::Recorder<'c>>
+    where
+        'a: 'c,
+    {
+        self.ctx.submit_and_wait(rec)?;
+        add_stage_times(self.ctx.read_timestamps()?, stage_seconds);
+        let mut rec = self.ctx.begin()?;
+        rec.timestamp("start");
+        Ok(rec)
     }
 
     fn run_prepare(&self, rec: &mut crate::vk::Recorder<'_>, push: &mut Push, phase: u32) {
@@ -498,5 +519,111 @@ impl Drop for GpuRenderer<'_> {
         for b in self.buffers.drain(..) {
             ctx.destroy_buffer(b);
         }
+    }
+}
+
+/// A submission of a batch waits at most about this long before the batch stops growing.
+const BATCH_SECONDS: f64 = 0.05;
+/// Most waves per command buffer.
+const MAX_BATCH: usize = 64;
+
+/// One wave: `samples` consecutive samples, from `sample`, of the pixels
+/// `offset .. offset + pixels`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Wave {
+    sample: u32,
+    samples: u32,
+    offset: u32,
+    pixels: u32,
+    /// Samples per pixel complete once this wave is done.
+    samples_done: u32,
+}
+
+/// The waves of a render of `spp` samples over `pixels` pixels with `capacity` path slots.
+fn waves(pixels: u32, spp: u32, capacity: u32) -> Vec<Wave> {
+    let mut v = Vec::new();
+    let mut sample = 0;
+    while sample < spp {
+        if pixels <= capacity {
+            let k = (capacity / pixels).min(spp - sample);
+            v.push(Wave {
+                sample,
+                samples: k,
+                offset: 0,
+                pixels,
+                samples_done: sample + k,
+            });
+            sample += k;
+        } else {
+            let mut offset = 0;
+            while offset < pixels {
+                let n = (pixels - offset).min(capacity);
+                offset += n;
+                v.push(Wave {
+                    sample,
+                    samples: 1,
+                    offset: offset - n,
+                    pixels: n,
+                    samples_done: if offset == pixels { sample + 1 } else { sample },
+                });
+            }
+            sample += 1;
+        }
+    }
+    v
+}
+
+/// Adds the intervals between consecutive timestamps to the stage they end.
+fn add_stage_times(stamps: Vec<(String, f64)>, stage_seconds: &mut Vec<(String, f64)>) {
+    for w in stamps.windows(2) {
+        let (label, dt) = (&w[1].0, w[1].1 - w[0].1);
+        match stage_seconds.iter_mut().find(|(l, _)| l == label) {
+            Some((_, t)) => *t += dt,
+            None => stage_seconds.push((label.clone(), dt)),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{waves, Wave};
+
+    /// Every (pixel, sample) pair lies in exactly one wave, in sample order per pixel, and no
+    /// wave is larger than the capacity.
+    fn check(pixels: u32, spp: u32, capacity: u32) -> Vec<Wave> {
+        let w = waves(pixels, spp, capacity);
+        let mut seen = vec![0u32; (pixels * spp) as usize];
+        let mut next_sample = vec![0u32; pixels as usize];
+        let mut done = 0;
+        for x in &w {
+            assert!(x.pixels * x.samples <= capacity, "{x:?}");
+            assert!(x.samples_done >= done, "progress goes back: {x:?}");
+            done = x.samples_done;
+            for s in x.sample..x.sample + x.samples {
+                for p in x.offset..x.offset + x.pixels {
+                    seen[(s * pixels + p) as usize] += 1;
+                    assert_eq!(next_sample[p as usize], s, "pixel {p} out of order");
+                    next_sample[p as usize] += 1;
+                }
+            }
+        }
+        assert!(
+            seen.iter().all(|&c| c == 1),
+            "{pixels} px × {spp} spp, capacity {capacity}"
+        );
+        assert_eq!(done, spp);
+        w
+    }
+
+    #[test]
+    fn waves_cover_every_pixel_sample_once() {
+        // Whole image, several samples per wave, last wave shorter.
+        assert_eq!(check(480, 5, 960).len(), 3);
+        // Chunks of the image, the last one partial.
+        assert_eq!(check(480, 3, 64).len(), 3 * 8);
+        // Exactly one wave; one pixel; capacity equal to the image.
+        assert_eq!(check(100, 4, 1 << 20).len(), 1);
+        check(1, 7, 64);
+        check(640, 2, 640);
     }
 }

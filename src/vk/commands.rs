@@ -404,6 +404,20 @@ impl Recorder<'_> {
         );
     }
 
+    /// How many more [`timestamp`](Self::timestamp)s this command buffer can take
+    /// ([`MAX_TIMESTAMPS`] in all; unlimited, as `u32::MAX`, where the device has none).
+    pub fn timestamps_left(&self) -> u32 {
+        if self.ctx.query_pool == vk::QueryPool::null() || self.timestamp_generation.is_none() {
+            return u32::MAX;
+        }
+        let ts = self
+            .ctx
+            .timestamps
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        MAX_TIMESTAMPS.saturating_sub(ts.labels.len() as u32)
+    }
+
     /// Writes a timestamp once all earlier commands have completed, under `label` (labels are
     /// kept in order and need not be unique). A no-op on queues without timestamps.
     pub fn timestamp(&mut self, label: &str) {
