@@ -343,6 +343,7 @@ fn render(a: RenderArgs) -> Result<()> {
         "extension_rays": output.extension_rays,
         "shadow_rays": output.shadow_rays,
         "nonfinite_samples": output.nonfinite_samples,
+        "nonfinite_by_stage": output.nonfinite_by_stage.iter().map(|(k, v)| json!({"stage": k, "count": v})).collect::<Vec<_>>(),
         "mean_radiance": output.mean.mean(),
         "stage_seconds": output.stage_seconds.iter().map(|(k, v)| json!({"stage": k, "seconds": v})).collect::<Vec<_>>(),
         "outputs": outs.iter().map(|o| o.display().to_string()).collect::<Vec<_>>(),
@@ -357,7 +358,7 @@ fn render(a: RenderArgs) -> Result<()> {
     }
     if output.nonfinite_samples > 0 {
         eprintln!(
-            "warning: {} non-finite samples were dropped",
+            "warning: {} non-finite values were dropped (see the stages above)",
             output.nonfinite_samples
         );
     }
@@ -407,7 +408,17 @@ fn print_summary(s: &serde_json::Value) {
         s["paths_per_second"].as_f64().unwrap_or(0.0) / 1e6,
         s["rays_per_second"].as_f64().unwrap_or(0.0) / 1e6
     );
-    println!("non-finite     {} samples", s["nonfinite_samples"]);
+    let by_stage: Vec<String> = s["nonfinite_by_stage"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(|e| format!("{} {}", e["stage"].as_str().unwrap_or(""), e["count"]))
+        .collect();
+    println!(
+        "non-finite     {} values dropped ({})",
+        s["nonfinite_samples"],
+        by_stage.join(", ")
+    );
     if let Some(st) = s["stage_seconds"].as_array().filter(|a| !a.is_empty()) {
         let parts: Vec<String> = st
             .iter()

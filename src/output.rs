@@ -8,8 +8,13 @@ pub struct RenderOutput {
     /// Per-pixel variance of one sample (unbiased), for statistical comparisons.
     pub variance: Image,
     pub spp: u32,
-    /// Samples whose radiance was NaN or infinite; they are dropped (counted as zero).
+    /// Non-finite (NaN or infinite) values dropped, in all stages: 0 in a correct render.
     pub nonfinite_samples: u64,
+    /// The same by stage, where each arose, the same stages on both backends: `extend`
+    /// (emitted light reaching the path), `shade_<model>` (a light sample's contribution, or the
+    /// path's next throughput, direction or pdf: the path ends there), `accumulate` (a sample's
+    /// total radiance).
+    pub nonfinite_by_stage: Vec<(String, u64)>,
     /// Extension (closest-hit) rays traced.
     pub extension_rays: u64,
     /// Shadow (any-hit) rays traced.

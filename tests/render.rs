@@ -215,3 +215,184 @@ fn a_lambert_only_scene_builds_only_the_lambert_shade_pipeline() {
     assert_eq!(shade, vec!["shade_lambert"], "all pipelines: {pipelines:?}");
     finish(ctx);
 }
+
+/// Non-finite values are counted where they arise, at the same stages on both backends, and
+/// none reaches the image. The scene is built to overflow f32: the camera sits between a floor
+/// and a light of radiance 3e38 a hair above it, looking down. The floor is a Cook–Torrance
+/// survey-form surface with F = 1, whose sampled throughput exceeds 1, so emission reached by
+/// BSDF sampling overflows (`extend`); finite samples near 3e38 overflow f32 when squared for
+/// the variance (`accumulate`). Next-event contributions stay finite (the MIS weight bounds them
+/// by f·cosθ/(2·pdf_bsdf)); the shade stages' counters are tested by injection below.
+#[test]
+fn nonfinite_values_are_counted_by_stage_on_both_backends() {
+    let text = r#"
+[camera]
+position = [0.0, 0.0005, 0.0]
+target = [0.0, 0.0, 0.0]
+up = [0.0, 0.0, 1.0]
+fov_y = 90.0
+
+[film]
+width = 24
+height = 24
+
+[integrator]
+spp = 4
+max_depth = 3
+seed = 5
+
+[materials.floor]
+model = "cook_torrance"
+kd = 0.0
+ks = 1.0
+roughness = 0.4
+fresnel = "schlick"
+f0 = 1.0
+
+[materials.black]
+model = "lambert"
+albedo = 0.0
+
+[[shapes]]
+name = "floor"
+material = "floor"
+quads = [[[-2.0, 0.0, -2.0], [-2.0, 0.0, 2.0], [2.0, 0.0, 2.0], [2.0, 0.0, -2.0]]]
+
+[[shapes]]
+name = "light"
+material = "black"
+emission = [3.0e38, 3.0e38, 3.0e38]
+quads = [[[-0.5, 0.001, -0.5], [0.5, 0.001, -0.5], [0.5, 0.001, 0.5], [-0.5, 0.001, 0.5]]]
+"#;
+    let path = std::env::temp_dir().join(format!("brdfwave-overflow-{}.toml", std::process::id()));
+    std::fs::write(&path, text).unwrap();
+    let s = brdfwave::scene::load(&path).expect("overflow scene loads");
+    let _ = std::fs::remove_file(&path);
+    let ctx = context();
+    let (gpu, _) = render_gpu(&ctx, &s);
+    let cpu = render_cpu(&s);
+    eprintln!(
+        "GPU {:?}\nCPU {:?}",
+        gpu.nonfinite_by_stage, cpu.nonfinite_by_stage
+    );
+    let names = |o: &brdfwave::output::RenderOutput| -> Vec<String> {
+        o.nonfinite_by_stage.iter().map(|x| x.0.clone()).collect()
+    };
+    assert_eq!(names(&gpu), ["extend", "shade_cook_torrance", "accumulate"]);
+    assert_eq!(names(&gpu), names(&cpu));
+    for ((stage, g), (_, c)) in gpu.nonfinite_by_stage.iter().zip(&cpu.nonfinite_by_stage) {
+        // The same paths on both sides; a value that overflows on one side only is rare.
+        let tol = 2 + c / 50;
+        assert!(g.abs_diff(*c) <= tol, "{stage}: GPU {g}, CPU {c}");
+    }
+    assert!(gpu.nonfinite_by_stage[0].1 > 0, "extend counted nothing");
+    assert!(
+        gpu.nonfinite_by_stage[2].1 > 0,
+        "accumulate counted nothing"
+    );
+    let total: u64 = gpu.nonfinite_by_stage.iter().map(|x| x.1).sum();
+    assert_eq!(gpu.nonfinite_samples, total);
+    for img in [&gpu.mean, &gpu.variance, &cpu.mean, &cpu.variance] {
+        assert!(
+            img.data.iter().flatten().all(|v| v.is_finite()),
+            "a non-finite pixel"
+        );
+    }
+    finish(ctx);
+}
+
+/// A model that returns a NaN sample weight (for u.x > 0.5) on both sides: the GPU from a copy
+/// of the shaders with `lambert_sample` changed, the CPU from Lambert wrapped to do the same.
+/// The NaN is counted at `shade_lambert` on both backends, the paths end there, and the image
+/// stays finite.
+#[derive(Debug)]
+struct NanWeight(std::sync::Arc<dyn brdfwave::brdf::Brdf>);
+
+impl brdfwave::brdf::Brdf for NanWeight {
+    fn eval(&self, wi: glam::Vec3, wo: glam::Vec3) -> glam::Vec3 {
+        self.0.eval(wi, wo)
+    }
+    fn pdf(&self, given: glam::Vec3, sampled: glam::Vec3) -> f32 {
+        self.0.pdf(given, sampled)
+    }
+    fn sample(
+        &self,
+        given: glam::Vec3,
+        u_lobe: f32,
+        u: glam::Vec2,
+    ) -> Option<brdfwave::brdf::BrdfSample> {
+        let mut s = self.0.sample(given, u_lobe, u)?;
+        if u.x > 0.5 {
+            s.weight = glam::Vec3::NAN;
+        }
+        Some(s)
+    }
+    fn pack(&self) -> brdfwave::brdf::Params {
+        self.0.pack()
+    }
+    fn scatters(&self) -> bool {
+        self.0.scatters()
+    }
+}
+
+#[test]
+fn a_nan_from_a_model_is_counted_at_its_shade_stage_on_both_backends() {
+    let mut s = scene("cornell-box.toml", 24, 24, 4, 5, 2);
+    for m in &mut s.materials {
+        if m.model_name() == "lambert" && m.brdf.scatters() {
+            m.brdf = std::sync::Arc::new(NanWeight(m.brdf.clone()));
+        }
+    }
+    // The GPU side: the same change in a copy of the shaders.
+    let dir = std::env::temp_dir().join(format!("brdfwave-nan-shaders-{}", std::process::id()));
+    copy_dir(&repo().join("shaders"), &dir);
+    let lambert = dir.join("brdf/lambert.glsl");
+    let src = std::fs::read_to_string(&lambert).unwrap();
+    let patched = src.replace(
+        "    s.weight = m.p[0].xyz;\n",
+        "    s.weight = u.x > 0.5 ? vec3(uintBitsToFloat(0x7fc00000u)) : m.p[0].xyz;\n",
+    );
+    assert_ne!(
+        patched, src,
+        "lambert_sample changed since this test was written"
+    );
+    std::fs::write(&lambert, patched).unwrap();
+    let ctx = context();
+    let compiler = brdfwave::vk::ShaderCompiler::new()
+        .unwrap()
+        .with_shader_dir(&dir);
+    let b = brdfwave::bvh::build(&s);
+    let gpu = {
+        let mut r = brdfwave::gpu::GpuRenderer::new(&ctx, &s, &b, &compiler).unwrap();
+        r.render(&|_| {}).unwrap()
+    };
+    let _ = std::fs::remove_dir_all(&dir);
+    let cpu = render_cpu(&s);
+    eprintln!(
+        "GPU {:?}\nCPU {:?}",
+        gpu.nonfinite_by_stage, cpu.nonfinite_by_stage
+    );
+    assert_eq!(gpu.nonfinite_by_stage, cpu.nonfinite_by_stage);
+    let shade = &gpu.nonfinite_by_stage[1];
+    assert_eq!(shade.0, "shade_lambert");
+    // About half of the shaded vertices draw u.x > 0.5.
+    assert!(shade.1 > 1000, "{shade:?}");
+    assert_eq!(gpu.nonfinite_samples, shade.1);
+    for img in [&gpu.mean, &cpu.mean] {
+        assert!(img.data.iter().flatten().all(|v| v.is_finite()));
+    }
+    finish(ctx);
+}
+
+fn copy_dir(from: &std::path::Path, to: &std::path::Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        let target = to.join(e.file_name());
+        if e.file_type().unwrap().is_dir() {
+            copy_dir(&e.path(), &target);
+        } else {
+            std::fs::copy(e.path(), target).unwrap();
+        }
+    }
+}

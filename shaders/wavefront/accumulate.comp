@@ -16,12 +16,15 @@ void main() {
     vec3 sum2 = film2[pixel].xyz;
     for (uint path = p; path < pc.chunk_size; path += pc.chunk_pixels) {
         vec3 l = radiance[path].xyz;
-        if (!is_finite_v(l)) {
+        // A non-finite sample, or one whose square (beyond about 1.8e19) or running sum
+        // overflows f32, is dropped and counted.
+        vec3 s1 = sum + l, s2 = sum2 + l * l;
+        if (!(is_finite_v(l) && is_finite_v(s1) && is_finite_v(s2))) {
             atomicAdd(counters[COUNTER_NONFINITE], 1u);
             continue;
         }
-        sum += l;
-        sum2 += l * l;
+        sum = s1;
+        sum2 = s2;
     }
     film[pixel].xyz = sum;
     film2[pixel].xyz = sum2;

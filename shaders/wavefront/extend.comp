@@ -1,7 +1,8 @@
 #version 460
 // Stage 2: closest hit for every queued ray of segment `bounce`. Adds emission seen at the end
 // of the segment (MIS-weighted against next-event estimation), adds the environment on a miss,
-// and routes each path that goes on to the queue of its material's reflectance model.
+// and routes each path that goes on to the queue of its material's reflectance model. A
+// non-finite emitted contribution is counted and dropped.
 #extension GL_GOOGLE_include_directive : require
 #include "wavefront/surface.glsl"
 layout(local_size_x = 64) in;
@@ -17,7 +18,8 @@ void main() {
     vec3 b = beta[path].xyz;
     Hit hit;
     if (!trace_closest(o, d, 3.402823e38, hit)) {
-        radiance[path].xyz += b * g.environment;
+        vec3 e = b * g.environment;
+        if (finite_or_count(e, counter_nonfinite_extend())) radiance[path].xyz += e;
         return;
     }
     Surface s = surface_at(hit.prim, hit.bary, hit.t, o, d);
@@ -29,7 +31,8 @@ void main() {
             float cos_light = -dot(d, s.ng);
             w = power_heuristic(prev_pdf, light_pdf(le, hit.t * hit.t, cos_light));
         }
-        radiance[path].xyz += b * le * w;
+        vec3 e = b * le * w;
+        if (finite_or_count(e, counter_nonfinite_extend())) radiance[path].xyz += e;
     }
     if (pc.bounce >= g.max_depth) return;
     Material m = materials[s.material];

@@ -3,7 +3,8 @@
 // The model is chosen when the pipeline is built: the virtual include "brdf/model.glsl" is the
 // model's file and BRDF_EVAL / BRDF_PDF / BRDF_SAMPLE name its functions. For each path: one
 // light sample (written as a shadow ray with its unoccluded contribution) and one BRDF sample
-// (the next extension ray).
+// (the next extension ray). Non-finite light contributions and path continuations are
+// counted and dropped.
 #extension GL_GOOGLE_include_directive : require
 #include "wavefront/surface.glsl"
 #include "brdf/model.glsl"
@@ -43,10 +44,12 @@ void main() {
                     float pdf_b = BRDF_PDF(m, wo, wi_local);
                     float w = power_heuristic(pdf_l, pdf_b);
                     vec3 contrib = b * f * (wi_local.z * w / pdf_l) * ls.radiance;
-                    shadow_o[path] = vec4(origin, dist);
-                    shadow_d[path] = vec4(wi, 0.0);
-                    shadow_l[path] = vec4(contrib, 0.0);
-                    queue_push(QUEUE_SHADOW, COUNTER_SHADOW, path);
+                    if (finite_or_count(contrib, counter_nonfinite_shade(pc.queue_slot))) {
+                        shadow_o[path] = vec4(origin, dist);
+                        shadow_d[path] = vec4(wi, 0.0);
+                        shadow_l[path] = vec4(contrib, 0.0);
+                        queue_push(QUEUE_SHADOW, COUNTER_SHADOW, path);
+                    }
                 }
             }
         }
@@ -64,6 +67,11 @@ void main() {
         float q = min(max(b.x, max(b.y, b.z)), 1.0);
         if (rand(path, depth, DIM_RR) >= q) return;
         b /= q;
+    }
+    // A non-finite throughput, direction or pdf ends the path, counted.
+    if (!(is_finite_v(b) && is_finite_v(wi) && is_finite_f(prev_pdf))) {
+        atomicAdd(counters[counter_nonfinite_shade(pc.queue_slot)], 1u);
+        return;
     }
     if (b.x == 0.0 && b.y == 0.0 && b.z == 0.0) return;
     beta[path] = vec4(b, 0.0);

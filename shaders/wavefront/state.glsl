@@ -53,8 +53,10 @@ layout(std430, set = 0, binding = 16) buffer ShadowL { vec4 shadow_l[]; }; // un
 // Queues: [0, cap) and [cap, 2cap) ping-pong ray queues; [2cap, 3cap) shadow queue;
 // [(3 + k)cap, (4 + k)cap) material queue k.
 layout(std430, set = 0, binding = 17) buffer Queues { uint queues[]; };
-// counters: 0,1 ray queues; 2 shadow queue; 3 non-finite samples; 4,5 extension rays traced
-// (low, high word); 6,7 shadow rays traced; 8 + k material queue k.
+// counters: 0,1 ray queues; 2 shadow queue; 3 non-finite samples dropped by `accumulate`; 4,5
+// extension rays traced (low, high word); 6,7 shadow rays traced; 8 + k material queue k;
+// 8 + num_queues non-finite values dropped by `extend`; 9 + num_queues + k by the shade kernel
+// of material queue k.
 layout(std430, set = 0, binding = 18) buffer Counters { uint counters[]; };
 // Indirect dispatch arguments, 4 uints each (x, y, z, pad): 0 ray, 1 shadow, 2 + k material k.
 layout(std430, set = 0, binding = 19) buffer Args { uvec4 args[]; };
@@ -92,6 +94,17 @@ layout(push_constant) uniform Push {
 // Path slot p holds pixel chunk_offset + p mod chunk_pixels, sample sample_index + p / chunk_pixels.
 uint path_pixel(uint path) { return pc.chunk_offset + path % pc.chunk_pixels; }
 uint path_sample(uint path) { return pc.sample_index + path / pc.chunk_pixels; }
+
+uint counter_nonfinite_extend() { return COUNTER_MATERIAL + g.num_queues; }
+uint counter_nonfinite_shade(uint slot) { return COUNTER_MATERIAL + g.num_queues + 1u + slot; }
+
+// Whether v is finite; if not, counts it at counter c (the caller then drops it). Reads the
+// bits, which the compiler cannot assume away as it may isnan/isinf.
+bool finite_or_count(vec3 v, uint c) {
+    if (is_finite_v(v)) return true;
+    atomicAdd(counters[c], 1u);
+    return false;
+}
 
 uint ray_queue_in() { return (pc.bounce + 1u) & 1u; }  // segment 1 reads queue 0
 uint ray_queue_out() { return pc.bounce & 1u; }

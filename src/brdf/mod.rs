@@ -125,9 +125,12 @@ pub struct ModelInfo {
     pub parse: fn(&mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError>,
 }
 
+/// Number of models in [`MODELS`].
+pub const MODELS_COUNT: usize = 8;
+
 /// Every model, in a fixed order; the index is the model id on the GPU.
 #[rustfmt::skip]
-pub static MODELS: &[ModelInfo] = &[
+pub static MODELS: [ModelInfo; MODELS_COUNT] = [
     ModelInfo { name: "lambert", parse: lambert::parse },
     ModelInfo { name: "oren_nayar", parse: oren_nayar::parse },
     ModelInfo { name: "phong", parse: phong::parse },

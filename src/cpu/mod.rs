@@ -32,6 +32,22 @@ use surface::{light_pdf, power_heuristic, sample_light, surface_at};
 struct PathStats {
     extension_rays: u64,
     shadow_rays: u64,
+    /// Non-finite emitted contributions dropped (the GPU's `extend`).
+    nonfinite_extend: u64,
+    /// Non-finite light contributions or continuations dropped, by model index (the GPU's
+    /// `shade_<model>`).
+    nonfinite_shade: [u64; crate::brdf::MODELS_COUNT],
+}
+
+impl PathStats {
+    fn add(&mut self, o: &PathStats) {
+        self.extension_rays += o.extension_rays;
+        self.shadow_rays += o.shadow_rays;
+        self.nonfinite_extend += o.nonfinite_extend;
+        for (a, b) in self.nonfinite_shade.iter_mut().zip(&o.nonfinite_shade) {
+            *a += b;
+        }
+    }
 }
 
 pub struct CpuRenderer<'a> {
@@ -58,8 +74,7 @@ impl<'a> CpuRenderer<'a> {
         let (w, h) = (s.width, s.height);
         let spp = s.integrator.spp;
         let nonfinite = AtomicU64::new(0);
-        let ext = AtomicU64::new(0);
-        let shadow = AtomicU64::new(0);
+        let totals = std::sync::Mutex::new(PathStats::default());
         let rows_done = AtomicU64::new(0);
         let rows: Vec<Vec<([f32; 3], [f32; 3])>> = (0..h)
             .into_par_iter()
@@ -78,7 +93,11 @@ impl<'a> CpuRenderer<'a> {
                                 sample,
                             };
                             let l = self.trace_path(x, y, &rng, &mut stats);
-                            if !l.is_finite() {
+                            // As the GPU film (f32 sums of l and l²): a sample whose square
+                            // overflows f32 is dropped too. (The sums here are f64 and do not
+                            // overflow; the GPU's f32 running sums can, for a pixel mean
+                            // beyond 3.4e38/spp.)
+                            if !(l.is_finite() && (l * l).is_finite()) {
                                 bad += 1;
                                 continue;
                             }
@@ -91,8 +110,7 @@ impl<'a> CpuRenderer<'a> {
                     })
                     .collect();
                 nonfinite.fetch_add(bad, Ordering::Relaxed);
-                ext.fetch_add(stats.extension_rays, Ordering::Relaxed);
-                shadow.fetch_add(stats.shadow_rays, Ordering::Relaxed);
+                totals.lock().unwrap_or_else(|e| e.into_inner()).add(&stats);
                 let done = rows_done.fetch_add(1, Ordering::Relaxed) + 1;
                 progress(done as u32);
                 row
@@ -107,13 +125,30 @@ impl<'a> CpuRenderer<'a> {
                 variance.data[i] = v;
             }
         }
+        // The GPU's stages: extend, one shade pipeline per model that scatters, accumulate.
+        let stats = totals.into_inner().unwrap_or_else(|e| e.into_inner());
+        let mut nonfinite_by_stage = vec![("extend".to_string(), stats.nonfinite_extend)];
+        let used: std::collections::BTreeSet<usize> = s
+            .materials
+            .iter()
+            .filter(|m| m.brdf.scatters())
+            .map(|m| m.model)
+            .collect();
+        for m in used {
+            nonfinite_by_stage.push((
+                format!("shade_{}", crate::brdf::MODELS[m].name),
+                stats.nonfinite_shade[m],
+            ));
+        }
+        nonfinite_by_stage.push(("accumulate".to_string(), nonfinite.into_inner()));
         RenderOutput {
             mean,
             variance,
             spp,
-            nonfinite_samples: nonfinite.into_inner(),
-            extension_rays: ext.into_inner(),
-            shadow_rays: shadow.into_inner(),
+            nonfinite_samples: nonfinite_by_stage.iter().map(|s| s.1).sum(),
+            nonfinite_by_stage,
+            extension_rays: stats.extension_rays,
+            shadow_rays: stats.shadow_rays,
             stage_seconds: Vec::new(),
         }
     }
@@ -134,7 +169,12 @@ impl<'a> CpuRenderer<'a> {
         for depth in 1..=max_depth {
             stats.extension_rays += 1;
             let Some(hit) = self.bvh.closest(s, o, d, f32::MAX) else {
-                l += beta * s.environment;
+                let e = beta * s.environment;
+                if e.is_finite() {
+                    l += e;
+                } else {
+                    stats.nonfinite_extend += 1;
+                }
                 break;
             };
             let si = surface_at(s, &hit, o, d);
@@ -152,7 +192,12 @@ impl<'a> CpuRenderer<'a> {
                 } else {
                     1.0
                 };
-                l += beta * le * w;
+                let e = beta * le * w;
+                if e.is_finite() {
+                    l += e;
+                } else {
+                    stats.nonfinite_extend += 1;
+                }
             }
             if depth == max_depth {
                 break;
@@ -192,9 +237,13 @@ impl<'a> CpuRenderer<'a> {
                             let pdf_b = brdf.pdf(wo, wi_local);
                             let w = power_heuristic(pdf_l, pdf_b);
                             let contrib = beta * f * (wi_local.z * w / pdf_l) * ls.radiance;
-                            stats.shadow_rays += 1;
-                            if !self.bvh.occluded(s, origin, wi, dist) {
-                                l += contrib;
+                            if !contrib.is_finite() {
+                                stats.nonfinite_shade[material.model] += 1;
+                            } else {
+                                stats.shadow_rays += 1;
+                                if !self.bvh.occluded(s, origin, wi, dist) {
+                                    l += contrib;
+                                }
                             }
                         }
                     }
@@ -218,6 +267,11 @@ impl<'a> CpuRenderer<'a> {
                     break;
                 }
                 beta /= q;
+            }
+            // A non-finite throughput, direction or pdf ends the path, counted.
+            if !(beta.is_finite() && wi.is_finite() && prev_pdf.is_finite()) {
+                stats.nonfinite_shade[material.model] += 1;
+                break;
             }
             if beta == Vec3::ZERO {
                 break;

@@ -215,7 +215,7 @@ impl<'a> GpuRenderer<'a> {
         // H200; lavapipe cannot tell the difference.)
         buffers.push(ctx.create_buffer(
             "counters",
-            (8 + num_queues as u64) * 4,
+            (9 + 2 * num_queues as u64) * 4,
             storage | vk::BufferUsageFlags::TRANSFER_DST,
             gpu,
         )?);
@@ -464,11 +464,20 @@ impl<'a> GpuRenderer<'a> {
         // Running totals kept by the prepare kernel from the queue sizes.
         let extension_rays = counters[4] as u64 | (counters[5] as u64) << 32;
         let shadow_rays = counters[6] as u64 | (counters[7] as u64) << 32;
+        // Non-finite values dropped where they arose (state.glsl lists the counters).
+        let nq = self.shade.len();
+        let mut nonfinite_by_stage = vec![("extend".to_string(), counters[8 + nq] as u64)];
+        for (slot, _, kernel) in &self.shade {
+            let n = counters[9 + nq + *slot as usize] as u64;
+            nonfinite_by_stage.push((kernel.pipeline.name.clone(), n));
+        }
+        nonfinite_by_stage.push(("accumulate".to_string(), counters[3] as u64));
         Ok(RenderOutput {
             mean,
             variance,
             spp,
-            nonfinite_samples: counters[3] as u64,
+            nonfinite_samples: nonfinite_by_stage.iter().map(|s| s.1).sum(),
+            nonfinite_by_stage,
             extension_rays,
             shadow_rays,
             stage_seconds,
