@@ -108,6 +108,13 @@ fn render_json_summary_on_both_backends() {
         assert_eq!(j["spp"], 4);
         assert_eq!(j["max_depth"], 5);
         assert_eq!(j["nonfinite_samples"], 0);
+        let stages: Vec<&str> = j["nonfinite_by_stage"]
+            .as_array()
+            .expect("nonfinite_by_stage")
+            .iter()
+            .map(|e| e["stage"].as_str().unwrap())
+            .collect();
+        assert_eq!(stages, ["extend", "shade_lambert", "accumulate"], "{backend}");
         assert!(j["paths_per_second"].as_f64().unwrap() > 0.0);
         assert!(j["rays_per_second"].as_f64().unwrap() > j["paths_per_second"].as_f64().unwrap());
         if backend == "gpu" {
