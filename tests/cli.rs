@@ -114,7 +114,11 @@ fn render_json_summary_on_both_backends() {
             .iter()
             .map(|e| e["stage"].as_str().unwrap())
             .collect();
-        assert_eq!(stages, ["extend", "shade_lambert", "accumulate"], "{backend}");
+        assert_eq!(
+            stages,
+            ["extend", "shade_lambert", "accumulate"],
+            "{backend}"
+        );
         assert!(j["paths_per_second"].as_f64().unwrap() > 0.0);
         assert!(j["rays_per_second"].as_f64().unwrap() > j["paths_per_second"].as_f64().unwrap());
         if backend == "gpu" {

@@ -34,16 +34,7 @@ struct Probe<'a> {
 impl<'a> Probe<'a> {
     fn new(ctx: &'a Context, compiler: &ShaderCompiler, m: &'a Material) -> Result<Self> {
         let name = MODELS[m.model].name;
-        let mut defines: Vec<(String, String)> = m
-            .brdf
-            .defines()
-            .into_iter()
-            .map(|d| (d.to_string(), "1".to_string()))
-            .collect();
-        defines.push(("BRDF_EVAL".into(), format!("{name}_eval")));
-        defines.push(("BRDF_PDF".into(), format!("{name}_pdf")));
-        defines.push(("BRDF_SAMPLE".into(), format!("{name}_sample")));
-        let overrides = vec![("brdf/model.glsl".to_string(), format!("brdf/{name}.glsl"))];
+        let (defines, overrides) = crate::gpu::model_shader_inputs(m.model, m.brdf.defines());
         let spirv = compiler.compile("brdf_probe.comp", &defines, &overrides)?;
         let pipeline = ctx.create_compute_pipeline(&format!("probe_{name}"), &spirv, 3, 12)?;
         Ok(Probe {

@@ -338,14 +338,7 @@ impl<'a> GpuRenderer<'a> {
             {
                 defines.extend(m.brdf.defines());
             }
-            let mut defs: Vec<(String, String)> = defines
-                .into_iter()
-                .map(|d| (d.to_string(), "1".to_string()))
-                .collect();
-            defs.push(("BRDF_EVAL".into(), format!("{name}_eval")));
-            defs.push(("BRDF_PDF".into(), format!("{name}_pdf")));
-            defs.push(("BRDF_SAMPLE".into(), format!("{name}_sample")));
-            let overrides = vec![("brdf/model.glsl".to_string(), format!("brdf/{name}.glsl"))];
+            let (defs, overrides) = model_shader_inputs(model, defines);
             build(
                 &format!("shade_{name}"),
                 "wavefront/shade.comp",
@@ -529,6 +522,29 @@ impl Drop for GpuRenderer<'_> {
             ctx.destroy_buffer(b);
         }
     }
+}
+
+/// (name, value) pairs: `#define`s, or include overrides (virtual name, file).
+pub(crate) type Defines = Vec<(String, String)>;
+
+/// How a shader is compiled for one model (the shade pipelines and the BRDF probe): the virtual
+/// include "brdf/model.glsl" is the model's file, BRDF_EVAL / BRDF_PDF / BRDF_SAMPLE name its
+/// functions, and `features` (the materials' `defines`) are defined as 1. Returns the defines
+/// and the include overrides.
+pub(crate) fn model_shader_inputs<'f>(
+    model: usize,
+    features: impl IntoIterator<Item = &'f str>,
+) -> (Defines, Defines) {
+    let name = MODELS[model].name;
+    let mut defines: Vec<(String, String)> = features
+        .into_iter()
+        .map(|d| (d.to_string(), "1".to_string()))
+        .collect();
+    defines.push(("BRDF_EVAL".into(), format!("{name}_eval")));
+    defines.push(("BRDF_PDF".into(), format!("{name}_pdf")));
+    defines.push(("BRDF_SAMPLE".into(), format!("{name}_sample")));
+    let overrides = vec![("brdf/model.glsl".to_string(), format!("brdf/{name}.glsl"))];
+    (defines, overrides)
 }
 
 /// A submission of a batch waits at most about this long before the batch stops growing.
