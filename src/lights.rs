@@ -7,8 +7,12 @@
 //! p(ω) = lum(Le) / W · d² / |cos θ_light|,  W = Σ area·lum(Le),
 //!
 //! in which the primitive's area cancels, so the MIS weight of a BSDF-sampled ray that hits
-//! an emitter needs only the emitter's radiance, the distance and the cosine (no per-primitive
-//! lookup). GLSL twin: `shaders/wavefront/lights.glsl`.
+//! an emitter needs only the emitter's selection density lum(Le)/W, the distance and the cosine
+//! (no per-primitive lookup). lum(Le)/W is computed here in f64, once per emitter, and read by
+//! both renderers: computed on a GPU as lum(Le)·(1/W), it was 0 on an NVIDIA H200 for W above
+//! about 8.5e37, where 1/W is a denormal that the GPU flushes to zero (next-event estimation
+//! then silently did nothing). GLSL twin: `sample_light` and `light_pdf` in
+//! `shaders/wavefront/surface.glsl`.
 
 use crate::bvh::SPHERE_BIT;
 use crate::scene::Scene;
@@ -24,6 +28,9 @@ pub struct LightTable {
     pub cdf: Vec<f32>,
     /// W = Σ area·lum(Le).
     pub total_weight: f32,
+    /// lum(Le)/W for each of the scene's emitters (by emitter index; 0 when there are no
+    /// lights): the light-selection density per unit area.
+    pub select_density: Vec<f32>,
 }
 
 impl LightTable {
@@ -61,10 +68,22 @@ impl LightTable {
         if let Some(last) = cdf.last_mut() {
             *last = 1.0;
         }
+        let select_density = scene
+            .emitters
+            .iter()
+            .map(|e| {
+                if total > 0.0 {
+                    (luminance(e.radiance) as f64 / total) as f32
+                } else {
+                    0.0
+                }
+            })
+            .collect();
         LightTable {
             prims,
             cdf,
             total_weight: total as f32,
+            select_density,
         }
     }
 

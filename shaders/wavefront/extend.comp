@@ -29,7 +29,7 @@ void main() {
         float w = 1.0;
         if (prev_pdf > 0.0) {
             float cos_light = -dot(d, s.ng);
-            w = power_heuristic(prev_pdf, light_pdf(le, hit.t * hit.t, cos_light));
+            w = power_heuristic(prev_pdf, light_pdf(emitters[s.emitter].w, hit.t * hit.t, cos_light));
         }
         vec3 e = b * le * w;
         if (finite_or_count(e, counter_nonfinite_extend())) radiance[path].xyz += e;

@@ -38,7 +38,7 @@ void main() {
             float cos_light = -dot(wi, ls.n);
             vec3 wi_local = to_local(s.frame, wi);
             if (cos_light > 0.0 && dot(wi, s.ng) > 0.0 && wi_local.z > 0.0) {
-                float pdf_l = light_pdf(ls.radiance, dist2, cos_light);
+                float pdf_l = light_pdf(ls.density, dist2, cos_light);
                 vec3 f = BRDF_EVAL(m, wi_local, wo);
                 if (pdf_l > 0.0 && (f.x != 0.0 || f.y != 0.0 || f.z != 0.0)) {
                     float pdf_b = BRDF_PDF(m, wo, wi_local);

@@ -19,7 +19,7 @@
 layout(std430, set = 0, binding = 4) readonly buffer TriAttrs { vec4 tri_attr[]; };  // 4 vec4 per triangle: (n0, u0), (n1, u1), (n2, u2), (v0, v1, v2, flags)
 layout(std430, set = 0, binding = 5) readonly buffer Materials { Material materials[]; };
 layout(std430, set = 0, binding = 6) readonly buffer Lights { uvec2 lights[]; };      // (prim ref, floatBits(cdf))
-layout(std430, set = 0, binding = 7) readonly buffer Emitters { vec4 emitters[]; };   // radiance
+layout(std430, set = 0, binding = 7) readonly buffer Emitters { vec4 emitters[]; };   // radiance, lum(Le)/W
 
 // Scene-wide values.
 layout(scalar, set = 0, binding = 8) readonly buffer Globals {
@@ -28,7 +28,6 @@ layout(scalar, set = 0, binding = 8) readonly buffer Globals {
     vec3 cam_right;   // scaled by tan(fov/2)·aspect
     vec3 cam_up;      // scaled by tan(fov/2)
     vec3 environment;
-    float light_total_weight;
     uint num_lights;
     uint width;
     uint height;

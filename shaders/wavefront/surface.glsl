@@ -104,7 +104,8 @@ uint select_light(float u) {
     return lo;
 }
 
-struct LightSample { vec3 p; vec3 n; vec3 radiance; };
+// density: the emitter's light-selection density per unit area, lum(Le)/W (host-computed).
+struct LightSample { vec3 p; vec3 n; vec3 radiance; float density; };
 
 LightSample sample_light(float u_sel, float u1, float u2) {
     uint prim = lights[select_light(u_sel)].x;
@@ -120,6 +121,7 @@ LightSample sample_light(float u_sel, float u1, float u2) {
         ls.p = cr.xyz + dir * cr.w;
         ls.n = info.z != 0u ? -dir : dir;
         ls.radiance = emitters[info.y].xyz;
+        ls.density = emitters[info.y].w;
     } else {
         vec4 a = tri_data[3u * prim];
         vec4 b = tri_data[3u * prim + 1u];
@@ -131,13 +133,17 @@ LightSample sample_light(float u_sel, float u1, float u2) {
         ls.p = a.xyz * b0 + b.xyz * b1 + c.xyz * b2;
         ls.n = normalize(cross(b.xyz - a.xyz, c.xyz - a.xyz));
         ls.radiance = emitters[floatBitsToUint(b.w)].xyz;
+        ls.density = emitters[floatBitsToUint(b.w)].w;
     }
     return ls;
 }
 
-float light_pdf(vec3 le, float dist2, float cos_light) {
-    if (cos_light <= 0.0 || g.light_total_weight <= 0.0) return 0.0;
-    return luminance(le) / g.light_total_weight * dist2 / cos_light;
+// Solid-angle density of next-event estimation choosing this point (src/lights.rs). The
+// density lum(Le)/W comes from the host: lum(Le)·(1/W) here flushed to 0 on an NVIDIA GPU when
+// 1/W was a denormal.
+float light_pdf(float density, float dist2, float cos_light) {
+    if (cos_light <= 0.0 || density <= 0.0) return 0.0;
+    return density * dist2 / cos_light;
 }
 
 float power_heuristic(float a, float b) {

@@ -187,7 +187,11 @@ impl<'a> CpuRenderer<'a> {
                     let cos_light = -d.dot(si.ng);
                     power_heuristic(
                         prev_pdf,
-                        light_pdf(&self.lights, le, hit.t * hit.t, cos_light),
+                        light_pdf(
+                            self.lights.select_density[e as usize],
+                            hit.t * hit.t,
+                            cos_light,
+                        ),
                     )
                 } else {
                     1.0
@@ -231,7 +235,7 @@ impl<'a> CpuRenderer<'a> {
                     let cos_light = -wi.dot(ls.n);
                     let wi_local = si.frame.to_local(wi);
                     if cos_light > 0.0 && wi.dot(si.ng) > 0.0 && wi_local.z > 0.0 {
-                        let pdf_l = light_pdf(&self.lights, ls.radiance, dist2, cos_light);
+                        let pdf_l = light_pdf(ls.density, dist2, cos_light);
                         let f = brdf.eval(wi_local, wo);
                         if pdf_l > 0.0 && f != Vec3::ZERO {
                             let pdf_b = brdf.pdf(wo, wi_local);

@@ -2,7 +2,7 @@
 //! GLSL twins: `shaders/wavefront/surface.glsl` and `shaders/wavefront/lights.glsl`.
 
 use crate::bvh::{Hit, SPHERE_BIT};
-use crate::lights::{luminance, LightTable};
+use crate::lights::LightTable;
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -124,6 +124,8 @@ pub struct LightSample {
     /// Unit normal on the emitting side.
     pub n: Vec3,
     pub radiance: Vec3,
+    /// The emitter's light-selection density per unit area, lum(Le)/W.
+    pub density: f32,
 }
 
 /// Choose an emissive primitive by power and a point uniformly by area on it.
@@ -146,6 +148,7 @@ pub fn sample_light(
             p: s.center + dir * s.radius,
             n: if s.inward { -dir } else { dir },
             radiance: scene.emitters[e as usize].radiance,
+            density: lights.select_density[e as usize],
         }
     } else {
         let t = &scene.triangles[prim as usize];
@@ -159,17 +162,19 @@ pub fn sample_light(
             p: v0 * b0 + v1 * b1 + v2 * b2,
             n: (v1 - v0).cross(v2 - v0).normalize(),
             radiance: scene.emitters[e as usize].radiance,
+            density: lights.select_density[e as usize],
         }
     }
 }
 
-/// Solid-angle density of NEE choosing a point with radiance `le` at distance² `dist2` whose
-/// emitting side makes cosine `cos_light` with the direction back to the shading point.
-pub fn light_pdf(lights: &LightTable, le: Vec3, dist2: f32, cos_light: f32) -> f32 {
-    if cos_light <= 0.0 || lights.total_weight <= 0.0 {
+/// Solid-angle density of NEE choosing a point of an emitter with selection density `density`
+/// (lum(Le)/W, [`LightTable::select_density`]) at distance² `dist2` whose emitting side makes
+/// cosine `cos_light` with the direction back to the shading point.
+pub fn light_pdf(density: f32, dist2: f32, cos_light: f32) -> f32 {
+    if cos_light <= 0.0 || density <= 0.0 {
         return 0.0;
     }
-    luminance(le) / lights.total_weight * dist2 / cos_light
+    density * dist2 / cos_light
 }
 
 /// Power heuristic (β = 2) weight of a strategy with density `a` against one with `b`,

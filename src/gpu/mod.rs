@@ -195,7 +195,11 @@ impl<'a> GpuRenderer<'a> {
                 storage,
             )?,
             ctx.create_buffer_with_data("lights", &scene_buffers::light_data(&lights), storage)?,
-            ctx.create_buffer_with_data("emitters", &scene_buffers::emitter_data(scene), storage)?,
+            ctx.create_buffer_with_data(
+                "emitters",
+                &scene_buffers::emitter_data(scene, &lights),
+                storage,
+            )?,
             ctx.create_buffer_with_data(
                 "globals",
                 &scene_buffers::globals(scene, &lights, num_queues, capacity),

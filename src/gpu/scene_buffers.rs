@@ -92,11 +92,12 @@ pub fn light_data(lights: &LightTable) -> Vec<[u32; 2]> {
         .collect()
 }
 
-pub fn emitter_data(scene: &Scene) -> Vec<[f32; 4]> {
+pub fn emitter_data(scene: &Scene, lights: &LightTable) -> Vec<[f32; 4]> {
     scene
         .emitters
         .iter()
-        .map(|e| [e.radiance.x, e.radiance.y, e.radiance.z, 0.0])
+        .zip(&lights.select_density)
+        .map(|(e, d)| [e.radiance.x, e.radiance.y, e.radiance.z, *d])
         .collect()
 }
 
@@ -114,7 +115,6 @@ pub fn globals(scene: &Scene, lights: &LightTable, num_queues: u32, capacity: u3
         w.extend(v.to_array().iter().map(|f| f.to_bits()));
     }
     let it = &scene.integrator;
-    w.push(lights.total_weight.to_bits());
     w.extend([
         lights.prims.len() as u32,
         scene.width,
