@@ -144,6 +144,12 @@ fn parse_res(s: &str) -> std::result::Result<(u32, u32), String> {
 }
 
 fn main() {
+    // Rust ignores SIGPIPE, so printing to a closed pipe (`brdfwave diff a b | head`) would
+    // panic; restore the default action and end quietly, as other command-line tools do.
+    #[cfg(unix)]
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render {
