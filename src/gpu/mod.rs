@@ -371,17 +371,17 @@ impl<'a> GpuRenderer<'a> {
         // size doubles while a submission takes under BATCH_SECONDS, so a fast GPU is not held
         // up by a wait per wave and a slow device still reports progress. A command buffer is
         // also split, between two segments, before its timestamp queries run out.
-        let waves = waves(pixels, spp, self.capacity);
+        let mut waves = waves(pixels, spp, self.capacity).peekable();
         let stamps_per_segment = 4 + self.shade.len() as u32;
         let mut stage_seconds: Vec<(String, f64)> = Vec::new();
         let mut batch = 1usize;
-        let mut next = 0usize;
-        while next < waves.len() {
+        while waves.peek().is_some() {
             let t_batch = Instant::now();
             let mut rec = ctx.begin()?;
             rec.timestamp("start");
-            let end = (next + batch).min(waves.len());
-            for w in &waves[next..end] {
+            let mut samples_done = 0;
+            for w in waves.by_ref().take(batch) {
+                samples_done = w.samples_done;
                 let mut push = Push {
                     sample_index: w.sample,
                     chunk_offset: w.offset,
@@ -439,8 +439,7 @@ impl<'a> GpuRenderer<'a> {
             }
             ctx.submit_and_wait(rec)?;
             add_stage_times(ctx.read_timestamps()?, &mut stage_seconds);
-            next = end;
-            progress(waves[next - 1].samples_done);
+            progress(samples_done);
             if t_batch.elapsed().as_secs_f64() < BATCH_SECONDS {
                 batch = (batch * 2).min(MAX_BATCH);
             }
@@ -551,7 +550,7 @@ pub(crate) fn model_shader_inputs<'f>(
     (defines, overrides)
 }
 
-/// A submission of a batch waits at most about this long before the batch stops growing.
+/// The number of waves per command buffer doubles while a submission takes less than this.
 const BATCH_SECONDS: f64 = 0.05;
 /// Most waves per command buffer.
 const MAX_BATCH: usize = 64;
@@ -568,38 +567,46 @@ struct Wave {
     samples_done: u32,
 }
 
-/// The waves of a render of `spp` samples over `pixels` pixels with `capacity` path slots.
-fn waves(pixels: u32, spp: u32, capacity: u32) -> Vec<Wave> {
-    let mut v = Vec::new();
-    let mut sample = 0;
-    while sample < spp {
+/// The waves of a render of `spp` samples over `pixels` pixels with `capacity` path slots, in
+/// order (an iterator: a long render at a high sample count holds no list of them).
+fn waves(pixels: u32, spp: u32, capacity: u32) -> impl Iterator<Item = Wave> {
+    let (mut sample, mut offset) = (0u32, 0u32);
+    std::iter::from_fn(move || {
+        if sample >= spp {
+            return None;
+        }
         if pixels <= capacity {
             let k = (capacity / pixels).min(spp - sample);
-            v.push(Wave {
+            let w = Wave {
                 sample,
                 samples: k,
                 offset: 0,
                 pixels,
                 samples_done: sample + k,
-            });
+            };
             sample += k;
+            Some(w)
         } else {
-            let mut offset = 0;
-            while offset < pixels {
-                let n = (pixels - offset).min(capacity);
-                offset += n;
-                v.push(Wave {
-                    sample,
-                    samples: 1,
-                    offset: offset - n,
-                    pixels: n,
-                    samples_done: if offset == pixels { sample + 1 } else { sample },
-                });
+            let n = (pixels - offset).min(capacity);
+            let w = Wave {
+                sample,
+                samples: 1,
+                offset,
+                pixels: n,
+                samples_done: if offset + n == pixels {
+                    sample + 1
+                } else {
+                    sample
+                },
+            };
+            offset += n;
+            if offset == pixels {
+                offset = 0;
+                sample += 1;
             }
-            sample += 1;
+            Some(w)
         }
-    }
-    v
+    })
 }
 
 /// Adds the intervals between consecutive timestamps to the stage they end.
@@ -620,7 +627,7 @@ mod tests {
     /// Every (pixel, sample) pair lies in exactly one wave, in sample order per pixel, and no
     /// wave is larger than the capacity.
     fn check(pixels: u32, spp: u32, capacity: u32) -> Vec<Wave> {
-        let w = waves(pixels, spp, capacity);
+        let w: Vec<Wave> = waves(pixels, spp, capacity).collect();
         let mut seen = vec![0u32; (pixels * spp) as usize];
         let mut next_sample = vec![0u32; pixels as usize];
         let mut done = 0;
