@@ -26,8 +26,6 @@ pub struct LightTable {
     pub prims: Vec<u32>,
     /// Inclusive CDF over `prims`; the last entry is exactly 1.
     pub cdf: Vec<f32>,
-    /// W = Σ area·lum(Le).
-    pub total_weight: f32,
     /// lum(Le)/W for each of the scene's emitters (by emitter index; 0 when there are no
     /// lights): the light-selection density per unit area.
     pub select_density: Vec<f32>,
@@ -82,7 +80,6 @@ impl LightTable {
         LightTable {
             prims,
             cdf,
-            total_weight: total as f32,
             select_density,
         }
     }

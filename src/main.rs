@@ -251,10 +251,7 @@ fn render(a: RenderArgs) -> Result<()> {
         sc.integrator.seed = s;
     }
     if let Some(w) = a.wave_paths {
-        let max = brdfwave::gpu::MAX_CAPACITY;
-        if !(64..=max).contains(&w) {
-            bail!("--wave-paths must be between 64 and {max}, got {w}");
-        }
+        brdfwave::gpu::check_wave_paths(w).context("--wave-paths")?;
         if a.backend == Backend::Cpu {
             eprintln!("warning: --wave-paths applies to the GPU backend only; ignored");
         }

@@ -23,6 +23,24 @@ pub struct RenderOutput {
     pub stage_seconds: Vec<(String, f64)>,
 }
 
+/// The non-finite counts by stage, named as the GPU names its pipelines, in its order:
+/// `extend`, then `shade_<model>` for each `(model index, count)` in `shade`, then `accumulate`.
+/// Both backends build [`RenderOutput::nonfinite_by_stage`] with it.
+pub fn nonfinite_stages(
+    extend: u64,
+    shade: impl IntoIterator<Item = (usize, u64)>,
+    accumulate: u64,
+) -> Vec<(String, u64)> {
+    let mut v = vec![("extend".to_string(), extend)];
+    v.extend(
+        shade
+            .into_iter()
+            .map(|(m, n)| (format!("shade_{}", crate::brdf::MODELS[m].name), n)),
+    );
+    v.push(("accumulate".to_string(), accumulate));
+    v
+}
+
 /// Mean and unbiased one-sample variance from sums accumulated in f64.
 pub fn mean_and_variance(sum: [f64; 3], sum2: [f64; 3], n: u32) -> ([f32; 3], [f32; 3]) {
     let n = n.max(1) as f64;

@@ -19,7 +19,7 @@ use crate::bvh::{self, Bvh};
 use crate::camera::CameraBasis;
 use crate::imageio::Image;
 use crate::lights::{luminance, LightTable};
-use crate::output::{mean_and_variance, RenderOutput};
+use crate::output::{mean_and_variance, nonfinite_stages, RenderOutput};
 use crate::rng::{dim, PathRng};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
@@ -125,22 +125,14 @@ impl<'a> CpuRenderer<'a> {
                 variance.data[i] = v;
             }
         }
-        // The GPU's stages: extend, one shade pipeline per model that scatters, accumulate.
         let stats = totals.into_inner().unwrap_or_else(|e| e.into_inner());
-        let mut nonfinite_by_stage = vec![("extend".to_string(), stats.nonfinite_extend)];
-        let used: std::collections::BTreeSet<usize> = s
-            .materials
-            .iter()
-            .filter(|m| m.brdf.scatters())
-            .map(|m| m.model)
-            .collect();
-        for m in used {
-            nonfinite_by_stage.push((
-                format!("shade_{}", crate::brdf::MODELS[m].name),
-                stats.nonfinite_shade[m],
-            ));
-        }
-        nonfinite_by_stage.push(("accumulate".to_string(), nonfinite.into_inner()));
+        let nonfinite_by_stage = nonfinite_stages(
+            stats.nonfinite_extend,
+            s.shaded_models()
+                .into_iter()
+                .map(|m| (m, stats.nonfinite_shade[m])),
+            nonfinite.into_inner(),
+        );
         RenderOutput {
             mean,
             variance,

@@ -29,7 +29,7 @@ pub mod scene_buffers;
 use crate::brdf::MODELS;
 use crate::bvh::Bvh;
 use crate::lights::LightTable;
-use crate::output::{mean_and_variance, RenderOutput};
+use crate::output::{mean_and_variance, nonfinite_stages, RenderOutput};
 use crate::scene::Scene;
 use crate::vk::{Buffer, ComputePipeline, Context, ShaderCompiler};
 use anyhow::{bail, Context as _, Result};
@@ -124,9 +124,7 @@ impl<'a> GpuRenderer<'a> {
         compiler: &ShaderCompiler,
         wave_paths: u32,
     ) -> Result<Self> {
-        if !(LOCAL_SIZE..=MAX_CAPACITY).contains(&wave_paths) {
-            bail!("wave size {wave_paths} paths: must be between {LOCAL_SIZE} and {MAX_CAPACITY}");
-        }
+        check_wave_paths(wave_paths).context("wave size")?;
         let mut setup = SetupStats::default();
         let pixels = scene.width as u64 * scene.height as u64;
         // Path slots: all the samples that fit of the whole image, or one chunk of it.
@@ -141,13 +139,7 @@ impl<'a> GpuRenderer<'a> {
         setup.subgroup_queues = ctx.features.subgroup_ballot;
 
         // Which models need a queue: those of materials that scatter.
-        let used: BTreeSet<usize> = scene
-            .materials
-            .iter()
-            .filter(|m| m.brdf.scatters())
-            .map(|m| m.model)
-            .collect();
-        let models: Vec<usize> = used.into_iter().collect();
+        let models = scene.shaded_models();
         let queue_slot: Vec<u32> = scene
             .materials
             .iter()
@@ -462,12 +454,13 @@ impl<'a> GpuRenderer<'a> {
         let shadow_rays = counters[6] as u64 | (counters[7] as u64) << 32;
         // Non-finite values dropped where they arose (state.glsl lists the counters).
         let nq = self.shade.len();
-        let mut nonfinite_by_stage = vec![("extend".to_string(), counters[8 + nq] as u64)];
-        for (slot, _, kernel) in &self.shade {
-            let n = counters[9 + nq + *slot as usize] as u64;
-            nonfinite_by_stage.push((kernel.pipeline.name.clone(), n));
-        }
-        nonfinite_by_stage.push(("accumulate".to_string(), counters[3] as u64));
+        let nonfinite_by_stage = nonfinite_stages(
+            counters[8 + nq] as u64,
+            self.shade
+                .iter()
+                .map(|(slot, model, _)| (*model, counters[9 + nq + *slot as usize] as u64)),
+            counters[3] as u64,
+        );
         Ok(RenderOutput {
             mean,
             variance,
@@ -525,6 +518,14 @@ impl Drop for GpuRenderer<'_> {
             ctx.destroy_buffer(b);
         }
     }
+}
+
+/// A wave size [`GpuRenderer::with_wave_paths`] accepts: 64 ..= [`MAX_CAPACITY`] paths.
+pub fn check_wave_paths(wave_paths: u32) -> Result<()> {
+    if !(LOCAL_SIZE..=MAX_CAPACITY).contains(&wave_paths) {
+        bail!("must be between {LOCAL_SIZE} and {MAX_CAPACITY} paths, got {wave_paths}");
+    }
+    Ok(())
 }
 
 /// (name, value) pairs: `#define`s, or include overrides (virtual name, file).

@@ -94,6 +94,20 @@ pub struct Scene {
     pub warnings: Vec<String>,
 }
 
+impl Scene {
+    /// The models (indices into `brdf::MODELS`, ascending) of the materials that scatter: the
+    /// models that get a queue and a `shade_<model>` stage, on both backends.
+    pub fn shaded_models(&self) -> Vec<usize> {
+        let used: std::collections::BTreeSet<usize> = self
+            .materials
+            .iter()
+            .filter(|m| m.brdf.scatters())
+            .map(|m| m.model)
+            .collect();
+        used.into_iter().collect()
+    }
+}
+
 impl Triangle {
     pub fn geometric_normal_unnormalized(&self) -> Vec3 {
         (self.v[1] - self.v[0]).cross(self.v[2] - self.v[0])
