@@ -4,23 +4,37 @@
 // fuse multiply-adds (which would change results and break the sign symmetry of the watertight
 // edge functions).
 //
-// Include after `#version 460`; define BVH_BINDING first to move the four buffers.
+// Include after `#version 460`. The wavefront kernels get the binding numbers as defines
+// generated from src/gpu/layout.rs; without them, define BVH_BINDING to place the four
+// bindings at BVH_BINDING .. BVH_BINDING + 3.
 #ifndef BVH_GLSL
 #define BVH_GLSL
 
+#ifndef BINDING_BVH_NODES
 #ifndef BVH_BINDING
 #define BVH_BINDING 0
 #endif
+#define BINDING_BVH_NODES (BVH_BINDING + 0)
+#define BINDING_BVH_PRIMS (BVH_BINDING + 1)
+#define BINDING_TRIANGLES (BVH_BINDING + 2)
+#define BINDING_SPHERES (BVH_BINDING + 3)
+#endif
 
-// 4 vec4 per node: (lmin, left), (lmax, right), (rmin, left_count), (rmax, right_count); the
-// u32 fields as uintBitsToFloat in .w.
-layout(std430, set = 0, binding = BVH_BINDING + 0) readonly buffer BvhNodes { vec4 bvh_nodes[]; };
+// Uniform texel buffers (src/gpu/layout.rs says why), read as raw 32-bit words.
+// 4 texels per node: (lmin, left), (lmax, right), (rmin, left_count), (rmax, right_count); the
+// u32 fields as bits in .w.
+layout(set = 0, binding = BINDING_BVH_NODES) uniform usamplerBuffer bvh_nodes;
 // Primitive references: triangle index, or sphere index | BVH_SPHERE_BIT.
-layout(std430, set = 0, binding = BVH_BINDING + 1) readonly buffer BvhPrims { uint bvh_prims[]; };
-// 3 vec4 per triangle: (v0, material bits), (v1, emitter bits or 0xFFFFFFFF), (v2, unused).
-layout(std430, set = 0, binding = BVH_BINDING + 2) readonly buffer Triangles { vec4 tri_data[]; };
-// 2 vec4 per sphere: (center, radius), (material bits, emitter bits, inward bits, 0).
-layout(std430, set = 0, binding = BVH_BINDING + 3) readonly buffer Spheres { vec4 sphere_data[]; };
+layout(set = 0, binding = BINDING_BVH_PRIMS) uniform usamplerBuffer bvh_prims;
+// 3 texels per triangle: (v0, material bits), (v1, emitter bits or 0xFFFFFFFF), (v2, unused).
+layout(set = 0, binding = BINDING_TRIANGLES) uniform usamplerBuffer tri_data;
+// 2 texels per sphere: (center, radius), (material bits, emitter bits, inward bits, 0).
+layout(set = 0, binding = BINDING_SPHERES) uniform usamplerBuffer sphere_data;
+
+vec4 bvh_node(uint i) { return uintBitsToFloat(texelFetch(bvh_nodes, int(i))); }
+uint bvh_prim(uint i) { return texelFetch(bvh_prims, int(i)).x; }
+vec4 tri_texel(uint i) { return uintBitsToFloat(texelFetch(tri_data, int(i))); }
+vec4 sphere_texel(uint i) { return uintBitsToFloat(texelFetch(sphere_data, int(i))); }
 
 struct Hit {
     float t;
@@ -200,17 +214,17 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
             uint first = (cur >> 3) & 0x0FFFFFFFu;
             uint end = first + (cur & 7u) + 1u;
             for (uint i = first; i < end; ++i) {
-                uint ref = bvh_prims[i];
+                uint ref = bvh_prim(i);
                 float t;
                 vec2 bary = vec2(0.0);
                 bool h;
                 if ((ref & BVH_SPHERE_BIT) != 0u) {
                     uint s = (ref & ~BVH_SPHERE_BIT) * 2u;
-                    vec4 cr = sphere_data[s];
+                    vec4 cr = sphere_texel(s);
                     h = bvh_sphere(o, d, cr.xyz, cr.w, hit.t, t);
                 } else {
                     uint k = ref * 3u;
-                    h = bvh_triangle(r, tri_data[k].xyz, tri_data[k + 1u].xyz, tri_data[k + 2u].xyz, hit.t, t, bary);
+                    h = bvh_triangle(r, tri_texel(k).xyz, tri_texel(k + 1u).xyz, tri_texel(k + 2u).xyz, hit.t, t, bary);
                 }
                 if (h) {
                     hit.t = t;
@@ -222,10 +236,10 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
             }
         } else {
             uint base = cur * 4u;
-            vec4 n0 = bvh_nodes[base];
-            vec4 n1 = bvh_nodes[base + 1u];
-            vec4 n2 = bvh_nodes[base + 2u];
-            vec4 n3 = bvh_nodes[base + 3u];
+            vec4 n0 = bvh_node(base);
+            vec4 n1 = bvh_node(base + 1u);
+            vec4 n2 = bvh_node(base + 2u);
+            vec4 n3 = bvh_node(base + 3u);
             uint left = floatBitsToUint(n0.w);
             uint right = floatBitsToUint(n1.w);
             uint left_count = floatBitsToUint(n2.w);

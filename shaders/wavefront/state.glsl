@@ -1,7 +1,8 @@
-// The wavefront integrator's buffers, shared by every stage. Rust side: src/gpu/mod.rs
-// (`Binding`), which binds the same buffers to every pipeline in this order.
+// The wavefront integrator's bindings, shared by every stage. Their numbers, the counter
+// positions and the argument and queue slots are #defines (BINDING_*, COUNTER_*, ARGS_*, QUEUE_*)
+// generated from src/gpu/layout.rs, which describes each binding once.
 //
-// Path state is structure-of-arrays, one entry per path slot of the current chunk; queues hold
+// Path state is structure-of-arrays, one entry per path slot of the current wave; queues hold
 // path indices only (the state never moves). Counters and indirect-dispatch arguments live in
 // small buffers written by the one-thread `prepare` kernel.
 #ifndef STATE_GLSL
@@ -13,16 +14,26 @@
 #include "common.glsl"
 #include "rng.glsl"
 
-#define BVH_BINDING 0
 #include "bvh.glsl"
 
-layout(std430, set = 0, binding = 4) readonly buffer TriAttrs { vec4 tri_attr[]; };  // 4 vec4 per triangle: (n0, u0), (n1, u1), (n2, u2), (v0, v1, v2, flags)
-layout(std430, set = 0, binding = 5) readonly buffer Materials { Material materials[]; };
-layout(std430, set = 0, binding = 6) readonly buffer Lights { uvec2 lights[]; };      // (prim ref, floatBits(cdf))
-layout(std430, set = 0, binding = 7) readonly buffer Emitters { vec4 emitters[]; };   // radiance, lum(Le)/W
+// Scene data (uniform texel buffers, raw 32-bit words).
+layout(set = 0, binding = BINDING_TRI_ATTRS) uniform usamplerBuffer tri_attrs;  // 4 per triangle: (n0, u0), (n1, u1), (n2, u2), (v0, v1, v2, flags)
+layout(set = 0, binding = BINDING_MATERIALS) uniform usamplerBuffer material_words;  // 8 per material
+layout(set = 0, binding = BINDING_LIGHTS) uniform usamplerBuffer light_table;   // (prim ref, floatBits(cdf))
+layout(set = 0, binding = BINDING_EMITTERS) uniform usamplerBuffer emitter_data;  // radiance, lum(Le)/W
 
-// Scene-wide values.
-layout(scalar, set = 0, binding = 8) readonly buffer Globals {
+vec4 tri_attr(uint i) { return uintBitsToFloat(texelFetch(tri_attrs, int(i))); }
+uvec2 light_entry(uint i) { return texelFetch(light_table, int(i)).xy; }
+vec4 emitter(uint i) { return uintBitsToFloat(texelFetch(emitter_data, int(i))); }
+Material load_material(uint i) {
+    Material m;
+    m.header = texelFetch(material_words, int(8u * i));
+    for (int k = 0; k < 7; ++k) m.p[k] = uintBitsToFloat(texelFetch(material_words, int(8u * i) + 1 + k));
+    return m;
+}
+
+// Scene-wide values (a uniform buffer: read at uniform offsets, one load each).
+layout(scalar, set = 0, binding = BINDING_GLOBALS) uniform Globals {
     vec3 cam_origin;
     vec3 cam_forward;
     vec3 cam_right;   // scaled by tan(fov/2)·aspect
@@ -36,46 +47,29 @@ layout(scalar, set = 0, binding = 8) readonly buffer Globals {
     uint rr_enabled;
     uint rr_start_depth;
     uint num_queues;  // material queues in use
-    uint capacity;    // path slots per chunk
+    uint capacity;    // path slots per wave
 } g;
 
 // Path state (SoA).
-layout(std430, set = 0, binding = 9) buffer RayO { vec4 ray_o[]; };      // xyz origin
-layout(std430, set = 0, binding = 10) buffer RayD { vec4 ray_d[]; };     // xyz direction, w = pdf of the BSDF sample (0: camera/delta)
-layout(std430, set = 0, binding = 11) buffer Beta { vec4 beta[]; };      // path throughput
-layout(std430, set = 0, binding = 12) buffer Radiance { vec4 radiance[]; };
-layout(std430, set = 0, binding = 13) buffer HitRec { uvec4 hit_rec[]; }; // prim, bary.x, bary.y, t (float bits)
-layout(std430, set = 0, binding = 14) buffer ShadowO { vec4 shadow_o[]; }; // xyz origin, w = tmax
-layout(std430, set = 0, binding = 15) buffer ShadowD { vec4 shadow_d[]; };
-layout(std430, set = 0, binding = 16) buffer ShadowL { vec4 shadow_l[]; }; // unoccluded contribution
+layout(std430, set = 0, binding = BINDING_RAY_O) buffer RayO { vec4 ray_o[]; };      // xyz origin
+layout(std430, set = 0, binding = BINDING_RAY_D) buffer RayD { vec4 ray_d[]; };     // xyz direction, w = pdf of the BSDF sample (0: camera/delta)
+layout(std430, set = 0, binding = BINDING_BETA) buffer Beta { vec4 beta[]; };      // path throughput
+layout(std430, set = 0, binding = BINDING_RADIANCE) buffer Radiance { vec4 radiance[]; };
+layout(std430, set = 0, binding = BINDING_HIT_REC) buffer HitRec { uvec4 hit_rec[]; }; // prim, bary.x, bary.y, t (float bits)
+layout(std430, set = 0, binding = BINDING_SHADOW_O) buffer ShadowO { vec4 shadow_o[]; }; // xyz origin, w = tmax
+layout(std430, set = 0, binding = BINDING_SHADOW_D) buffer ShadowD { vec4 shadow_d[]; };
+layout(std430, set = 0, binding = BINDING_SHADOW_L) buffer ShadowL { vec4 shadow_l[]; }; // unoccluded contribution
 
 // Queues: [0, cap) and [cap, 2cap) ping-pong ray queues; [2cap, 3cap) shadow queue;
 // [(3 + k)cap, (4 + k)cap) material queue k.
-layout(std430, set = 0, binding = 17) buffer Queues { uint queues[]; };
-// counters: 0,1 ray queues; 2 shadow queue; 3 non-finite samples dropped by `accumulate`; 4,5
-// extension rays traced (low, high word); 6,7 shadow rays traced; 8 + k material queue k;
-// 8 + num_queues non-finite values dropped by `extend`; 9 + num_queues + k by the shade kernel
-// of material queue k.
-layout(std430, set = 0, binding = 18) buffer Counters { uint counters[]; };
+layout(std430, set = 0, binding = BINDING_QUEUES) buffer Queues { uint queues[]; };
+// Counters (src/gpu/layout.rs `Counter`): queue lengths, non-finite counts, ray totals.
+layout(std430, set = 0, binding = BINDING_COUNTERS) buffer Counters { uint counters[]; };
 // Indirect dispatch arguments, 4 uints each (x, y, z, pad): 0 ray, 1 shadow, 2 + k material k.
-layout(std430, set = 0, binding = 19) buffer Args { uvec4 args[]; };
+layout(std430, set = 0, binding = BINDING_ARGS) buffer Args { uvec4 args[]; };
 // Film: running sums of radiance and radiance² per pixel.
-layout(std430, set = 0, binding = 20) buffer Film { vec4 film[]; };
-layout(std430, set = 0, binding = 21) buffer Film2 { vec4 film2[]; };
-
-#define NUM_BINDINGS 22
-
-#define COUNTER_RAY 0u
-#define COUNTER_SHADOW 2u
-#define COUNTER_NONFINITE 3u
-#define COUNTER_EXT_TOTAL 4u
-#define COUNTER_SHADOW_TOTAL 6u
-#define COUNTER_MATERIAL 8u
-#define ARGS_RAY 0u
-#define ARGS_SHADOW 1u
-#define ARGS_MATERIAL 2u
-#define QUEUE_SHADOW 2u
-#define QUEUE_MATERIAL 3u
+layout(std430, set = 0, binding = BINDING_FILM) buffer Film { vec4 film[]; };
+layout(std430, set = 0, binding = BINDING_FILM2) buffer Film2 { vec4 film2[]; };
 
 // A wave traces chunk_size = chunk_pixels × k paths: k consecutive samples of the pixels
 // [chunk_offset, chunk_offset + chunk_pixels). Small images take several samples per wave, so

@@ -44,8 +44,8 @@ Surface surface_at(uint prim, vec2 bary, float t, vec3 o, vec3 d) {
     Surface s;
     if ((prim & SPHERE_BIT) != 0u) {
         uint i = prim & ~SPHERE_BIT;
-        vec4 cr = sphere_data[2u * i];
-        uvec4 info = floatBitsToUint(sphere_data[2u * i + 1u]);
+        vec4 cr = sphere_texel(2u * i);
+        uvec4 info = floatBitsToUint(sphere_texel(2u * i + 1u));
         vec3 outward = normalize(o + d * t - cr.xyz);
         s.p = cr.xyz + outward * cr.w;
         s.ng = info.z != 0u ? -outward : outward;
@@ -54,9 +54,9 @@ Surface surface_at(uint prim, vec2 bary, float t, vec3 o, vec3 d) {
         s.material = info.x;
         s.emitter = info.y;
     } else {
-        vec4 a = tri_data[3u * prim];
-        vec4 b = tri_data[3u * prim + 1u];
-        vec4 c = tri_data[3u * prim + 2u];
+        vec4 a = tri_texel(3u * prim);
+        vec4 b = tri_texel(3u * prim + 1u);
+        vec4 c = tri_texel(3u * prim + 2u);
         float b1 = bary.x;
         float b2 = bary.y;
         float b0 = 1.0 - b1 - b2;
@@ -65,10 +65,10 @@ Surface surface_at(uint prim, vec2 bary, float t, vec3 o, vec3 d) {
         vec3 e2 = c.xyz - a.xyz;
         s.ng = normalize(cross(e1, e2));
         s.front = dot(d, s.ng) < 0.0;
-        vec4 n0 = tri_attr[4u * prim];
-        vec4 n1 = tri_attr[4u * prim + 1u];
-        vec4 n2 = tri_attr[4u * prim + 2u];
-        vec4 vv = tri_attr[4u * prim + 3u];
+        vec4 n0 = tri_attr(4u * prim);
+        vec4 n1 = tri_attr(4u * prim + 1u);
+        vec4 n2 = tri_attr(4u * prim + 2u);
+        vec4 vv = tri_attr(4u * prim + 3u);
         uint flags = floatBitsToUint(vv.w);
         vec3 ns = s.ng;
         if ((flags & 1u) != 0u) {
@@ -99,7 +99,7 @@ uint select_light(float u) {
     uint hi = g.num_lights - 1u;
     while (lo < hi) {
         uint mid = (lo + hi) / 2u;
-        if (uintBitsToFloat(lights[mid].y) > u) hi = mid; else lo = mid + 1u;
+        if (uintBitsToFloat(light_entry(mid).y) > u) hi = mid; else lo = mid + 1u;
     }
     return lo;
 }
@@ -108,32 +108,32 @@ uint select_light(float u) {
 struct LightSample { vec3 p; vec3 n; vec3 radiance; float density; };
 
 LightSample sample_light(float u_sel, float u1, float u2) {
-    uint prim = lights[select_light(u_sel)].x;
+    uint prim = light_entry(select_light(u_sel)).x;
     LightSample ls;
     if ((prim & SPHERE_BIT) != 0u) {
         uint i = prim & ~SPHERE_BIT;
-        vec4 cr = sphere_data[2u * i];
-        uvec4 info = floatBitsToUint(sphere_data[2u * i + 1u]);
+        vec4 cr = sphere_texel(2u * i);
+        uvec4 info = floatBitsToUint(sphere_texel(2u * i + 1u));
         float z = 1.0 - 2.0 * u1;
         float r = sqrt(max(1.0 - z * z, 0.0));
         float phi = 2.0 * PI * u2;
         vec3 dir = vec3(r * cos(phi), r * sin(phi), z);
         ls.p = cr.xyz + dir * cr.w;
         ls.n = info.z != 0u ? -dir : dir;
-        ls.radiance = emitters[info.y].xyz;
-        ls.density = emitters[info.y].w;
+        ls.radiance = emitter(info.y).xyz;
+        ls.density = emitter(info.y).w;
     } else {
-        vec4 a = tri_data[3u * prim];
-        vec4 b = tri_data[3u * prim + 1u];
-        vec4 c = tri_data[3u * prim + 2u];
+        vec4 a = tri_texel(3u * prim);
+        vec4 b = tri_texel(3u * prim + 1u);
+        vec4 c = tri_texel(3u * prim + 2u);
         float su = sqrt(u1);
         float b0 = 1.0 - su;
         float b1 = u2 * su;
         float b2 = 1.0 - b0 - b1;
         ls.p = a.xyz * b0 + b.xyz * b1 + c.xyz * b2;
         ls.n = normalize(cross(b.xyz - a.xyz, c.xyz - a.xyz));
-        ls.radiance = emitters[floatBitsToUint(b.w)].xyz;
-        ls.density = emitters[floatBitsToUint(b.w)].w;
+        ls.radiance = emitter(floatBitsToUint(b.w)).xyz;
+        ls.density = emitter(floatBitsToUint(b.w)).w;
     }
     return ls;
 }

@@ -2,8 +2,8 @@
 //!
 //! The work comes in waves of up to `MAX_CAPACITY` paths: a small image takes several
 //! consecutive samples of every pixel per wave (so that a large GPU has enough paths in flight),
-//! a large one one sample of one chunk of pixels per wave. One command buffer holds one sample
-//! pass over every chunk, or one wave of several samples:
+//! a large one one sample of one chunk of pixels per wave. One command buffer holds one or more
+//! waves:
 //!
 //! ```text
 //! generate                                   camera rays → ray queue 0
@@ -19,11 +19,16 @@
 //!                                            (one writer per pixel)
 //! ```
 //!
+//! [`Integrator::Megakernel`] replaces everything between `generate` and `accumulate` by one
+//! kernel that follows each path to its end (the benchmark's baseline; the same image).
+//!
 //! Only the models the scene's materials use get a queue and a shade pipeline; features a
 //! scene does not use are compiled out through the models' `#define`s. The algorithm and its
 //! conventions (depth, MIS, random-number keys) are those of the CPU reference (`crate::cpu`).
+//! Every buffer, counter and slot is named in [`layout`].
 
 pub mod brdf_probe;
+pub mod layout;
 pub mod scene_buffers;
 
 use crate::brdf::MODELS;
@@ -31,11 +36,13 @@ use crate::bvh::Bvh;
 use crate::lights::LightTable;
 use crate::output::{mean_and_variance, nonfinite_stages, RenderOutput};
 use crate::scene::Scene;
-use crate::vk::{Buffer, ComputePipeline, Context, ShaderCompiler};
+use crate::vk::{Buffer, ComputePipeline, Context, Recorder, Resource, ShaderCompiler};
 use anyhow::{bail, Context as _, Result};
 use ash::vk;
 use gpu_allocator::MemoryLocation;
+use layout::{Binding, Counter, Counters, Kind};
 use std::collections::BTreeSet;
+use std::ops::Range;
 use std::time::Instant;
 
 /// Bytes of push constants (`Push` in state.glsl).
@@ -51,11 +58,33 @@ struct Push {
     chunk_pixels: u32,
 }
 
-const NUM_BINDINGS: u32 = 22;
 const LOCAL_SIZE: u32 = 64;
 /// Most path slots in a wave: bounded by the 65535-workgroup dispatch limit and lavapipe's
 /// 128 MiB storage-buffer range (the queue buffer holds (3 + models) × capacity indices).
 pub const MAX_CAPACITY: u32 = 1 << 20;
+/// Segments recorded between two checks whether any path is left (deep renders only: a scene
+/// with `max_depth` at most this never waits for the host within a wave).
+const SEGMENTS_PER_CHECK: u32 = 16;
+
+/// How the GPU follows paths.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Integrator {
+    /// The wavefront stages above: path state in buffers, one kernel per stage and per model.
+    #[default]
+    Wavefront,
+    /// One kernel per wave that follows every path to its end and switches on the model: the
+    /// baseline of `brdfwave bench`. The same random numbers, arithmetic and image.
+    Megakernel,
+}
+
+impl Integrator {
+    pub fn name(self) -> &'static str {
+        match self {
+            Integrator::Wavefront => "wavefront",
+            Integrator::Megakernel => "megakernel",
+        }
+    }
+}
 
 /// Timing and bookkeeping of the set-up, for the summary.
 #[derive(Clone, Debug, Default)]
@@ -77,46 +106,88 @@ struct Kernel {
     set: vk::DescriptorSet,
 }
 
+/// The Vulkan objects a renderer made, destroyed when it goes (also when set-up fails half way).
+struct Owned<'a> {
+    ctx: &'a Context,
+    /// One buffer per [`Binding`], in binding order.
+    buffers: Vec<Buffer>,
+    /// Texel views, parallel to `buffers` (null for whole-buffer bindings).
+    views: Vec<vk::BufferView>,
+    kernels: Vec<Kernel>,
+}
+
+impl Owned<'_> {
+    fn buffer(&self, b: Binding) -> &Buffer {
+        &self.buffers[b.index() as usize]
+    }
+    fn resources(&self) -> Vec<Resource<'_>> {
+        self.buffers
+            .iter()
+            .zip(&self.views)
+            .map(|(b, &v)| match v == vk::BufferView::null() {
+                true => Resource::Buffer(b),
+                false => Resource::Texels(b, v),
+            })
+            .collect()
+    }
+}
+
+impl Drop for Owned<'_> {
+    fn drop(&mut self) {
+        for k in self.kernels.drain(..) {
+            self.ctx.destroy_pipeline(k.pipeline);
+        }
+        for v in self.views.drain(..) {
+            if v != vk::BufferView::null() {
+                self.ctx.destroy_buffer_view(v);
+            }
+        }
+        for b in self.buffers.drain(..) {
+            self.ctx.destroy_buffer(b);
+        }
+    }
+}
+
+/// Indices into `Owned::kernels`.
+#[derive(Clone, Copy)]
+struct Stages {
+    generate: usize,
+    prepare: usize,
+    extend: usize,
+    shadow: usize,
+    accumulate: usize,
+    megakernel: usize,
+}
+
 pub struct GpuRenderer<'a> {
     ctx: &'a Context,
     scene: &'a Scene,
-    buffers: Vec<Buffer>,
-    generate: Kernel,
-    prepare: Kernel,
-    extend: Kernel,
-    shadow: Kernel,
-    accumulate: Kernel,
-    /// (queue slot, model index, kernel)
-    shade: Vec<(u32, usize, Kernel)>,
+    owned: Owned<'a>,
+    stages: Stages,
+    /// (queue slot, model index, index into `owned.kernels`)
+    shade: Vec<(u32, usize, usize)>,
+    integrator: Integrator,
+    counters: Counters,
     capacity: u32,
+    /// Samples per pixel in the film so far.
+    samples_done: u32,
+    stage_seconds: Vec<(String, f64)>,
     pub setup: SetupStats,
 }
 
-/// Buffer indices = binding numbers (state.glsl).
-mod b {
-    pub const FILM: usize = 20;
-    pub const FILM2: usize = 21;
-    pub const COUNTERS: usize = 18;
-    pub const ARGS: usize = 19;
-}
-
 impl<'a> GpuRenderer<'a> {
-    /// A renderer with the largest wave ([`MAX_CAPACITY`] paths). Larger waves were faster on
-    /// every device measured: on lavapipe (2 cores) 2^20 paths gave 0.315 M paths/s against
-    /// 0.263 M with 2^16 (Cornell box 256², 64 spp; fewer dispatches and barriers), and an H200
-    /// needs about 2^20 paths in flight to fill.
+    /// A wavefront renderer with the largest wave ([`MAX_CAPACITY`] paths). Larger waves were
+    /// faster on every device measured (BENCHMARKS.md).
     pub fn new(
         ctx: &'a Context,
         scene: &'a Scene,
         bvh: &Bvh,
         compiler: &ShaderCompiler,
     ) -> Result<Self> {
-        Self::with_wave_paths(ctx, scene, bvh, compiler, MAX_CAPACITY)
+        Self::with_options(ctx, scene, bvh, compiler, MAX_CAPACITY, Integrator::Wavefront)
     }
 
-    /// A renderer that traces at most `wave_paths` paths at a time (64 ..= [`MAX_CAPACITY`]).
-    /// The image does not depend on it: the random numbers are keyed on (pixel, sample, bounce,
-    /// dimension) and the film adds each pixel's samples in sample order.
+    /// A wavefront renderer that traces at most `wave_paths` paths at a time.
     pub fn with_wave_paths(
         ctx: &'a Context,
         scene: &'a Scene,
@@ -124,7 +195,22 @@ impl<'a> GpuRenderer<'a> {
         compiler: &ShaderCompiler,
         wave_paths: u32,
     ) -> Result<Self> {
+        Self::with_options(ctx, scene, bvh, compiler, wave_paths, Integrator::Wavefront)
+    }
+
+    /// A renderer that traces at most `wave_paths` paths at a time (64 ..= [`MAX_CAPACITY`])
+    /// with `integrator`. The image depends on neither: the random numbers are keyed on (pixel,
+    /// sample, bounce, dimension) and the film adds each pixel's samples in sample order.
+    pub fn with_options(
+        ctx: &'a Context,
+        scene: &'a Scene,
+        bvh: &Bvh,
+        compiler: &ShaderCompiler,
+        wave_paths: u32,
+        integrator: Integrator,
+    ) -> Result<Self> {
         check_wave_paths(wave_paths).context("wave size")?;
+        check_max_depth(scene.integrator.max_depth)?;
         let mut setup = SetupStats::default();
         let pixels = scene.width as u64 * scene.height as u64;
         // Path slots: all the samples that fit of the whole image, or one chunk of it.
@@ -149,14 +235,13 @@ impl<'a> GpuRenderer<'a> {
             })
             .collect();
         let num_queues = models.len() as u32;
+        let counters = Counters { queues: num_queues };
 
-        // Scene and state buffers, in binding order.
         let t_upload = Instant::now();
         let lights = LightTable::build(scene);
-        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let film_bytes = pixels * 16;
         let limit = ctx.limits.max_storage_buffer_range as u64;
-        let queue_bytes = (3 + num_queues as u64) * capacity as u64 * 4;
+        let queue_bytes = (layout::QUEUE_MATERIAL as u64 + num_queues as u64) * capacity as u64 * 4;
         if film_bytes > limit || queue_bytes > limit {
             bail!(
                 "image of {}x{} needs a {} MiB film buffer, over this device's storage-buffer range of {} MiB; render a smaller image",
@@ -166,300 +251,197 @@ impl<'a> GpuRenderer<'a> {
                 limit >> 20
             );
         }
+        let mut owned = Owned {
+            ctx,
+            buffers: Vec::new(),
+            views: Vec::new(),
+            kernels: Vec::new(),
+        };
         let cap = capacity as u64;
-        let mut buffers = vec![
-            ctx.create_buffer_with_data("bvh_nodes", scene_buffers::bvh_nodes(bvh), storage)?,
-            ctx.create_buffer_with_data("bvh_prims", &bvh.prims, storage)?,
-            ctx.create_buffer_with_data(
-                "triangles",
-                &scene_buffers::triangle_data(scene),
-                storage,
-            )?,
-            ctx.create_buffer_with_data("spheres", &scene_buffers::sphere_data(scene), storage)?,
-            ctx.create_buffer_with_data(
-                "tri_attrs",
-                &scene_buffers::triangle_attributes(scene),
-                storage,
-            )?,
-            ctx.create_buffer_with_data(
-                "materials",
-                &scene_buffers::material_records(scene, &queue_slot),
-                storage,
-            )?,
-            ctx.create_buffer_with_data("lights", &scene_buffers::light_data(&lights), storage)?,
-            ctx.create_buffer_with_data(
-                "emitters",
-                &scene_buffers::emitter_data(scene, &lights),
-                storage,
-            )?,
-            ctx.create_buffer_with_data(
-                "globals",
-                &scene_buffers::globals(scene, &lights, num_queues, capacity),
-                storage,
-            )?,
-        ];
         let gpu = MemoryLocation::GpuOnly;
-        for name in [
-            "ray_o", "ray_d", "beta", "radiance", "hit_rec", "shadow_o", "shadow_d", "shadow_l",
-        ] {
-            buffers.push(ctx.create_buffer(name, cap * 16, storage, gpu)?);
+        for b in Binding::ALL {
+            let name = b.name();
+            let usage = b.usage();
+            let buffer = match b {
+                Binding::BvhNodes => {
+                    ctx.create_buffer_with_data(name, scene_buffers::bvh_nodes(bvh), usage)?
+                }
+                Binding::BvhPrims => ctx.create_buffer_with_data(name, &bvh.prims, usage)?,
+                Binding::Triangles => {
+                    ctx.create_buffer_with_data(name, &scene_buffers::triangle_data(scene), usage)?
+                }
+                Binding::Spheres => {
+                    ctx.create_buffer_with_data(name, &scene_buffers::sphere_data(scene), usage)?
+                }
+                Binding::TriAttrs => ctx.create_buffer_with_data(
+                    name,
+                    &scene_buffers::triangle_attributes(scene),
+                    usage,
+                )?,
+                Binding::Materials => ctx.create_buffer_with_data(
+                    name,
+                    &scene_buffers::material_records(scene, &queue_slot),
+                    usage,
+                )?,
+                Binding::Lights => {
+                    ctx.create_buffer_with_data(name, &scene_buffers::light_data(&lights), usage)?
+                }
+                Binding::Emitters => ctx.create_buffer_with_data(
+                    name,
+                    &scene_buffers::emitter_data(scene, &lights),
+                    usage,
+                )?,
+                Binding::Globals => ctx.create_buffer_with_data(
+                    name,
+                    &scene_buffers::globals(scene, &lights, num_queues, capacity),
+                    usage,
+                )?,
+                Binding::RayO
+                | Binding::RayD
+                | Binding::Beta
+                | Binding::Radiance
+                | Binding::HitRec
+                | Binding::ShadowO
+                | Binding::ShadowD
+                | Binding::ShadowL => ctx.create_buffer(name, cap * 16, usage, gpu)?,
+                Binding::Queues => ctx.create_buffer(name, queue_bytes, usage, gpu)?,
+                // Film and counters are read and written by every pass and read back once:
+                // device memory, downloaded through a staging copy (in host-visible memory every
+                // accumulate would cross PCIe on a discrete GPU).
+                Binding::Counters => ctx.create_buffer(name, counters.len() as u64 * 4, usage, gpu)?,
+                Binding::Args => ctx.create_buffer(
+                    name,
+                    (layout::ARGS_MATERIAL as u64 + num_queues as u64) * 16,
+                    usage | vk::BufferUsageFlags::INDIRECT_BUFFER,
+                    gpu,
+                )?,
+                Binding::Film | Binding::Film2 => ctx.create_buffer(name, film_bytes, usage, gpu)?,
+            };
+            owned.buffers.push(buffer);
+            let view = match b.kind() {
+                Kind::Texels(format) => ctx.create_buffer_view(owned.buffers.last().unwrap(), format)?,
+                Kind::Uniform | Kind::Storage => vk::BufferView::null(),
+            };
+            owned.views.push(view);
         }
-        buffers.push(ctx.create_buffer("queues", queue_bytes, storage, gpu)?);
-        // Film and counters are read and written by every pass and read back once: device
-        // memory, downloaded through a staging copy. (In host-visible memory, as first written,
-        // each accumulate crossed PCIe on a discrete GPU: 71% of the render time at 1024² on an
-        // H200; lavapipe cannot tell the difference.)
-        buffers.push(ctx.create_buffer(
-            "counters",
-            (9 + 2 * num_queues as u64) * 4,
-            storage | vk::BufferUsageFlags::TRANSFER_DST,
-            gpu,
-        )?);
-        buffers.push(ctx.create_buffer(
-            "args",
-            (2 + num_queues as u64) * 16,
-            storage | vk::BufferUsageFlags::INDIRECT_BUFFER,
-            gpu,
-        )?);
-        for name in ["film", "film2"] {
-            buffers.push(ctx.create_buffer(
-                name,
-                film_bytes,
-                storage | vk::BufferUsageFlags::TRANSFER_DST,
-                gpu,
-            )?);
-        }
-        assert_eq!(buffers.len() as u32, NUM_BINDINGS);
         setup.seconds_upload = t_upload.elapsed().as_secs_f64();
 
-        // Pipelines. On failure, everything made so far is destroyed before returning.
-        let mut built: Vec<Kernel> = Vec::new();
-        let result = Self::build_kernels(
-            ctx, scene, &models, &buffers, compiler, &mut setup, &mut built,
-        );
-        if let Err(e) = result {
-            for k in built {
-                ctx.destroy_pipeline(k.pipeline);
-            }
-            for b in buffers {
-                ctx.destroy_buffer(b);
-            }
-            return Err(e);
-        }
-        let mut it = built.into_iter();
-        let mut next = || it.next().expect("five stage kernels");
-        let (generate, prepare, extend, shadow, accumulate) =
-            (next(), next(), next(), next(), next());
-        let shade: Vec<(u32, usize, Kernel)> = it
-            .enumerate()
-            .map(|(slot, k)| (slot as u32, models[slot], k))
-            .collect();
-
+        let (stages, shade) =
+            build_kernels(ctx, scene, &models, &mut owned, compiler, &mut setup, integrator)?;
         Ok(GpuRenderer {
             ctx,
             scene,
-            buffers,
-            generate,
-            prepare,
-            extend,
-            shadow,
-            accumulate,
+            owned,
+            stages,
             shade,
+            integrator,
+            counters,
             capacity,
+            samples_done: 0,
+            stage_seconds: Vec::new(),
             setup,
         })
     }
 
-    /// Compile and create the stage pipelines (generate, prepare, extend, shadow, accumulate, in
-    /// that order) and one shade pipeline per model in `models`, pushing each onto `built`.
-    fn build_kernels(
-        ctx: &Context,
-        scene: &Scene,
-        models: &[usize],
-        buffers: &[Buffer],
-        compiler: &ShaderCompiler,
-        setup: &mut SetupStats,
-        built: &mut Vec<Kernel>,
-    ) -> Result<()> {
-        // Device-wide defines, added to every stage: subgroup-aggregated queue pushes where the
-        // device has subgroup ballots (see `queue_push` in state.glsl).
-        let device_defines: Vec<(String, String)> = if ctx.features.subgroup_ballot {
-            vec![("SUBGROUP_QUEUES".into(), "1".into())]
-        } else {
-            Vec::new()
-        };
-        let mut build = |name: &str,
-                         file: &str,
-                         mut defines: Vec<(String, String)>,
-                         overrides: Vec<(String, String)>|
-         -> Result<()> {
-            defines.extend(device_defines.iter().cloned());
-            let t = Instant::now();
-            let spirv = compiler
-                .compile(file, &defines, &overrides)
-                .with_context(|| format!("compiling {file} for pipeline {name}"))?;
-            setup.seconds_shader_compile += t.elapsed().as_secs_f64();
-            let t = Instant::now();
-            let pipeline = ctx.create_compute_pipeline(
-                name,
-                &spirv,
-                NUM_BINDINGS,
-                std::mem::size_of::<Push>() as u32,
-            )?;
-            setup.seconds_pipeline_create += t.elapsed().as_secs_f64();
-            let refs: Vec<&Buffer> = buffers.iter().collect();
-            let set = match ctx.create_descriptor_set(&pipeline, &refs) {
-                Ok(set) => set,
-                Err(e) => {
-                    ctx.destroy_pipeline(pipeline);
-                    return Err(e);
-                }
-            };
-            setup.pipelines.push(name.to_string());
-            built.push(Kernel { pipeline, set });
-            Ok(())
-        };
-        build("generate", "wavefront/generate.comp", vec![], vec![])?;
-        build("prepare", "wavefront/prepare.comp", vec![], vec![])?;
-        build("extend", "wavefront/extend.comp", vec![], vec![])?;
-        build("shadow", "wavefront/shadow.comp", vec![], vec![])?;
-        build("accumulate", "wavefront/accumulate.comp", vec![], vec![])?;
-        for &model in models {
-            let name = MODELS[model].name;
-            let mut defines: BTreeSet<&'static str> = BTreeSet::new();
-            for m in scene
-                .materials
-                .iter()
-                .filter(|m| m.model == model && m.brdf.scatters())
-            {
-                defines.extend(m.brdf.defines());
-            }
-            let (defs, overrides) = model_shader_inputs(model, defines);
-            build(
-                &format!("shade_{name}"),
-                "wavefront/shade.comp",
-                defs,
-                overrides,
-            )?;
-        }
+    /// Render `scene.integrator.spp` samples per pixel from an empty film; `progress` gets the
+    /// number of samples per pixel done after each batch of waves.
+    pub fn render(&mut self, progress: &dyn Fn(u32)) -> Result<RenderOutput> {
+        self.reset()?;
+        self.render_samples(0..self.scene.integrator.spp, progress)?;
+        self.output()
+    }
+
+    /// Empties the film and the counters.
+    pub fn reset(&mut self) -> Result<()> {
+        let mut rec = self.ctx.begin()?;
+        rec.fill_buffer(self.owned.buffer(Binding::Film), 0);
+        rec.fill_buffer(self.owned.buffer(Binding::Film2), 0);
+        rec.fill_buffer(self.owned.buffer(Binding::Counters), 0);
+        self.ctx.submit_and_wait(rec)?;
+        self.samples_done = 0;
+        self.stage_seconds.clear();
         Ok(())
     }
 
-    /// Render `scene.integrator.spp` samples per pixel; `progress` gets the number of samples per
-    /// pixel done after each wave.
-    pub fn render(&mut self, progress: &dyn Fn(u32)) -> Result<RenderOutput> {
+    /// Adds the samples `samples` (sample indices; the next ones after those already in the
+    /// film) of every pixel to the film. `progress` gets the samples per pixel in the film after
+    /// each batch of waves.
+    pub fn render_samples(&mut self, samples: Range<u32>, progress: &dyn Fn(u32)) -> Result<()> {
+        if samples.start != self.samples_done {
+            bail!(
+                "samples from {} asked for, but the film holds samples 0..{}",
+                samples.start,
+                self.samples_done
+            );
+        }
         let scene = self.scene;
         let pixels = scene.width * scene.height;
-        let spp = scene.integrator.spp;
         let ctx = self.ctx;
-        let mut rec = ctx.begin()?;
-        rec.fill_buffer(&self.buffers[b::FILM], 0);
-        rec.fill_buffer(&self.buffers[b::FILM2], 0);
-        rec.fill_buffer(&self.buffers[b::COUNTERS], 0);
-        ctx.submit_and_wait(rec)?;
-
         // The waves, in order: k samples of the whole image when it fits in a wave, else one
         // sample of one chunk of pixels. Consecutive waves share a command buffer (a batch) whose
         // size doubles while a submission takes under BATCH_SECONDS, so a fast GPU is not held
         // up by a wait per wave and a slow device still reports progress. A command buffer is
-        // also split, between two segments, before its timestamp queries run out.
-        let mut waves = waves(pixels, spp, self.capacity).peekable();
-        let stamps_per_segment = 4 + self.shade.len() as u32;
-        let mut stage_seconds: Vec<(String, f64)> = Vec::new();
+        // also split before its timestamp queries run out, and, in a deep render, every
+        // SEGMENTS_PER_CHECK segments to stop once no path is left.
+        let mut waves = waves(pixels, samples.clone(), self.capacity).peekable();
         let mut batch = 1usize;
         while waves.peek().is_some() {
             let t_batch = Instant::now();
             let mut rec = ctx.begin()?;
             rec.timestamp("start");
-            let mut samples_done = 0;
+            let mut samples_done = self.samples_done;
             for w in waves.by_ref().take(batch) {
                 samples_done = w.samples_done;
-                let mut push = Push {
+                let push = Push {
                     sample_index: w.sample,
                     chunk_offset: w.offset,
                     chunk_size: w.pixels * w.samples,
                     chunk_pixels: w.pixels,
                     ..Default::default()
                 };
-                if rec.timestamps_left() < 2 + stamps_per_segment {
-                    rec = self.resubmit(rec, &mut stage_seconds)?;
-                }
-                rec.bind(&self.generate.pipeline, self.generate.set);
-                rec.push_constants(&self.generate.pipeline, &push);
-                rec.dispatch(push.chunk_size.div_ceil(LOCAL_SIZE), 1, 1);
-                rec.barrier();
-                rec.timestamp("generate");
-                for depth in 1..=scene.integrator.max_depth {
-                    if rec.timestamps_left() < 1 + stamps_per_segment {
-                        rec = self.resubmit(rec, &mut stage_seconds)?;
-                    }
-                    push.bounce = depth;
-                    let args = &self.buffers[b::ARGS];
-                    self.run_prepare(&mut rec, &mut push, 0);
-                    rec.bind(&self.extend.pipeline, self.extend.set);
-                    rec.push_constants(&self.extend.pipeline, &push);
-                    rec.dispatch_indirect(args, 0);
-                    rec.barrier();
-                    rec.timestamp("extend");
-                    if depth == scene.integrator.max_depth {
-                        break;
-                    }
-                    self.run_prepare(&mut rec, &mut push, 1);
-                    for (slot, _, kernel) in &self.shade {
-                        push.queue_slot = *slot;
-                        rec.bind(&kernel.pipeline, kernel.set);
-                        rec.push_constants(&kernel.pipeline, &push);
-                        rec.dispatch_indirect(args, (2 + *slot as u64) * 16);
-                        rec.barrier();
-                        rec.timestamp(&kernel.pipeline.name);
-                    }
-                    self.run_prepare(&mut rec, &mut push, 2);
-                    rec.bind(&self.shadow.pipeline, self.shadow.set);
-                    rec.push_constants(&self.shadow.pipeline, &push);
-                    rec.dispatch_indirect(args, 16);
-                    rec.barrier();
-                    rec.timestamp("shadow");
-                }
-                if rec.timestamps_left() < 1 {
-                    rec = self.resubmit(rec, &mut stage_seconds)?;
-                }
-                rec.bind(&self.accumulate.pipeline, self.accumulate.set);
-                rec.push_constants(&self.accumulate.pipeline, &push);
-                rec.dispatch(w.pixels.div_ceil(LOCAL_SIZE), 1, 1);
-                rec.barrier();
-                rec.timestamp("accumulate");
+                rec = match self.integrator {
+                    Integrator::Wavefront => self.record_wave(rec, push)?,
+                    Integrator::Megakernel => self.record_megakernel_wave(rec, push)?,
+                };
+                rec = self.ensure_timestamps(rec, 1)?;
+                self.dispatch(&mut rec, self.stages.accumulate, &push, Dispatch::Groups(w.pixels.div_ceil(LOCAL_SIZE)), "accumulate");
             }
             ctx.submit_and_wait(rec)?;
-            add_stage_times(ctx.read_timestamps()?, &mut stage_seconds);
+            add_stage_times(ctx.read_timestamps()?, &mut self.stage_seconds);
+            self.samples_done = samples_done;
             progress(samples_done);
             if t_batch.elapsed().as_secs_f64() < BATCH_SECONDS {
                 batch = (batch * 2).min(MAX_BATCH);
             }
         }
+        Ok(())
+    }
 
-        let counters: Vec<u32> = ctx.download(&self.buffers[b::COUNTERS])?;
-        let film: Vec<[f32; 4]> = ctx.download(&self.buffers[b::FILM])?;
-        let film2: Vec<[f32; 4]> = ctx.download(&self.buffers[b::FILM2])?;
+    /// The image of the samples in the film so far, and the counters.
+    pub fn output(&self) -> Result<RenderOutput> {
+        let scene = self.scene;
+        let pixels = (scene.width * scene.height) as usize;
+        let spp = self.samples_done;
+        let ctx = self.ctx;
+        let counters: Vec<u32> = ctx.download(self.owned.buffer(Binding::Counters))?;
+        let film: Vec<[f32; 4]> = ctx.download(self.owned.buffer(Binding::Film))?;
+        let film2: Vec<[f32; 4]> = ctx.download(self.owned.buffer(Binding::Film2))?;
         let mut mean = crate::imageio::Image::new(scene.width, scene.height);
         let mut variance = crate::imageio::Image::new(scene.width, scene.height);
-        for i in 0..pixels as usize {
+        for i in 0..pixels {
             let s = [film[i][0] as f64, film[i][1] as f64, film[i][2] as f64];
             let s2 = [film2[i][0] as f64, film2[i][1] as f64, film2[i][2] as f64];
             let (m, v) = mean_and_variance(s, s2, spp);
             mean.data[i] = m;
             variance.data[i] = v;
         }
-        // Running totals kept by the prepare kernel from the queue sizes.
-        let extension_rays = counters[4] as u64 | (counters[5] as u64) << 32;
-        let shadow_rays = counters[6] as u64 | (counters[7] as u64) << 32;
-        // Non-finite values dropped where they arose (state.glsl lists the counters).
-        let nq = self.shade.len();
+        let c = self.counters;
         let nonfinite_by_stage = nonfinite_stages(
-            counters[8 + nq] as u64,
+            counters[c.nonfinite_extend()] as u64,
             self.shade
                 .iter()
-                .map(|(slot, model, _)| (*model, counters[9 + nq + *slot as usize] as u64)),
-            counters[3] as u64,
+                .map(|&(slot, model, _)| (model, counters[c.nonfinite_shade(slot)] as u64)),
+            counters[c.fixed(Counter::NonfiniteAccumulate)] as u64,
         );
         Ok(RenderOutput {
             mean,
@@ -467,57 +449,213 @@ impl<'a> GpuRenderer<'a> {
             spp,
             nonfinite_samples: nonfinite_by_stage.iter().map(|s| s.1).sum(),
             nonfinite_by_stage,
-            extension_rays,
-            shadow_rays,
-            stage_seconds,
+            // Running totals kept by the prepare kernel from the queue sizes (the megakernel
+            // counts its rays itself).
+            extension_rays: c.total(&counters, Counter::ExtensionRaysLo),
+            shadow_rays: c.total(&counters, Counter::ShadowRaysLo),
+            stage_seconds: self.stage_seconds.clone(),
         })
     }
 
-    /// Submits `rec` and waits, adds its stage times, and begins the next command buffer.
-    fn resubmit<'c>(
-        &self,
-        rec: crate::vk::Recorder<'c>,
-        stage_seconds: &mut Vec<(String, f64)>,
-    ) -> Result<crate::vk::Recorder<'c>>
+    /// Records one wave of the wavefront integrator after `generate`'s camera rays.
+    fn record_wave<'r>(&mut self, mut rec: Recorder<'r>, mut push: Push) -> Result<Recorder<'r>>
     where
-        'a: 'c,
+        'a: 'r,
+    {
+        let st = self.stages;
+        let max_depth = self.scene.integrator.max_depth;
+        let per_segment = 4 + self.shade.len() as u32;
+        rec = self.ensure_timestamps(rec, 2 + per_segment)?;
+        self.dispatch(&mut rec, st.generate, &push, Dispatch::Groups(push.chunk_size.div_ceil(LOCAL_SIZE)), "generate");
+        for depth in 1..=max_depth {
+            // A deep render stops once every path has ended: the host looks at the queue of the
+            // next segment every SEGMENTS_PER_CHECK segments.
+            if depth > 1 && max_depth > SEGMENTS_PER_CHECK && (depth - 1) % SEGMENTS_PER_CHECK == 0 {
+                rec = self.resubmit(rec)?;
+                let counters: Vec<u32> = self.ctx.download(self.owned.buffer(Binding::Counters))?;
+                if counters[ray_queue_in(depth) as usize] == 0 {
+                    break;
+                }
+            }
+            rec = self.ensure_timestamps(rec, 1 + per_segment)?;
+            push.bounce = depth;
+            self.prepare(&mut rec, &mut push, 0);
+            self.dispatch(&mut rec, st.extend, &push, Dispatch::Indirect(layout::ARGS_RAY), "extend");
+            if depth == max_depth {
+                break;
+            }
+            self.prepare(&mut rec, &mut push, 1);
+            for i in 0..self.shade.len() {
+                let (slot, _, kernel) = self.shade[i];
+                push.queue_slot = slot;
+                let name = self.owned.kernels[kernel].pipeline.name.clone();
+                self.dispatch(&mut rec, kernel, &push, Dispatch::Indirect(layout::ARGS_MATERIAL + slot), &name);
+            }
+            self.prepare(&mut rec, &mut push, 2);
+            self.dispatch(&mut rec, st.shadow, &push, Dispatch::Indirect(layout::ARGS_SHADOW), "shadow");
+        }
+        Ok(rec)
+    }
+
+    /// Records one wave of the megakernel: every path from the camera to its end.
+    fn record_megakernel_wave<'r>(&mut self, mut rec: Recorder<'r>, push: Push) -> Result<Recorder<'r>>
+    where
+        'a: 'r,
+    {
+        rec = self.ensure_timestamps(rec, 1)?;
+        let groups = push.chunk_size.div_ceil(LOCAL_SIZE);
+        self.dispatch(&mut rec, self.stages.megakernel, &push, Dispatch::Groups(groups), "megakernel");
+        Ok(rec)
+    }
+
+    /// Bind, push constants, dispatch, barrier, timestamp: every stage goes through here.
+    fn dispatch(&self, rec: &mut Recorder<'_>, kernel: usize, push: &Push, how: Dispatch, label: &str) {
+        let k = &self.owned.kernels[kernel];
+        rec.bind(&k.pipeline, k.set);
+        rec.push_constants(&k.pipeline, push);
+        match how {
+            Dispatch::Groups(n) => rec.dispatch(n, 1, 1),
+            Dispatch::Indirect(slot) => {
+                rec.dispatch_indirect(self.owned.buffer(Binding::Args), slot as u64 * 16)
+            }
+        }
+        rec.barrier();
+        rec.timestamp(label);
+    }
+
+    fn prepare(&self, rec: &mut Recorder<'_>, push: &mut Push, phase: u32) {
+        push.phase = phase;
+        self.dispatch(rec, self.stages.prepare, push, Dispatch::Groups(1), "prepare");
+    }
+
+    /// `rec`, or a new command buffer when fewer than `n` timestamps are left in it.
+    fn ensure_timestamps<'r>(&mut self, rec: Recorder<'r>, n: u32) -> Result<Recorder<'r>>
+    where
+        'a: 'r,
+    {
+        if rec.timestamps_left() < n {
+            self.resubmit(rec)
+        } else {
+            Ok(rec)
+        }
+    }
+
+    /// Submits `rec` and waits, adds its stage times, and begins the next command buffer.
+    fn resubmit<'r>(&mut self, rec: Recorder<'r>) -> Result<Recorder<'r>>
+    where
+        'a: 'r,
     {
         self.ctx.submit_and_wait(rec)?;
-        add_stage_times(self.ctx.read_timestamps()?, stage_seconds);
+        add_stage_times(self.ctx.read_timestamps()?, &mut self.stage_seconds);
         let mut rec = self.ctx.begin()?;
         rec.timestamp("start");
         Ok(rec)
     }
-
-    fn run_prepare(&self, rec: &mut crate::vk::Recorder<'_>, push: &mut Push, phase: u32) {
-        push.phase = phase;
-        rec.bind(&self.prepare.pipeline, self.prepare.set);
-        rec.push_constants(&self.prepare.pipeline, push);
-        rec.dispatch(1, 1, 1);
-        rec.barrier();
-        rec.timestamp("prepare");
-    }
 }
 
-impl Drop for GpuRenderer<'_> {
-    fn drop(&mut self) {
-        let ctx = self.ctx;
-        for k in [
-            &self.generate,
-            &self.prepare,
-            &self.extend,
-            &self.shadow,
-            &self.accumulate,
-        ] {
-            ctx.destroy_pipeline_ref(&k.pipeline);
+#[derive(Clone, Copy)]
+enum Dispatch {
+    Groups(u32),
+    /// Indirect, from this slot of the `args` buffer.
+    Indirect(u32),
+}
+
+/// The ray queue that holds the rays of segment `depth` (segment 1 reads queue 0).
+fn ray_queue_in(depth: u32) -> u32 {
+    (depth + 1) & 1
+}
+
+/// Compiles and creates the pipelines `integrator` needs (each stage, or the megakernel, and
+/// `accumulate`) and one shade pipeline per model in `models` for the wavefront.
+fn build_kernels(
+    ctx: &Context,
+    scene: &Scene,
+    models: &[usize],
+    owned: &mut Owned,
+    compiler: &ShaderCompiler,
+    setup: &mut SetupStats,
+    integrator: Integrator,
+) -> Result<(Stages, Vec<(u32, usize, usize)>)> {
+    // Defines added to every stage: the layout's numbers, and subgroup-aggregated queue pushes
+    // where the device has subgroup ballots (see `queue_push` in state.glsl).
+    let mut common = layout::defines();
+    common.push(("NO_QUEUE".into(), format!("{}u", scene_buffers::NO_QUEUE)));
+    if ctx.features.subgroup_ballot {
+        common.push(("SUBGROUP_QUEUES".into(), "1".into()));
+    }
+    let kinds: Vec<vk::DescriptorType> = Binding::ALL.iter().map(|b| b.descriptor_type()).collect();
+    let mut build = |name: &str, file: &str, mut defines: Vec<(String, String)>, overrides: Vec<(String, String)>| -> Result<usize> {
+        defines.extend(common.iter().cloned());
+        let t = Instant::now();
+        let spirv = compiler
+            .compile(file, &defines, &overrides)
+            .with_context(|| format!("compiling {file} for pipeline {name}"))?;
+        setup.seconds_shader_compile += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let pipeline = ctx.create_compute_pipeline_with(name, &spirv, &kinds, std::mem::size_of::<Push>() as u32)?;
+        setup.seconds_pipeline_create += t.elapsed().as_secs_f64();
+        let set = match ctx.create_descriptor_set_with(&pipeline, &owned.resources()) {
+            Ok(set) => set,
+            Err(e) => {
+                ctx.destroy_pipeline(pipeline);
+                return Err(e);
+            }
+        };
+        setup.pipelines.push(name.to_string());
+        owned.kernels.push(Kernel { pipeline, set });
+        Ok(owned.kernels.len() - 1)
+    };
+    // The features (defines) each model needs for the scene's materials.
+    let features = |model: usize| -> BTreeSet<&'static str> {
+        let mut f = BTreeSet::new();
+        for m in scene.materials.iter().filter(|m| m.model == model && m.brdf.scatters()) {
+            f.extend(m.brdf.defines());
         }
-        for (_, _, k) in &self.shade {
-            ctx.destroy_pipeline_ref(&k.pipeline);
+        f
+    };
+    let none = usize::MAX;
+    let mut stages = Stages { generate: none, prepare: none, extend: none, shadow: none, accumulate: none, megakernel: none };
+    let mut shade = Vec::new();
+    match integrator {
+        Integrator::Wavefront => {
+            stages.generate = build("generate", "wavefront/generate.comp", vec![], vec![])?;
+            stages.prepare = build("prepare", "wavefront/prepare.comp", vec![], vec![])?;
+            stages.extend = build("extend", "wavefront/extend.comp", vec![], vec![])?;
+            stages.shadow = build("shadow", "wavefront/shadow.comp", vec![], vec![])?;
+            for (slot, &model) in models.iter().enumerate() {
+                let (defs, overrides) = model_shader_inputs(model, features(model));
+                let k = build(&format!("shade_{}", MODELS[model].name), "wavefront/shade.comp", defs, overrides)?;
+                shade.push((slot as u32, model, k));
+            }
         }
-        for b in self.buffers.drain(..) {
-            ctx.destroy_buffer(b);
+        Integrator::Megakernel => {
+            let mut defs: Vec<(String, String)> = Vec::new();
+            for &model in models {
+                defs.push((format!("MODEL_{}", MODELS[model].name.to_uppercase()), format!("{model}u")));
+                defs.extend(features(model).into_iter().map(|f| (f.to_string(), "1".to_string())));
+            }
+            stages.megakernel = build("megakernel", "wavefront/megakernel.comp", defs, vec![])?;
+            // The shade stages' non-finite counters are read per model: the megakernel counts
+            // at the same slots.
+            for (slot, &model) in models.iter().enumerate() {
+                shade.push((slot as u32, model, none));
+            }
         }
     }
+    stages.accumulate = build("accumulate", "wavefront/accumulate.comp", vec![], vec![])?;
+    Ok((stages, shade))
+}
+
+/// Largest `max_depth` accepted (segments per path): the random-number key holds bounce × 64 +
+/// dimension in 32 bits, and a deeper path would reuse another bounce's numbers long before.
+pub const MAX_DEPTH: u32 = 1 << 20;
+
+/// A `max_depth` the GPU renderer accepts: 1 ..= [`MAX_DEPTH`].
+pub fn check_max_depth(max_depth: u32) -> Result<()> {
+    if !(1..=MAX_DEPTH).contains(&max_depth) {
+        bail!("max depth must be between 1 and {MAX_DEPTH} segments, got {max_depth}");
+    }
+    Ok(())
 }
 
 /// A wave size [`GpuRenderer::with_wave_paths`] accepts: 64 ..= [`MAX_CAPACITY`] paths.
@@ -568,10 +706,12 @@ struct Wave {
     samples_done: u32,
 }
 
-/// The waves of a render of `spp` samples over `pixels` pixels with `capacity` path slots, in
-/// order (an iterator: a long render at a high sample count holds no list of them).
-fn waves(pixels: u32, spp: u32, capacity: u32) -> impl Iterator<Item = Wave> {
-    let (mut sample, mut offset) = (0u32, 0u32);
+/// The waves that render the sample indices `samples` over `pixels` pixels with `capacity`
+/// path slots, in order (an iterator: a long render at a high sample count holds no list of
+/// them).
+fn waves(pixels: u32, samples: Range<u32>, capacity: u32) -> impl Iterator<Item = Wave> {
+    let spp = samples.end;
+    let (mut sample, mut offset) = (samples.start, 0u32);
     std::iter::from_fn(move || {
         if sample >= spp {
             return None;
@@ -628,7 +768,7 @@ mod tests {
     /// Every (pixel, sample) pair lies in exactly one wave, in sample order per pixel, and no
     /// wave is larger than the capacity.
     fn check(pixels: u32, spp: u32, capacity: u32) -> Vec<Wave> {
-        let w: Vec<Wave> = waves(pixels, spp, capacity).collect();
+        let w: Vec<Wave> = waves(pixels, 0..spp, capacity).collect();
         let mut seen = vec![0u32; (pixels * spp) as usize];
         let mut next_sample = vec![0u32; pixels as usize];
         let mut done = 0;

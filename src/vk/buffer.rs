@@ -215,6 +215,40 @@ impl Context {
         }
     }
 
+    /// A texel view of the whole of `buf` in `format`, for a uniform or storage texel-buffer
+    /// binding (the buffer needs the matching usage). Destroy it with
+    /// [`destroy_buffer_view`](Self::destroy_buffer_view) before the buffer.
+    pub fn create_buffer_view(&self, buf: &Buffer, format: vk::Format) -> Result<vk::BufferView> {
+        let texel = match format {
+            vk::Format::R32_UINT | vk::Format::R32_SFLOAT => 4,
+            vk::Format::R32G32_UINT | vk::Format::R32G32_SFLOAT => 8,
+            vk::Format::R32G32B32A32_UINT | vk::Format::R32G32B32A32_SFLOAT => 16,
+            _ => bail!("buffer view of \"{}\": format {format:?} is not supported", buf.name),
+        };
+        let texels = buf.vk_size / texel;
+        let max = self.limits.max_texel_buffer_elements as u64;
+        if texels > max {
+            bail!(
+                "buffer \"{}\" holds {texels} texels, more than the device's maxTexelBufferElements of {max}",
+                buf.name
+            );
+        }
+        let info = vk::BufferViewCreateInfo::default()
+            .buffer(buf.raw)
+            .format(format)
+            .offset(0)
+            .range(texels * texel);
+        let view = unsafe { self.device.create_buffer_view(&info, None) }
+            .with_context(|| format!("vkCreateBufferView \"{}\" ({format:?})", buf.name))?;
+        self.set_name(view, &buf.name);
+        Ok(view)
+    }
+
+    /// Destroys a view made by [`create_buffer_view`](Self::create_buffer_view).
+    pub fn destroy_buffer_view(&self, view: vk::BufferView) {
+        unsafe { self.device.destroy_buffer_view(view, None) };
+    }
+
     /// Memory range covering an allocation, aligned to `nonCoherentAtomSize` for flush and
     /// invalidate (WHOLE_SIZE from the aligned-down offset stays inside the mapping).
     fn mapped_range(&self, alloc: &Allocation) -> vk::MappedMemoryRange<'static> {

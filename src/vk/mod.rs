@@ -36,7 +36,7 @@ mod shader;
 pub use buffer::Buffer;
 pub use commands::Recorder;
 pub use context::{Context, ContextOptions, DeviceFeatures, MAX_TIMESTAMPS};
-pub use pipeline::{reflect_local_size, ComputePipeline};
+pub use pipeline::{reflect_local_size, ComputePipeline, Resource};
 pub use shader::{CompileStats, CompiledShader, ShaderCompiler, EMBEDDED_SHADERS, SHADER_DIR_ENV};
 
 /// Re-exported so that users of this module name the same versions.

@@ -1,6 +1,7 @@
-//! Compute pipelines: one descriptor set of storage buffers plus push constants per pipeline,
-//! created through a pipeline cache that persists on disk; descriptor sets from pools owned by
-//! the context; the workgroup size read back from the SPIR-V.
+//! Compute pipelines: one descriptor set (storage buffers, uniform buffers, uniform and storage
+//! texel buffers) plus push constants per pipeline, created through a pipeline cache that
+//! persists on disk; descriptor sets from pools owned by the context; the workgroup size read
+//! back from the SPIR-V.
 
 use super::buffer::Buffer;
 use super::cache::{default_cache_dir, write_atomic};
@@ -21,9 +22,25 @@ pub struct ComputePipeline {
     pub local_size_x: u32,
     /// The whole workgroup size.
     pub local_size: [u32; 3],
-    /// Storage-buffer bindings 0..n of set 0.
-    pub num_storage_buffers: u32,
+    /// The descriptor type of each binding 0..n of set 0.
+    pub bindings: Vec<vk::DescriptorType>,
     pub push_constant_bytes: u32,
+}
+
+/// What a descriptor set binds at one binding: a whole buffer (storage or uniform buffer), or a
+/// texel view of one (uniform or storage texel buffer).
+#[derive(Clone, Copy, Debug)]
+pub enum Resource<'b> {
+    Buffer(&'b Buffer),
+    Texels(&'b Buffer, vk::BufferView),
+}
+
+impl Resource<'_> {
+    fn buffer(&self) -> &Buffer {
+        match self {
+            Resource::Buffer(b) | Resource::Texels(b, _) => b,
+        }
+    }
 }
 
 impl Context {
@@ -37,22 +54,46 @@ impl Context {
         num_storage_buffers: u32,
         push_constant_bytes: u32,
     ) -> Result<ComputePipeline> {
+        let bindings = vec![vk::DescriptorType::STORAGE_BUFFER; num_storage_buffers as usize];
+        self.create_compute_pipeline_with(name, spirv, &bindings, push_constant_bytes)
+    }
+
+    /// A compute pipeline whose set 0 has the descriptor types `bindings` at bindings 0..n
+    /// (storage buffers, uniform buffers, uniform or storage texel buffers).
+    pub fn create_compute_pipeline_with(
+        &self,
+        name: &str,
+        spirv: &[u32],
+        bindings: &[vk::DescriptorType],
+        push_constant_bytes: u32,
+    ) -> Result<ComputePipeline> {
         let local_size = reflect_local_size(spirv)
             .with_context(|| format!("pipeline \"{name}\": reading the SPIR-V"))?;
-        let max_buffers = self.limits.max_per_stage_descriptor_storage_buffers;
-        if num_storage_buffers > max_buffers {
-            bail!("pipeline \"{name}\": {num_storage_buffers} storage buffers, the device allows {max_buffers} per stage");
+        let count = |t: vk::DescriptorType| bindings.iter().filter(|&&b| b == t).count() as u32;
+        let l = &self.limits;
+        for (t, max, what) in [
+            (vk::DescriptorType::STORAGE_BUFFER, l.max_per_stage_descriptor_storage_buffers, "storage buffers"),
+            (vk::DescriptorType::UNIFORM_BUFFER, l.max_per_stage_descriptor_uniform_buffers, "uniform buffers"),
+            (vk::DescriptorType::UNIFORM_TEXEL_BUFFER, l.max_per_stage_descriptor_sampled_images, "uniform texel buffers"),
+            (vk::DescriptorType::STORAGE_TEXEL_BUFFER, l.max_per_stage_descriptor_storage_images, "storage texel buffers"),
+        ] {
+            if count(t) > max {
+                bail!("pipeline \"{name}\": {} {what}, the device allows {max} per stage", count(t));
+            }
         }
         let max_push = self.limits.max_push_constants_size;
         if push_constant_bytes > max_push || push_constant_bytes % 4 != 0 {
             bail!("pipeline \"{name}\": push constants of {push_constant_bytes} bytes; need a multiple of 4 and at most {max_push}");
         }
         let d = &self.device;
-        let bindings: Vec<_> = (0..num_storage_buffers)
-            .map(|i| {
+        let kinds = bindings;
+        let bindings: Vec<_> = kinds
+            .iter()
+            .enumerate()
+            .map(|(i, &t)| {
                 vk::DescriptorSetLayoutBinding::default()
-                    .binding(i)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .binding(i as u32)
+                    .descriptor_type(t)
                     .descriptor_count(1)
                     .stage_flags(vk::ShaderStageFlags::COMPUTE)
             })
@@ -128,36 +169,72 @@ impl Context {
             set_layout,
             local_size_x: local_size[0],
             local_size,
-            num_storage_buffers,
+            bindings: kinds.to_vec(),
             push_constant_bytes,
         })
     }
 
-    /// A descriptor set for `pipeline` with `buffers[i]` at binding i (whole buffers), from a
-    /// pool owned by the context. The set belongs to `pipeline`: it is freed when the pipeline
-    /// is destroyed.
+    /// A descriptor set for `pipeline` with `buffers[i]` at binding i (whole buffers; every
+    /// binding a storage buffer). See [`create_descriptor_set_with`](Self::create_descriptor_set_with).
     pub fn create_descriptor_set(
         &self,
         pipeline: &ComputePipeline,
         buffers: &[&Buffer],
     ) -> Result<vk::DescriptorSet> {
-        if buffers.len() as u32 != pipeline.num_storage_buffers {
+        let resources: Vec<Resource> = buffers.iter().map(|b| Resource::Buffer(b)).collect();
+        self.create_descriptor_set_with(pipeline, &resources)
+    }
+
+    /// A descriptor set for `pipeline` with `resources[i]` at binding i, from a pool owned by
+    /// the context: a whole buffer for a storage or uniform buffer binding, a texel view for a
+    /// texel-buffer binding. The set belongs to `pipeline`: it is freed when the pipeline is
+    /// destroyed.
+    pub fn create_descriptor_set_with(
+        &self,
+        pipeline: &ComputePipeline,
+        resources: &[Resource],
+    ) -> Result<vk::DescriptorSet> {
+        if resources.len() != pipeline.bindings.len() {
             bail!(
                 "descriptor set for pipeline \"{}\": {} buffers given, the pipeline has {} bindings",
                 pipeline.name,
-                buffers.len(),
-                pipeline.num_storage_buffers
+                resources.len(),
+                pipeline.bindings.len()
             );
         }
-        for (i, b) in buffers.iter().enumerate() {
-            if !b.usage.contains(vk::BufferUsageFlags::STORAGE_BUFFER) {
-                bail!("descriptor set for pipeline \"{}\": buffer \"{}\" (binding {i}) lacks STORAGE_BUFFER usage", pipeline.name, b.name);
+        for (i, (r, &t)) in resources.iter().zip(&pipeline.bindings).enumerate() {
+            let b = r.buffer();
+            let (usage, max, limit) = match t {
+                vk::DescriptorType::STORAGE_BUFFER => (
+                    vk::BufferUsageFlags::STORAGE_BUFFER,
+                    self.limits.max_storage_buffer_range as u64,
+                    "maxStorageBufferRange",
+                ),
+                vk::DescriptorType::UNIFORM_BUFFER => (
+                    vk::BufferUsageFlags::UNIFORM_BUFFER,
+                    self.limits.max_uniform_buffer_range as u64,
+                    "maxUniformBufferRange",
+                ),
+                vk::DescriptorType::UNIFORM_TEXEL_BUFFER => {
+                    (vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER, u64::MAX, "")
+                }
+                _ => (vk::BufferUsageFlags::STORAGE_TEXEL_BUFFER, u64::MAX, ""),
+            };
+            let is_view = matches!(r, Resource::Texels(..));
+            let wants_view = matches!(
+                t,
+                vk::DescriptorType::UNIFORM_TEXEL_BUFFER | vk::DescriptorType::STORAGE_TEXEL_BUFFER
+            );
+            if is_view != wants_view {
+                bail!("descriptor set for pipeline \"{}\": binding {i} (buffer \"{}\") is a {t:?}, which takes {}", pipeline.name, b.name, if wants_view { "a texel view" } else { "a whole buffer" });
             }
-            let max = self.limits.max_storage_buffer_range as u64;
+            if !b.usage.contains(usage) {
+                bail!("descriptor set for pipeline \"{}\": buffer \"{}\" (binding {i}) lacks {usage:?} usage", pipeline.name, b.name);
+            }
             if b.vk_size > max {
                 bail!(
                     "descriptor set for pipeline \"{}\": buffer \"{}\" (binding {i}) has {} bytes, more than the device's \
-                     maxStorageBufferRange of {max} bytes; split it",
+                     {limit} of {max} bytes; split it",
                     pipeline.name,
                     b.name,
                     b.vk_size
@@ -172,7 +249,7 @@ impl Context {
                 &self.device,
                 pipeline.pipeline,
                 pipeline.set_layout,
-                pipeline.num_storage_buffers,
+                pipeline.bindings.len() as u32,
             )
             .with_context(|| {
                 format!(
@@ -180,24 +257,34 @@ impl Context {
                     pipeline.name
                 )
             })?;
-        let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
+        let infos: Vec<[vk::DescriptorBufferInfo; 1]> = resources
             .iter()
-            .map(|b| {
+            .map(|r| {
                 [vk::DescriptorBufferInfo::default()
-                    .buffer(b.raw)
+                    .buffer(r.buffer().raw)
                     .offset(0)
                     .range(vk::WHOLE_SIZE)]
             })
             .collect();
-        let writes: Vec<_> = infos
+        let views: Vec<[vk::BufferView; 1]> = resources
+            .iter()
+            .map(|r| match r {
+                Resource::Texels(_, v) => [*v],
+                Resource::Buffer(_) => [vk::BufferView::null()],
+            })
+            .collect();
+        let writes: Vec<_> = resources
             .iter()
             .enumerate()
-            .map(|(i, info)| {
-                vk::WriteDescriptorSet::default()
+            .map(|(i, r)| {
+                let w = vk::WriteDescriptorSet::default()
                     .dst_set(set)
                     .dst_binding(i as u32)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                    .buffer_info(info)
+                    .descriptor_type(pipeline.bindings[i]);
+                match r {
+                    Resource::Buffer(_) => w.buffer_info(&infos[i]),
+                    Resource::Texels(..) => w.texel_buffer_view(&views[i]),
+                }
             })
             .collect();
         unsafe { self.device.update_descriptor_sets(&writes, &[]) };
@@ -251,7 +338,7 @@ struct Pool {
     descriptors_left: u32,
 }
 
-/// Descriptor pools of the context (storage buffers only, FREE_DESCRIPTOR_SET). Capacity is
+/// Descriptor pools of the context (FREE_DESCRIPTOR_SET). Capacity is
 /// tracked here, so a pool with room is chosen before allocating; sets are freed when their
 /// pipeline is destroyed and their room is reused.
 #[derive(Default)]
@@ -280,9 +367,14 @@ impl DescriptorPools {
                 Some(i) => i,
                 None => {
                     let count = Self::DESCRIPTORS_PER_POOL.max(descriptors);
-                    let sizes = [vk::DescriptorPoolSize::default()
-                        .ty(vk::DescriptorType::STORAGE_BUFFER)
-                        .descriptor_count(count)];
+                    // Room for `count` descriptors of each type a pipeline may bind.
+                    let sizes = [
+                        vk::DescriptorType::STORAGE_BUFFER,
+                        vk::DescriptorType::UNIFORM_BUFFER,
+                        vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
+                        vk::DescriptorType::STORAGE_TEXEL_BUFFER,
+                    ]
+                    .map(|t| vk::DescriptorPoolSize::default().ty(t).descriptor_count(count));
                     let info = vk::DescriptorPoolCreateInfo::default()
                         .flags(vk::DescriptorPoolCreateFlags::FREE_DESCRIPTOR_SET)
                         .max_sets(Self::SETS_PER_POOL)

@@ -1,0 +1,68 @@
+#version 460
+// The megakernel baseline: the same integrator as the wavefront stages, with every step of a
+// path in one invocation: camera ray, then per segment the closest hit (wavefront/path.glsl
+// `segment_end`), the shading of every model behind one switch (brdf/any.glsl), and the shadow
+// ray traced on the spot. The same random-number keys, arithmetic and order of additions as the
+// wavefront stages, so the same image; it writes each path's radiance for `accumulate`.
+// Here for the benchmark (`brdfwave bench`, `render --integrator megakernel`): it keeps no
+// path state in memory and needs no queues, at the price of SIMD lanes that wait for the
+// slowest path of their subgroup and for every model's code in one pipeline.
+#extension GL_GOOGLE_include_directive : require
+#include "brdf/any.glsl"
+#include "wavefront/scatter.glsl"
+layout(local_size_x = 64) in;
+
+// Rays traced by the workgroup, added to the 64-bit totals once per workgroup.
+shared uint wg_extension;
+shared uint wg_shadow;
+
+void add_total64(uint c, uint n) {
+    if (n == 0u) return;
+    uint old = atomicAdd(counters[c], n);
+    if (old + n < old) atomicAdd(counters[c + 1u], 1u);
+}
+
+void main() {
+    if (gl_LocalInvocationIndex == 0u) {
+        wg_extension = 0u;
+        wg_shadow = 0u;
+    }
+    barrier();
+    uint path = gl_GlobalInvocationID.x;
+    if (path < pc.chunk_size) {
+        uint n_extension = 0u;
+        uint n_shadow = 0u;
+        vec3 o;
+        vec3 d;
+        camera_ray(path, o, d);
+        vec3 b = vec3(1.0);
+        vec3 l = vec3(0.0);
+        float prev_pdf = 0.0;
+        for (uint depth = 1u; depth <= g.max_depth; ++depth) {
+            vec3 e;
+            Hit hit;
+            n_extension += 1u;
+            uint slot = segment_end(depth, o, d, prev_pdf, b, e, hit);
+            l += e;
+            if (slot == NO_QUEUE) break;
+            Scatter sc = shade_vertex(path, depth, hit, o, d, b, counter_nonfinite_shade(slot));
+            if (sc.shadow) {
+                n_shadow += 1u;
+                if (!trace_any(sc.shadow_o, sc.shadow_d, sc.shadow_tmax)) l += sc.shadow_l;
+            }
+            if (!sc.next) break;
+            o = sc.o;
+            d = sc.d;
+            b = sc.beta;
+            prev_pdf = sc.pdf;
+        }
+        radiance[path] = vec4(l, 0.0);
+        atomicAdd(wg_extension, n_extension);
+        atomicAdd(wg_shadow, n_shadow);
+    }
+    barrier();
+    if (gl_LocalInvocationIndex == 0u) {
+        add_total64(COUNTER_EXT_TOTAL, wg_extension);
+        add_total64(COUNTER_SHADOW_TOTAL, wg_shadow);
+    }
+}

@@ -1,0 +1,52 @@
+// The integrator's steps along one path, written once and used by both GPU integrators: the
+// wavefront stages (generate, extend, shade, shadow: one step per kernel, the path state in
+// buffers between them) and the megakernel (every step of a path in one invocation). Rust twin
+// (independent code, same conventions and random-number keys): src/cpu/mod.rs.
+//
+// Shading a vertex is in wavefront/scatter.glsl, which needs the BRDF interface.
+#ifndef PATH_GLSL
+#define PATH_GLSL
+#include "wavefront/surface.glsl"
+
+// Camera ray of path slot `path`: box pixel filter, uniform position in the pixel.
+void camera_ray(uint path, out vec3 o, out vec3 d) {
+    uint pixel = path_pixel(path);
+    uint x = pixel % g.width;
+    uint y = pixel / g.width;
+    float fx = float(x) + rand(path, 0u, DIM_PIXEL_X);
+    float fy = float(y) + rand(path, 0u, DIM_PIXEL_Y);
+    float sx = 2.0 * fx / float(g.width) - 1.0;
+    float sy = 1.0 - 2.0 * fy / float(g.height);
+    o = g.cam_origin;
+    d = normalize(g.cam_forward + sx * g.cam_right + sy * g.cam_up);
+}
+
+// The end of path segment `depth` (ray o + t d, throughput b, pdf of the BSDF sample that chose
+// d or 0): the emitted light seen there, MIS-weighted against next-event estimation, or the
+// environment on a miss, goes to `e` (zero when none; a non-finite value is counted at the
+// extend counter and dropped). Returns the material queue slot when the path goes on from a
+// surface, NO_QUEUE when it ends (miss, back face, the depth limit, a black surface).
+uint segment_end(uint depth, vec3 o, vec3 d, float prev_pdf, vec3 b, out vec3 e, out Hit hit) {
+    e = vec3(0.0);
+    if (!trace_closest(o, d, 3.402823e38, hit)) {
+        vec3 env = b * g.environment;
+        if (finite_or_count(env, counter_nonfinite_extend())) e = env;
+        return NO_QUEUE;
+    }
+    Surface s = surface_at(hit.prim, hit.bary, hit.t, o, d);
+    if (!s.front) return NO_QUEUE;
+    if (s.emitter != NO_EMITTER) {
+        vec3 le = emitter(s.emitter).xyz;
+        float w = 1.0;
+        if (prev_pdf > 0.0) {
+            float cos_light = -dot(d, s.ng);
+            w = power_heuristic(prev_pdf, light_pdf(emitter(s.emitter).w, hit.t * hit.t, cos_light));
+        }
+        vec3 em = b * le * w;
+        if (finite_or_count(em, counter_nonfinite_extend())) e = em;
+    }
+    if (depth >= g.max_depth) return NO_QUEUE;
+    return texelFetch(material_words, int(8u * s.material)).y;
+}
+
+#endif

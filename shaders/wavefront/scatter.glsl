@@ -1,0 +1,103 @@
+// Shading one path vertex: a light sample and a BRDF sample. Used by the wavefront shade
+// kernels and by the megakernel. The includer defines BRDF_EVAL / BRDF_PDF / BRDF_SAMPLE first
+// (shade.comp: one model's functions; megakernel.comp: brdf/any.glsl, a switch over the
+// scene's models). Rust twin: the loop body of CpuRenderer::trace_path (src/cpu/mod.rs).
+#ifndef SCATTER_GLSL
+#define SCATTER_GLSL
+#include "wavefront/path.glsl"
+
+// What shading one surface vertex produces: at most one shadow ray with the contribution it
+// adds when unoccluded, and the next segment of the path.
+struct Scatter {
+    bool shadow;          // a shadow ray was made
+    vec3 shadow_o;
+    vec3 shadow_d;
+    float shadow_tmax;
+    vec3 shadow_l;        // its unoccluded contribution
+    bool next;            // the path goes on
+    vec3 o;               // next segment: origin, direction, throughput, pdf (0: delta)
+    vec3 d;
+    vec3 beta;
+    float pdf;
+};
+
+// Shades the vertex at the end of segment `depth` (the hit record of ray o + t d): one light
+// sample (next-event estimation) and one BRDF sample, keyed on (path, depth). Non-finite light
+// contributions and continuations are counted at counter c and dropped.
+Scatter shade_vertex(uint path, uint depth, Hit hit, vec3 o, vec3 d, vec3 b, uint c) {
+    Scatter r;
+    r.shadow = false;
+    r.next = false;
+    r.shadow_o = vec3(0.0);
+    r.shadow_d = vec3(0.0);
+    r.shadow_tmax = 0.0;
+    r.shadow_l = vec3(0.0);
+    r.o = vec3(0.0);
+    r.d = vec3(0.0);
+    r.beta = vec3(0.0);
+    r.pdf = 0.0;
+    Surface s = surface_at(hit.prim, hit.bary, hit.t, o, d);
+    Material m = load_material(s.material);
+    vec3 wo = to_local(s.frame, -d);
+    if (wo.z <= 0.0) return r;
+    vec3 origin = offset_ray_origin(s.p, s.ng);
+
+    // Next-event estimation.
+    if (g.num_lights > 0u) {
+        LightSample ls = sample_light(rand(path, depth, DIM_LIGHT_SELECT), rand(path, depth, DIM_LIGHT_U),
+                                      rand(path, depth, DIM_LIGHT_V));
+        vec3 target = offset_ray_origin(ls.p, ls.n);
+        vec3 to_light = target - origin;
+        float dist2 = dot(to_light, to_light);
+        if (dist2 > 0.0) {
+            float dist = sqrt(dist2);
+            vec3 wi = to_light / dist;
+            float cos_light = -dot(wi, ls.n);
+            vec3 wi_local = to_local(s.frame, wi);
+            if (cos_light > 0.0 && dot(wi, s.ng) > 0.0 && wi_local.z > 0.0) {
+                float pdf_l = light_pdf(ls.density, dist2, cos_light);
+                vec3 f = BRDF_EVAL(m, wi_local, wo);
+                if (pdf_l > 0.0 && (f.x != 0.0 || f.y != 0.0 || f.z != 0.0)) {
+                    float pdf_b = BRDF_PDF(m, wo, wi_local);
+                    float w = power_heuristic(pdf_l, pdf_b);
+                    vec3 contrib = b * f * (wi_local.z * w / pdf_l) * ls.radiance;
+                    if (finite_or_count(contrib, c)) {
+                        r.shadow = true;
+                        r.shadow_o = origin;
+                        r.shadow_d = wi;
+                        r.shadow_tmax = dist;
+                        r.shadow_l = contrib;
+                    }
+                }
+            }
+        }
+    }
+
+    // BRDF sampling for the next segment.
+    BrdfSample bs;
+    vec2 u = vec2(rand(path, depth, DIM_BSDF_U), rand(path, depth, DIM_BSDF_V));
+    if (!BRDF_SAMPLE(m, wo, rand(path, depth, DIM_BSDF_LOBE), u, bs)) return r;
+    vec3 wi = to_world(s.frame, bs.wi);
+    if (dot(wi, s.ng) <= 0.0) return r;
+    b *= bs.weight;
+    float prev_pdf = bs.delta ? 0.0 : bs.pdf;
+    if (g.rr_enabled != 0u && depth >= g.rr_start_depth) {
+        float q = min(max(b.x, max(b.y, b.z)), 1.0);
+        if (rand(path, depth, DIM_RR) >= q) return r;
+        b /= q;
+    }
+    // A non-finite throughput, direction or pdf ends the path, counted.
+    if (!(is_finite_v(b) && is_finite_v(wi) && is_finite_f(prev_pdf))) {
+        atomicAdd(counters[c], 1u);
+        return r;
+    }
+    if (b.x == 0.0 && b.y == 0.0 && b.z == 0.0) return r;
+    r.next = true;
+    r.o = origin;
+    r.d = wi;
+    r.beta = b;
+    r.pdf = prev_pdf;
+    return r;
+}
+
+#endif

@@ -1,0 +1,274 @@
+//! The wavefront integrator's GPU state, described once: every binding of set 0 (its name,
+//! descriptor type and texel format), every counter and every indirect-dispatch slot. The
+//! shaders get the same numbers as `#define`s generated from here at compile time
+//! ([`defines`]); the renderer allocates, binds and reads back buffers by these names.
+//!
+//! Why texel buffers: lavapipe (Mesa's llvmpipe) runs 8 invocations as the lanes of one SIMD
+//! vector. A storage-buffer access at a per-lane index becomes a loop over the lanes with a
+//! branch and a bounds check per lane and per component, while a texel fetch is a vector
+//! gather and a uniform-buffer read at a uniform offset is one scalar load. Scene data (read
+//! only, read at every BVH node and triangle) is therefore bound as uniform texel buffers, the
+//! scene-wide values as a uniform buffer. BENCHMARKS.md has the measurements.
+
+use ash::vk;
+
+/// How a binding is declared and bound.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// `uniform` block (small, read at uniform offsets).
+    Uniform,
+    /// `uniform usamplerBuffer` read with `texelFetch`, in this format.
+    Texels(vk::Format),
+    /// `buffer` block (read-write).
+    Storage,
+}
+
+/// One binding of set 0: its GLSL name is the define `BINDING_<NAME>` (upper case).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Binding {
+    // Scene, read only.
+    BvhNodes,
+    BvhPrims,
+    Triangles,
+    Spheres,
+    TriAttrs,
+    Materials,
+    Lights,
+    Emitters,
+    Globals,
+    // Path state, one entry per path slot of the wave.
+    RayO,
+    RayD,
+    Beta,
+    Radiance,
+    HitRec,
+    ShadowO,
+    ShadowD,
+    ShadowL,
+    // Queues, counters, indirect arguments, film.
+    Queues,
+    Counters,
+    Args,
+    Film,
+    Film2,
+}
+
+impl Binding {
+    /// Every binding, in binding-number order.
+    pub const ALL: [Binding; 22] = [
+        Binding::BvhNodes,
+        Binding::BvhPrims,
+        Binding::Triangles,
+        Binding::Spheres,
+        Binding::TriAttrs,
+        Binding::Materials,
+        Binding::Lights,
+        Binding::Emitters,
+        Binding::Globals,
+        Binding::RayO,
+        Binding::RayD,
+        Binding::Beta,
+        Binding::Radiance,
+        Binding::HitRec,
+        Binding::ShadowO,
+        Binding::ShadowD,
+        Binding::ShadowL,
+        Binding::Queues,
+        Binding::Counters,
+        Binding::Args,
+        Binding::Film,
+        Binding::Film2,
+    ];
+
+    /// The binding number.
+    pub fn index(self) -> u32 {
+        self as u32
+    }
+
+    /// The buffer's name (debug names, messages) and, upper-cased, the GLSL define's suffix.
+    pub fn name(self) -> &'static str {
+        match self {
+            Binding::BvhNodes => "bvh_nodes",
+            Binding::BvhPrims => "bvh_prims",
+            Binding::Triangles => "triangles",
+            Binding::Spheres => "spheres",
+            Binding::TriAttrs => "tri_attrs",
+            Binding::Materials => "materials",
+            Binding::Lights => "lights",
+            Binding::Emitters => "emitters",
+            Binding::Globals => "globals",
+            Binding::RayO => "ray_o",
+            Binding::RayD => "ray_d",
+            Binding::Beta => "beta",
+            Binding::Radiance => "radiance",
+            Binding::HitRec => "hit_rec",
+            Binding::ShadowO => "shadow_o",
+            Binding::ShadowD => "shadow_d",
+            Binding::ShadowL => "shadow_l",
+            Binding::Queues => "queues",
+            Binding::Counters => "counters",
+            Binding::Args => "args",
+            Binding::Film => "film",
+            Binding::Film2 => "film2",
+        }
+    }
+
+    pub fn kind(self) -> Kind {
+        use vk::Format as F;
+        match self {
+            Binding::BvhNodes
+            | Binding::Triangles
+            | Binding::Spheres
+            | Binding::TriAttrs
+            | Binding::Materials
+            | Binding::Emitters => Kind::Texels(F::R32G32B32A32_UINT),
+            Binding::BvhPrims => Kind::Texels(F::R32_UINT),
+            Binding::Lights => Kind::Texels(F::R32G32_UINT),
+            Binding::Globals => Kind::Uniform,
+            _ => Kind::Storage,
+        }
+    }
+
+    pub fn descriptor_type(self) -> vk::DescriptorType {
+        match self.kind() {
+            Kind::Uniform => vk::DescriptorType::UNIFORM_BUFFER,
+            Kind::Texels(_) => vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
+            Kind::Storage => vk::DescriptorType::STORAGE_BUFFER,
+        }
+    }
+
+    /// The buffer usage the binding needs.
+    pub fn usage(self) -> vk::BufferUsageFlags {
+        match self.kind() {
+            Kind::Uniform => vk::BufferUsageFlags::UNIFORM_BUFFER,
+            Kind::Texels(_) => vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
+            Kind::Storage => vk::BufferUsageFlags::STORAGE_BUFFER,
+        }
+    }
+}
+
+/// The counters (one u32 each) in binding `counters`: fixed ones first, then per material
+/// queue k its length, then the non-finite counts of `extend` and of each shade kernel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Counter {
+    /// Lengths of the two ping-pong ray queues.
+    RayQueue0,
+    RayQueue1,
+    /// Length of the shadow-ray queue.
+    ShadowQueue,
+    /// Non-finite samples dropped by `accumulate`.
+    NonfiniteAccumulate,
+    /// 64-bit running totals (low word, high word) of extension and shadow rays traced.
+    ExtensionRaysLo,
+    ExtensionRaysHi,
+    ShadowRaysLo,
+    ShadowRaysHi,
+}
+
+/// Counters before the per-queue ones.
+pub const FIXED_COUNTERS: u32 = 8;
+
+/// Where each counter of a scene with `queues` material queues is.
+#[derive(Clone, Copy, Debug)]
+pub struct Counters {
+    pub queues: u32,
+}
+
+impl Counters {
+    pub fn fixed(self, c: Counter) -> usize {
+        c as usize
+    }
+    /// Length of material queue k.
+    pub fn material_queue(self, k: u32) -> usize {
+        (FIXED_COUNTERS + k) as usize
+    }
+    /// Non-finite emitted values dropped by `extend`.
+    pub fn nonfinite_extend(self) -> usize {
+        (FIXED_COUNTERS + self.queues) as usize
+    }
+    /// Non-finite values dropped by the shade kernel of material queue k.
+    pub fn nonfinite_shade(self, k: u32) -> usize {
+        (FIXED_COUNTERS + self.queues + 1 + k) as usize
+    }
+    /// How many counters there are.
+    pub fn len(self) -> usize {
+        (FIXED_COUNTERS + 2 * self.queues + 1) as usize
+    }
+    pub fn is_empty(self) -> bool {
+        false
+    }
+    /// A 64-bit total kept in two words from `lo`.
+    pub fn total(self, values: &[u32], lo: Counter) -> u64 {
+        values[lo as usize] as u64 | (values[lo as usize + 1] as u64) << 32
+    }
+}
+
+/// Indirect-dispatch argument slots (4 u32 each) in binding `args`: the ray queue, the shadow
+/// queue, then one per material queue.
+pub const ARGS_RAY: u32 = 0;
+pub const ARGS_SHADOW: u32 = 1;
+pub const ARGS_MATERIAL: u32 = 2;
+
+/// Queue regions of binding `queues`, each `capacity` entries: two ping-pong ray queues, the
+/// shadow queue, then one per material queue.
+pub const QUEUE_SHADOW: u32 = 2;
+pub const QUEUE_MATERIAL: u32 = 3;
+
+/// The `#define`s every wavefront kernel is compiled with: binding numbers, counter positions,
+/// argument and queue slots.
+pub fn defines() -> Vec<(String, String)> {
+    let mut d: Vec<(String, String)> = Binding::ALL
+        .iter()
+        .map(|b| {
+            (
+                format!("BINDING_{}", b.name().to_uppercase()),
+                b.index().to_string(),
+            )
+        })
+        .collect();
+    let c = |name: &str, v: u32| (name.to_string(), format!("{v}u"));
+    d.extend([
+        c("COUNTER_RAY", Counter::RayQueue0 as u32),
+        c("COUNTER_SHADOW", Counter::ShadowQueue as u32),
+        c("COUNTER_NONFINITE", Counter::NonfiniteAccumulate as u32),
+        c("COUNTER_EXT_TOTAL", Counter::ExtensionRaysLo as u32),
+        c("COUNTER_SHADOW_TOTAL", Counter::ShadowRaysLo as u32),
+        c("COUNTER_MATERIAL", FIXED_COUNTERS),
+        c("ARGS_RAY", ARGS_RAY),
+        c("ARGS_SHADOW", ARGS_SHADOW),
+        c("ARGS_MATERIAL", ARGS_MATERIAL),
+        c("QUEUE_SHADOW", QUEUE_SHADOW),
+        c("QUEUE_MATERIAL", QUEUE_MATERIAL),
+    ]);
+    d
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bindings_are_numbered_in_order_and_named_once() {
+        for (i, b) in Binding::ALL.iter().enumerate() {
+            assert_eq!(b.index() as usize, i);
+        }
+        let mut names: Vec<_> = Binding::ALL.iter().map(|b| b.name()).collect();
+        names.sort();
+        names.dedup();
+        assert_eq!(names.len(), Binding::ALL.len());
+    }
+
+    #[test]
+    fn counters_do_not_overlap() {
+        let c = Counters { queues: 3 };
+        let mut all: Vec<usize> = (0..FIXED_COUNTERS as usize).collect();
+        all.extend((0..3).map(|k| c.material_queue(k)));
+        all.push(c.nonfinite_extend());
+        all.extend((0..3).map(|k| c.nonfinite_shade(k)));
+        let n = all.len();
+        all.sort();
+        all.dedup();
+        assert_eq!(all.len(), n);
+        assert_eq!(*all.last().unwrap() + 1, c.len());
+    }
+}
