@@ -15,7 +15,7 @@ void main() {
     vec3 sum = film[pixel].xyz;
     vec3 sum2 = film2[pixel].xyz;
     for (uint path = p; path < pc.chunk_size; path += pc.chunk_pixels) {
-        vec3 l = radiance[path].xyz;
+        vec3 l = radiance(path).xyz;
         // A non-finite sample, or one whose square (beyond about 1.8e19) or running sum
         // overflows f32, is dropped and counted.
         vec3 s1 = sum + l, s2 = sum2 + l * l;

@@ -10,14 +10,14 @@ layout(local_size_x = 64) in;
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= counters[COUNTER_RAY + ray_queue_in()]) return;
-    uint path = queues[ray_queue_in() * g.capacity + i];
-    vec4 dd = ray_d[path];
-    vec3 o = ray_o[path].xyz;
+    uint path = queue_entry(ray_queue_in() * g.capacity + i);
+    vec4 dd = ray_d(path);
+    vec3 o = ray_o(path).xyz;
     vec3 e;
     Hit hit;
-    uint slot = segment_end(pc.bounce, o, dd.xyz, dd.w, beta[path].xyz, e, hit);
-    if (e.x != 0.0 || e.y != 0.0 || e.z != 0.0) radiance[path].xyz += e;
+    uint slot = segment_end(pc.bounce, o, dd.xyz, dd.w, beta(path).xyz, e, hit);
+    if (e.x != 0.0 || e.y != 0.0 || e.z != 0.0) radiance_set(path, radiance(path) + vec4(e, 0.0));
     if (slot == NO_QUEUE) return;
-    hit_rec[path] = uvec4(hit.prim, floatBitsToUint(hit.bary.x), floatBitsToUint(hit.bary.y), floatBitsToUint(hit.t));
+    hit_rec_set(path, uvec4(hit.prim, floatBitsToUint(hit.bary.x), floatBitsToUint(hit.bary.y), floatBitsToUint(hit.t)));
     queue_push(QUEUE_MATERIAL + slot, COUNTER_MATERIAL + slot, path);
 }

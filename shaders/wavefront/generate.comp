@@ -12,9 +12,9 @@ void main() {
     vec3 o;
     vec3 d;
     camera_ray(path, o, d);
-    ray_o[path] = vec4(o, 0.0);
-    ray_d[path] = vec4(d, 0.0);
-    beta[path] = vec4(1.0);
-    radiance[path] = vec4(0.0);
-    queues[path] = path;
+    ray_o_set(path, vec4(o, 0.0));
+    ray_d_set(path, vec4(d, 0.0));
+    beta_set(path, vec4(1.0));
+    radiance_set(path, vec4(0.0));
+    queue_entry_set(path, path);
 }

@@ -56,7 +56,7 @@ void main() {
             b = sc.beta;
             prev_pdf = sc.pdf;
         }
-        radiance[path] = vec4(l, 0.0);
+        radiance_set(path, vec4(l, 0.0));
         atomicAdd(wg_extension, n_extension);
         atomicAdd(wg_shadow, n_shadow);
     }

@@ -13,23 +13,23 @@ layout(local_size_x = 64) in;
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= counters[COUNTER_MATERIAL + pc.queue_slot]) return;
-    uint path = queues[(QUEUE_MATERIAL + pc.queue_slot) * g.capacity + i];
-    uvec4 h = hit_rec[path];
+    uint path = queue_entry((QUEUE_MATERIAL + pc.queue_slot) * g.capacity + i);
+    uvec4 h = hit_rec(path);
     Hit hit;
     hit.prim = h.x;
     hit.bary = vec2(uintBitsToFloat(h.y), uintBitsToFloat(h.z));
     hit.t = uintBitsToFloat(h.w);
-    Scatter sc = shade_vertex(path, pc.bounce, hit, ray_o[path].xyz, ray_d[path].xyz, beta[path].xyz,
+    Scatter sc = shade_vertex(path, pc.bounce, hit, ray_o(path).xyz, ray_d(path).xyz, beta(path).xyz,
                               counter_nonfinite_shade(pc.queue_slot));
     if (sc.shadow) {
-        shadow_o[path] = vec4(sc.shadow_o, sc.shadow_tmax);
-        shadow_d[path] = vec4(sc.shadow_d, 0.0);
-        shadow_l[path] = vec4(sc.shadow_l, 0.0);
+        shadow_o_set(path, vec4(sc.shadow_o, sc.shadow_tmax));
+        shadow_d_set(path, vec4(sc.shadow_d, 0.0));
+        shadow_l_set(path, vec4(sc.shadow_l, 0.0));
         queue_push(QUEUE_SHADOW, COUNTER_SHADOW, path);
     }
     if (!sc.next) return;
-    beta[path] = vec4(sc.beta, 0.0);
-    ray_o[path] = vec4(sc.o, 0.0);
-    ray_d[path] = vec4(sc.d, sc.pdf);
+    beta_set(path, vec4(sc.beta, 0.0));
+    ray_o_set(path, vec4(sc.o, 0.0));
+    ray_d_set(path, vec4(sc.d, sc.pdf));
     queue_push(ray_queue_out(), COUNTER_RAY + ray_queue_out(), path);
 }

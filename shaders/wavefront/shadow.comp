@@ -8,7 +8,7 @@ layout(local_size_x = 64) in;
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= counters[COUNTER_SHADOW]) return;
-    uint path = queues[QUEUE_SHADOW * g.capacity + i];
-    vec4 o = shadow_o[path];
-    if (!trace_any(o.xyz, shadow_d[path].xyz, o.w)) radiance[path].xyz += shadow_l[path].xyz;
+    uint path = queue_entry(QUEUE_SHADOW * g.capacity + i);
+    vec4 o = shadow_o(path);
+    if (!trace_any(o.xyz, shadow_d(path).xyz, o.w)) radiance_set(path, radiance(path) + vec4(shadow_l(path).xyz, 0.0));
 }

@@ -50,19 +50,34 @@ layout(scalar, set = 0, binding = BINDING_GLOBALS) uniform Globals {
     uint capacity;    // path slots per wave
 } g;
 
-// Path state (SoA).
-layout(std430, set = 0, binding = BINDING_RAY_O) buffer RayO { vec4 ray_o[]; };      // xyz origin
-layout(std430, set = 0, binding = BINDING_RAY_D) buffer RayD { vec4 ray_d[]; };     // xyz direction, w = pdf of the BSDF sample (0: camera/delta)
-layout(std430, set = 0, binding = BINDING_BETA) buffer Beta { vec4 beta[]; };      // path throughput
-layout(std430, set = 0, binding = BINDING_RADIANCE) buffer Radiance { vec4 radiance[]; };
-layout(std430, set = 0, binding = BINDING_HIT_REC) buffer HitRec { uvec4 hit_rec[]; }; // prim, bary.x, bary.y, t (float bits)
-layout(std430, set = 0, binding = BINDING_SHADOW_O) buffer ShadowO { vec4 shadow_o[]; }; // xyz origin, w = tmax
-layout(std430, set = 0, binding = BINDING_SHADOW_D) buffer ShadowD { vec4 shadow_d[]; };
-layout(std430, set = 0, binding = BINDING_SHADOW_L) buffer ShadowL { vec4 shadow_l[]; }; // unoccluded contribution
-
+// Path state (SoA), storage texel buffers (an image load is a vector gather on lavapipe;
+// src/gpu/layout.rs). Read and written through the accessors below.
+layout(set = 0, binding = BINDING_RAY_O, rgba32f) uniform restrict imageBuffer ray_o_img;      // xyz origin
+layout(set = 0, binding = BINDING_RAY_D, rgba32f) uniform restrict imageBuffer ray_d_img;      // xyz direction, w = pdf of the BSDF sample (0: camera/delta)
+layout(set = 0, binding = BINDING_BETA, rgba32f) uniform restrict imageBuffer beta_img;        // path throughput
+layout(set = 0, binding = BINDING_RADIANCE, rgba32f) uniform restrict imageBuffer radiance_img;
+layout(set = 0, binding = BINDING_HIT_REC, rgba32ui) uniform restrict uimageBuffer hit_rec_img;  // prim, bary.x, bary.y, t (float bits)
+layout(set = 0, binding = BINDING_SHADOW_O, rgba32f) uniform restrict imageBuffer shadow_o_img;  // xyz origin, w = tmax
+layout(set = 0, binding = BINDING_SHADOW_D, rgba32f) uniform restrict imageBuffer shadow_d_img;
+layout(set = 0, binding = BINDING_SHADOW_L, rgba32f) uniform restrict imageBuffer shadow_l_img;  // unoccluded contribution
 // Queues: [0, cap) and [cap, 2cap) ping-pong ray queues; [2cap, 3cap) shadow queue;
 // [(3 + k)cap, (4 + k)cap) material queue k.
-layout(std430, set = 0, binding = BINDING_QUEUES) buffer Queues { uint queues[]; };
+layout(set = 0, binding = BINDING_QUEUES, r32ui) uniform restrict uimageBuffer queue_img;
+
+#define STATE_ACCESSORS(name, img, T) \
+    T name(uint p) { return imageLoad(img, int(p)); } \
+    void name##_set(uint p, T v) { imageStore(img, int(p), v); }
+STATE_ACCESSORS(ray_o, ray_o_img, vec4)
+STATE_ACCESSORS(ray_d, ray_d_img, vec4)
+STATE_ACCESSORS(beta, beta_img, vec4)
+STATE_ACCESSORS(radiance, radiance_img, vec4)
+STATE_ACCESSORS(hit_rec, hit_rec_img, uvec4)
+STATE_ACCESSORS(shadow_o, shadow_o_img, vec4)
+STATE_ACCESSORS(shadow_d, shadow_d_img, vec4)
+STATE_ACCESSORS(shadow_l, shadow_l_img, vec4)
+uint queue_entry(uint i) { return imageLoad(queue_img, int(i)).x; }
+void queue_entry_set(uint i, uint path) { imageStore(queue_img, int(i), uvec4(path)); }
+
 // Counters (src/gpu/layout.rs `Counter`): queue lengths, non-finite counts, ray totals.
 layout(std430, set = 0, binding = BINDING_COUNTERS) buffer Counters { uint counters[]; };
 // Indirect dispatch arguments, 4 uints each (x, y, z, pad): 0 ray, 1 shadow, 2 + k material k.
@@ -115,13 +130,13 @@ void queue_push(uint q, uint c, uint path) {
             uint base = 0u;
             if (subgroupElect()) base = atomicAdd(counters[c], subgroupBallotBitCount(mask));
             base = subgroupBroadcastFirst(base);
-            queues[q * g.capacity + base + subgroupBallotExclusiveBitCount(mask)] = path;
+            queue_entry_set(q * g.capacity + base + subgroupBallotExclusiveBitCount(mask), path);
             return;
         }
     }
 #else
     uint slot = atomicAdd(counters[c], 1u);
-    queues[q * g.capacity + slot] = path;
+    queue_entry_set(q * g.capacity + slot, path);
 #endif
 }
 

@@ -8,7 +8,9 @@
 //! branch and a bounds check per lane and per component, while a texel fetch is a vector
 //! gather and a uniform-buffer read at a uniform offset is one scalar load. Scene data (read
 //! only, read at every BVH node and triangle) is therefore bound as uniform texel buffers, the
-//! scene-wide values as a uniform buffer. BENCHMARKS.md has the measurements.
+//! path state and the queues as storage texel buffers, the scene-wide values as a uniform
+//! buffer; counters (atomics), indirect arguments and the film stay storage buffers.
+//! BENCHMARKS.md has the measurements.
 
 use ash::vk;
 
@@ -19,7 +21,9 @@ pub enum Kind {
     Uniform,
     /// `uniform usamplerBuffer` read with `texelFetch`, in this format.
     Texels(vk::Format),
-    /// `buffer` block (read-write).
+    /// `uniform imageBuffer` (read-write with imageLoad / imageStore), in this format.
+    Image(vk::Format),
+    /// `buffer` block (read-write, atomics).
     Storage,
 }
 
@@ -125,7 +129,16 @@ impl Binding {
             Binding::BvhPrims => Kind::Texels(F::R32_UINT),
             Binding::Lights => Kind::Texels(F::R32G32_UINT),
             Binding::Globals => Kind::Uniform,
-            _ => Kind::Storage,
+            Binding::RayO
+            | Binding::RayD
+            | Binding::Beta
+            | Binding::Radiance
+            | Binding::ShadowO
+            | Binding::ShadowD
+            | Binding::ShadowL => Kind::Image(F::R32G32B32A32_SFLOAT),
+            Binding::HitRec => Kind::Image(F::R32G32B32A32_UINT),
+            Binding::Queues => Kind::Image(F::R32_UINT),
+            Binding::Counters | Binding::Args | Binding::Film | Binding::Film2 => Kind::Storage,
         }
     }
 
@@ -133,6 +146,7 @@ impl Binding {
         match self.kind() {
             Kind::Uniform => vk::DescriptorType::UNIFORM_BUFFER,
             Kind::Texels(_) => vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
+            Kind::Image(_) => vk::DescriptorType::STORAGE_TEXEL_BUFFER,
             Kind::Storage => vk::DescriptorType::STORAGE_BUFFER,
         }
     }
@@ -142,6 +156,7 @@ impl Binding {
         match self.kind() {
             Kind::Uniform => vk::BufferUsageFlags::UNIFORM_BUFFER,
             Kind::Texels(_) => vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
+            Kind::Image(_) => vk::BufferUsageFlags::STORAGE_TEXEL_BUFFER,
             Kind::Storage => vk::BufferUsageFlags::STORAGE_BUFFER,
         }
     }

@@ -319,7 +319,9 @@ impl<'a> GpuRenderer<'a> {
             };
             owned.buffers.push(buffer);
             let view = match b.kind() {
-                Kind::Texels(format) => ctx.create_buffer_view(owned.buffers.last().unwrap(), format)?,
+                Kind::Texels(format) | Kind::Image(format) => {
+                    ctx.create_buffer_view(owned.buffers.last().unwrap(), format)?
+                }
                 Kind::Uniform | Kind::Storage => vk::BufferView::null(),
             };
             owned.views.push(view);
