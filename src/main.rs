@@ -28,6 +28,21 @@ enum Backend {
     Cpu,
 }
 
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum IntegratorArg {
+    Wavefront,
+    Megakernel,
+}
+
+impl IntegratorArg {
+    fn gpu(self) -> brdfwave::gpu::Integrator {
+        match self {
+            IntegratorArg::Wavefront => brdfwave::gpu::Integrator::Wavefront,
+            IntegratorArg::Megakernel => brdfwave::gpu::Integrator::Megakernel,
+        }
+    }
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene file to one or more images (.exr linear, .png sRGB).
@@ -62,6 +77,10 @@ enum Command {
         /// depend on it.
         #[arg(long)]
         wave_paths: Option<u32>,
+        /// GPU: how paths are followed: `wavefront` (the stages with queues, the default) or
+        /// `megakernel` (one kernel per wave, the benchmark's baseline). Same image.
+        #[arg(long, value_enum, default_value = "wavefront")]
+        integrator: IntegratorArg,
         /// Print the summary as one JSON object on stdout.
         #[arg(long)]
         json: bool,
@@ -164,6 +183,7 @@ fn main() {
             device,
             validation,
             wave_paths,
+            integrator,
             json,
         } => render(RenderArgs {
             scene,
@@ -177,6 +197,7 @@ fn main() {
             device,
             validation,
             wave_paths,
+            integrator,
             json,
         }),
         Command::Diff {
@@ -210,6 +231,7 @@ struct RenderArgs {
     device: Option<String>,
     validation: bool,
     wave_paths: Option<u32>,
+    integrator: IntegratorArg,
     json: bool,
 }
 
@@ -244,6 +266,12 @@ fn render(a: RenderArgs) -> Result<()> {
     if let Some(d) = a.max_depth {
         if d == 0 {
             bail!("--max-depth must be at least 1 (the camera segment)");
+        }
+        if d > brdfwave::gpu::MAX_DEPTH {
+            bail!(
+                "--max-depth {d} is over the largest supported depth, {} segments",
+                brdfwave::gpu::MAX_DEPTH
+            );
         }
         sc.integrator.max_depth = d;
     }
@@ -284,7 +312,8 @@ fn render(a: RenderArgs) -> Result<()> {
             })?;
             let compiler = vk::ShaderCompiler::new()?;
             let wave = a.wave_paths.unwrap_or(brdfwave::gpu::MAX_CAPACITY);
-            let mut r = GpuRenderer::with_wave_paths(&ctx, &sc, &bvh, &compiler, wave)?;
+            let mut r =
+                GpuRenderer::with_options(&ctx, &sc, &bvh, &compiler, wave, a.integrator.gpu())?;
             seconds_setup = t0.elapsed().as_secs_f64();
             let pb = progress_bar(sc.integrator.spp as u64, "samples");
             let t = Instant::now();
@@ -296,6 +325,7 @@ fn render(a: RenderArgs) -> Result<()> {
             summary["seconds_shader_compile"] = json!(r.setup.seconds_shader_compile);
             summary["seconds_pipeline_create"] = json!(r.setup.seconds_pipeline_create);
             summary["wave_paths"] = json!(r.setup.wave_paths);
+            summary["integrator"] = json!(a.integrator.gpu().name());
             summary["subgroup_queues"] = json!(r.setup.subgroup_queues);
             drop(r);
             // Tear down now so that messages raised at device destruction (leaks) count too.
