@@ -12,8 +12,10 @@
 //! * `camera`, `lights` — camera rays and the emitter table both renderers sample;
 //! * `output` — what a render returns, whichever backend made it;
 //! * `brdf_tools` — `brdfwave brdf eval | plot | report`;
-//! * `imageio`, `metrics` — image files and image comparison.
+//! * `imageio`, `metrics` — image files and image comparison;
+//! * `bench`, `plot` — `brdfwave bench`: run time against error, and its log-log chart.
 
+pub mod bench;
 pub mod brdf;
 pub mod brdf_tools;
 pub mod bvh;
@@ -24,6 +26,7 @@ pub mod imageio;
 pub mod lights;
 pub mod metrics;
 pub mod output;
+pub mod plot;
 pub mod rng;
 pub mod scene;
 pub mod vk;

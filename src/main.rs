@@ -95,6 +95,41 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Run time against error: every configuration renders the scene progressively, taking
+    /// turns, compared with a reference after each pass; writes bench.csv, bench.png, bench.md.
+    Bench {
+        /// The scene file to benchmark.
+        scene: PathBuf,
+        /// Reference image (EXR); default: rendered once by the CPU reference and cached.
+        #[arg(long)]
+        reference: Option<PathBuf>,
+        /// Render seconds, shared equally by the configurations.
+        #[arg(long, default_value_t = 60.0)]
+        budget: f64,
+        /// Comma-separated: wavefront, megakernel (each optionally -t1, -t2, … for lavapipe's
+        /// LP_NUM_THREADS), cpu, mitsuba-scalar, mitsuba-llvm, mitsuba-cuda.
+        #[arg(long, default_value = brdfwave::bench::DEFAULT_CONFIGS)]
+        configs: String,
+        /// Output directory.
+        #[arg(long, default_value = "out/bench")]
+        out: PathBuf,
+        /// Image size WxH (overrides the scene).
+        #[arg(long, value_parser = parse_res)]
+        res: Option<(u32, u32)>,
+        /// Maximum path segments (overrides the scene).
+        #[arg(long)]
+        max_depth: Option<u32>,
+        /// Samples per pixel of the rendered reference.
+        #[arg(long, default_value_t = 1024)]
+        reference_spp: u32,
+        /// Vulkan device: a case-insensitive part of its name (default: lavapipe if present).
+        #[arg(long)]
+        device: Option<String>,
+        /// Also measure set-up and speed against scene size, with a generated mesh of this many
+        /// triangles (e.g. 1048576) and the lineup scene.
+        #[arg(long)]
+        scaling: Option<u32>,
+    },
     /// List the Vulkan devices.
     Devices,
     /// Evaluate, plot and measure reflectance models.
@@ -207,6 +242,44 @@ fn main() {
             json,
         } => diff(&test, &reference, error_map.as_deref(), json),
         Command::Brdf { command } => brdf_command(command),
+        Command::Bench {
+            scene,
+            reference,
+            budget,
+            configs,
+            out,
+            res,
+            max_depth,
+            reference_spp,
+            device,
+            scaling,
+        } => (|| {
+            let configs = configs
+                .split(',')
+                .map(|c| brdfwave::bench::Config::parse(c.trim()))
+                .collect::<Result<Vec<_>>>()?;
+            if reference_spp == 0 {
+                bail!("--reference-spp must be at least 1");
+            }
+            let md = brdfwave::bench::run(&brdfwave::bench::BenchOptions {
+                scene,
+                reference,
+                budget,
+                configs,
+                out: out.clone(),
+                res,
+                max_depth,
+                reference_spp,
+                device,
+                scaling,
+            })?;
+            print!("{md}");
+            println!(
+                "wrote {0}/bench.csv, {0}/bench.png, {0}/bench.md",
+                out.display()
+            );
+            Ok(())
+        })(),
         Command::Devices => vk::Context::list_devices().map(|d| {
             for name in d {
                 println!("{name}");

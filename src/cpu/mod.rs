@@ -50,6 +50,16 @@ impl PathStats {
     }
 }
 
+/// Per-pixel f64 sums of the samples rendered so far (progressive rendering).
+pub struct CpuFilm {
+    sum: Vec<[f64; 3]>,
+    sum2: Vec<[f64; 3]>,
+    /// Samples per pixel in the sums.
+    pub spp: u32,
+    stats: PathStats,
+    nonfinite_accumulate: u64,
+}
+
 pub struct CpuRenderer<'a> {
     scene: &'a Scene,
     bvh: &'a Bvh,
@@ -70,73 +80,104 @@ impl<'a> CpuRenderer<'a> {
     /// Render `scene.integrator.spp` samples per pixel. `progress` is called with the number of
     /// rows finished.
     pub fn render(&self, progress: &(dyn Fn(u32) + Sync)) -> RenderOutput {
+        let mut film = self.film();
+        self.render_samples(&mut film, 0..self.scene.integrator.spp, progress);
+        self.output(&film)
+    }
+
+    /// An empty film for [`render_samples`](Self::render_samples).
+    pub fn film(&self) -> CpuFilm {
+        let n = (self.scene.width * self.scene.height) as usize;
+        CpuFilm {
+            sum: vec![[0.0; 3]; n],
+            sum2: vec![[0.0; 3]; n],
+            spp: 0,
+            stats: PathStats::default(),
+            nonfinite_accumulate: 0,
+        }
+    }
+
+    /// Adds the samples `samples` (sample indices, the next ones after those in `film`) of every
+    /// pixel to `film`. Each pixel's samples are added in sample order, so any split into passes
+    /// gives the same sums. `progress` is called with the number of rows finished.
+    pub fn render_samples(
+        &self,
+        film: &mut CpuFilm,
+        samples: std::ops::Range<u32>,
+        progress: &(dyn Fn(u32) + Sync),
+    ) {
+        assert_eq!(
+            samples.start, film.spp,
+            "samples must follow those in the film"
+        );
         let s = self.scene;
-        let (w, h) = (s.width, s.height);
-        let spp = s.integrator.spp;
-        let nonfinite = AtomicU64::new(0);
-        let totals = std::sync::Mutex::new(PathStats::default());
+        let w = s.width as usize;
         let rows_done = AtomicU64::new(0);
-        let rows: Vec<Vec<([f32; 3], [f32; 3])>> = (0..h)
-            .into_par_iter()
-            .map(|y| {
+        let per_row: Vec<(PathStats, u64)> = film
+            .sum
+            .par_chunks_mut(w)
+            .zip(film.sum2.par_chunks_mut(w))
+            .enumerate()
+            .map(|(y, (sum_row, sum2_row))| {
                 let mut stats = PathStats::default();
                 let mut bad = 0u64;
-                let row = (0..w)
-                    .map(|x| {
-                        let pixel = y * w + x;
-                        let mut sum = [0f64; 3];
-                        let mut sum2 = [0f64; 3];
-                        for sample in 0..spp {
-                            let rng = PathRng {
-                                seed: s.integrator.seed,
-                                pixel,
-                                sample,
-                            };
-                            let l = self.trace_path(x, y, &rng, &mut stats);
-                            // As the GPU film (f32 sums of l and l²): a sample whose square
-                            // overflows f32 is dropped too. (The sums here are f64 and do not
-                            // overflow; the GPU's f32 running sums can, for a pixel mean
-                            // beyond 3.4e38/spp.)
-                            if !(l.is_finite() && (l * l).is_finite()) {
-                                bad += 1;
-                                continue;
-                            }
-                            for c in 0..3 {
-                                sum[c] += l[c] as f64;
-                                sum2[c] += (l[c] as f64) * (l[c] as f64);
-                            }
+                for x in 0..w {
+                    let pixel = (y * w + x) as u32;
+                    for sample in samples.clone() {
+                        let rng = PathRng {
+                            seed: s.integrator.seed,
+                            pixel,
+                            sample,
+                        };
+                        let l = self.trace_path(x as u32, y as u32, &rng, &mut stats);
+                        // As the GPU film (f32 sums of l and l²): a sample whose square
+                        // overflows f32 is dropped too. (The sums here are f64 and do not
+                        // overflow; the GPU's f32 running sums can, for a pixel mean beyond
+                        // 3.4e38/spp.)
+                        if !(l.is_finite() && (l * l).is_finite()) {
+                            bad += 1;
+                            continue;
                         }
-                        mean_and_variance(sum, sum2, spp)
-                    })
-                    .collect();
-                nonfinite.fetch_add(bad, Ordering::Relaxed);
-                totals.lock().unwrap_or_else(|e| e.into_inner()).add(&stats);
+                        for c in 0..3 {
+                            sum_row[x][c] += l[c] as f64;
+                            sum2_row[x][c] += (l[c] as f64) * (l[c] as f64);
+                        }
+                    }
+                }
                 let done = rows_done.fetch_add(1, Ordering::Relaxed) + 1;
                 progress(done as u32);
-                row
+                (stats, bad)
             })
             .collect();
-        let mut mean = Image::new(w, h);
-        let mut variance = Image::new(w, h);
-        for (y, row) in rows.into_iter().enumerate() {
-            for (x, (m, v)) in row.into_iter().enumerate() {
-                let i = y * w as usize + x;
-                mean.data[i] = m;
-                variance.data[i] = v;
-            }
+        for (stats, bad) in per_row {
+            film.stats.add(&stats);
+            film.nonfinite_accumulate += bad;
         }
-        let stats = totals.into_inner().unwrap_or_else(|e| e.into_inner());
+        film.spp = samples.end;
+    }
+
+    /// The image of the samples in `film`, and its counts.
+    pub fn output(&self, film: &CpuFilm) -> RenderOutput {
+        let s = self.scene;
+        let mut mean = Image::new(s.width, s.height);
+        let mut variance = Image::new(s.width, s.height);
+        for i in 0..film.sum.len() {
+            let (m, v) = mean_and_variance(film.sum[i], film.sum2[i], film.spp);
+            mean.data[i] = m;
+            variance.data[i] = v;
+        }
+        let stats = &film.stats;
         let nonfinite_by_stage = nonfinite_stages(
             stats.nonfinite_extend,
             s.shaded_models()
                 .into_iter()
                 .map(|m| (m, stats.nonfinite_shade[m])),
-            nonfinite.into_inner(),
+            film.nonfinite_accumulate,
         );
         RenderOutput {
             mean,
             variance,
-            spp,
+            spp: film.spp,
             nonfinite_samples: nonfinite_by_stage.iter().map(|s| s.1).sum(),
             nonfinite_by_stage,
             extension_rays: stats.extension_rays,

@@ -184,7 +184,14 @@ impl<'a> GpuRenderer<'a> {
         bvh: &Bvh,
         compiler: &ShaderCompiler,
     ) -> Result<Self> {
-        Self::with_options(ctx, scene, bvh, compiler, MAX_CAPACITY, Integrator::Wavefront)
+        Self::with_options(
+            ctx,
+            scene,
+            bvh,
+            compiler,
+            MAX_CAPACITY,
+            Integrator::Wavefront,
+        )
     }
 
     /// A wavefront renderer that traces at most `wave_paths` paths at a time.
@@ -308,14 +315,18 @@ impl<'a> GpuRenderer<'a> {
                 // Film and counters are read and written by every pass and read back once:
                 // device memory, downloaded through a staging copy (in host-visible memory every
                 // accumulate would cross PCIe on a discrete GPU).
-                Binding::Counters => ctx.create_buffer(name, counters.len() as u64 * 4, usage, gpu)?,
+                Binding::Counters => {
+                    ctx.create_buffer(name, counters.len() as u64 * 4, usage, gpu)?
+                }
                 Binding::Args => ctx.create_buffer(
                     name,
                     (layout::ARGS_MATERIAL as u64 + num_queues as u64) * 16,
                     usage | vk::BufferUsageFlags::INDIRECT_BUFFER,
                     gpu,
                 )?,
-                Binding::Film | Binding::Film2 => ctx.create_buffer(name, film_bytes, usage, gpu)?,
+                Binding::Film | Binding::Film2 => {
+                    ctx.create_buffer(name, film_bytes, usage, gpu)?
+                }
             };
             owned.buffers.push(buffer);
             let view = match b.kind() {
@@ -328,8 +339,9 @@ impl<'a> GpuRenderer<'a> {
         }
         setup.seconds_upload = t_upload.elapsed().as_secs_f64();
 
-        let (stages, shade) =
-            build_kernels(ctx, scene, &models, &mut owned, compiler, &mut setup, integrator)?;
+        let (stages, shade) = build_kernels(
+            ctx, scene, &models, &mut owned, compiler, &mut setup, integrator,
+        )?;
         Ok(GpuRenderer {
             ctx,
             scene,
@@ -406,7 +418,13 @@ impl<'a> GpuRenderer<'a> {
                     Integrator::Megakernel => self.record_megakernel_wave(rec, push)?,
                 };
                 rec = self.ensure_timestamps(rec, 1)?;
-                self.dispatch(&mut rec, self.stages.accumulate, &push, Dispatch::Groups(w.pixels.div_ceil(LOCAL_SIZE)), "accumulate");
+                self.dispatch(
+                    &mut rec,
+                    self.stages.accumulate,
+                    &push,
+                    Dispatch::Groups(w.pixels.div_ceil(LOCAL_SIZE)),
+                    "accumulate",
+                );
             }
             ctx.submit_and_wait(rec)?;
             add_stage_times(ctx.read_timestamps()?, &mut self.stage_seconds);
@@ -468,11 +486,18 @@ impl<'a> GpuRenderer<'a> {
         let max_depth = self.scene.integrator.max_depth;
         let per_segment = 4 + self.shade.len() as u32;
         rec = self.ensure_timestamps(rec, 2 + per_segment)?;
-        self.dispatch(&mut rec, st.generate, &push, Dispatch::Groups(push.chunk_size.div_ceil(LOCAL_SIZE)), "generate");
+        self.dispatch(
+            &mut rec,
+            st.generate,
+            &push,
+            Dispatch::Groups(push.chunk_size.div_ceil(LOCAL_SIZE)),
+            "generate",
+        );
         for depth in 1..=max_depth {
             // A deep render stops once every path has ended: the host looks at the queue of the
             // next segment every SEGMENTS_PER_CHECK segments.
-            if depth > 1 && max_depth > SEGMENTS_PER_CHECK && (depth - 1) % SEGMENTS_PER_CHECK == 0 {
+            if depth > 1 && max_depth > SEGMENTS_PER_CHECK && (depth - 1) % SEGMENTS_PER_CHECK == 0
+            {
                 rec = self.resubmit(rec)?;
                 let counters: Vec<u32> = self.ctx.download(self.owned.buffer(Binding::Counters))?;
                 if counters[ray_queue_in(depth) as usize] == 0 {
@@ -482,7 +507,13 @@ impl<'a> GpuRenderer<'a> {
             rec = self.ensure_timestamps(rec, 1 + per_segment)?;
             push.bounce = depth;
             self.prepare(&mut rec, &mut push, 0);
-            self.dispatch(&mut rec, st.extend, &push, Dispatch::Indirect(layout::ARGS_RAY), "extend");
+            self.dispatch(
+                &mut rec,
+                st.extend,
+                &push,
+                Dispatch::Indirect(layout::ARGS_RAY),
+                "extend",
+            );
             if depth == max_depth {
                 break;
             }
@@ -491,27 +522,56 @@ impl<'a> GpuRenderer<'a> {
                 let (slot, _, kernel) = self.shade[i];
                 push.queue_slot = slot;
                 let name = self.owned.kernels[kernel].pipeline.name.clone();
-                self.dispatch(&mut rec, kernel, &push, Dispatch::Indirect(layout::ARGS_MATERIAL + slot), &name);
+                self.dispatch(
+                    &mut rec,
+                    kernel,
+                    &push,
+                    Dispatch::Indirect(layout::ARGS_MATERIAL + slot),
+                    &name,
+                );
             }
             self.prepare(&mut rec, &mut push, 2);
-            self.dispatch(&mut rec, st.shadow, &push, Dispatch::Indirect(layout::ARGS_SHADOW), "shadow");
+            self.dispatch(
+                &mut rec,
+                st.shadow,
+                &push,
+                Dispatch::Indirect(layout::ARGS_SHADOW),
+                "shadow",
+            );
         }
         Ok(rec)
     }
 
     /// Records one wave of the megakernel: every path from the camera to its end.
-    fn record_megakernel_wave<'r>(&mut self, mut rec: Recorder<'r>, push: Push) -> Result<Recorder<'r>>
+    fn record_megakernel_wave<'r>(
+        &mut self,
+        mut rec: Recorder<'r>,
+        push: Push,
+    ) -> Result<Recorder<'r>>
     where
         'a: 'r,
     {
         rec = self.ensure_timestamps(rec, 1)?;
         let groups = push.chunk_size.div_ceil(LOCAL_SIZE);
-        self.dispatch(&mut rec, self.stages.megakernel, &push, Dispatch::Groups(groups), "megakernel");
+        self.dispatch(
+            &mut rec,
+            self.stages.megakernel,
+            &push,
+            Dispatch::Groups(groups),
+            "megakernel",
+        );
         Ok(rec)
     }
 
     /// Bind, push constants, dispatch, barrier, timestamp: every stage goes through here.
-    fn dispatch(&self, rec: &mut Recorder<'_>, kernel: usize, push: &Push, how: Dispatch, label: &str) {
+    fn dispatch(
+        &self,
+        rec: &mut Recorder<'_>,
+        kernel: usize,
+        push: &Push,
+        how: Dispatch,
+        label: &str,
+    ) {
         let k = &self.owned.kernels[kernel];
         rec.bind(&k.pipeline, k.set);
         rec.push_constants(&k.pipeline, push);
@@ -527,7 +587,13 @@ impl<'a> GpuRenderer<'a> {
 
     fn prepare(&self, rec: &mut Recorder<'_>, push: &mut Push, phase: u32) {
         push.phase = phase;
-        self.dispatch(rec, self.stages.prepare, push, Dispatch::Groups(1), "prepare");
+        self.dispatch(
+            rec,
+            self.stages.prepare,
+            push,
+            Dispatch::Groups(1),
+            "prepare",
+        );
     }
 
     /// `rec`, or a new command buffer when fewer than `n` timestamps are left in it.
@@ -586,7 +652,11 @@ fn build_kernels(
         common.push(("SUBGROUP_QUEUES".into(), "1".into()));
     }
     let kinds: Vec<vk::DescriptorType> = Binding::ALL.iter().map(|b| b.descriptor_type()).collect();
-    let mut build = |name: &str, file: &str, mut defines: Vec<(String, String)>, overrides: Vec<(String, String)>| -> Result<usize> {
+    let mut build = |name: &str,
+                     file: &str,
+                     mut defines: Vec<(String, String)>,
+                     overrides: Vec<(String, String)>|
+     -> Result<usize> {
         defines.extend(common.iter().cloned());
         let t = Instant::now();
         let spirv = compiler
@@ -594,7 +664,12 @@ fn build_kernels(
             .with_context(|| format!("compiling {file} for pipeline {name}"))?;
         setup.seconds_shader_compile += t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let pipeline = ctx.create_compute_pipeline_with(name, &spirv, &kinds, std::mem::size_of::<Push>() as u32)?;
+        let pipeline = ctx.create_compute_pipeline_with(
+            name,
+            &spirv,
+            &kinds,
+            std::mem::size_of::<Push>() as u32,
+        )?;
         setup.seconds_pipeline_create += t.elapsed().as_secs_f64();
         let set = match ctx.create_descriptor_set_with(&pipeline, &owned.resources()) {
             Ok(set) => set,
@@ -610,13 +685,24 @@ fn build_kernels(
     // The features (defines) each model needs for the scene's materials.
     let features = |model: usize| -> BTreeSet<&'static str> {
         let mut f = BTreeSet::new();
-        for m in scene.materials.iter().filter(|m| m.model == model && m.brdf.scatters()) {
+        for m in scene
+            .materials
+            .iter()
+            .filter(|m| m.model == model && m.brdf.scatters())
+        {
             f.extend(m.brdf.defines());
         }
         f
     };
     let none = usize::MAX;
-    let mut stages = Stages { generate: none, prepare: none, extend: none, shadow: none, accumulate: none, megakernel: none };
+    let mut stages = Stages {
+        generate: none,
+        prepare: none,
+        extend: none,
+        shadow: none,
+        accumulate: none,
+        megakernel: none,
+    };
     let mut shade = Vec::new();
     match integrator {
         Integrator::Wavefront => {
@@ -626,15 +712,27 @@ fn build_kernels(
             stages.shadow = build("shadow", "wavefront/shadow.comp", vec![], vec![])?;
             for (slot, &model) in models.iter().enumerate() {
                 let (defs, overrides) = model_shader_inputs(model, features(model));
-                let k = build(&format!("shade_{}", MODELS[model].name), "wavefront/shade.comp", defs, overrides)?;
+                let k = build(
+                    &format!("shade_{}", MODELS[model].name),
+                    "wavefront/shade.comp",
+                    defs,
+                    overrides,
+                )?;
                 shade.push((slot as u32, model, k));
             }
         }
         Integrator::Megakernel => {
             let mut defs: Vec<(String, String)> = Vec::new();
             for &model in models {
-                defs.push((format!("MODEL_{}", MODELS[model].name.to_uppercase()), format!("{model}u")));
-                defs.extend(features(model).into_iter().map(|f| (f.to_string(), "1".to_string())));
+                defs.push((
+                    format!("MODEL_{}", MODELS[model].name.to_uppercase()),
+                    format!("{model}u"),
+                ));
+                defs.extend(
+                    features(model)
+                        .into_iter()
+                        .map(|f| (f.to_string(), "1".to_string())),
+                );
             }
             stages.megakernel = build("megakernel", "wavefront/megakernel.comp", defs, vec![])?;
             // The shade stages' non-finite counters are read per model: the megakernel counts

@@ -223,7 +223,10 @@ impl Context {
             vk::Format::R32_UINT | vk::Format::R32_SFLOAT => 4,
             vk::Format::R32G32_UINT | vk::Format::R32G32_SFLOAT => 8,
             vk::Format::R32G32B32A32_UINT | vk::Format::R32G32B32A32_SFLOAT => 16,
-            _ => bail!("buffer view of \"{}\": format {format:?} is not supported", buf.name),
+            _ => bail!(
+                "buffer view of \"{}\": format {format:?} is not supported",
+                buf.name
+            ),
         };
         let texels = buf.vk_size / texel;
         let max = self.limits.max_texel_buffer_elements as u64;

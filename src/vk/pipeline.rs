@@ -72,13 +72,32 @@ impl Context {
         let count = |t: vk::DescriptorType| bindings.iter().filter(|&&b| b == t).count() as u32;
         let l = &self.limits;
         for (t, max, what) in [
-            (vk::DescriptorType::STORAGE_BUFFER, l.max_per_stage_descriptor_storage_buffers, "storage buffers"),
-            (vk::DescriptorType::UNIFORM_BUFFER, l.max_per_stage_descriptor_uniform_buffers, "uniform buffers"),
-            (vk::DescriptorType::UNIFORM_TEXEL_BUFFER, l.max_per_stage_descriptor_sampled_images, "uniform texel buffers"),
-            (vk::DescriptorType::STORAGE_TEXEL_BUFFER, l.max_per_stage_descriptor_storage_images, "storage texel buffers"),
+            (
+                vk::DescriptorType::STORAGE_BUFFER,
+                l.max_per_stage_descriptor_storage_buffers,
+                "storage buffers",
+            ),
+            (
+                vk::DescriptorType::UNIFORM_BUFFER,
+                l.max_per_stage_descriptor_uniform_buffers,
+                "uniform buffers",
+            ),
+            (
+                vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
+                l.max_per_stage_descriptor_sampled_images,
+                "uniform texel buffers",
+            ),
+            (
+                vk::DescriptorType::STORAGE_TEXEL_BUFFER,
+                l.max_per_stage_descriptor_storage_images,
+                "storage texel buffers",
+            ),
         ] {
             if count(t) > max {
-                bail!("pipeline \"{name}\": {} {what}, the device allows {max} per stage", count(t));
+                bail!(
+                    "pipeline \"{name}\": {} {what}, the device allows {max} per stage",
+                    count(t)
+                );
             }
         }
         let max_push = self.limits.max_push_constants_size;
@@ -374,7 +393,11 @@ impl DescriptorPools {
                         vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
                         vk::DescriptorType::STORAGE_TEXEL_BUFFER,
                     ]
-                    .map(|t| vk::DescriptorPoolSize::default().ty(t).descriptor_count(count));
+                    .map(|t| {
+                        vk::DescriptorPoolSize::default()
+                            .ty(t)
+                            .descriptor_count(count)
+                    });
                     let info = vk::DescriptorPoolCreateInfo::default()
                         .flags(vk::DescriptorPoolCreateFlags::FREE_DESCRIPTOR_SET)
                         .max_sets(Self::SETS_PER_POOL)

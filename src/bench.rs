@@ -1,0 +1,943 @@
+//! `brdfwave bench`: run time against error, every configuration in one run.
+//!
+//! Each configuration renders the scene progressively (passes of 1, 1, 2, 4, … samples per
+//! pixel, the last one cut to its share of the time budget); after each pass the running image
+//! is compared with a reference (RMSE, relMSE, FLIP) and the cumulative render time recorded.
+//! The configurations take turns pass by pass, so a slow spell of a noisy machine hits them
+//! all alike. The reference is rendered once by the CPU reference at many samples with its own
+//! seed (its noise is independent of the runs) and cached, keyed by the scene file, the render
+//! settings and this executable.
+//!
+//! Configurations: `wavefront` and `megakernel` on the Vulkan device (lavapipe by default),
+//! each also with `-t1` / `-t2` (`LP_NUM_THREADS`, read by lavapipe when a Vulkan instance is
+//! made), `cpu` (the CPU reference), and, when the Python module `mitsuba` is installed,
+//! `mitsuba-scalar`, `mitsuba-llvm` and `mitsuba-cuda` rendering the same scene (Lambert
+//! triangle scenes only) through `scripts/mitsuba_peer.py`, embedded here.
+
+use crate::bvh::{self, Bvh};
+use crate::cpu::{CpuFilm, CpuRenderer};
+use crate::gpu::{GpuRenderer, Integrator, MAX_CAPACITY};
+use crate::imageio::{self, Image};
+use crate::metrics;
+use crate::plot::{self, Series};
+use crate::scene::{self, Scene, Triangle};
+use crate::vk::{self, Context, ContextOptions, ShaderCompiler};
+use anyhow::{anyhow, bail, Context as _, Result};
+use glam::Vec3;
+use std::fmt::Write as _;
+use std::io::{BufRead, BufReader, IsTerminal, Write as _};
+use std::path::{Path, PathBuf};
+use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
+use std::time::Instant;
+
+/// The Mitsuba side of the peer configurations (see its docstring for the protocol).
+const MITSUBA_SCRIPT: &str = include_str!("../scripts/mitsuba_peer.py");
+
+/// The CSV header of `bench.csv`, one row per pass.
+pub const CSV_COLUMNS: &str = "config,pass,spp,seconds,paths_per_second,rmse,relmse,flip";
+
+/// One configuration of the benchmark.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Config {
+    /// The GPU renderer with this integrator and lavapipe thread count (None: the default).
+    Gpu {
+        integrator: Integrator,
+        threads: Option<u32>,
+    },
+    /// The CPU reference renderer (all cores, rayon).
+    Cpu,
+    /// Mitsuba 3 with this variant (`scalar_rgb`, `llvm_ad_rgb`, `cuda_ad_rgb`).
+    Mitsuba(String),
+}
+
+impl Config {
+    pub fn name(&self) -> String {
+        match self {
+            Config::Gpu {
+                integrator,
+                threads,
+            } => match threads {
+                Some(t) => format!("{}-t{t}", integrator.name()),
+                None => integrator.name().to_string(),
+            },
+            Config::Cpu => "cpu".into(),
+            Config::Mitsuba(v) => format!(
+                "mitsuba-{}",
+                v.trim_end_matches("_ad_rgb").trim_end_matches("_rgb")
+            ),
+        }
+    }
+
+    pub fn parse(name: &str) -> Result<Config> {
+        let gpu = |integrator, rest: &str| -> Result<Config> {
+            let threads = match rest {
+                "" => None,
+                t => Some(
+                    t.strip_prefix("-t")
+                        .and_then(|n| n.parse::<u32>().ok())
+                        .filter(|&n| (1..=256).contains(&n))
+                        .ok_or_else(|| anyhow!("configuration '{name}': a thread count is written -tN, N from 1 to 256"))?,
+                ),
+            };
+            Ok(Config::Gpu {
+                integrator,
+                threads,
+            })
+        };
+        match name {
+            "cpu" => Ok(Config::Cpu),
+            "mitsuba-scalar" => Ok(Config::Mitsuba("scalar_rgb".into())),
+            "mitsuba-llvm" => Ok(Config::Mitsuba("llvm_ad_rgb".into())),
+            "mitsuba-cuda" => Ok(Config::Mitsuba("cuda_ad_rgb".into())),
+            _ => {
+                if let Some(rest) = name.strip_prefix("wavefront") {
+                    gpu(Integrator::Wavefront, rest)
+                } else if let Some(rest) = name.strip_prefix("megakernel") {
+                    gpu(Integrator::Megakernel, rest)
+                } else {
+                    bail!("unknown configuration '{name}': use wavefront, megakernel (each optionally -t1, -t2, …), cpu, mitsuba-scalar, mitsuba-llvm or mitsuba-cuda")
+                }
+            }
+        }
+    }
+}
+
+/// The default configurations: everything that runs here (Mitsuba's are skipped with a note
+/// when the module is missing).
+pub const DEFAULT_CONFIGS: &str =
+    "wavefront,megakernel,cpu,wavefront-t1,wavefront-t2,mitsuba-scalar,mitsuba-llvm";
+
+pub struct BenchOptions {
+    pub scene: PathBuf,
+    pub reference: Option<PathBuf>,
+    /// Render seconds shared by all configurations.
+    pub budget: f64,
+    pub configs: Vec<Config>,
+    pub out: PathBuf,
+    pub res: Option<(u32, u32)>,
+    pub max_depth: Option<u32>,
+    /// Samples per pixel of a rendered reference.
+    pub reference_spp: u32,
+    pub device: Option<String>,
+    /// Also measure set-up and speed against scene size (a generated mesh of this many
+    /// triangles, and the lineup scene).
+    pub scaling: Option<u32>,
+}
+
+/// One pass of one configuration.
+#[derive(Clone, Debug)]
+pub struct PassRecord {
+    pub config: String,
+    pub pass: u32,
+    pub spp: u32,
+    /// Cumulative render time of the configuration.
+    pub seconds: f64,
+    pub paths_per_second: f64,
+    pub rmse: f64,
+    pub relmse: f64,
+    pub flip: f64,
+}
+
+/// What one configuration reports besides its passes.
+#[derive(Clone, Debug, Default)]
+struct Details {
+    device: String,
+    setup_seconds: f64,
+    rays: u64,
+    stage_seconds: Vec<(String, f64)>,
+    pipelines_compile: f64,
+    pipelines_create: f64,
+}
+
+trait Runner {
+    /// Renders `n` more samples per pixel; returns the seconds it took.
+    fn pass(&mut self, n: u32) -> Result<f64>;
+    /// The running mean of all passes so far.
+    fn image(&mut self) -> Result<Image>;
+    fn details(&mut self) -> Details;
+}
+
+struct GpuRunner<'a> {
+    renderer: GpuRenderer<'a>,
+    device: String,
+    setup_seconds: f64,
+    done: u32,
+}
+
+impl Runner for GpuRunner<'_> {
+    fn pass(&mut self, n: u32) -> Result<f64> {
+        let t = Instant::now();
+        self.renderer
+            .render_samples(self.done..self.done + n, &|_| {})?;
+        self.done += n;
+        Ok(t.elapsed().as_secs_f64())
+    }
+    fn image(&mut self) -> Result<Image> {
+        Ok(self.renderer.output()?.mean)
+    }
+    fn details(&mut self) -> Details {
+        let out = self.renderer.output().ok();
+        Details {
+            device: self.device.clone(),
+            setup_seconds: self.setup_seconds,
+            rays: out
+                .as_ref()
+                .map(|o| o.extension_rays + o.shadow_rays)
+                .unwrap_or(0),
+            stage_seconds: out.map(|o| o.stage_seconds).unwrap_or_default(),
+            pipelines_compile: self.renderer.setup.seconds_shader_compile,
+            pipelines_create: self.renderer.setup.seconds_pipeline_create,
+        }
+    }
+}
+
+struct CpuRunner<'a> {
+    renderer: CpuRenderer<'a>,
+    film: CpuFilm,
+}
+
+impl Runner for CpuRunner<'_> {
+    fn pass(&mut self, n: u32) -> Result<f64> {
+        let t = Instant::now();
+        let start = self.film.spp;
+        self.renderer
+            .render_samples(&mut self.film, start..start + n, &|_| {});
+        Ok(t.elapsed().as_secs_f64())
+    }
+    fn image(&mut self) -> Result<Image> {
+        Ok(self.renderer.output(&self.film).mean)
+    }
+    fn details(&mut self) -> Details {
+        let o = self.renderer.output(&self.film);
+        Details {
+            device: format!("CPU reference ({} threads)", rayon::current_num_threads()),
+            rays: o.extension_rays + o.shadow_rays,
+            ..Default::default()
+        }
+    }
+}
+
+struct MitsubaRunner {
+    child: Child,
+    stdin: ChildStdin,
+    stdout: BufReader<ChildStdout>,
+    last: Option<PathBuf>,
+    variant: String,
+    setup_seconds: f64,
+}
+
+impl MitsubaRunner {
+    fn start(variant: &str, scene_json: &Path, dir: &Path) -> Result<MitsubaRunner> {
+        let script = dir.join("mitsuba_peer.py");
+        std::fs::write(&script, MITSUBA_SCRIPT)
+            .with_context(|| format!("writing {}", script.display()))?;
+        let mut cmd = Command::new("python3");
+        cmd.arg(&script)
+            .arg(variant)
+            .arg(scene_json)
+            .arg(dir)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null());
+        // Dr.Jit's LLVM backend needs LLVM 16 or newer; LLVM 15 (lavapipe's) crashes it.
+        if std::env::var_os("DRJIT_LIBLLVM_PATH").is_none() {
+            if let Some(p) = newest_libllvm() {
+                cmd.env("DRJIT_LIBLLVM_PATH", p);
+            }
+        }
+        let t = Instant::now();
+        let mut child = cmd.spawn().context("starting python3")?;
+        let stdin = child.stdin.take().expect("piped");
+        let mut stdout = BufReader::new(child.stdout.take().expect("piped"));
+        let mut line = String::new();
+        stdout.read_line(&mut line)?;
+        let line = line.trim();
+        if let Some(msg) = line.strip_prefix("error ") {
+            let _ = child.kill();
+            let _ = child.wait();
+            bail!("{msg}");
+        }
+        if !line.starts_with("ready") {
+            let _ = child.kill();
+            let _ = child.wait();
+            bail!("the Mitsuba script ended without a word (is python3 with mitsuba installed?)");
+        }
+        Ok(MitsubaRunner {
+            child,
+            stdin,
+            stdout,
+            last: None,
+            variant: variant.to_string(),
+            setup_seconds: t.elapsed().as_secs_f64(),
+        })
+    }
+}
+
+impl Runner for MitsubaRunner {
+    fn pass(&mut self, n: u32) -> Result<f64> {
+        writeln!(self.stdin, "pass {n}")?;
+        self.stdin.flush()?;
+        let mut line = String::new();
+        self.stdout.read_line(&mut line)?;
+        let mut w = line.split_whitespace();
+        match (w.next(), w.next(), w.next()) {
+            (Some("done"), Some(secs), Some(path)) => {
+                self.last = Some(PathBuf::from(path));
+                Ok(secs.parse()?)
+            }
+            _ => bail!("Mitsuba ({}) answered '{}'", self.variant, line.trim()),
+        }
+    }
+    fn image(&mut self) -> Result<Image> {
+        let p = self.last.as_ref().ok_or_else(|| anyhow!("no pass yet"))?;
+        Ok(imageio::read(p)?)
+    }
+    fn details(&mut self) -> Details {
+        Details {
+            device: format!("Mitsuba 3 {}", self.variant),
+            setup_seconds: self.setup_seconds,
+            ..Default::default()
+        }
+    }
+}
+
+impl Drop for MitsubaRunner {
+    fn drop(&mut self) {
+        let _ = writeln!(self.stdin, "quit");
+        let _ = self.stdin.flush();
+        let _ = self.child.wait();
+    }
+}
+
+/// The newest `libLLVM.so.1N` (N >= 6) of the system, for Dr.Jit.
+fn newest_libllvm() -> Option<PathBuf> {
+    let dir = Path::new("/usr/lib/x86_64-linux-gnu");
+    (16..=30)
+        .rev()
+        .flat_map(|v| [format!("libLLVM.so.{v}.1"), format!("libLLVM-{v}.so")])
+        .map(|n| dir.join(n))
+        .find(|p| p.exists())
+}
+
+/// The scene as `mitsuba_peer.py` reads it, or why it cannot be: meshes of Lambert triangles
+/// grouped by (material, emitter), the camera, the image size, the depth.
+fn mitsuba_scene_json(s: &Scene) -> Result<String> {
+    let lambert = crate::brdf::MODELS
+        .iter()
+        .position(|m| m.name == "lambert")
+        .expect("lambert model");
+    if !s.spheres.is_empty() {
+        bail!("the Mitsuba configurations take triangle scenes only (this one has spheres)");
+    }
+    if let Some(m) = s.materials.iter().find(|m| m.model != lambert) {
+        bail!(
+            "the Mitsuba configurations take Lambert scenes only (this one has {})",
+            crate::brdf::MODELS[m.model].name
+        );
+    }
+    let mut groups: Vec<((u32, Option<u32>), Vec<&Triangle>)> = Vec::new();
+    for t in &s.triangles {
+        let key = (t.material, t.emitter);
+        match groups.iter_mut().find(|(k, _)| *k == key) {
+            Some((_, v)) => v.push(t),
+            None => groups.push((key, vec![t])),
+        }
+    }
+    let meshes: Vec<serde_json::Value> = groups
+        .iter()
+        .map(|((mat, em), tris)| {
+            let albedo = s.materials[*mat as usize].brdf.pack().0;
+            serde_json::json!({
+                "albedo": [albedo[0], albedo[1], albedo[2]],
+                "radiance": em.map(|e| s.emitters[e as usize].radiance.to_array()),
+                "vertices": tris.iter().flat_map(|t| t.v.iter().map(|v| v.to_array())).collect::<Vec<_>>(),
+            })
+        })
+        .collect();
+    let c = &s.camera;
+    Ok(serde_json::json!({
+        "width": s.width,
+        "height": s.height,
+        "max_depth": s.integrator.max_depth,
+        "camera": {
+            "position": c.position.to_array(),
+            "target": c.target.to_array(),
+            "up": c.up.to_array(),
+            "fov_y": c.fov_y_deg,
+        },
+        "environment": s.environment.to_array(),
+        "meshes": meshes,
+    })
+    .to_string())
+}
+
+/// Whether `python3 -c "import mitsuba"` works.
+fn mitsuba_installed() -> bool {
+    Command::new("python3")
+        .args(["-c", "import mitsuba"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .map(|s| s.success())
+        .unwrap_or(false)
+}
+
+/// The scene to benchmark, with the command-line overrides.
+fn load_scene(o: &BenchOptions) -> Result<Scene> {
+    let mut sc = scene::load(&o.scene)?;
+    if let Some((w, h)) = o.res {
+        sc.width = w;
+        sc.height = h;
+    }
+    if let Some(d) = o.max_depth {
+        crate::gpu::check_max_depth(d).context("--max-depth")?;
+        sc.integrator.max_depth = d;
+    }
+    Ok(sc)
+}
+
+/// The reference image: the given file, or one rendered by the CPU reference at
+/// `reference_spp` with a seed of its own and cached.
+fn reference(o: &BenchOptions, sc: &Scene, bvh: &Bvh) -> Result<Image> {
+    if let Some(p) = &o.reference {
+        let img =
+            imageio::read(p).with_context(|| format!("reading --reference {}", p.display()))?;
+        if img.width != sc.width || img.height != sc.height {
+            bail!(
+                "--reference {} is {}x{}, the benchmark renders {}x{}",
+                p.display(),
+                img.width,
+                img.height,
+                sc.width,
+                sc.height
+            );
+        }
+        return Ok(img);
+    }
+    let mut key = vk::cache::Fnv64::new();
+    key.bytes(&std::fs::read(&o.scene).with_context(|| format!("reading {}", o.scene.display()))?);
+    for v in [
+        sc.width,
+        sc.height,
+        sc.integrator.max_depth,
+        sc.integrator.seed,
+        o.reference_spp,
+    ] {
+        key.u64(v as u64);
+    }
+    key.u64(sc.integrator.russian_roulette as u64);
+    if let Ok(exe) = std::env::current_exe().and_then(std::fs::read) {
+        key.bytes(&exe);
+    }
+    let cache = vk::cache::default_cache_dir().map(|d| {
+        d.join("reference")
+            .join(format!("{:016x}.exr", key.finish()))
+    });
+    if let Some(p) = cache.as_ref().filter(|p| p.exists()) {
+        if let Ok(img) = imageio::read(p) {
+            eprintln!("reference: {} (cached)", p.display());
+            return Ok(img);
+        }
+    }
+    let mut rs = sc.clone();
+    rs.integrator.seed ^= 0x5EED_5EED;
+    rs.integrator.spp = o.reference_spp;
+    eprintln!(
+        "reference: rendering {} spp on the CPU reference (once; cached)",
+        o.reference_spp
+    );
+    let t = Instant::now();
+    let img = CpuRenderer::new(&rs, bvh).render(&|_| {}).mean;
+    eprintln!("reference: {:.1} s", t.elapsed().as_secs_f64());
+    if let Some(p) = &cache {
+        if let Some(dir) = p.parent() {
+            let _ = std::fs::create_dir_all(dir);
+        }
+        if let Err(e) = imageio::write(p, &img) {
+            eprintln!(
+                "warning: could not cache the reference at {}: {e}",
+                p.display()
+            );
+        }
+    }
+    Ok(img)
+}
+
+/// Runs the benchmark; writes `bench.csv`, `bench.png` and `bench.md` under `o.out` and
+/// returns the markdown summary.
+pub fn run(o: &BenchOptions) -> Result<String> {
+    if !(o.budget > 0.0 && o.budget.is_finite()) {
+        bail!(
+            "--budget must be a positive number of seconds, got {}",
+            o.budget
+        );
+    }
+    if o.configs.is_empty() {
+        bail!("--configs names no configuration");
+    }
+    std::fs::create_dir_all(&o.out).with_context(|| format!("creating {}", o.out.display()))?;
+    let sc = load_scene(o)?;
+    for w in &sc.warnings {
+        eprintln!("{w}");
+    }
+    let t = Instant::now();
+    let bvh = bvh::build(&sc);
+    let seconds_bvh = t.elapsed().as_secs_f64();
+    let reference = reference(o, &sc, &bvh)?;
+    let pixels = sc.width as f64 * sc.height as f64;
+
+    // Vulkan contexts first (one per GPU configuration: lavapipe reads LP_NUM_THREADS when an
+    // instance is made), then the runners that borrow them.
+    let mut notes: Vec<String> = Vec::new();
+    let user_threads = std::env::var_os("LP_NUM_THREADS");
+    let mut contexts: Vec<Option<Context>> = Vec::new();
+    for c in &o.configs {
+        contexts.push(match c {
+            Config::Gpu { threads, .. } => {
+                match threads {
+                    Some(t) => std::env::set_var("LP_NUM_THREADS", t.to_string()),
+                    None => match &user_threads {
+                        Some(v) => std::env::set_var("LP_NUM_THREADS", v),
+                        None => std::env::remove_var("LP_NUM_THREADS"),
+                    },
+                }
+                Some(Context::new(&ContextOptions {
+                    device: o.device.clone(),
+                    validation: false,
+                })?)
+            }
+            _ => None,
+        });
+    }
+    match &user_threads {
+        Some(v) => std::env::set_var("LP_NUM_THREADS", v),
+        None => std::env::remove_var("LP_NUM_THREADS"),
+    }
+    let compiler = ShaderCompiler::new()?;
+    let mitsuba_json = o.out.join("mitsuba_scene.json");
+    let mitsuba_ok = match o.configs.iter().any(|c| matches!(c, Config::Mitsuba(_))) {
+        false => Ok(()),
+        true if !mitsuba_installed() => Err(anyhow!(
+            "python3 cannot import mitsuba (pip install mitsuba numpy; the llvm variant also needs libLLVM 16 or newer, e.g. Debian's libllvm19)"
+        )),
+        true => mitsuba_scene_json(&sc).and_then(|j| {
+            std::fs::write(&mitsuba_json, j)
+                .with_context(|| format!("writing {}", mitsuba_json.display()))
+        }),
+    };
+    let mut runners: Vec<(String, Box<dyn Runner + '_>)> = Vec::new();
+    for (c, ctx) in o.configs.iter().zip(&contexts) {
+        let name = c.name();
+        let runner: Result<Box<dyn Runner + '_>> = match (c, ctx) {
+            (Config::Gpu { integrator, .. }, Some(ctx)) => {
+                let t = Instant::now();
+                GpuRenderer::with_options(ctx, &sc, &bvh, &compiler, MAX_CAPACITY, *integrator)
+                    .and_then(|mut r| {
+                        r.reset()?;
+                        Ok(Box::new(GpuRunner {
+                            renderer: r,
+                            device: ctx.device_name.clone(),
+                            setup_seconds: t.elapsed().as_secs_f64(),
+                            done: 0,
+                        }) as Box<dyn Runner>)
+                    })
+            }
+            (Config::Cpu, _) => {
+                let r = CpuRenderer::new(&sc, &bvh);
+                let film = r.film();
+                Ok(Box::new(CpuRunner { renderer: r, film }))
+            }
+            (Config::Mitsuba(v), _) => match &mitsuba_ok {
+                Ok(()) => MitsubaRunner::start(v, &mitsuba_json, &o.out)
+                    .map(|r| Box::new(r) as Box<dyn Runner>),
+                Err(e) => Err(anyhow!("{e}")),
+            },
+            _ => unreachable!("a GPU configuration has a context"),
+        };
+        match runner {
+            Ok(r) => runners.push((name, r)),
+            Err(e) if matches!(c, Config::Mitsuba(_)) => {
+                notes.push(format!("{name}: skipped: {e:#}"));
+                eprintln!("{name}: skipped: {e:#}");
+            }
+            Err(e) => return Err(e.context(format!("configuration {name}"))),
+        }
+    }
+    if runners.is_empty() {
+        bail!("no configuration could run:\n{}", notes.join("\n"));
+    }
+
+    // Passes, taking turns; each configuration gets an equal share of the budget.
+    let share = o.budget / runners.len() as f64;
+    let mut records: Vec<PassRecord> = Vec::new();
+    let mut state: Vec<(u32, f64, bool)> = vec![(0, 0.0, false); runners.len()]; // spp, seconds, done
+    let mut pass = 0u32;
+    let tty = std::io::stderr().is_terminal();
+    while state.iter().any(|s| !s.2) {
+        pass += 1;
+        for (i, (name, r)) in runners.iter_mut().enumerate() {
+            let (spp, secs, done) = state[i];
+            if done {
+                continue;
+            }
+            // Double the samples so far, or as many as the rest of the share allows; a last
+            // pass of under a quarter of that is not worth its overhead.
+            let n = if spp == 0 {
+                1
+            } else {
+                let per_spp = secs / spp as f64;
+                let fit = ((share - secs) / per_spp.max(1e-9)).floor();
+                let n = (spp as f64).min(fit).min((u32::MAX / 2 - spp) as f64);
+                if n < (spp as f64 / 4.0).max(1.0) {
+                    state[i].2 = true;
+                    continue;
+                }
+                n as u32
+            };
+            if tty {
+                eprint!("\r{name}: pass {pass}, {} spp          ", spp + n);
+            }
+            let dt = r
+                .pass(n)
+                .with_context(|| format!("configuration {name}, pass {pass}"))?;
+            let img = r.image()?;
+            let d = metrics::diff(&img, &reference)?;
+            let (spp, secs) = (spp + n, secs + dt);
+            records.push(PassRecord {
+                config: name.clone(),
+                pass,
+                spp,
+                seconds: secs,
+                paths_per_second: pixels * spp as f64 / secs.max(1e-9),
+                rmse: d.rmse,
+                relmse: d.relmse,
+                flip: d.flip_mean,
+            });
+            state[i] = (spp, secs, secs >= share || spp >= 1 << 24);
+        }
+    }
+    if tty {
+        eprintln!();
+    }
+
+    let details: Vec<(String, Details)> = runners
+        .iter_mut()
+        .map(|(n, r)| (n.clone(), r.details()))
+        .collect();
+    drop(runners);
+
+    // Outputs.
+    let mut csv = String::from(CSV_COLUMNS);
+    csv.push('\n');
+    for r in &records {
+        let _ = writeln!(
+            csv,
+            "{},{},{},{:.6},{:.1},{:.6e},{:.6e},{:.6e}",
+            r.config, r.pass, r.spp, r.seconds, r.paths_per_second, r.rmse, r.relmse, r.flip
+        );
+    }
+    crate::vk::cache::write_atomic(&o.out.join("bench.csv"), csv.as_bytes())?;
+    let series: Vec<Series> = details
+        .iter()
+        .map(|(name, _)| Series {
+            label: name.clone(),
+            points: records
+                .iter()
+                .filter(|r| &r.config == name)
+                .map(|r| (r.seconds, r.relmse))
+                .collect(),
+        })
+        .collect();
+    let title = format!(
+        "{} {}x{}, max depth {}: relMSE against render time",
+        o.scene.file_name().and_then(|s| s.to_str()).unwrap_or(""),
+        sc.width,
+        sc.height,
+        sc.integrator.max_depth
+    );
+    let img = plot::log_log(&title, "seconds", "relMSE", &series);
+    let mut png = Vec::new();
+    img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
+    crate::vk::cache::write_atomic(&o.out.join("bench.png"), &png)?;
+
+    let md = summary(o, &sc, seconds_bvh, &records, &details, &notes);
+    let md = match o.scaling {
+        Some(n) => format!("{md}\n{}", scaling(o, n)?),
+        None => md,
+    };
+    crate::vk::cache::write_atomic(&o.out.join("bench.md"), md.as_bytes())?;
+    Ok(md)
+}
+
+/// relMSE of `config` at `t` seconds, interpolated log-log between its passes (None before its
+/// first pass or after its last).
+fn relmse_at(records: &[PassRecord], config: &str, t: f64) -> Option<f64> {
+    let pts: Vec<(f64, f64)> = records
+        .iter()
+        .filter(|r| r.config == config && r.relmse > 0.0)
+        .map(|r| (r.seconds, r.relmse))
+        .collect();
+    for w in pts.windows(2) {
+        let ((t0, e0), (t1, e1)) = (w[0], w[1]);
+        if t0 <= t && t <= t1 {
+            if t1 <= t0 {
+                return Some(e1);
+            }
+            let a = (t.ln() - t0.ln()) / (t1.ln() - t0.ln());
+            return Some((e0.ln() + a * (e1.ln() - e0.ln())).exp());
+        }
+    }
+    pts.last().filter(|p| p.0 == t).map(|p| p.1)
+}
+
+fn summary(
+    o: &BenchOptions,
+    sc: &Scene,
+    seconds_bvh: f64,
+    records: &[PassRecord],
+    details: &[(String, Details)],
+    notes: &[String],
+) -> String {
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "Scene `{}`, {}x{}, max depth {}, Russian roulette {}; budget {:.0} s shared by {} configurations, taking turns pass by pass; BVH build {:.3} s.\n",
+        o.scene.display(),
+        sc.width,
+        sc.height,
+        sc.integrator.max_depth,
+        if sc.integrator.russian_roulette { "on" } else { "off" },
+        o.budget,
+        details.len(),
+        seconds_bvh
+    );
+    // Equal-time error: every configuration at the time the shortest one reached.
+    let t_eq = details
+        .iter()
+        .filter_map(|(n, _)| {
+            records
+                .iter()
+                .filter(|r| &r.config == n)
+                .map(|r| r.seconds)
+                .last()
+        })
+        .fold(f64::INFINITY, f64::min);
+    let _ = writeln!(
+        md,
+        "| config | device | set-up s | spp | render s | paths/s | rays/s | relMSE | relMSE at {:.2} s | FLIP |",
+        t_eq
+    );
+    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|");
+    for (name, d) in details {
+        let Some(last) = records.iter().filter(|r| &r.config == name).last() else {
+            continue;
+        };
+        let rays = match d.rays {
+            0 => "–".to_string(),
+            n => format!("{:.3} M", n as f64 / last.seconds / 1e6),
+        };
+        let eq = relmse_at(records, name, t_eq)
+            .map(|e| format!("{e:.3e}"))
+            .unwrap_or_else(|| "–".into());
+        let _ = writeln!(
+            md,
+            "| {name} | {} | {:.3} | {} | {:.2} | {:.3} M | {rays} | {:.3e} | {eq} | {:.4} |",
+            d.device,
+            d.setup_seconds,
+            last.spp,
+            last.seconds,
+            last.paths_per_second / 1e6,
+            last.relmse,
+            last.flip
+        );
+    }
+    let _ = writeln!(md);
+    for (name, d) in details {
+        if d.stage_seconds.is_empty() {
+            continue;
+        }
+        let total: f64 = d.stage_seconds.iter().map(|s| s.1).sum();
+        let parts: Vec<String> = d
+            .stage_seconds
+            .iter()
+            .map(|(s, t)| format!("{s} {:.0}%", 100.0 * t / total.max(1e-12)))
+            .collect();
+        let _ = writeln!(
+            md,
+            "- `{name}` GPU time by stage: {} (pipelines: compile {:.3} s, create {:.3} s)",
+            parts.join(", "),
+            d.pipelines_compile,
+            d.pipelines_create
+        );
+    }
+    for n in notes {
+        let _ = writeln!(md, "- {n}");
+    }
+    md
+}
+
+/// Set-up and speed against scene size: the bench scene, the Cornell box with a tessellated
+/// sphere of about `mesh_triangles` triangles added, and the lineup scene beside the bench
+/// scene if there is one. Each: BVH build, shader compile cold (empty cache) and warm, pipeline
+/// creation, and a short wavefront and CPU render.
+fn scaling(o: &BenchOptions, mesh_triangles: u32) -> Result<String> {
+    let base = load_scene(o)?;
+    let mut scenes: Vec<(String, Scene)> = vec![(o.scene.display().to_string(), base.clone())];
+    let mut big = base.clone();
+    add_sphere_mesh(&mut big, mesh_triangles);
+    scenes.push((format!("{} + sphere mesh", o.scene.display()), big));
+    if let Some(lineup) = o
+        .scene
+        .parent()
+        .map(|d| d.join("lineup.toml"))
+        .filter(|p| p.exists() && *p != o.scene)
+    {
+        let mut s = scene::load(&lineup)?;
+        s.width = base.width;
+        s.height = base.height;
+        scenes.push((lineup.display().to_string(), s));
+    }
+    let ctx = Context::new(&ContextOptions {
+        device: o.device.clone(),
+        validation: false,
+    })?;
+    let mut md = String::from("| scene | triangles | BVH nodes | BVH build s | compile cold s | compile warm s | pipelines s | wavefront paths/s | rays/s | CPU paths/s |\n|---|---|---|---|---|---|---|---|---|---|\n");
+    for (name, mut s) in scenes {
+        eprintln!("scaling: {name}");
+        s.integrator.spp = 4;
+        let t = Instant::now();
+        let bvh = bvh::build(&s);
+        let t_bvh = t.elapsed().as_secs_f64();
+        let cold_dir = tempfile::tempdir()?;
+        let cold = ShaderCompiler::new()?.with_cache_dir(cold_dir.path());
+        let r = GpuRenderer::new(&ctx, &s, &bvh, &cold)?;
+        let compile_cold = r.setup.seconds_shader_compile;
+        drop(r);
+        let mut r = GpuRenderer::new(&ctx, &s, &bvh, &cold)?;
+        let (compile_warm, create) = (
+            r.setup.seconds_shader_compile,
+            r.setup.seconds_pipeline_create,
+        );
+        let t = Instant::now();
+        let out = r.render(&|_| {})?;
+        let dt = t.elapsed().as_secs_f64();
+        let paths = s.width as f64 * s.height as f64 * s.integrator.spp as f64;
+        drop(r);
+        let t = Instant::now();
+        CpuRenderer::new(&s, &bvh).render(&|_| {});
+        let dt_cpu = t.elapsed().as_secs_f64();
+        let _ = writeln!(
+            md,
+            "| {name} | {} | {} | {t_bvh:.3} | {compile_cold:.3} | {compile_warm:.3} | {create:.3} | {:.3} M | {:.3} M | {:.3} M |",
+            s.triangles.len(),
+            bvh.nodes.len(),
+            paths / dt / 1e6,
+            (out.extension_rays + out.shadow_rays) as f64 / dt / 1e6,
+            paths / dt_cpu / 1e6
+        );
+    }
+    Ok(md)
+}
+
+/// Adds a UV sphere of about `n` triangles (white Lambert, the scene's first material) in the
+/// middle of the scene's bounds, a third of their smallest extent across.
+pub fn add_sphere_mesh(s: &mut Scene, n: u32) {
+    let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+    for t in &s.triangles {
+        for v in t.v {
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+    }
+    if lo.x > hi.x {
+        (lo, hi) = (Vec3::splat(-1.0), Vec3::splat(1.0));
+    }
+    let center = 0.5 * (lo + hi);
+    let radius = (hi - lo).min_element() / 6.0;
+    // rings × segments × 2 triangles ≈ n, with segments = 2 rings.
+    let rings = ((n as f64 / 4.0).sqrt().ceil() as u32).max(2);
+    let segs = 2 * rings;
+    let p = |i: u32, j: u32| -> Vec3 {
+        let theta = std::f32::consts::PI * i as f32 / rings as f32;
+        let phi = 2.0 * std::f32::consts::PI * j as f32 / segs as f32;
+        center
+            + radius
+                * Vec3::new(
+                    theta.sin() * phi.cos(),
+                    theta.cos(),
+                    theta.sin() * phi.sin(),
+                )
+    };
+    let material = 0;
+    for i in 0..rings {
+        for j in 0..segs {
+            let (a, b, c, d) = (p(i, j), p(i + 1, j), p(i + 1, j + 1), p(i, j + 1));
+            // Outward winding: cross(b - a, c - a) points away from the centre.
+            for v in [[a, d, c], [a, c, b]] {
+                let t = Triangle {
+                    v,
+                    n: None,
+                    uv: None,
+                    material,
+                    emitter: None,
+                };
+                if t.area() > 0.0 {
+                    s.triangles.push(t);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn config_names_round_trip() {
+        for n in DEFAULT_CONFIGS
+            .split(',')
+            .chain(["megakernel-t1", "mitsuba-cuda"])
+        {
+            assert_eq!(Config::parse(n).unwrap().name(), n);
+        }
+        assert!(Config::parse("wavefront-t0").is_err());
+        assert!(Config::parse("pbrt").is_err());
+    }
+
+    #[test]
+    fn relmse_is_interpolated_log_log() {
+        let r = |s: f64, e: f64| PassRecord {
+            config: "a".into(),
+            pass: 0,
+            spp: 1,
+            seconds: s,
+            paths_per_second: 0.0,
+            rmse: 0.0,
+            relmse: e,
+            flip: 0.0,
+        };
+        let recs = vec![r(1.0, 1.0), r(100.0, 0.01)];
+        let e = relmse_at(&recs, "a", 10.0).unwrap();
+        assert!((e - 0.1).abs() < 1e-12, "{e}");
+        assert_eq!(relmse_at(&recs, "a", 0.5), None);
+        assert_eq!(relmse_at(&recs, "a", 100.0), Some(0.01));
+    }
+
+    #[test]
+    fn sphere_mesh_has_about_n_outward_triangles() {
+        let mut s = scene::load_str(
+            "[camera]\nposition = [0, 0, -5]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_y = 40\n[materials.w]\nmodel = \"lambert\"\nalbedo = [0.5, 0.5, 0.5]\n[[shapes]]\ntype = \"sphere\"\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"w\"\n",
+            Path::new("t.toml"),
+        )
+        .unwrap();
+        add_sphere_mesh(&mut s, 10_000);
+        let n = s.triangles.len();
+        assert!((9_000..=11_000).contains(&n), "{n}");
+        let c = Vec3::ZERO;
+        for t in &s.triangles {
+            let mid = (t.v[0] + t.v[1] + t.v[2]) / 3.0;
+            assert!(t.geometric_normal_unnormalized().dot(mid - c) > 0.0);
+        }
+    }
+}
