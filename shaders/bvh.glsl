@@ -198,7 +198,37 @@ uint bvh_link(uint index, uint count) {
     return count == 0u ? index : (BVH_LEAF_FLAG | (index << 3) | (count - 1u));
 }
 
-// Near-first stack traversal (Rust: Bvh::traverse). any_hit stops at the first hit.
+// The primitive kinds a scene has: the renderer defines BVH_TRIANGLES and/or BVH_SPHERES (both
+// when neither is defined). On lavapipe both sides of a branch run whatever the lanes decide,
+// so code for a kind the scene lacks would cost every primitive test.
+#if !defined(BVH_TRIANGLES) && !defined(BVH_SPHERES)
+#define BVH_TRIANGLES
+#define BVH_SPHERES
+#endif
+
+// Ray against primitive reference `ref`: t in (0, tmax) and (b1, b2) for triangles.
+bool bvh_primitive(BvhRay r, vec3 o, vec3 d, uint ref, float tmax, out float t, out vec2 bary) {
+    bary = vec2(0.0);
+#if defined(BVH_SPHERES) && defined(BVH_TRIANGLES)
+    if ((ref & BVH_SPHERE_BIT) != 0u) {
+        vec4 cr = sphere_texel((ref & ~BVH_SPHERE_BIT) * 2u);
+        return bvh_sphere(o, d, cr.xyz, cr.w, tmax, t);
+    }
+    uint k = ref * 3u;
+    return bvh_triangle(r, tri_texel(k).xyz, tri_texel(k + 1u).xyz, tri_texel(k + 2u).xyz, tmax, t, bary);
+#elif defined(BVH_SPHERES)
+    vec4 cr = sphere_texel((ref & ~BVH_SPHERE_BIT) * 2u);
+    return bvh_sphere(o, d, cr.xyz, cr.w, tmax, t);
+#else
+    uint k = ref * 3u;
+    return bvh_triangle(r, tri_texel(k).xyz, tri_texel(k + 1u).xyz, tri_texel(k + 2u).xyz, tmax, t, bary);
+#endif
+}
+
+// Near-first stack traversal (Rust: Bvh::traverse; the same nodes and primitives in the same
+// order). any_hit stops at the first hit. Inner nodes are walked in a loop of their own until
+// the ray reaches a leaf ("while-while", Aila & Laine 2009): on a SIMD machine the lanes that
+// reached a leaf wait there, and the costly leaf code runs once for all of them.
 bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
     hit.t = tmax;
     hit.prim = 0xFFFFFFFFu;
@@ -210,31 +240,8 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
     uint sp = 0u;
     uint cur = 0u;
     while (true) {
-        if ((cur & BVH_LEAF_FLAG) != 0u) {
-            uint first = (cur >> 3) & 0x0FFFFFFFu;
-            uint end = first + (cur & 7u) + 1u;
-            for (uint i = first; i < end; ++i) {
-                uint ref = bvh_prim(i);
-                float t;
-                vec2 bary = vec2(0.0);
-                bool h;
-                if ((ref & BVH_SPHERE_BIT) != 0u) {
-                    uint s = (ref & ~BVH_SPHERE_BIT) * 2u;
-                    vec4 cr = sphere_texel(s);
-                    h = bvh_sphere(o, d, cr.xyz, cr.w, hit.t, t);
-                } else {
-                    uint k = ref * 3u;
-                    h = bvh_triangle(r, tri_texel(k).xyz, tri_texel(k + 1u).xyz, tri_texel(k + 2u).xyz, hit.t, t, bary);
-                }
-                if (h) {
-                    hit.t = t;
-                    hit.prim = ref;
-                    hit.bary = bary;
-                    found = true;
-                    if (any_hit) return true;
-                }
-            }
-        } else {
+        bool live = true;
+        while ((cur & BVH_LEAF_FLAG) == 0u) {
             uint base = cur * 4u;
             vec4 n0 = bvh_node(base);
             vec4 n1 = bvh_node(base + 1u);
@@ -254,22 +261,37 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
             uint cr = bvh_link(right, right_count);
             if (hl && hr) {
                 bool swap = tr < tl;
-                uint near = swap ? cr : cl;
                 uint far = swap ? cl : cr;
                 if (sp < uint(BVH_STACK_SIZE)) {
                     stack[sp] = far;
                     sp += 1u;
                 }
-                cur = near;
-                continue;
-            }
-            if (hl) {
+                cur = swap ? cr : cl;
+            } else if (hl) {
                 cur = cl;
-                continue;
-            }
-            if (hr) {
+            } else if (hr) {
                 cur = cr;
-                continue;
+            } else if (sp == 0u) {
+                live = false;
+                break;
+            } else {
+                sp -= 1u;
+                cur = stack[sp];
+            }
+        }
+        if (!live) break;
+        uint first = (cur >> 3) & 0x0FFFFFFFu;
+        uint end = first + (cur & 7u) + 1u;
+        for (uint i = first; i < end; ++i) {
+            uint ref = bvh_prim(i);
+            float t;
+            vec2 bary;
+            if (bvh_primitive(r, o, d, ref, hit.t, t, bary)) {
+                hit.t = t;
+                hit.prim = ref;
+                hit.bary = bary;
+                found = true;
+                if (any_hit) return true;
             }
         }
         if (sp == 0u) break;

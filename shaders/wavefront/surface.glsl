@@ -40,57 +40,79 @@ struct Surface {
     uint emitter;  // NO_EMITTER when not emissive
 };
 
-Surface surface_at(uint prim, vec2 bary, float t, vec3 o, vec3 d) {
+Surface surface_sphere(uint i, float t, vec3 o, vec3 d) {
     Surface s;
-    if ((prim & SPHERE_BIT) != 0u) {
-        uint i = prim & ~SPHERE_BIT;
-        vec4 cr = sphere_texel(2u * i);
-        uvec4 info = floatBitsToUint(sphere_texel(2u * i + 1u));
-        vec3 outward = normalize(o + d * t - cr.xyz);
-        s.p = cr.xyz + outward * cr.w;
-        s.ng = info.z != 0u ? -outward : outward;
-        s.front = dot(d, s.ng) < 0.0;
-        s.frame = make_frame(s.ng, cross(vec3(0.0, 1.0, 0.0), outward));
-        s.material = info.x;
-        s.emitter = info.y;
-    } else {
-        vec4 a = tri_texel(3u * prim);
-        vec4 b = tri_texel(3u * prim + 1u);
-        vec4 c = tri_texel(3u * prim + 2u);
-        float b1 = bary.x;
-        float b2 = bary.y;
-        float b0 = 1.0 - b1 - b2;
-        s.p = a.xyz * b0 + b.xyz * b1 + c.xyz * b2;
-        vec3 e1 = b.xyz - a.xyz;
-        vec3 e2 = c.xyz - a.xyz;
-        s.ng = normalize(cross(e1, e2));
-        s.front = dot(d, s.ng) < 0.0;
-        vec4 n0 = tri_attr(4u * prim);
-        vec4 n1 = tri_attr(4u * prim + 1u);
-        vec4 n2 = tri_attr(4u * prim + 2u);
-        vec4 vv = tri_attr(4u * prim + 3u);
-        uint flags = floatBitsToUint(vv.w);
-        vec3 ns = s.ng;
-        if ((flags & 1u) != 0u) {
-            vec3 n = n0.xyz * b0 + n1.xyz * b1 + n2.xyz * b2;
-            float len2 = dot(n, n);
-            if (len2 > 1e-12) {
-                n = n / sqrt(len2);
-                if (dot(n, s.ng) > 0.0) ns = n;
-            }
-        }
-        vec3 hint = default_tangent(ns);
-        if ((flags & 2u) != 0u) {
-            vec2 du1 = vec2(n1.w, vv.y) - vec2(n0.w, vv.x);
-            vec2 du2 = vec2(n2.w, vv.z) - vec2(n0.w, vv.x);
-            float det = du1.x * du2.y - du1.y * du2.x;
-            if (abs(det) > 1e-12) hint = (e1 * du2.y - e2 * du1.y) / det;
-        }
-        s.frame = make_frame(ns, hint);
-        s.material = floatBitsToUint(a.w);
-        s.emitter = floatBitsToUint(b.w);
-    }
+    vec4 cr = sphere_texel(2u * i);
+    uvec4 info = floatBitsToUint(sphere_texel(2u * i + 1u));
+    vec3 outward = normalize(o + d * t - cr.xyz);
+    s.p = cr.xyz + outward * cr.w;
+    s.ng = info.z != 0u ? -outward : outward;
+    s.front = dot(d, s.ng) < 0.0;
+    s.frame = make_frame(s.ng, cross(vec3(0.0, 1.0, 0.0), outward));
+    s.material = info.x;
+    s.emitter = info.y;
     return s;
+}
+
+// Shading normals and texture coordinates (for the tangent) are read only when some triangle
+// of the scene has them (defines SCENE_SHADING_NORMALS, SCENE_UVS).
+Surface surface_triangle(uint prim, vec2 bary, vec3 d) {
+    Surface s;
+    vec4 a = tri_texel(3u * prim);
+    vec4 b = tri_texel(3u * prim + 1u);
+    vec4 c = tri_texel(3u * prim + 2u);
+    float b1 = bary.x;
+    float b2 = bary.y;
+    float b0 = 1.0 - b1 - b2;
+    s.p = a.xyz * b0 + b.xyz * b1 + c.xyz * b2;
+    vec3 e1 = b.xyz - a.xyz;
+    vec3 e2 = c.xyz - a.xyz;
+    s.ng = normalize(cross(e1, e2));
+    s.front = dot(d, s.ng) < 0.0;
+    vec3 ns = s.ng;
+#if defined(SCENE_SHADING_NORMALS) || defined(SCENE_UVS)
+    vec4 n0 = tri_attr(4u * prim);
+    vec4 n1 = tri_attr(4u * prim + 1u);
+    vec4 n2 = tri_attr(4u * prim + 2u);
+    vec4 vv = tri_attr(4u * prim + 3u);
+    uint flags = floatBitsToUint(vv.w);
+#endif
+#ifdef SCENE_SHADING_NORMALS
+    if ((flags & 1u) != 0u) {
+        vec3 n = n0.xyz * b0 + n1.xyz * b1 + n2.xyz * b2;
+        float len2 = dot(n, n);
+        if (len2 > 1e-12) {
+            n = n / sqrt(len2);
+            if (dot(n, s.ng) > 0.0) ns = n;
+        }
+    }
+#endif
+    vec3 hint = default_tangent(ns);
+#ifdef SCENE_UVS
+    if ((flags & 2u) != 0u) {
+        vec2 du1 = vec2(n1.w, vv.y) - vec2(n0.w, vv.x);
+        vec2 du2 = vec2(n2.w, vv.z) - vec2(n0.w, vv.x);
+        float det = du1.x * du2.y - du1.y * du2.x;
+        if (abs(det) > 1e-12) hint = (e1 * du2.y - e2 * du1.y) / det;
+    }
+#endif
+    s.frame = make_frame(ns, hint);
+    s.material = floatBitsToUint(a.w);
+    s.emitter = floatBitsToUint(b.w);
+    return s;
+}
+
+// The surface at a hit: only the primitive kinds the scene has are compiled in (BVH_SPHERES,
+// BVH_TRIANGLES; see bvh.glsl).
+Surface surface_at(uint prim, vec2 bary, float t, vec3 o, vec3 d) {
+#if defined(BVH_SPHERES) && defined(BVH_TRIANGLES)
+    if ((prim & SPHERE_BIT) != 0u) return surface_sphere(prim & ~SPHERE_BIT, t, o, d);
+    return surface_triangle(prim, bary, d);
+#elif defined(BVH_SPHERES)
+    return surface_sphere(prim & ~SPHERE_BIT, t, o, d);
+#else
+    return surface_triangle(prim, bary, d);
+#endif
 }
 
 // First light whose CDF exceeds u (the same binary search as LightTable::select).
@@ -107,35 +129,53 @@ uint select_light(float u) {
 // density: the emitter's light-selection density per unit area, lum(Le)/W (host-computed).
 struct LightSample { vec3 p; vec3 n; vec3 radiance; float density; };
 
+LightSample sample_sphere_light(uint i, float u1, float u2) {
+    LightSample ls;
+    vec4 cr = sphere_texel(2u * i);
+    uvec4 info = floatBitsToUint(sphere_texel(2u * i + 1u));
+    float z = 1.0 - 2.0 * u1;
+    float r = sqrt(max(1.0 - z * z, 0.0));
+    float phi = 2.0 * PI * u2;
+    vec3 dir = vec3(r * cos(phi), r * sin(phi), z);
+    ls.p = cr.xyz + dir * cr.w;
+    ls.n = info.z != 0u ? -dir : dir;
+    ls.radiance = emitter(info.y).xyz;
+    ls.density = emitter(info.y).w;
+    return ls;
+}
+
+LightSample sample_triangle_light(uint prim, float u1, float u2) {
+    LightSample ls;
+    vec4 a = tri_texel(3u * prim);
+    vec4 b = tri_texel(3u * prim + 1u);
+    vec4 c = tri_texel(3u * prim + 2u);
+    float su = sqrt(u1);
+    float b0 = 1.0 - su;
+    float b1 = u2 * su;
+    float b2 = 1.0 - b0 - b1;
+    ls.p = a.xyz * b0 + b.xyz * b1 + c.xyz * b2;
+    ls.n = normalize(cross(b.xyz - a.xyz, c.xyz - a.xyz));
+    ls.radiance = emitter(floatBitsToUint(b.w)).xyz;
+    ls.density = emitter(floatBitsToUint(b.w)).w;
+    return ls;
+}
+
+// A point on an emitter: only the kinds of emitters the scene has are compiled in
+// (LIGHT_SPHERES, LIGHT_TRIANGLES; both when neither is defined).
+#if !defined(LIGHT_SPHERES) && !defined(LIGHT_TRIANGLES)
+#define LIGHT_SPHERES
+#define LIGHT_TRIANGLES
+#endif
 LightSample sample_light(float u_sel, float u1, float u2) {
     uint prim = light_entry(select_light(u_sel)).x;
-    LightSample ls;
-    if ((prim & SPHERE_BIT) != 0u) {
-        uint i = prim & ~SPHERE_BIT;
-        vec4 cr = sphere_texel(2u * i);
-        uvec4 info = floatBitsToUint(sphere_texel(2u * i + 1u));
-        float z = 1.0 - 2.0 * u1;
-        float r = sqrt(max(1.0 - z * z, 0.0));
-        float phi = 2.0 * PI * u2;
-        vec3 dir = vec3(r * cos(phi), r * sin(phi), z);
-        ls.p = cr.xyz + dir * cr.w;
-        ls.n = info.z != 0u ? -dir : dir;
-        ls.radiance = emitter(info.y).xyz;
-        ls.density = emitter(info.y).w;
-    } else {
-        vec4 a = tri_texel(3u * prim);
-        vec4 b = tri_texel(3u * prim + 1u);
-        vec4 c = tri_texel(3u * prim + 2u);
-        float su = sqrt(u1);
-        float b0 = 1.0 - su;
-        float b1 = u2 * su;
-        float b2 = 1.0 - b0 - b1;
-        ls.p = a.xyz * b0 + b.xyz * b1 + c.xyz * b2;
-        ls.n = normalize(cross(b.xyz - a.xyz, c.xyz - a.xyz));
-        ls.radiance = emitter(floatBitsToUint(b.w)).xyz;
-        ls.density = emitter(floatBitsToUint(b.w)).w;
-    }
-    return ls;
+#if defined(LIGHT_SPHERES) && defined(LIGHT_TRIANGLES)
+    if ((prim & SPHERE_BIT) != 0u) return sample_sphere_light(prim & ~SPHERE_BIT, u1, u2);
+    return sample_triangle_light(prim, u1, u2);
+#elif defined(LIGHT_SPHERES)
+    return sample_sphere_light(prim & ~SPHERE_BIT, u1, u2);
+#else
+    return sample_triangle_light(prim, u1, u2);
+#endif
 }
 
 // Solid-angle density of next-event estimation choosing this point (src/lights.rs). The

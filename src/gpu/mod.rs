@@ -651,6 +651,7 @@ fn build_kernels(
     if ctx.features.subgroup_ballot {
         common.push(("SUBGROUP_QUEUES".into(), "1".into()));
     }
+    common.extend(scene_features(scene).into_iter().map(|f| (f.to_string(), "1".to_string())));
     let kinds: Vec<vk::DescriptorType> = Binding::ALL.iter().map(|b| b.descriptor_type()).collect();
     let mut build = |name: &str,
                      file: &str,
@@ -744,6 +745,35 @@ fn build_kernels(
     }
     stages.accumulate = build("accumulate", "wavefront/accumulate.comp", vec![], vec![])?;
     Ok((stages, shade))
+}
+
+/// The `#define`s that compile in only what the scene has: the primitive kinds (BVH_TRIANGLES,
+/// BVH_SPHERES), the emitter kinds (LIGHT_TRIANGLES, LIGHT_SPHERES), per-vertex shading normals
+/// and texture coordinates (SCENE_SHADING_NORMALS, SCENE_UVS). On lavapipe both sides of every
+/// branch run for all lanes, so code for something the scene lacks is not free.
+pub fn scene_features(scene: &Scene) -> Vec<&'static str> {
+    let mut f = Vec::new();
+    if !scene.triangles.is_empty() || scene.spheres.is_empty() {
+        f.push("BVH_TRIANGLES");
+    }
+    if !scene.spheres.is_empty() {
+        f.push("BVH_SPHERES");
+    }
+    let lit_tris = scene.triangles.iter().any(|t| t.emitter.is_some());
+    let lit_spheres = scene.spheres.iter().any(|s| s.emitter.is_some());
+    if lit_tris || !lit_spheres {
+        f.push("LIGHT_TRIANGLES");
+    }
+    if lit_spheres {
+        f.push("LIGHT_SPHERES");
+    }
+    if scene.triangles.iter().any(|t| t.n.is_some()) {
+        f.push("SCENE_SHADING_NORMALS");
+    }
+    if scene.triangles.iter().any(|t| t.uv.is_some()) {
+        f.push("SCENE_UVS");
+    }
+    f
 }
 
 /// Largest `max_depth` accepted (segments per path): the random-number key holds bounce × 64 +
