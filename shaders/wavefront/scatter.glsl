@@ -81,11 +81,13 @@ Scatter shade_vertex(uint path, uint depth, Hit hit, vec3 o, vec3 d, vec3 b, uin
     if (dot(wi, s.ng) <= 0.0) return r;
     b *= bs.weight;
     float prev_pdf = bs.delta ? 0.0 : bs.pdf;
+#ifdef RUSSIAN_ROULETTE
     if (g.rr_enabled != 0u && depth >= g.rr_start_depth) {
         float q = min(max(b.x, max(b.y, b.z)), 1.0);
         if (rand(path, depth, DIM_RR) >= q) return r;
         b /= q;
     }
+#endif
     // A non-finite throughput, direction or pdf ends the path, counted.
     if (!(is_finite_v(b) && is_finite_v(wi) && is_finite_f(prev_pdf))) {
         atomicAdd(counters[c], 1u);

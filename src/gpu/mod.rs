@@ -749,7 +749,8 @@ fn build_kernels(
 
 /// The `#define`s that compile in only what the scene has: the primitive kinds (BVH_TRIANGLES,
 /// BVH_SPHERES), the emitter kinds (LIGHT_TRIANGLES, LIGHT_SPHERES), per-vertex shading normals
-/// and texture coordinates (SCENE_SHADING_NORMALS, SCENE_UVS). On lavapipe both sides of every
+/// and texture coordinates (SCENE_SHADING_NORMALS, SCENE_UVS), Russian roulette
+/// (RUSSIAN_ROULETTE). On lavapipe both sides of every
 /// branch run for all lanes, so code for something the scene lacks is not free.
 pub fn scene_features(scene: &Scene) -> Vec<&'static str> {
     let mut f = Vec::new();
@@ -772,6 +773,9 @@ pub fn scene_features(scene: &Scene) -> Vec<&'static str> {
     }
     if scene.triangles.iter().any(|t| t.uv.is_some()) {
         f.push("SCENE_UVS");
+    }
+    if scene.integrator.russian_roulette {
+        f.push("RUSSIAN_ROULETTE");
     }
     f
 }
