@@ -4,7 +4,9 @@
 //! Run `cargo test --test bvh -- --nocapture` to see the BVH statistics of every scene.
 
 use brdfwave::bvh::{self, Bvh, Hit, MAX_DEPTH, SPHERE_BIT};
+use brdfwave::gpu::scene_buffers;
 use brdfwave::scene::{Camera, Integrator, Scene, Sphere, Triangle};
+use brdfwave::vk::{raw, Context, ContextOptions, Resource, ShaderCompiler};
 use glam::{Vec2, Vec3};
 use std::collections::HashMap;
 
@@ -899,34 +901,12 @@ void main() {
 }
 "#;
 
+/// The probe compiled by the product's shader compiler (shaders as embedded in the build).
 fn compile_probe() -> Vec<u32> {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
-    let compiler = shaderc::Compiler::new().expect("shaderc");
-    let mut opts = shaderc::CompileOptions::new().expect("shaderc options");
-    opts.set_target_env(
-        shaderc::TargetEnv::Vulkan,
-        shaderc::EnvVersion::Vulkan1_2 as u32,
-    );
-    opts.set_include_callback(move |name, _, _, _| {
-        let p = dir.join(name);
-        std::fs::read_to_string(&p)
-            .map(|content| shaderc::ResolvedInclude {
-                resolved_name: p.display().to_string(),
-                content,
-            })
-            .map_err(|e| format!("{}: {e}", p.display()))
-    });
-    compiler
-        .compile_into_spirv(
-            PROBE,
-            shaderc::ShaderKind::Compute,
-            "bvh_probe.comp",
-            "main",
-            Some(&opts),
-        )
-        .unwrap_or_else(|e| panic!("shaders/bvh.glsl does not compile:\n{e}"))
-        .as_binary()
-        .to_vec()
+    ShaderCompiler::new()
+        .and_then(|c| c.with_source("bvh_probe.comp", PROBE))
+        .and_then(|c| c.compile("bvh_probe.comp", &[], &[]))
+        .unwrap_or_else(|e| panic!("shaders/bvh.glsl does not compile:\n{e:#}"))
 }
 
 #[test]
@@ -934,348 +914,83 @@ fn glsl_twin_compiles_for_vulkan() {
     assert!(compile_probe().len() > 100);
 }
 
-/// A bare-bones compute runner on the first Vulkan device (only for this test; the renderer
-/// has its own backend in `vk`).
-mod gpu {
-    use ash::vk;
-
-    pub struct Runner {
-        _entry: ash::Entry,
-        instance: ash::Instance,
-        device: ash::Device,
-        queue: vk::Queue,
-        family: u32,
-        mem_props: vk::PhysicalDeviceMemoryProperties,
-        pub name: String,
+/// Runs the probe over `rays` ((o, tmax), (d, 0) per ray) against the scene as the renderer
+/// uploads it (`gpu::scene_buffers`, texel views in the formats of `gpu::layout`).
+fn run_probe(ctx: &Context, spirv: &[u32], s: &Scene, b: &Bvh, rays: &[[f32; 4]]) -> Vec<[u32; 4]> {
+    use brdfwave::gpu::layout::{Binding, Kind};
+    let storage = raw::BufferUsageFlags::STORAGE_BUFFER;
+    let n = rays.len() / 2;
+    let inp = ctx.create_buffer_with_data("rays", rays, storage).unwrap();
+    let out = ctx
+        .create_buffer(
+            "out",
+            (n * 32) as u64,
+            storage,
+            brdfwave::vk::MemoryLocation::GpuOnly,
+        )
+        .unwrap();
+    let scene_data: [(Binding, Vec<u8>); 4] = [
+        (Binding::BvhNodes, scene_buffers::bvh_nodes(b).to_vec()),
+        (Binding::BvhPrims, bytemuck::cast_slice(&b.prims).to_vec()),
+        (
+            Binding::Triangles,
+            bytemuck::cast_slice(&scene_buffers::triangle_data(s)).to_vec(),
+        ),
+        (
+            Binding::Spheres,
+            bytemuck::cast_slice(&scene_buffers::sphere_data(s)).to_vec(),
+        ),
+    ];
+    let mut bufs = Vec::new();
+    let mut views = Vec::new();
+    for (binding, bytes) in &scene_data {
+        let Kind::Texels(format) = binding.kind() else {
+            panic!("{binding:?} is a texel buffer in the renderer")
+        };
+        let buf = ctx
+            .create_buffer_with_data(binding.name(), bytes, binding.usage())
+            .unwrap();
+        views.push(ctx.create_buffer_view(&buf, format).unwrap());
+        bufs.push(buf);
     }
-
-    struct Buf {
-        buffer: vk::Buffer,
-        memory: vk::DeviceMemory,
-        size: u64,
+    let kinds = [
+        raw::DescriptorType::STORAGE_BUFFER,
+        raw::DescriptorType::STORAGE_BUFFER,
+        raw::DescriptorType::UNIFORM_TEXEL_BUFFER,
+        raw::DescriptorType::UNIFORM_TEXEL_BUFFER,
+        raw::DescriptorType::UNIFORM_TEXEL_BUFFER,
+        raw::DescriptorType::UNIFORM_TEXEL_BUFFER,
+    ];
+    let p = ctx
+        .create_compute_pipeline_with("bvh_probe", spirv, &kinds, 4)
+        .unwrap();
+    let mut res = vec![Resource::Buffer(&inp), Resource::Buffer(&out)];
+    res.extend(
+        bufs.iter()
+            .zip(&views)
+            .map(|(b, &v)| Resource::Texels(b, v)),
+    );
+    let set = ctx.create_descriptor_set_with(&p, &res).unwrap();
+    let mut rec = ctx.begin().unwrap();
+    rec.bind(&p, set);
+    rec.push_constants(&p, &(n as u32));
+    rec.dispatch((n as u32).div_ceil(64), 1, 1);
+    ctx.submit_and_wait(rec).unwrap();
+    let result: Vec<[u32; 4]> = ctx.download(&out).unwrap();
+    ctx.destroy_pipeline(p);
+    for v in views {
+        ctx.destroy_buffer_view(v);
     }
-
-    impl Runner {
-        pub fn new() -> Runner {
-            unsafe {
-                let entry =
-                    ash::Entry::load().expect("a Vulkan loader (install mesa-vulkan-drivers)");
-                let app =
-                    vk::ApplicationInfo::default().api_version(vk::make_api_version(0, 1, 2, 0));
-                let instance = entry
-                    .create_instance(
-                        &vk::InstanceCreateInfo::default().application_info(&app),
-                        None,
-                    )
-                    .expect("Vulkan instance");
-                let pds = instance
-                    .enumerate_physical_devices()
-                    .expect("physical devices");
-                let (pd, family) = pds
-                    .iter()
-                    .find_map(|&pd| {
-                        instance
-                            .get_physical_device_queue_family_properties(pd)
-                            .iter()
-                            .position(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE))
-                            .map(|f| (pd, f as u32))
-                    })
-                    .expect("a Vulkan device with a compute queue");
-                let props = instance.get_physical_device_properties(pd);
-                let name = props
-                    .device_name_as_c_str()
-                    .map(|s| s.to_string_lossy().into_owned())
-                    .unwrap_or_default();
-                let prio = [1.0f32];
-                let qci = [vk::DeviceQueueCreateInfo::default()
-                    .queue_family_index(family)
-                    .queue_priorities(&prio)];
-                let device = instance
-                    .create_device(
-                        pd,
-                        &vk::DeviceCreateInfo::default().queue_create_infos(&qci),
-                        None,
-                    )
-                    .expect("Vulkan device");
-                let queue = device.get_device_queue(family, 0);
-                let mem_props = instance.get_physical_device_memory_properties(pd);
-                Runner {
-                    _entry: entry,
-                    instance,
-                    device,
-                    queue,
-                    family,
-                    mem_props,
-                    name,
-                }
-            }
-        }
-
-        unsafe fn buffer(&self, bytes: &[u8], min_size: u64) -> Buf {
-            let size = (bytes.len() as u64).max(min_size).max(16);
-            let buffer = self
-                .device
-                .create_buffer(
-                    &vk::BufferCreateInfo::default()
-                        .size(size)
-                        .usage(vk::BufferUsageFlags::STORAGE_BUFFER)
-                        .sharing_mode(vk::SharingMode::EXCLUSIVE),
-                    None,
-                )
-                .unwrap();
-            let req = self.device.get_buffer_memory_requirements(buffer);
-            let want =
-                vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT;
-            let ty = (0..self.mem_props.memory_type_count)
-                .find(|&i| {
-                    req.memory_type_bits & (1 << i) != 0
-                        && self.mem_props.memory_types[i as usize]
-                            .property_flags
-                            .contains(want)
-                })
-                .expect("host-visible coherent memory");
-            let memory = self
-                .device
-                .allocate_memory(
-                    &vk::MemoryAllocateInfo::default()
-                        .allocation_size(req.size)
-                        .memory_type_index(ty),
-                    None,
-                )
-                .unwrap();
-            self.device.bind_buffer_memory(buffer, memory, 0).unwrap();
-            let p = self
-                .device
-                .map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty())
-                .unwrap() as *mut u8;
-            std::ptr::write_bytes(p, 0, size as usize);
-            std::ptr::copy_nonoverlapping(bytes.as_ptr(), p, bytes.len());
-            self.device.unmap_memory(memory);
-            Buf {
-                buffer,
-                memory,
-                size,
-            }
-        }
-
-        /// Run `spirv` over `count` invocations with the storage buffers bound at 0, 1, ...;
-        /// returns the contents of buffer `out_index` afterwards.
-        pub fn run(
-            &self,
-            spirv: &[u32],
-            inputs: &[&[u8]],
-            out_index: usize,
-            out_size: u64,
-            count: u32,
-        ) -> Vec<u8> {
-            unsafe {
-                let d = &self.device;
-                let bufs: Vec<Buf> = inputs
-                    .iter()
-                    .enumerate()
-                    .map(|(i, b)| self.buffer(b, if i == out_index { out_size } else { 0 }))
-                    .collect();
-                let bindings: Vec<_> = (0..bufs.len() as u32)
-                    .map(|i| {
-                        vk::DescriptorSetLayoutBinding::default()
-                            .binding(i)
-                            .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                            .descriptor_count(1)
-                            .stage_flags(vk::ShaderStageFlags::COMPUTE)
-                    })
-                    .collect();
-                let dsl = d
-                    .create_descriptor_set_layout(
-                        &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
-                        None,
-                    )
-                    .unwrap();
-                let pcr = [vk::PushConstantRange::default()
-                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
-                    .size(4)];
-                let layouts = [dsl];
-                let pl = d
-                    .create_pipeline_layout(
-                        &vk::PipelineLayoutCreateInfo::default()
-                            .set_layouts(&layouts)
-                            .push_constant_ranges(&pcr),
-                        None,
-                    )
-                    .unwrap();
-                let module = d
-                    .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(spirv), None)
-                    .unwrap();
-                let stage = vk::PipelineShaderStageCreateInfo::default()
-                    .stage(vk::ShaderStageFlags::COMPUTE)
-                    .module(module)
-                    .name(c"main");
-                let pipe = d
-                    .create_compute_pipelines(
-                        vk::PipelineCache::null(),
-                        &[vk::ComputePipelineCreateInfo::default()
-                            .stage(stage)
-                            .layout(pl)],
-                        None,
-                    )
-                    .map_err(|e| e.1)
-                    .unwrap()[0];
-                let sizes = [vk::DescriptorPoolSize {
-                    ty: vk::DescriptorType::STORAGE_BUFFER,
-                    descriptor_count: bufs.len() as u32,
-                }];
-                let pool = d
-                    .create_descriptor_pool(
-                        &vk::DescriptorPoolCreateInfo::default()
-                            .max_sets(1)
-                            .pool_sizes(&sizes),
-                        None,
-                    )
-                    .unwrap();
-                let set = d
-                    .allocate_descriptor_sets(
-                        &vk::DescriptorSetAllocateInfo::default()
-                            .descriptor_pool(pool)
-                            .set_layouts(&layouts),
-                    )
-                    .unwrap()[0];
-                let infos: Vec<[vk::DescriptorBufferInfo; 1]> = bufs
-                    .iter()
-                    .map(|b| {
-                        [vk::DescriptorBufferInfo::default()
-                            .buffer(b.buffer)
-                            .offset(0)
-                            .range(vk::WHOLE_SIZE)]
-                    })
-                    .collect();
-                let writes: Vec<_> = infos
-                    .iter()
-                    .enumerate()
-                    .map(|(i, info)| {
-                        vk::WriteDescriptorSet::default()
-                            .dst_set(set)
-                            .dst_binding(i as u32)
-                            .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                            .buffer_info(info)
-                    })
-                    .collect();
-                d.update_descriptor_sets(&writes, &[]);
-                let cp = d
-                    .create_command_pool(
-                        &vk::CommandPoolCreateInfo::default().queue_family_index(self.family),
-                        None,
-                    )
-                    .unwrap();
-                let cb = d
-                    .allocate_command_buffers(
-                        &vk::CommandBufferAllocateInfo::default()
-                            .command_pool(cp)
-                            .level(vk::CommandBufferLevel::PRIMARY)
-                            .command_buffer_count(1),
-                    )
-                    .unwrap()[0];
-                d.begin_command_buffer(
-                    cb,
-                    &vk::CommandBufferBeginInfo::default()
-                        .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
-                )
-                .unwrap();
-                d.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, pipe);
-                d.cmd_bind_descriptor_sets(cb, vk::PipelineBindPoint::COMPUTE, pl, 0, &[set], &[]);
-                d.cmd_push_constants(
-                    cb,
-                    pl,
-                    vk::ShaderStageFlags::COMPUTE,
-                    0,
-                    &count.to_ne_bytes(),
-                );
-                d.cmd_dispatch(cb, count.div_ceil(64), 1, 1);
-                let barrier = [vk::MemoryBarrier::default()
-                    .src_access_mask(vk::AccessFlags::SHADER_WRITE)
-                    .dst_access_mask(vk::AccessFlags::HOST_READ)];
-                d.cmd_pipeline_barrier(
-                    cb,
-                    vk::PipelineStageFlags::COMPUTE_SHADER,
-                    vk::PipelineStageFlags::HOST,
-                    vk::DependencyFlags::empty(),
-                    &barrier,
-                    &[],
-                    &[],
-                );
-                d.end_command_buffer(cb).unwrap();
-                let fence = d
-                    .create_fence(&vk::FenceCreateInfo::default(), None)
-                    .unwrap();
-                let cbs = [cb];
-                d.queue_submit(
-                    self.queue,
-                    &[vk::SubmitInfo::default().command_buffers(&cbs)],
-                    fence,
-                )
-                .unwrap();
-                d.wait_for_fences(&[fence], true, u64::MAX).unwrap();
-                let out = &bufs[out_index];
-                let p = d
-                    .map_memory(out.memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty())
-                    .unwrap() as *const u8;
-                let result = std::slice::from_raw_parts(p, out.size as usize).to_vec();
-                d.unmap_memory(out.memory);
-                d.destroy_fence(fence, None);
-                d.destroy_command_pool(cp, None);
-                d.destroy_descriptor_pool(pool, None);
-                d.destroy_pipeline(pipe, None);
-                d.destroy_shader_module(module, None);
-                d.destroy_pipeline_layout(pl, None);
-                d.destroy_descriptor_set_layout(dsl, None);
-                for b in bufs {
-                    d.destroy_buffer(b.buffer, None);
-                    d.free_memory(b.memory, None);
-                }
-                result
-            }
-        }
+    for buf in bufs.into_iter().chain([inp, out]) {
+        ctx.destroy_buffer(buf);
     }
-
-    impl Drop for Runner {
-        fn drop(&mut self) {
-            unsafe {
-                self.device.destroy_device(None);
-                self.instance.destroy_instance(None);
-            }
-        }
-    }
-}
-
-/// Triangles and spheres packed as the renderer packs them (`gpu::scene_buffers`).
-fn pack_scene(s: &Scene) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
-    let bits = f32::from_bits;
-    let mut tri = Vec::new();
-    for t in &s.triangles {
-        tri.push([t.v[0].x, t.v[0].y, t.v[0].z, bits(t.material)]);
-        tri.push([
-            t.v[1].x,
-            t.v[1].y,
-            t.v[1].z,
-            bits(t.emitter.unwrap_or(u32::MAX)),
-        ]);
-        tri.push([t.v[2].x, t.v[2].y, t.v[2].z, 0.0]);
-    }
-    let mut sph = Vec::new();
-    for p in &s.spheres {
-        sph.push([p.center.x, p.center.y, p.center.z, p.radius]);
-        sph.push([
-            bits(p.material),
-            bits(p.emitter.unwrap_or(u32::MAX)),
-            bits(p.inward as u32),
-            0.0,
-        ]);
-    }
-    (tri, sph)
+    result
 }
 
 #[test]
 fn glsl_traversal_matches_cpu_on_a_vulkan_device() {
     let spirv = compile_probe();
-    let runner = gpu::Runner::new();
+    let ctx = Context::new(&ContextOptions::default()).expect("a Vulkan device (lavapipe)");
     let mut rng = Rng(15);
     let mut mixed = random_soup(&mut rng, 800, 5.0);
     let (v, f) = icosphere(2, Vec3::new(2.0, 1.0, -1.0), 1.5);
@@ -1351,24 +1066,9 @@ fn glsl_traversal_matches_cpu_on_a_vulkan_device() {
             .iter()
             .flat_map(|&(o, d, t)| [[o.x, o.y, o.z, t], [d.x, d.y, d.z, 0.0]])
             .collect();
-        let (tri, sph) = pack_scene(s);
         let n = rays.len();
-        let nodes: &[u8] = bytemuck::cast_slice(&b.nodes);
-        let out = runner.run(
-            &spirv,
-            &[
-                bytemuck::cast_slice(&ray_data),
-                &[],
-                nodes,
-                bytemuck::cast_slice(&b.prims),
-                bytemuck::cast_slice(&tri),
-                bytemuck::cast_slice(&sph),
-            ],
-            1,
-            (n * 32) as u64,
-            n as u32,
-        );
-        let out: &[[u32; 4]] = bytemuck::cast_slice(&out[..n * 32]);
+        let out = run_probe(&ctx, &spirv, s, &b, &ray_data);
+
         let (mut hits, mut exact, mut inexact) = (0, 0, 0);
         for (i, &(o, d, tmax)) in rays.iter().enumerate() {
             let [prim, t, b1, b2] = out[2 * i];
@@ -1417,13 +1117,13 @@ fn glsl_traversal_matches_cpu_on_a_vulkan_device() {
                 }
             }
         }
-        println!("{name} on {}: {n} rays, {hits} hits, {exact} bit-exact, {inexact} t/bary off in the last bits", runner.name);
+        println!("{name} on {}: {n} rays, {hits} hits, {exact} bit-exact, {inexact} t/bary off in the last bits", ctx.device_name);
         // lavapipe's float division and sqrt are IEEE: everything must be bit-exact there.
-        if runner.name.contains("llvmpipe") {
+        if ctx.device_name.contains("llvmpipe") {
             assert_eq!(
                 inexact, 0,
                 "{name}: results are not bit-exact on {}",
-                runner.name
+                ctx.device_name
             );
         }
     }

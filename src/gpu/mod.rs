@@ -651,7 +651,11 @@ fn build_kernels(
     if ctx.features.subgroup_ballot {
         common.push(("SUBGROUP_QUEUES".into(), "1".into()));
     }
-    common.extend(scene_features(scene).into_iter().map(|f| (f.to_string(), "1".to_string())));
+    common.extend(
+        scene_features(scene)
+            .into_iter()
+            .map(|f| (f.to_string(), "1".to_string())),
+    );
     let kinds: Vec<vk::DescriptorType> = Binding::ALL.iter().map(|b| b.descriptor_type()).collect();
     let mut build = |name: &str,
                      file: &str,
