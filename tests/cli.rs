@@ -356,3 +356,70 @@ fn brdf_plot_writes_a_png_and_refuses_bad_angles() {
     ]);
     assert!(err.contains("--theta-i"), "{err}");
 }
+
+/// `bench` at a tiny budget (the CI smoke test; no timing is asserted): every configuration
+/// asked for gets rows with the documented columns, errors that fall as samples grow, a plot
+/// and a summary; a bad configuration name is refused.
+#[test]
+fn bench_writes_its_csv_plot_and_summary() {
+    let out = tmp("bench");
+    let reference = tmp("bench-cache");
+    let o = bin()
+        .args([
+            "bench",
+            "scenes/cornell-box.toml",
+            "--res",
+            "16x12",
+            "--budget",
+            "3",
+            "--reference-spp",
+            "32",
+            "--configs",
+            "wavefront,megakernel,cpu,wavefront-t1",
+            "--out",
+            s(&out),
+        ])
+        .env("BRDFWAVE_CACHE_DIR", &reference)
+        .current_dir(common::repo())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(out.join("bench.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some(brdfwave::bench::CSV_COLUMNS));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    for config in ["wavefront", "megakernel", "cpu", "wavefront-t1"] {
+        let mine: Vec<&Vec<&str>> = rows.iter().filter(|r| r[0] == config).collect();
+        assert!(mine.len() >= 2, "{config}: {} passes", mine.len());
+        let spp: Vec<u32> = mine.iter().map(|r| r[2].parse().unwrap()).collect();
+        assert!(spp.windows(2).all(|w| w[1] > w[0]), "{config}: spp {spp:?}");
+        let relmse: Vec<f64> = mine.iter().map(|r| r[6].parse().unwrap()).collect();
+        assert!(
+            relmse.iter().all(|e| e.is_finite() && *e > 0.0),
+            "{config}: {relmse:?}"
+        );
+        assert!(
+            relmse.last() < relmse.first(),
+            "{config}: error does not fall: {relmse:?}"
+        );
+    }
+    let png = image::open(out.join("bench.png")).expect("bench.png decodes");
+    assert!(png.width() > 400 && png.height() > 300);
+    let md = std::fs::read_to_string(out.join("bench.md")).unwrap();
+    assert!(
+        md.contains("| megakernel |") && md.contains("GPU time by stage"),
+        "{md}"
+    );
+    // The reference was cached.
+    let cached: Vec<_> = std::fs::read_dir(reference.join("reference"))
+        .unwrap()
+        .collect();
+    assert_eq!(cached.len(), 1);
+    let e = fails(&[
+        "bench",
+        "scenes/cornell-box.toml",
+        "--configs",
+        "wavefront,pbrt",
+    ]);
+    assert!(e.contains("unknown configuration 'pbrt'"), "{e}");
+}

@@ -396,3 +396,95 @@ fn copy_dir(from: &std::path::Path, to: &std::path::Path) {
         }
     }
 }
+
+/// The megakernel follows the same paths with the same arithmetic as the wavefront stages: the
+/// same film, ray counts and non-finite counts, on a scene with every model (one switch).
+#[test]
+fn the_megakernel_renders_the_wavefront_image() {
+    use brdfwave::gpu::{GpuRenderer, Integrator, MAX_CAPACITY};
+    let ctx = context();
+    let compiler = brdfwave::vk::ShaderCompiler::new().unwrap();
+    for (name, w, h) in [("lineup.toml", 40, 16), ("cornell-box-glossy.toml", 24, 20)] {
+        let s = scene(name, w, h, 3, 6, 5);
+        let b = brdfwave::bvh::build(&s);
+        let mut outs = Vec::new();
+        let mut pipelines = Vec::new();
+        for integrator in [Integrator::Wavefront, Integrator::Megakernel] {
+            let mut r =
+                GpuRenderer::with_options(&ctx, &s, &b, &compiler, MAX_CAPACITY, integrator)
+                    .expect("set-up");
+            outs.push(r.render(&|_| {}).expect("render"));
+            pipelines.push(r.setup.pipelines.clone());
+        }
+        assert_eq!(pipelines[1], ["megakernel", "accumulate"], "{name}");
+        let (wf, mk) = (&outs[0], &outs[1]);
+        assert_eq!(wf.extension_rays, mk.extension_rays, "{name}");
+        assert_eq!(wf.shadow_rays, mk.shadow_rays, "{name}");
+        assert_eq!(wf.nonfinite_by_stage, mk.nonfinite_by_stage, "{name}");
+        let d = metrics::diff(&mk.mean, &wf.mean).unwrap();
+        // Bit-identical on lavapipe; a compiler may contract the two kernels' arithmetic
+        // differently elsewhere, hence the tolerance.
+        assert!(
+            d.max_abs <= 1e-5 * (1.0 + d.mean_reference.iter().cloned().fold(0.0, f64::max)),
+            "{name}: {d}"
+        );
+        println!(
+            "{name}: megakernel vs wavefront max |diff| {:.3e}",
+            d.max_abs
+        );
+    }
+    finish(ctx);
+}
+
+/// Rendering in passes (the benchmark's progressive mode) gives the film of one render, on
+/// both backends: each pixel's samples are added in sample order whatever the passes.
+#[test]
+fn passes_add_up_to_one_render_on_both_backends() {
+    use brdfwave::cpu::CpuRenderer;
+    use brdfwave::gpu::GpuRenderer;
+    let s = scene("cornell-box.toml", 20, 16, 7, 5, 2);
+    let b = brdfwave::bvh::build(&s);
+    let cpu = CpuRenderer::new(&s, &b);
+    let whole = cpu.render(&|_| {});
+    let mut film = cpu.film();
+    for r in [0..1, 1..3, 3..7] {
+        cpu.render_samples(&mut film, r, &|_| {});
+    }
+    let parts = cpu.output(&film);
+    assert!(parts.mean.data == whole.mean.data && parts.variance.data == whole.variance.data);
+    assert_eq!(parts.extension_rays, whole.extension_rays);
+
+    let ctx = context();
+    let compiler = brdfwave::vk::ShaderCompiler::new().unwrap();
+    let mut r = GpuRenderer::new(&ctx, &s, &b, &compiler).unwrap();
+    let whole = r.render(&|_| {}).unwrap();
+    r.reset().unwrap();
+    for range in [0..2, 2..3, 3..7] {
+        r.render_samples(range, &|_| {}).unwrap();
+    }
+    let parts = r.output().unwrap();
+    assert!(parts.mean.data == whole.mean.data && parts.variance.data == whole.variance.data);
+    assert_eq!(parts.spp, 7);
+    assert_eq!(parts.extension_rays, whole.extension_rays);
+    assert!(
+        r.render_samples(9..10, &|_| {}).is_err(),
+        "a gap in the samples is refused"
+    );
+    drop(r);
+    finish(ctx);
+}
+
+/// A depth far beyond where every path ends: the GPU stops once its queues are empty (the
+/// white furnace's paths leave after a few bounces) and gives the CPU's image and ray counts.
+#[test]
+fn a_huge_max_depth_stops_when_every_path_has_ended() {
+    let s = scene("white-furnace.toml", 16, 16, 1, 100_000, 4);
+    let ctx = context();
+    let (gpu, _) = render_gpu(&ctx, &s);
+    let cpu = render_cpu(&s);
+    assert_eq!(gpu.extension_rays, cpu.extension_rays);
+    assert_eq!(gpu.shadow_rays, cpu.shadow_rays);
+    let d = metrics::diff(&gpu.mean, &cpu.mean).unwrap();
+    assert!(d.rmse < 1e-4, "{d}");
+    finish(ctx);
+}
