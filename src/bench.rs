@@ -36,6 +36,9 @@ const MITSUBA_SCRIPT: &str = include_str!("../scripts/mitsuba_peer.py");
 /// The CSV header of `bench.csv`, one row per pass.
 pub const CSV_COLUMNS: &str = "config,pass,spp,seconds,paths_per_second,rmse,relmse,flip";
 
+/// Passes every configuration makes, even past its share of the budget: a curve needs points.
+const MIN_PASSES: u32 = 3;
+
 /// One configuration of the benchmark.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Config {
@@ -571,6 +574,7 @@ pub fn run(o: &BenchOptions) -> Result<String> {
     let share = o.budget / runners.len() as f64;
     let mut records: Vec<PassRecord> = Vec::new();
     let mut state: Vec<(u32, f64, bool)> = vec![(0, 0.0, false); runners.len()]; // spp, seconds, done
+    let mut passes = vec![0u32; runners.len()];
     let mut pass = 0u32;
     let tty = std::io::stderr().is_terminal();
     while state.iter().any(|s| !s.2) {
@@ -588,11 +592,11 @@ pub fn run(o: &BenchOptions) -> Result<String> {
                 let per_spp = secs / spp as f64;
                 let fit = ((share - secs) / per_spp.max(1e-9)).floor();
                 let n = (spp as f64).min(fit).min((u32::MAX / 2 - spp) as f64);
-                if n < (spp as f64 / 4.0).max(1.0) {
+                if n < (spp as f64 / 4.0).max(1.0) && passes[i] >= MIN_PASSES {
                     state[i].2 = true;
                     continue;
                 }
-                n as u32
+                n.max(1.0) as u32
             };
             if tty {
                 eprint!("\r{name}: pass {pass}, {} spp          ", spp + n);
@@ -613,7 +617,8 @@ pub fn run(o: &BenchOptions) -> Result<String> {
                 relmse: d.relmse,
                 flip: d.flip_mean,
             });
-            state[i] = (spp, secs, secs >= share || spp >= 1 << 24);
+            passes[i] += 1;
+            state[i] = (spp, secs, (secs >= share && passes[i] >= MIN_PASSES) || spp >= 1 << 24);
         }
     }
     if tty {
