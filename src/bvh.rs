@@ -163,6 +163,10 @@ pub struct Bvh {
     pub nodes: Vec<GpuNode>,
     /// Primitive references (triangle index, or sphere index | `SPHERE_BIT`), leaf-contiguous.
     pub prims: Vec<u32>,
+    /// The vertices of each triangle of `prims`, in the same order (zeros for spheres): the CPU
+    /// traversal reads a leaf's triangles from consecutive memory instead of the scene's larger
+    /// `Triangle` records.
+    pub leaf_triangles: Vec<[Vec3; 3]>,
     /// Box of the whole scene (empty scene: both zero).
     pub bounds_min: Vec3,
     pub bounds_max: Vec3,
@@ -529,7 +533,14 @@ pub fn build(scene: &Scene) -> Bvh {
     } else {
         0.0
     };
-    let prims = b.order.iter().map(|&i| b.refs[i as usize]).collect();
+    let prims: Vec<u32> = b.order.iter().map(|&i| b.refs[i as usize]).collect();
+    let leaf_triangles = prims
+        .iter()
+        .map(|&r| match r & SPHERE_BIT {
+            0 => scene.triangles[r as usize].v,
+            _ => [Vec3::ZERO; 3],
+        })
+        .collect();
     let (bounds_min, bounds_max) = if n > 0 {
         (root.bounds.min, root.bounds.max)
     } else {
@@ -538,6 +549,7 @@ pub fn build(scene: &Scene) -> Bvh {
     Bvh {
         nodes: b.nodes,
         prims,
+        leaf_triangles,
         bounds_min,
         bounds_max,
         stats,
@@ -767,7 +779,7 @@ impl Bvh {
                         let s = &scene.spheres[(r & !SPHERE_BIT) as usize];
                         intersect_sphere(o, d, s.center, s.radius, best.t).map(|t| (t, Vec2::ZERO))
                     } else {
-                        ray.triangle(&scene.triangles[r as usize].v, best.t)
+                        ray.triangle(&self.leaf_triangles[i as usize], best.t)
                     };
                     if let Some((t, bary)) = h {
                         best = Hit { t, prim: r, bary };
