@@ -618,7 +618,11 @@ pub fn run(o: &BenchOptions) -> Result<String> {
                 flip: d.flip_mean,
             });
             passes[i] += 1;
-            state[i] = (spp, secs, (secs >= share && passes[i] >= MIN_PASSES) || spp >= 1 << 24);
+            state[i] = (
+                spp,
+                secs,
+                (secs >= share && passes[i] >= MIN_PASSES) || spp >= 1 << 24,
+            );
         }
     }
     if tty {
@@ -629,7 +633,9 @@ pub fn run(o: &BenchOptions) -> Result<String> {
         .iter_mut()
         .map(|(n, r)| (n.clone(), r.details()))
         .collect();
+    // The runners (and Mitsuba's processes) and the devices go before anything else is timed.
     drop(runners);
+    drop(contexts);
 
     // Outputs.
     let mut csv = String::from(CSV_COLUMNS);

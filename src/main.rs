@@ -388,9 +388,17 @@ fn render(a: RenderArgs) -> Result<()> {
             let mut r =
                 GpuRenderer::with_options(&ctx, &sc, &bvh, &compiler, wave, a.integrator.gpu())?;
             seconds_setup = t0.elapsed().as_secs_f64();
-            let pb = progress_bar(sc.integrator.spp as u64, "samples");
+            // Per mille of a sample, so that a single wave shows progress by segment.
+            let pb = progress_bar(sc.integrator.spp as u64 * 1000, "samples");
+            pb.set_style(
+                ProgressStyle::with_template(
+                    "{spinner} samples [{bar:40}] {percent}% {elapsed} eta {eta}",
+                )
+                .expect("valid template")
+                .progress_chars("=> "),
+            );
             let t = Instant::now();
-            output = r.render(&|n| pb.set_position(n as u64))?;
+            output = r.render(&|n| pb.set_position((n * 1000.0) as u64))?;
             seconds_render = t.elapsed().as_secs_f64();
             pb.finish_and_clear();
             device = ctx.device_name.clone();

@@ -358,8 +358,8 @@ impl<'a> GpuRenderer<'a> {
     }
 
     /// Render `scene.integrator.spp` samples per pixel from an empty film; `progress` gets the
-    /// number of samples per pixel done after each batch of waves.
-    pub fn render(&mut self, progress: &dyn Fn(u32)) -> Result<RenderOutput> {
+    /// samples per pixel done so far (fractional within a wave).
+    pub fn render(&mut self, progress: &dyn Fn(f64)) -> Result<RenderOutput> {
         self.reset()?;
         self.render_samples(0..self.scene.integrator.spp, progress)?;
         self.output()
@@ -378,9 +378,10 @@ impl<'a> GpuRenderer<'a> {
     }
 
     /// Adds the samples `samples` (sample indices; the next ones after those already in the
-    /// film) of every pixel to the film. `progress` gets the samples per pixel in the film after
-    /// each batch of waves.
-    pub fn render_samples(&mut self, samples: Range<u32>, progress: &dyn Fn(u32)) -> Result<()> {
+    /// film) of every pixel to the film. `progress` gets the samples per pixel done so far: after
+    /// each batch of waves, and, while a batch holds a single wave (a slow device), after each
+    /// segment, as a fraction of the wave by segments.
+    pub fn render_samples(&mut self, samples: Range<u32>, progress: &dyn Fn(f64)) -> Result<()> {
         if samples.start != self.samples_done {
             bail!(
                 "samples from {} asked for, but the film holds samples 0..{}",
@@ -413,8 +414,15 @@ impl<'a> GpuRenderer<'a> {
                     chunk_pixels: w.pixels,
                     ..Default::default()
                 };
+                // The part of a sample per pixel this wave is, for progress.
+                let start = w.sample as f64 + w.offset as f64 / pixels as f64;
+                let end = start + w.samples as f64 * w.pixels as f64 / pixels as f64;
+                let report = |fraction: f64| progress(start + (end - start) * fraction);
+                let split = batch == 1;
                 rec = match self.integrator {
-                    Integrator::Wavefront => self.record_wave(rec, push)?,
+                    Integrator::Wavefront => {
+                        self.record_wave(rec, push, split.then_some(&report))?
+                    }
                     Integrator::Megakernel => self.record_megakernel_wave(rec, push)?,
                 };
                 rec = self.ensure_timestamps(rec, 1)?;
@@ -429,7 +437,7 @@ impl<'a> GpuRenderer<'a> {
             ctx.submit_and_wait(rec)?;
             add_stage_times(ctx.read_timestamps()?, &mut self.stage_seconds);
             self.samples_done = samples_done;
-            progress(samples_done);
+            progress(samples_done as f64);
             if t_batch.elapsed().as_secs_f64() < BATCH_SECONDS {
                 batch = (batch * 2).min(MAX_BATCH);
             }
@@ -477,8 +485,14 @@ impl<'a> GpuRenderer<'a> {
         })
     }
 
-    /// Records one wave of the wavefront integrator after `generate`'s camera rays.
-    fn record_wave<'r>(&mut self, mut rec: Recorder<'r>, mut push: Push) -> Result<Recorder<'r>>
+    /// Records one wave of the wavefront integrator. With `report`, each segment is submitted on
+    /// its own and `report` gets the fraction of the wave's segments done.
+    fn record_wave<'r>(
+        &mut self,
+        mut rec: Recorder<'r>,
+        mut push: Push,
+        report: Option<&dyn Fn(f64)>,
+    ) -> Result<Recorder<'r>>
     where
         'a: 'r,
     {
@@ -538,6 +552,10 @@ impl<'a> GpuRenderer<'a> {
                 Dispatch::Indirect(layout::ARGS_SHADOW),
                 "shadow",
             );
+            if let Some(report) = report {
+                rec = self.resubmit(rec)?;
+                report(depth as f64 / max_depth as f64);
+            }
         }
         Ok(rec)
     }
@@ -901,7 +919,36 @@ fn add_stage_times(stamps: Vec<(String, f64)>, stage_seconds: &mut Vec<(String, 
 
 #[cfg(test)]
 mod tests {
-    use super::{waves, Wave};
+    use super::{scene_features, waves, Wave};
+
+    /// Only what a scene has is compiled in: the Cornell box has lit triangles and nothing
+    /// else; the lineup adds spheres; the OBJ example has per-vertex normals.
+    #[test]
+    fn scene_features_follow_the_scene() {
+        let load = |name: &str| {
+            crate::scene::load(
+                &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                    .join("scenes")
+                    .join(name),
+            )
+            .unwrap()
+        };
+        assert_eq!(
+            scene_features(&load("cornell-box.toml")),
+            ["BVH_TRIANGLES", "LIGHT_TRIANGLES"]
+        );
+        let lineup = scene_features(&load("lineup.toml"));
+        assert!(lineup.contains(&"BVH_SPHERES"), "{lineup:?}");
+        let mut rr = load("cornell-box.toml");
+        rr.integrator.russian_roulette = true;
+        assert!(scene_features(&rr).contains(&"RUSSIAN_ROULETTE"));
+        let mut none = load("cornell-box.toml");
+        none.triangles.clear();
+        assert!(
+            scene_features(&none).contains(&"BVH_TRIANGLES"),
+            "an empty scene still compiles"
+        );
+    }
 
     /// Every (pixel, sample) pair lies in exactly one wave, in sample order per pixel, and no
     /// wave is larger than the capacity.
