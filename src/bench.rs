@@ -338,7 +338,9 @@ fn mitsuba_scene_json(s: &Scene) -> Result<String> {
             crate::brdf::MODELS[m.model].name
         );
     }
-    let mut groups: Vec<((u32, Option<u32>), Vec<&Triangle>)> = Vec::new();
+    // (material, emitter) and the triangles that have them.
+    type Group<'t> = ((u32, Option<u32>), Vec<&'t Triangle>);
+    let mut groups: Vec<Group> = Vec::new();
     for t in &s.triangles {
         let key = (t.material, t.emitter);
         match groups.iter_mut().find(|(k, _)| *k == key) {
@@ -725,13 +727,7 @@ fn summary(
     // Equal-time error: every configuration at the time the shortest one reached.
     let t_eq = details
         .iter()
-        .filter_map(|(n, _)| {
-            records
-                .iter()
-                .filter(|r| &r.config == n)
-                .map(|r| r.seconds)
-                .last()
-        })
+        .filter_map(|(n, _)| records.iter().rfind(|r| &r.config == n).map(|r| r.seconds))
         .fold(f64::INFINITY, f64::min);
     let _ = writeln!(
         md,
@@ -740,7 +736,7 @@ fn summary(
     );
     let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|");
     for (name, d) in details {
-        let Some(last) = records.iter().filter(|r| &r.config == name).last() else {
+        let Some(last) = records.iter().rfind(|r| &r.config == name) else {
             continue;
         };
         let rays = match d.rays {

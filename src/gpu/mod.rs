@@ -148,6 +148,9 @@ impl Drop for Owned<'_> {
     }
 }
 
+/// A shade pipeline: (queue slot, model index, index into `Owned::kernels`).
+type ShadeKernel = (u32, usize, usize);
+
 /// Indices into `Owned::kernels`.
 #[derive(Clone, Copy)]
 struct Stages {
@@ -164,8 +167,7 @@ pub struct GpuRenderer<'a> {
     scene: &'a Scene,
     owned: Owned<'a>,
     stages: Stages,
-    /// (queue slot, model index, index into `owned.kernels`)
-    shade: Vec<(u32, usize, usize)>,
+    shade: Vec<ShadeKernel>,
     integrator: Integrator,
     counters: Counters,
     capacity: u32,
@@ -661,7 +663,7 @@ fn build_kernels(
     compiler: &ShaderCompiler,
     setup: &mut SetupStats,
     integrator: Integrator,
-) -> Result<(Stages, Vec<(u32, usize, usize)>)> {
+) -> Result<(Stages, Vec<ShadeKernel>)> {
     // Defines added to every stage: the layout's numbers, and subgroup-aggregated queue pushes
     // where the device has subgroup ballots (see `queue_push` in state.glsl).
     let mut common = layout::defines();
