@@ -260,12 +260,16 @@ const ABSENT: Link = Link {
     count: 0,
 };
 
-struct Builder {
-    boxes: Vec<Aabb>,
-    centroids: Vec<Vec3>,
-    refs: Vec<u32>,
-    /// Permutation of primitive slots; leaves index contiguous ranges of it.
-    order: Vec<u32>,
+/// Builds one subtree: `order` is the part `base..base + order.len()` of the permutation of
+/// primitive slots (leaves index contiguous ranges of it, by absolute position); `nodes` are
+/// this builder's, numbered from 0 (a parent rebases them when it appends them).
+struct Builder<'a> {
+    boxes: &'a [Aabb],
+    centroids: &'a [Vec3],
+    order: &'a mut [u32],
+    base: usize,
+    /// Subtrees over at least this many primitives are built in parallel.
+    parallel_prims: usize,
     nodes: Vec<GpuNode>,
     stats: BvhStats,
     /// Σ A(inner)·C_TRAV + Σ A(leaf)·n·C_INT, normalised at the end.
@@ -277,11 +281,31 @@ enum Decision {
     Split(usize),
 }
 
-impl Builder {
+/// Subtrees over at least this many primitives are built on two threads (rayon::join); the
+/// tree is the same as a serial build's, node for node.
+const PARALLEL_PRIMS: usize = 16 * 1024;
+
+/// Adds `offset` to the internal-node links of `nodes` (appended at `offset` in a parent).
+fn rebase(nodes: &mut [GpuNode], offset: u32) {
+    for n in nodes {
+        if n.left_count == 0 {
+            n.left += offset;
+        }
+        if n.right_count == 0 {
+            n.right += offset;
+        }
+    }
+}
+
+impl<'a> Builder<'a> {
+    fn range(&self, start: usize, end: usize) -> &[u32] {
+        &self.order[start - self.base..end - self.base]
+    }
+
     fn range_bounds(&self, start: usize, end: usize) -> (Aabb, Aabb) {
         let mut b = Aabb::EMPTY;
         let mut c = Aabb::EMPTY;
-        for &i in &self.order[start..end] {
+        for &i in self.range(start, end) {
             b.grow(&self.boxes[i as usize]);
             c.grow_point(self.centroids[i as usize]);
         }
@@ -308,7 +332,7 @@ impl Builder {
             let scale = BINS as f32 / extent;
             let mut bin_box = [Aabb::EMPTY; BINS];
             let mut bin_n = [0usize; BINS];
-            for &i in &self.order[start..end] {
+            for &i in self.range(start, end) {
                 let b = bin_of(self.centroids[i as usize][axis], lo, scale);
                 bin_n[b] += 1;
                 bin_box[b].grow(&self.boxes[i as usize]);
@@ -354,8 +378,8 @@ impl Builder {
     fn partition(&mut self, start: usize, end: usize, axis: usize, k: usize, cb: &Aabb) -> usize {
         let lo = cb.min[axis];
         let scale = BINS as f32 / (cb.max[axis] - lo);
-        let mut i = start;
-        let mut j = end;
+        let mut i = start - self.base;
+        let mut j = end - self.base;
         while i < j {
             if bin_of(self.centroids[self.order[i] as usize][axis], lo, scale) < k {
                 i += 1;
@@ -364,7 +388,7 @@ impl Builder {
                 self.order.swap(i, j);
             }
         }
-        i
+        i + self.base
     }
 
     /// Object-median split along the axis of largest centroid extent.
@@ -378,10 +402,11 @@ impl Builder {
             2
         };
         let mid = start + (end - start) / 2;
-        let c = &self.centroids;
-        self.order[start..end].select_nth_unstable_by(mid - start, |&a, &b| {
-            c[a as usize][axis].total_cmp(&c[b as usize][axis])
-        });
+        let c = self.centroids;
+        self.order[start - self.base..end - self.base]
+            .select_nth_unstable_by(mid - start, |&a, &b| {
+                c[a as usize][axis].total_cmp(&c[b as usize][axis])
+            });
         self.stats.median_splits += 1;
         mid
     }
@@ -461,8 +486,12 @@ impl Builder {
                 self.stats.inner_nodes += 1;
                 self.stats.max_depth = self.stats.max_depth.max(depth);
                 self.sah_sum += bounds.half_area() * C_TRAV as f64;
-                let l = self.build(start, mid, depth + 1, false);
-                let r = self.build(mid, end, depth + 1, false);
+                let (l, r) = if end - start >= self.parallel_prims {
+                    self.build_children_in_parallel(start, mid, end, depth + 1)
+                } else {
+                    let l = self.build(start, mid, depth + 1, false);
+                    (l, self.build(mid, end, depth + 1, false))
+                };
                 self.nodes[index] = make_node(&l, &r);
                 Link {
                     bounds,
@@ -471,6 +500,64 @@ impl Builder {
                 }
             }
         }
+    }
+}
+
+impl<'a> Builder<'a> {
+    /// The subtrees over `start..mid` and `mid..end` on two threads, appended to `nodes` in the
+    /// order a serial build makes them (left subtree, then right).
+    fn build_children_in_parallel(
+        &mut self,
+        start: usize,
+        mid: usize,
+        end: usize,
+        depth: u32,
+    ) -> (Link, Link) {
+        let order = std::mem::take(&mut self.order);
+        let (_, rest) = order.split_at_mut(start - self.base);
+        let (lo, rest) = rest.split_at_mut(mid - start);
+        let (hi, _) = rest.split_at_mut(end - mid);
+        let (boxes, centroids, parallel_prims) = (self.boxes, self.centroids, self.parallel_prims);
+        let sub = |order, base| Builder {
+            boxes,
+            centroids,
+            order,
+            base,
+            parallel_prims,
+            nodes: Vec::new(),
+            stats: BvhStats::default(),
+            sah_sum: 0.0,
+        };
+        let ((mut l, lb), (mut r, rb)) = rayon::join(
+            || {
+                let mut b = sub(lo, start);
+                let link = b.build(start, mid, depth, false);
+                (link, (b.nodes, b.stats, b.sah_sum))
+            },
+            || {
+                let mut b = sub(hi, mid);
+                let link = b.build(mid, end, depth, false);
+                (link, (b.nodes, b.stats, b.sah_sum))
+            },
+        );
+        self.order = order;
+        for (link, (mut nodes, t, sah)) in [(&mut l, lb), (&mut r, rb)] {
+            let offset = self.nodes.len() as u32;
+            rebase(&mut nodes, offset);
+            if link.count == 0 {
+                link.index += offset;
+            }
+            self.nodes.append(&mut nodes);
+            let s = &mut self.stats;
+            s.inner_nodes += t.inner_nodes;
+            s.leaves += t.leaves;
+            s.median_splits += t.median_splits;
+            s.max_depth = s.max_depth.max(t.max_depth);
+            s.max_leaf_depth = s.max_leaf_depth.max(t.max_leaf_depth);
+            s.max_leaf_size = s.max_leaf_size.max(t.max_leaf_size);
+            self.sah_sum += sah;
+        }
+        (l, r)
     }
 }
 
@@ -498,6 +585,11 @@ fn bin_of(c: f32, lo: f32, scale: f32) -> usize {
 /// If the scene has more than [`MAX_PRIMS`] (2^28) primitives, the limit of the traversal's
 /// leaf encoding.
 pub fn build(scene: &Scene) -> Bvh {
+    build_with(scene, PARALLEL_PRIMS)
+}
+
+/// [`build`], with subtrees of at least `parallel_prims` primitives built on two threads.
+fn build_with(scene: &Scene, parallel_prims: usize) -> Bvh {
     let n = scene.triangles.len() + scene.spheres.len();
     assert!(
         n <= MAX_PRIMS,
@@ -507,12 +599,14 @@ pub fn build(scene: &Scene) -> Bvh {
         .chain((0..scene.spheres.len() as u32).map(|i| i | SPHERE_BIT))
         .collect();
     let boxes: Vec<Aabb> = refs.iter().map(|&r| prim_box(scene, r)).collect();
-    let centroids = boxes.iter().map(|b| (b.min + b.max) * 0.5).collect();
+    let centroids: Vec<Vec3> = boxes.iter().map(|b| (b.min + b.max) * 0.5).collect();
+    let mut order: Vec<u32> = (0..n as u32).collect();
     let mut b = Builder {
-        boxes,
-        centroids,
-        refs,
-        order: (0..n as u32).collect(),
+        boxes: &boxes,
+        centroids: &centroids,
+        order: &mut order,
+        base: 0,
+        parallel_prims,
         nodes: Vec::with_capacity(n.max(1)),
         stats: BvhStats {
             primitives: n,
@@ -521,10 +615,10 @@ pub fn build(scene: &Scene) -> Bvh {
         sah_sum: 0.0,
     };
     let root = b.build(0, n, 0, true);
-    let mut stats = b.stats;
+    let (nodes, sah_sum, mut stats) = (b.nodes, b.sah_sum, b.stats);
     let root_area = root.bounds.half_area();
     stats.sah_cost = if root_area > 0.0 {
-        (b.sah_sum / root_area) as f32
+        (sah_sum / root_area) as f32
     } else {
         0.0
     };
@@ -533,7 +627,7 @@ pub fn build(scene: &Scene) -> Bvh {
     } else {
         0.0
     };
-    let prims: Vec<u32> = b.order.iter().map(|&i| b.refs[i as usize]).collect();
+    let prims: Vec<u32> = order.iter().map(|&i| refs[i as usize]).collect();
     let leaf_triangles = prims
         .iter()
         .map(|&r| match r & SPHERE_BIT {
@@ -547,7 +641,7 @@ pub fn build(scene: &Scene) -> Bvh {
         (Vec3::ZERO, Vec3::ZERO)
     };
     Bvh {
-        nodes: b.nodes,
+        nodes,
         prims,
         leaf_triangles,
         bounds_min,
@@ -925,6 +1019,22 @@ mod tests {
             let q = offset_ray_origin(p, -n);
             assert!((q - p).dot(n) < 0.0);
         }
+    }
+
+    /// Building subtrees in parallel gives the serial build's tree, node for node.
+    #[test]
+    fn parallel_build_equals_serial_build() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.toml");
+        let mut s = crate::scene::load(&path).unwrap();
+        crate::bench::add_sphere_mesh(&mut s, 40_000);
+        let serial = build_with(&s, usize::MAX);
+        let parallel = build_with(&s, 1000);
+        assert!(serial.nodes.len() > 1000);
+        assert!(serial.nodes == parallel.nodes, "nodes differ");
+        assert_eq!(serial.prims, parallel.prims);
+        assert_eq!(serial.stats.leaves, parallel.stats.leaves);
+        assert_eq!(serial.stats.inner_nodes, parallel.stats.inner_nodes);
+        assert_eq!(serial.stats.max_depth, parallel.stats.max_depth);
     }
 
     /// The GLSL twin's constants are the Rust ones, bit for bit.
