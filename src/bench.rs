@@ -147,6 +147,8 @@ struct Details {
     device: String,
     setup_seconds: f64,
     rays: u64,
+    /// (extension, shadow) rays by path segment: the queue sizes per bounce.
+    rays_by_segment: Vec<(u64, u64)>,
     stage_seconds: Vec<(String, f64)>,
     pipelines_compile: f64,
     pipelines_create: f64,
@@ -187,6 +189,10 @@ impl Runner for GpuRunner<'_> {
                 .as_ref()
                 .map(|o| o.extension_rays + o.shadow_rays)
                 .unwrap_or(0),
+            rays_by_segment: out
+                .as_ref()
+                .map(|o| o.rays_by_segment.clone())
+                .unwrap_or_default(),
             stage_seconds: out.map(|o| o.stage_seconds).unwrap_or_default(),
             pipelines_compile: self.renderer.setup.seconds_shader_compile,
             pipelines_create: self.renderer.setup.seconds_pipeline_create,
@@ -215,6 +221,7 @@ impl Runner for CpuRunner<'_> {
         Details {
             device: format!("CPU reference ({} threads)", rayon::current_num_threads()),
             rays: o.extension_rays + o.shadow_rays,
+            rays_by_segment: o.rays_by_segment,
             ..Default::default()
         }
     }
@@ -775,6 +782,24 @@ fn summary(
             parts.join(", "),
             d.pipelines_compile,
             d.pipelines_create
+        );
+    }
+    if let Some((name, d)) = details.iter().find(|(_, d)| !d.rays_by_segment.is_empty()) {
+        let spp = records
+            .iter()
+            .rfind(|r| &r.config == name)
+            .map_or(1, |r| r.spp);
+        let per = |n: u64| n as f64 / (sc.width as f64 * sc.height as f64 * spp as f64);
+        let parts: Vec<String> = d
+            .rays_by_segment
+            .iter()
+            .enumerate()
+            .map(|(i, &(e, s))| format!("{}: {:.2}/{:.2}", i + 1, per(e), per(s)))
+            .collect();
+        let _ = writeln!(
+            md,
+            "- Queue sizes per bounce (`{name}`), extension/shadow rays per camera path by segment: {}",
+            parts.join(", ")
         );
     }
     for n in notes {

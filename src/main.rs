@@ -456,6 +456,7 @@ fn render(a: RenderArgs) -> Result<()> {
         "rays_per_second": rays / seconds_render.max(1e-9),
         "extension_rays": output.extension_rays,
         "shadow_rays": output.shadow_rays,
+        "rays_by_segment": output.rays_by_segment.iter().map(|(e, s)| json!({"extension": e, "shadow": s})).collect::<Vec<_>>(),
         "nonfinite_samples": output.nonfinite_samples,
         "nonfinite_by_stage": output.nonfinite_by_stage.iter().map(|(k, v)| json!({"stage": k, "count": v})).collect::<Vec<_>>(),
         "mean_radiance": output.mean.mean(),

@@ -2,6 +2,9 @@
 
 use crate::imageio::Image;
 
+/// Path segments counted one by one in [`RenderOutput::rays_by_segment`].
+pub const SEGMENTS_COUNTED: u32 = crate::gpu::layout::SEGMENTS_COUNTED;
+
 pub struct RenderOutput {
     /// Per-pixel mean radiance (linear RGB).
     pub mean: Image,
@@ -19,6 +22,9 @@ pub struct RenderOutput {
     pub extension_rays: u64,
     /// Shadow (any-hit) rays traced.
     pub shadow_rays: u64,
+    /// (extension, shadow) rays by path segment from 1, up to the maximum depth or
+    /// [`SEGMENTS_COUNTED`] (which then also holds the deeper ones): the queue sizes per bounce.
+    pub rays_by_segment: Vec<(u64, u64)>,
     /// Time per stage (GPU timestamps; empty for the CPU), summed over all passes.
     pub stage_seconds: Vec<(String, f64)>,
 }

@@ -420,7 +420,38 @@ fn the_megakernel_renders_the_wavefront_image() {
         let (wf, mk) = (&outs[0], &outs[1]);
         assert_eq!(wf.extension_rays, mk.extension_rays, "{name}");
         assert_eq!(wf.shadow_rays, mk.shadow_rays, "{name}");
+        assert_eq!(wf.rays_by_segment, mk.rays_by_segment, "{name}");
         assert_eq!(wf.nonfinite_by_stage, mk.nonfinite_by_stage, "{name}");
+        // The CPU reference takes the same paths; a light sample whose f is zero or
+        // non-finite on one side only (glossy lobes, float differences) may differ.
+        let cpu = render_cpu(&s);
+        for (d, (c, g)) in cpu
+            .rays_by_segment
+            .iter()
+            .zip(&wf.rays_by_segment)
+            .enumerate()
+        {
+            assert_eq!(c.0, g.0, "{name}: extension rays of segment {}", d + 1);
+            assert!(
+                c.1.abs_diff(g.1) * 100 <= g.1.max(1),
+                "{name}: shadow rays of segment {}: CPU {} GPU {}",
+                d + 1,
+                c.1,
+                g.1
+            );
+        }
+        assert_eq!(
+            cpu.rays_by_segment, wf.rays_by_segment,
+            "{name}: CPU and GPU queue sizes"
+        );
+        assert_eq!(wf.rays_by_segment.len(), 6);
+        let total: u64 = wf.rays_by_segment.iter().map(|r| r.0).sum();
+        assert_eq!(total, wf.extension_rays);
+        assert_eq!(
+            wf.rays_by_segment[0].0,
+            (w * h * 3) as u64,
+            "{name}: one camera ray per path"
+        );
         let d = metrics::diff(&mk.mean, &wf.mean).unwrap();
         // Bit-identical on lavapipe; a compiler may contract the two kernels' arithmetic
         // differently elsewhere, hence the tolerance.
@@ -484,6 +515,9 @@ fn a_huge_max_depth_stops_when_every_path_has_ended() {
     let cpu = render_cpu(&s);
     assert_eq!(gpu.extension_rays, cpu.extension_rays);
     assert_eq!(gpu.shadow_rays, cpu.shadow_rays);
+    // 32 segments counted, the last holding the deeper ones.
+    assert_eq!(gpu.rays_by_segment.len(), 32);
+    assert_eq!(gpu.rays_by_segment, cpu.rays_by_segment);
     let d = metrics::diff(&gpu.mean, &cpu.mean).unwrap();
     assert!(d.rmse < 1e-4, "{d}");
     finish(ctx);

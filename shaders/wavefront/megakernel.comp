@@ -12,9 +12,12 @@
 #include "wavefront/scatter.glsl"
 layout(local_size_x = 64) in;
 
-// Rays traced by the workgroup, added to the 64-bit totals once per workgroup.
+// Rays traced by the workgroup, in all and by segment, added to the 64-bit counts once per
+// workgroup.
 shared uint wg_extension;
 shared uint wg_shadow;
+shared uint wg_segment_extension[SEGMENTS_COUNTED];
+shared uint wg_segment_shadow[SEGMENTS_COUNTED];
 
 void add_total64(uint c, uint n) {
     if (n == 0u) return;
@@ -26,6 +29,10 @@ void main() {
     if (gl_LocalInvocationIndex == 0u) {
         wg_extension = 0u;
         wg_shadow = 0u;
+    }
+    if (gl_LocalInvocationIndex < SEGMENTS_COUNTED) {
+        wg_segment_extension[gl_LocalInvocationIndex] = 0u;
+        wg_segment_shadow[gl_LocalInvocationIndex] = 0u;
     }
     barrier();
     uint path = gl_GlobalInvocationID.x;
@@ -42,12 +49,14 @@ void main() {
             vec3 e;
             Hit hit;
             n_extension += 1u;
+            atomicAdd(wg_segment_extension[min(depth, SEGMENTS_COUNTED) - 1u], 1u);
             uint slot = segment_end(depth, o, d, prev_pdf, b, e, hit);
             l += e;
             if (slot == NO_QUEUE) break;
             Scatter sc = shade_vertex(path, depth, hit, o, d, b, counter_nonfinite_shade(slot));
             if (sc.shadow) {
                 n_shadow += 1u;
+                atomicAdd(wg_segment_shadow[min(depth, SEGMENTS_COUNTED) - 1u], 1u);
                 if (!trace_any(sc.shadow_o, sc.shadow_d, sc.shadow_tmax)) l += sc.shadow_l;
             }
             if (!sc.next) break;
@@ -64,5 +73,10 @@ void main() {
     if (gl_LocalInvocationIndex == 0u) {
         add_total64(COUNTER_EXT_TOTAL, wg_extension);
         add_total64(COUNTER_SHADOW_TOTAL, wg_shadow);
+    }
+    if (gl_LocalInvocationIndex < SEGMENTS_COUNTED) {
+        uint d = gl_LocalInvocationIndex + 1u;
+        add_total64(counter_segment_extension(d), wg_segment_extension[d - 1u]);
+        add_total64(counter_segment_shadow(d), wg_segment_shadow[d - 1u]);
     }
 }

@@ -104,6 +104,9 @@ uint path_pixel(uint path) { return pc.chunk_offset + path % pc.chunk_pixels; }
 uint path_sample(uint path) { return pc.sample_index + path / pc.chunk_pixels; }
 
 uint counter_nonfinite_extend() { return COUNTER_MATERIAL + g.num_queues; }
+// 64-bit counts (two words) of the extension and shadow rays of segment d (src/gpu/layout.rs).
+uint counter_segment_extension(uint d) { return COUNTER_MATERIAL + 2u * g.num_queues + 1u + 2u * (clamp(d, 1u, SEGMENTS_COUNTED) - 1u); }
+uint counter_segment_shadow(uint d) { return counter_segment_extension(d) + 2u * SEGMENTS_COUNTED; }
 uint counter_nonfinite_shade(uint slot) { return COUNTER_MATERIAL + g.num_queues + 1u + slot; }
 
 // Whether v is finite; if not, counts it at counter c (the caller then drops it). Reads the

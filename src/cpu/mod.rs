@@ -19,7 +19,7 @@ use crate::bvh::{self, Bvh};
 use crate::camera::CameraBasis;
 use crate::imageio::Image;
 use crate::lights::{luminance, LightTable};
-use crate::output::{mean_and_variance, nonfinite_stages, RenderOutput};
+use crate::output::{mean_and_variance, nonfinite_stages, RenderOutput, SEGMENTS_COUNTED};
 use crate::rng::{dim, PathRng};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
@@ -32,6 +32,9 @@ use surface::{light_pdf, power_heuristic, sample_light, surface_at};
 struct PathStats {
     extension_rays: u64,
     shadow_rays: u64,
+    /// By path segment (index d - 1; the last also counts deeper segments).
+    segment_extension: [u64; SEGMENTS_COUNTED as usize],
+    segment_shadow: [u64; SEGMENTS_COUNTED as usize],
     /// Non-finite emitted contributions dropped (the GPU's `extend`).
     nonfinite_extend: u64,
     /// Non-finite light contributions or continuations dropped, by model index (the GPU's
@@ -43,6 +46,10 @@ impl PathStats {
     fn add(&mut self, o: &PathStats) {
         self.extension_rays += o.extension_rays;
         self.shadow_rays += o.shadow_rays;
+        for d in 0..SEGMENTS_COUNTED as usize {
+            self.segment_extension[d] += o.segment_extension[d];
+            self.segment_shadow[d] += o.segment_shadow[d];
+        }
         self.nonfinite_extend += o.nonfinite_extend;
         for (a, b) in self.nonfinite_shade.iter_mut().zip(&o.nonfinite_shade) {
             *a += b;
@@ -182,6 +189,9 @@ impl<'a> CpuRenderer<'a> {
             nonfinite_by_stage,
             extension_rays: stats.extension_rays,
             shadow_rays: stats.shadow_rays,
+            rays_by_segment: (0..s.integrator.max_depth.min(SEGMENTS_COUNTED) as usize)
+                .map(|d| (stats.segment_extension[d], stats.segment_shadow[d]))
+                .collect(),
             stage_seconds: Vec::new(),
         }
     }
@@ -201,6 +211,8 @@ impl<'a> CpuRenderer<'a> {
         let mut prev_pdf = 0.0f32;
         for depth in 1..=max_depth {
             stats.extension_rays += 1;
+            let seg = (depth.min(SEGMENTS_COUNTED) - 1) as usize;
+            stats.segment_extension[seg] += 1;
             let Some(hit) = self.bvh.closest(s, o, d, f32::MAX) else {
                 let e = beta * s.environment;
                 if e.is_finite() {
@@ -278,6 +290,7 @@ impl<'a> CpuRenderer<'a> {
                                 stats.nonfinite_shade[material.model] += 1;
                             } else {
                                 stats.shadow_rays += 1;
+                                stats.segment_shadow[seg] += 1;
                                 if !self.bvh.occluded(s, origin, wi, dist) {
                                     l += contrib;
                                 }

@@ -182,6 +182,8 @@ pub enum Counter {
 
 /// Counters before the per-queue ones.
 pub const FIXED_COUNTERS: u32 = 8;
+/// Path segments counted one by one in the per-segment ray counts; deeper ones add to the last.
+pub const SEGMENTS_COUNTED: u32 = 32;
 
 /// Where each counter of a scene with `queues` material queues is.
 #[derive(Clone, Copy, Debug)]
@@ -205,16 +207,29 @@ impl Counters {
     pub fn nonfinite_shade(self, k: u32) -> usize {
         (FIXED_COUNTERS + self.queues + 1 + k) as usize
     }
+    /// 64-bit count (low word) of the extension rays of path segment `d` (1-based; the last
+    /// counted segment also holds all deeper ones).
+    pub fn segment_extension(self, d: u32) -> usize {
+        (FIXED_COUNTERS + 2 * self.queues + 1 + 2 * (d.clamp(1, SEGMENTS_COUNTED) - 1)) as usize
+    }
+    /// The same for the shadow rays traced from the vertex at the end of segment `d`.
+    pub fn segment_shadow(self, d: u32) -> usize {
+        self.segment_extension(d) + 2 * SEGMENTS_COUNTED as usize
+    }
     /// How many counters there are.
     pub fn len(self) -> usize {
-        (FIXED_COUNTERS + 2 * self.queues + 1) as usize
+        (FIXED_COUNTERS + 2 * self.queues + 1 + 4 * SEGMENTS_COUNTED) as usize
     }
     pub fn is_empty(self) -> bool {
         false
     }
     /// A 64-bit total kept in two words from `lo`.
     pub fn total(self, values: &[u32], lo: Counter) -> u64 {
-        values[lo as usize] as u64 | (values[lo as usize + 1] as u64) << 32
+        self.total_at(values, lo as usize)
+    }
+    /// A 64-bit total kept in two words from position `lo`.
+    pub fn total_at(self, values: &[u32], lo: usize) -> u64 {
+        values[lo] as u64 | (values[lo + 1] as u64) << 32
     }
 }
 
@@ -254,6 +269,7 @@ pub fn defines() -> Vec<(String, String)> {
         c("ARGS_MATERIAL", ARGS_MATERIAL),
         c("QUEUE_SHADOW", QUEUE_SHADOW),
         c("QUEUE_MATERIAL", QUEUE_MATERIAL),
+        c("SEGMENTS_COUNTED", SEGMENTS_COUNTED),
     ]);
     d
 }
@@ -280,6 +296,14 @@ mod tests {
         all.extend((0..3).map(|k| c.material_queue(k)));
         all.push(c.nonfinite_extend());
         all.extend((0..3).map(|k| c.nonfinite_shade(k)));
+        for d in 1..=SEGMENTS_COUNTED {
+            all.extend([c.segment_extension(d), c.segment_extension(d) + 1]);
+            all.extend([c.segment_shadow(d), c.segment_shadow(d) + 1]);
+        }
+        assert_eq!(
+            c.segment_extension(SEGMENTS_COUNTED + 5),
+            c.segment_extension(SEGMENTS_COUNTED)
+        );
         let n = all.len();
         all.sort();
         all.dedup();

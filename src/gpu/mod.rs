@@ -483,6 +483,14 @@ impl<'a> GpuRenderer<'a> {
             // counts its rays itself).
             extension_rays: c.total(&counters, Counter::ExtensionRaysLo),
             shadow_rays: c.total(&counters, Counter::ShadowRaysLo),
+            rays_by_segment: (1..=scene.integrator.max_depth.min(layout::SEGMENTS_COUNTED))
+                .map(|d| {
+                    (
+                        c.total_at(&counters, c.segment_extension(d)),
+                        c.total_at(&counters, c.segment_shadow(d)),
+                    )
+                })
+                .collect(),
             stage_seconds: self.stage_seconds.clone(),
         })
     }
