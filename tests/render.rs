@@ -440,10 +440,6 @@ fn the_megakernel_renders_the_wavefront_image() {
                 g.1
             );
         }
-        assert_eq!(
-            cpu.rays_by_segment, wf.rays_by_segment,
-            "{name}: CPU and GPU queue sizes"
-        );
         assert_eq!(wf.rays_by_segment.len(), 6);
         let total: u64 = wf.rays_by_segment.iter().map(|r| r.0).sum();
         assert_eq!(total, wf.extension_rays);
