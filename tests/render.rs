@@ -202,17 +202,41 @@ fn depth_one_shows_only_the_light_on_both_backends() {
     finish(ctx);
 }
 
-/// Only the models a scene uses get a shade pipeline.
+/// Only the models a scene uses get a shade pipeline; with one model, extend shades in place
+/// (no material queue, no separate shade kernel), with the same image as separate kernels.
 #[test]
 fn a_lambert_only_scene_builds_only_the_lambert_shade_pipeline() {
     let s = scene("cornell-box.toml", 8, 8, 1, 2, 0);
     let ctx = context();
     let (_, pipelines) = render_gpu(&ctx, &s);
-    let shade: Vec<&String> = pipelines
-        .iter()
-        .filter(|p| p.starts_with("shade_"))
-        .collect();
-    assert_eq!(shade, vec!["shade_lambert"], "all pipelines: {pipelines:?}");
+    let shade: Vec<&String> = pipelines.iter().filter(|p| p.contains("shade_")).collect();
+    assert_eq!(
+        shade,
+        vec!["extend_shade_lambert"],
+        "all pipelines: {pipelines:?}"
+    );
+    assert!(!pipelines.iter().any(|p| p == "extend"), "{pipelines:?}");
+    // The same scene with a second (black-free) model forces separate extend and shade kernels
+    // and a material queue per model: the Lambert paths render as before.
+    let one = scene("cornell-box.toml", 24, 20, 3, 6, 1);
+    let (fused, _) = render_gpu(&ctx, &one);
+    let mut two = one.clone();
+    let ward = brdfwave::brdf::inline::parse_inline(
+        "model = \"ward\", kd = [0.2, 0.2, 0.2], ks = [0.1, 0.1, 0.1], alpha_x = 0.3, alpha_y = 0.3",
+    )
+    .unwrap();
+    two.materials.push(ward);
+    two.material_names.push("unused ward".into());
+    let (split, pipes) = render_gpu(&ctx, &two);
+    assert!(
+        pipes.iter().any(|p| p == "extend") && pipes.iter().any(|p| p == "shade_lambert"),
+        "{pipes:?}"
+    );
+    assert!(
+        fused.mean.data == split.mean.data,
+        "fused and separate kernels differ"
+    );
+    assert_eq!(fused.rays_by_segment, split.rays_by_segment);
     finish(ctx);
 }
 
@@ -278,7 +302,11 @@ quads = [[[-0.5, 0.001, -0.5], [0.5, 0.001, -0.5], [0.5, 0.001, 0.5], [-0.5, 0.0
     let names = |o: &brdfwave::output::RenderOutput| -> Vec<String> {
         o.nonfinite_by_stage.iter().map(|x| x.0.clone()).collect()
     };
-    assert_eq!(names(&gpu), ["extend", "shade_cook_torrance", "accumulate"]);
+    assert_eq!(
+        names(&gpu),
+        ["extend", "shade_cook_torrance", "accumulate"],
+        "stage names"
+    );
     assert_eq!(names(&gpu), names(&cpu));
     for ((stage, g), (_, c)) in gpu.nonfinite_by_stage.iter().zip(&cpu.nonfinite_by_stage) {
         // The same paths on both sides; a value that overflows on one side only is rare.

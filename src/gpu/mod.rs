@@ -19,8 +19,11 @@
 //!                                            (one writer per pixel)
 //! ```
 //!
-//! [`Integrator::Megakernel`] replaces everything between `generate` and `accumulate` by one
-//! kernel that follows each path to its end (the benchmark's baseline; the same image).
+//! With a single shaded model, `extend` shades in place (`extend_shade_<model>`: no material
+//! queue and no separate shade kernel, whose only purpose is to keep the lanes of a kernel on
+//! one model). [`Integrator::Megakernel`] replaces everything between `generate` and
+//! `accumulate` by one kernel that follows each path to its end (the benchmark's baseline; the
+//! same image).
 //!
 //! Only the models the scene's materials use get a queue and a shade pipeline; features a
 //! scene does not use are compiled out through the models' `#define`s. The algorithm and its
@@ -531,18 +534,22 @@ impl<'a> GpuRenderer<'a> {
             rec = self.ensure_timestamps(rec, 1 + per_segment)?;
             push.bounce = depth;
             self.prepare(&mut rec, &mut push, 0);
+            let label = self.owned.kernels[st.extend].pipeline.name.clone();
             self.dispatch(
                 &mut rec,
                 st.extend,
                 &push,
                 Dispatch::Indirect(layout::ARGS_RAY),
-                "extend",
+                &label,
             );
             if depth == max_depth {
                 break;
             }
-            self.prepare(&mut rec, &mut push, 1);
-            for i in 0..self.shade.len() {
+            let fused = self.shade.len() == 1 && self.shade[0].2 == st.extend;
+            if !fused {
+                self.prepare(&mut rec, &mut push, 1);
+            }
+            for i in (0..self.shade.len()).filter(|_| !fused) {
                 let (slot, _, kernel) = self.shade[i];
                 push.queue_slot = slot;
                 let name = self.owned.kernels[kernel].pipeline.name.clone();
@@ -741,17 +748,30 @@ fn build_kernels(
         Integrator::Wavefront => {
             stages.generate = build("generate", "wavefront/generate.comp", vec![], vec![])?;
             stages.prepare = build("prepare", "wavefront/prepare.comp", vec![], vec![])?;
-            stages.extend = build("extend", "wavefront/extend.comp", vec![], vec![])?;
             stages.shadow = build("shadow", "wavefront/shadow.comp", vec![], vec![])?;
-            for (slot, &model) in models.iter().enumerate() {
-                let (defs, overrides) = model_shader_inputs(model, features(model));
-                let k = build(
-                    &format!("shade_{}", MODELS[model].name),
-                    "wavefront/shade.comp",
+            if let [model] = models {
+                // One shaded model: extend shades in place (extend_shade.comp); the material
+                // queue would only cost.
+                let (defs, overrides) = model_shader_inputs(*model, features(*model));
+                stages.extend = build(
+                    &format!("extend_shade_{}", MODELS[*model].name),
+                    "wavefront/extend_shade.comp",
                     defs,
                     overrides,
                 )?;
-                shade.push((slot as u32, model, k));
+                shade.push((0, *model, stages.extend));
+            } else {
+                stages.extend = build("extend", "wavefront/extend.comp", vec![], vec![])?;
+                for (slot, &model) in models.iter().enumerate() {
+                    let (defs, overrides) = model_shader_inputs(model, features(model));
+                    let k = build(
+                        &format!("shade_{}", MODELS[model].name),
+                        "wavefront/shade.comp",
+                        defs,
+                        overrides,
+                    )?;
+                    shade.push((slot as u32, model, k));
+                }
             }
         }
         Integrator::Megakernel => {

@@ -1,0 +1,37 @@
+#version 460
+// Stages 2 and 3 in one kernel, for a scene with one shaded model: the closest hit of every
+// queued ray of segment `bounce` (wavefront/path.glsl `segment_end`, as extend.comp), then,
+// where the path goes on, the shading of that vertex on the spot (wavefront/scatter.glsl
+// `shade_vertex`, as shade.comp) without a trip through the hit record and a material queue.
+// The queues keep the SIMD lanes of a shade kernel on one model; with one model they only cost.
+#extension GL_GOOGLE_include_directive : require
+#include "brdf/model.glsl"
+#include "wavefront/scatter.glsl"
+layout(local_size_x = 64) in;
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= counters[COUNTER_RAY + ray_queue_in()]) return;
+    uint path = queue_entry(ray_queue_in() * g.capacity + i);
+    vec4 dd = ray_d(path);
+    vec3 o = ray_o(path).xyz;
+    vec3 b = beta(path).xyz;
+    vec3 e;
+    Hit hit;
+    uint slot = segment_end(pc.bounce, o, dd.xyz, dd.w, b, e, hit);
+    if (e.x != 0.0 || e.y != 0.0 || e.z != 0.0) radiance_set(path, radiance(path) + vec4(e, 0.0));
+    if (slot == NO_QUEUE) return;
+    // Counted as the material queue's length, as extend would, for the ray totals.
+    Scatter sc = shade_vertex(path, pc.bounce, hit, o, dd.xyz, b, counter_nonfinite_shade(slot));
+    if (sc.shadow) {
+        shadow_o_set(path, vec4(sc.shadow_o, sc.shadow_tmax));
+        shadow_d_set(path, vec4(sc.shadow_d, 0.0));
+        shadow_l_set(path, vec4(sc.shadow_l, 0.0));
+        queue_push(QUEUE_SHADOW, COUNTER_SHADOW, path);
+    }
+    if (!sc.next) return;
+    beta_set(path, vec4(sc.beta, 0.0));
+    ray_o_set(path, vec4(sc.o, 0.0));
+    ray_d_set(path, vec4(sc.d, sc.pdf));
+    queue_push(ray_queue_out(), COUNTER_RAY + ray_queue_out(), path);
+}
