@@ -85,6 +85,15 @@ fn subgroup_and_plain_queue_pushes_give_the_same_image() {
     assert!(sub.mean.data == plain.mean.data, "the films differ");
     assert_eq!(sub.extension_rays, plain.extension_rays);
     assert_eq!(sub.shadow_rays, plain.shadow_rays);
+    // One model: extend shades in place and counts its shadow rays per subgroup, or per
+    // invocation without ballots.
+    let one = scene("cornell-box.toml", 24, 20, 3, 5, 9);
+    let (plain1, _) = render_gpu(&ctx, &one);
+    ctx.features.subgroup_ballot = true;
+    let (sub1, _) = render_gpu(&ctx, &one);
+    assert!(sub1.mean.data == plain1.mean.data, "the films differ");
+    assert_eq!(sub1.rays_by_segment, plain1.rays_by_segment);
+    assert!(sub1.shadow_rays > 0);
     finish(ctx);
 }
 

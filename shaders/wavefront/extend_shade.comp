@@ -1,9 +1,12 @@
 #version 460
-// Stages 2 and 3 in one kernel, for a scene with one shaded model: the closest hit of every
+// Stages 2, 3 and 4 in one kernel, for a scene with one shaded model: the closest hit of every
 // queued ray of segment `bounce` (wavefront/path.glsl `segment_end`, as extend.comp), then,
 // where the path goes on, the shading of that vertex on the spot (wavefront/scatter.glsl
-// `shade_vertex`, as shade.comp) without a trip through the hit record and a material queue.
-// The queues keep the SIMD lanes of a shade kernel on one model; with one model they only cost.
+// `shade_vertex`, as shade.comp) and its shadow ray, without a trip through the hit record, a
+// material queue and the shadow queue. The material queues keep the SIMD lanes of a shade
+// kernel on one model; with one model they only cost. The shadow rays are counted here (as
+// `prepare` counts the shadow queue otherwise), and added in the same order as the separate
+// stages add them, so the image is the same.
 #extension GL_GOOGLE_include_directive : require
 #include "brdf/model.glsl"
 #include "wavefront/scatter.glsl"
@@ -23,12 +26,10 @@ void main() {
     if (slot == NO_QUEUE) return;
     // Counted as the material queue's length, as extend would, for the ray totals.
     Scatter sc = shade_vertex(path, pc.bounce, hit, o, dd.xyz, b, counter_nonfinite_shade(slot));
-    if (sc.shadow) {
-        shadow_o_set(path, vec4(sc.shadow_o, sc.shadow_tmax));
-        shadow_d_set(path, vec4(sc.shadow_d, 0.0));
-        shadow_l_set(path, vec4(sc.shadow_l, 0.0));
-        queue_push(QUEUE_SHADOW, COUNTER_SHADOW, path);
+    if (sc.shadow && !trace_any(sc.shadow_o, sc.shadow_d, sc.shadow_tmax)) {
+        radiance_set(path, radiance(path) + vec4(sc.shadow_l, 0.0));
     }
+    count_rays(COUNTER_SHADOW_TOTAL, counter_segment_shadow(pc.bounce), sc.shadow);
     if (!sc.next) return;
     beta_set(path, vec4(sc.beta, 0.0));
     ray_o_set(path, vec4(sc.o, 0.0));

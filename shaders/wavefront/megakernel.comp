@@ -19,11 +19,6 @@ shared uint wg_shadow;
 shared uint wg_segment_extension[SEGMENTS_COUNTED];
 shared uint wg_segment_shadow[SEGMENTS_COUNTED];
 
-void add_total64(uint c, uint n) {
-    if (n == 0u) return;
-    uint old = atomicAdd(counters[c], n);
-    if (old + n < old) atomicAdd(counters[c + 1u], 1u);
-}
 
 void main() {
     if (gl_LocalInvocationIndex == 0u) {

@@ -143,6 +143,30 @@ void queue_push(uint q, uint c, uint path) {
 #endif
 }
 
+// Adds n to the 64-bit count in counters c (low word) and c + 1 (high word).
+void add_total64(uint c, uint n) {
+    if (n == 0u) return;
+    uint old = atomicAdd(counters[c], n);
+    if (old + n < old) atomicAdd(counters[c + 1u], 1u);
+}
+
+// Counts one ray for every invocation with `traced` in the 64-bit counts at `total` and
+// `segment`: one atomic per subgroup where the device has ballots.
+void count_rays(uint total, uint segment, bool traced) {
+#ifdef SUBGROUP_QUEUES
+    uint n = subgroupBallotBitCount(subgroupBallot(traced));
+    if (subgroupElect()) {
+        add_total64(total, n);
+        add_total64(segment, n);
+    }
+#else
+    if (traced) {
+        add_total64(total, 1u);
+        add_total64(segment, 1u);
+    }
+#endif
+}
+
 float rand(uint path, uint bounce, uint dim) {
     return random_f32(g.seed, path_pixel(path), path_sample(path), bounce, dim);
 }

@@ -19,9 +19,9 @@
 //!                                            (one writer per pixel)
 //! ```
 //!
-//! With a single shaded model, `extend` shades in place (`extend_shade_<model>`: no material
-//! queue and no separate shade kernel, whose only purpose is to keep the lanes of a kernel on
-//! one model). [`Integrator::Megakernel`] replaces everything between `generate` and
+//! With a single shaded model, `extend` shades in place and traces the shadow ray
+//! (`extend_shade_<model>`: no material queue, no separate shade and shadow kernels; the
+//! material queues only keep the lanes of a kernel on one model). [`Integrator::Megakernel`] replaces everything between `generate` and
 //! `accumulate` by one kernel that follows each path to its end (the benchmark's baseline; the
 //! same image).
 //!
@@ -561,14 +561,16 @@ impl<'a> GpuRenderer<'a> {
                     &name,
                 );
             }
-            self.prepare(&mut rec, &mut push, 2);
-            self.dispatch(
-                &mut rec,
-                st.shadow,
-                &push,
-                Dispatch::Indirect(layout::ARGS_SHADOW),
-                "shadow",
-            );
+            if !fused {
+                self.prepare(&mut rec, &mut push, 2);
+                self.dispatch(
+                    &mut rec,
+                    st.shadow,
+                    &push,
+                    Dispatch::Indirect(layout::ARGS_SHADOW),
+                    "shadow",
+                );
+            }
             if let Some(report) = report {
                 rec = self.resubmit(rec)?;
                 report(depth as f64 / max_depth as f64);
