@@ -132,13 +132,19 @@ pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
     let kd = r.rgb("kd", Vec3::splat(0.5), 0.0, 1.0)?;
     let ks = r.rgb("ks", Vec3::splat(0.3), 0.0, 1.0)?;
     let alpha = |r: &mut ParamReader, key: &str, default: f32| -> Result<f32, ParamError> {
-        let a = r.scalar(key, default, 0.0, 1.0)?;
-        if a < 0.001 {
+        // One range in every message, whichever side the value is on.
+        let a = r.scalar(key, default, f32::NEG_INFINITY, f32::INFINITY)?;
+        if !(0.001..=1.0).contains(&a) {
+            let why = if (0.0..0.001).contains(&a) {
+                " (α = 0 would be a perfect mirror, which Ward's Gaussian lobe cannot represent)"
+            } else {
+                ""
+            };
             return Err(r.error(
                 key,
                 format!(
-                    "{a} is out of range: must be in [0.001, 1] (α = 0 would be a perfect \
-                     mirror, which Ward's Gaussian lobe cannot represent)"
+                    "{} is out of range: must be in [0.001, 1]{why}",
+                    super::params::fmt_num(a)
                 ),
             ));
         }
