@@ -12,17 +12,21 @@
 //! * `camera`, `lights` — camera rays and the emitter table both renderers sample;
 //! * `output` — what a render returns, whichever backend made it;
 //! * `brdf_tools` — `brdfwave brdf eval | plot | report`;
-//! * `imageio`, `metrics` — image files and image comparison.
+//! * `imageio`, `metrics` — image files and image comparison;
+//! * `outfile` — the atomic writer of every file, and the up-front checks of output paths;
+//! * `errors` — how errors read on the command line.
 
 pub mod brdf;
 pub mod brdf_tools;
 pub mod bvh;
 pub mod camera;
 pub mod cpu;
+pub mod errors;
 pub mod gpu;
 pub mod imageio;
 pub mod lights;
 pub mod metrics;
+pub mod outfile;
 pub mod output;
 pub mod rng;
 pub mod scene;
