@@ -766,6 +766,25 @@ fn gpu_options_are_refused_or_warned_about_consistently() {
             "{extra:?}: {err}"
         );
     }
+    // The same for brdf eval on the CPU.
+    let dirs = d.join("dirs.csv");
+    std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
+    let out = run(&[
+        "brdf",
+        "eval",
+        "--material",
+        r#"model = "lambert""#,
+        "--dirs",
+        s(&dirs),
+        "--device",
+        "llvmpipe",
+    ]);
+    assert!(out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("warning: --device applies to the GPU backend only; ignored"),
+        "{err}"
+    );
     // --validation without the layer installed (the loader's explicit-layer search path
     // pointed at an empty directory) fails before any work, as its help says.
     let empty = fresh_dir("no-layers");
