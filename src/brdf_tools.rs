@@ -62,7 +62,7 @@ pub fn read_direction_csv(path: &Path) -> Result<Vec<(Vec3, Vec3)>> {
                 bail!(
                     "{}:{n}: {name} has length {}, expected a unit vector",
                     path.display(),
-                    w.length()
+                    crate::brdf::params::fmt_num(w.length())
                 );
             }
         }

@@ -519,6 +519,15 @@ fn print_summary(s: &serde_json::Value) {
 fn diff(test: &Path, reference: &Path, error_map: Option<&Path>, json_out: bool) -> Result<()> {
     if let Some(p) = error_map {
         imageio::Format::from_path(p).context("--error-map")?;
+        for (name, input) in [("TEST", test), ("REFERENCE", reference)] {
+            if outfile::resolve(p) == outfile::resolve(input) {
+                bail!(
+                    "--error-map {} is the {name} image: it would be overwritten; give the error \
+                     map its own path",
+                    p.display()
+                );
+            }
+        }
         outfile::prepare(&[Output {
             option: "--error-map",
             path: p,

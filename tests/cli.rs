@@ -404,6 +404,11 @@ fn every_output_gets_its_missing_directories() {
     let map = d.join("e/map.png");
     ok(&["diff", s(&exr), s(&exr), "--error-map", s(&map)]);
     assert!(map.is_file());
+    // The error map may not overwrite an input.
+    let before = std::fs::read(&png).unwrap();
+    let err = fails(&["diff", s(&png), s(&exr), "--error-map", s(&png)]);
+    assert!(err.contains("TEST image"), "{err}");
+    assert_eq!(std::fs::read(&png).unwrap(), before);
     let dirs = d.join("dirs.csv");
     std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
     let csv = d.join("f/eval.csv");
