@@ -3,7 +3,7 @@
 //! Without `SHADERC_LIB_DIR` the `shaderc-sys` build script would compile shaderc, glslang and
 //! SPIRV-Tools from C++ source (about 7 minutes on 2 cores). Debian 12's `libshaderc-dev` ships
 //! `libshaderc_combined.a`, which does not contain glslang, so the glslang static libraries from
-//! `glslang-dev` are linked here as well (see the renderer anchors, takeaway 10).
+//! `glslang-dev` are linked here as well.
 //! `.cargo/config.toml` sets `SHADERC_LIB_DIR` for `shaderc-sys`.
 //!
 //! It also embeds the GLSL sources under `shaders/` into the binary: a table of

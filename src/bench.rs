@@ -656,7 +656,7 @@ pub fn run(o: &BenchOptions) -> Result<String> {
             r.config, r.pass, r.spp, r.seconds, r.paths_per_second, r.rmse, r.relmse, r.flip
         );
     }
-    crate::vk::cache::write_atomic(&o.out.join("bench.csv"), csv.as_bytes())?;
+    crate::outfile::write(&o.out.join("bench.csv"), csv.as_bytes())?;
     let series: Vec<Series> = details
         .iter()
         .map(|(name, _)| Series {
@@ -678,14 +678,14 @@ pub fn run(o: &BenchOptions) -> Result<String> {
     let img = plot::log_log(&title, "seconds", "relMSE", &series);
     let mut png = Vec::new();
     img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
-    crate::vk::cache::write_atomic(&o.out.join("bench.png"), &png)?;
+    crate::outfile::write(&o.out.join("bench.png"), &png)?;
 
     let md = summary(o, &sc, seconds_bvh, &records, &details, &notes);
     let md = match o.scaling {
         Some(n) => format!("{md}\n{}", scaling(o, n)?),
         None => md,
     };
-    crate::vk::cache::write_atomic(&o.out.join("bench.md"), md.as_bytes())?;
+    crate::outfile::write(&o.out.join("bench.md"), md.as_bytes())?;
     Ok(md)
 }
 

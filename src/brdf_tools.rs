@@ -62,7 +62,7 @@ pub fn read_direction_csv(path: &Path) -> Result<Vec<(Vec3, Vec3)>> {
                 bail!(
                     "{}:{n}: {name} has length {}, expected a unit vector",
                     path.display(),
-                    w.length()
+                    crate::brdf::params::fmt_num(w.length())
                 );
             }
         }
@@ -92,18 +92,34 @@ pub fn eval_cpu(m: &Material, pairs: &[(Vec3, Vec3)]) -> Vec<(Vec3, f32)> {
         .collect()
 }
 
-/// Write a file atomically (temporary file in the same directory, then rename).
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let mut tmp = tempfile::NamedTempFile::new_in(dir)
-        .with_context(|| format!("creating a temporary file in {}", dir.display()))?;
-    std::io::Write::write_all(&mut tmp, bytes)?;
-    tmp.persist(path)
-        .map_err(|e| anyhow!("writing {}: {}", path.display(), e.error))?;
+/// Writes a plot from [`plot_lobe`] in the format of `path`'s extension (see
+/// [`crate::imageio`]): a PNG holds the drawn sRGB colours exactly, an EXR or PFM the same
+/// colours decoded to linear values; any other extension is refused.
+pub fn write_plot(path: &Path, img: &image::RgbImage) -> Result<()> {
+    let linear = crate::imageio::Image::from_srgb8(img.width(), img.height(), img.as_raw())?;
+    crate::imageio::write(path, &linear)?;
     Ok(())
+}
+
+/// Makes sure `dir` can take the report's files (creating it when missing) before anything is
+/// measured; the errors name `--out`.
+pub fn prepare_report_dir(dir: &Path) -> Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        bail!(
+            "--out {}: is a file; brdf report needs a directory for report.md, report.csv and \
+             lobe_*.png",
+            dir.display()
+        );
+    }
+    let files = ["report.md", "report.csv"].map(|f| dir.join(f));
+    let outputs: Vec<crate::outfile::Output> = files
+        .iter()
+        .map(|p| crate::outfile::Output {
+            option: "--out",
+            path: p,
+        })
+        .collect();
+    crate::outfile::prepare(&outputs)
 }
 
 fn heat(t: f32) -> [u8; 3] {

@@ -12,12 +12,13 @@
 //!   as the format requires. Reading accepts both byte orders and grey (`Pf`) files; the
 //!   magnitude of the scale field is ignored.
 //!
-//! The format is chosen by the file extension (case-insensitive). Every write is atomic: the
-//! encoded image goes to a temporary file in the destination directory, which is then renamed
-//! over the destination, so an interrupted or failed write never destroys an existing file
-//! (the replaced file's permissions are kept; a symbolic link at the destination is replaced,
-//! not followed).
-//! Missing directories are not created: writing into one is an error naming the path.
+//! The format is chosen by the file extension (case-insensitive). Every write is atomic
+//! ([`crate::outfile::write_with`]): the encoded image goes to a temporary file in the
+//! destination directory, which is then renamed over the destination, so an interrupted or
+//! failed write never destroys an existing file (a new file gets `0666 & !umask`, a replaced
+//! file keeps its permissions; a symbolic link at the destination is replaced, not followed).
+//! Missing directories are not created here: writing into one is an error naming the path (the
+//! command line creates them up front, see [`crate::outfile::prepare`]).
 //!
 //! Renderers that estimate per-pixel variance produce two plain [`Image`]s (mean and sample
 //! variance); [`Moments`] and [`mean_variance_from_sums`] build them.
@@ -348,23 +349,6 @@ impl Format {
 
 /// Writes `img` to `path` atomically, in the format given by the extension (see the module
 /// documentation). The parent directory must exist.
-/// Check, before a long render, that `path` has a known image extension and an existing
-/// directory, so a typo does not cost the render.
-pub fn check_writable(path: &Path) -> Result<(), ImageError> {
-    Format::from_path(path)?;
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    if !dir.is_dir() {
-        return Err(ImageError::MissingDirectory {
-            path: path.to_path_buf(),
-            dir: dir.to_path_buf(),
-        });
-    }
-    Ok(())
-}
-
 pub fn write(path: &Path, img: &Image) -> Result<(), ImageError> {
     let format = Format::from_path(path)?;
     img.validate().map_err(|e| ImageError::InvalidImage {
@@ -384,47 +368,21 @@ pub fn write(path: &Path, img: &Image) -> Result<(), ImageError> {
             dir,
         });
     }
-    let io_err = |what: &'static str| {
-        let path = path.to_path_buf();
-        move |source: std::io::Error| ImageError::Io { path, what, source }
-    };
-    let file_name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let prefix = format!(".{file_name}.");
-    let mut builder = tempfile::Builder::new();
-    builder.prefix(&prefix).suffix(".tmp");
-    // Temporary files are private (0600); the image should get the permissions a plain
-    // `File::create` gives (0666 minus the umask), or keep those of the file it replaces.
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        builder.permissions(std::fs::Permissions::from_mode(0o666));
-    }
-    let mut tmp = builder.tempfile_in(&dir).map_err(io_err(
-        "cannot create a temporary file in the destination directory",
-    ))?;
-    if let Ok(meta) = std::fs::metadata(path) {
-        if meta.is_file() {
-            tmp.as_file()
-                .set_permissions(meta.permissions())
-                .map_err(io_err("cannot copy the permissions of the existing file"))?;
+    crate::outfile::write_with(path, |file| match format {
+        Format::Exr => write_exr(file, path, img),
+        Format::Png => write_png(file, path, img),
+        Format::Pfm => write_pfm(file, path, img),
+    })
+}
+
+impl From<crate::outfile::WriteError> for ImageError {
+    fn from(e: crate::outfile::WriteError) -> Self {
+        ImageError::Io {
+            path: e.path,
+            what: e.what,
+            source: e.source,
         }
     }
-
-    match format {
-        Format::Exr => write_exr(tmp.as_file_mut(), path, img)?,
-        Format::Png => write_png(tmp.as_file_mut(), path, img)?,
-        Format::Pfm => write_pfm(tmp.as_file_mut(), path, img)?,
-    }
-    tmp.as_file_mut()
-        .sync_all()
-        .map_err(io_err("cannot flush the temporary file"))?;
-    // On failure the temporary file is removed when `tmp` (inside the error) is dropped.
-    tmp.persist(path)
-        .map_err(|e| io_err("cannot rename the temporary file over the destination")(e.error))?;
-    Ok(())
 }
 
 fn write_exr(file: &mut File, path: &Path, img: &Image) -> Result<(), ImageError> {

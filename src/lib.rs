@@ -13,6 +13,8 @@
 //! * `output` — what a render returns, whichever backend made it;
 //! * `brdf_tools` — `brdfwave brdf eval | plot | report`;
 //! * `imageio`, `metrics` — image files and image comparison;
+//! * `outfile` — the atomic writer of every file, and the up-front checks of output paths;
+//! * `errors` — how errors read on the command line;
 //! * `bench`, `plot` — `brdfwave bench`: run time against error, and its log-log chart.
 
 pub mod bench;
@@ -21,10 +23,12 @@ pub mod brdf_tools;
 pub mod bvh;
 pub mod camera;
 pub mod cpu;
+pub mod errors;
 pub mod gpu;
 pub mod imageio;
 pub mod lights;
 pub mod metrics;
+pub mod outfile;
 pub mod output;
 pub mod plot;
 pub mod rng;

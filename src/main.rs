@@ -3,7 +3,13 @@
 
 use anyhow::{bail, Context as _, Result};
 use brdfwave::{
-    bvh, cpu::CpuRenderer, gpu::GpuRenderer, imageio, metrics, output::RenderOutput, scene, vk,
+    bvh,
+    cpu::CpuRenderer,
+    gpu::GpuRenderer,
+    imageio, metrics,
+    outfile::{self, Output},
+    output::RenderOutput,
+    scene, vk,
 };
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -47,7 +53,9 @@ impl IntegratorArg {
 enum Command {
     /// Render a scene file to one or more images (.exr linear, .png sRGB).
     Render {
+        /// The scene file (TOML; scenes/README.md documents the format).
         scene: PathBuf,
+        /// Renderer: the Vulkan wavefront path tracer or the CPU reference.
         #[arg(long, value_enum, default_value = "gpu")]
         backend: Backend,
         /// Samples per pixel (overrides the scene).
@@ -59,18 +67,23 @@ enum Command {
         /// Maximum path segments; the camera segment is one (overrides the scene).
         #[arg(long)]
         max_depth: Option<u32>,
+        /// Seed of the random numbers, 0 to 4294967295 (overrides the scene); the same seed
+        /// gives nearly the same image on both backends.
         #[arg(long)]
         seed: Option<u32>,
-        /// Output files; may be given several times. Default: out/<scene name>.png
+        /// Output files (.exr, .png or .pfm); may be given several times; missing directories
+        /// are created. Default: out/<scene name>.png
         #[arg(long = "out")]
         out: Vec<PathBuf>,
         /// Also write the per-pixel variance of one sample (EXR), for statistical tests.
         #[arg(long)]
         variance_out: Option<PathBuf>,
-        /// Vulkan device: a case-insensitive part of its name (default: lavapipe if present).
-        #[arg(long)]
+        /// Vulkan device: a case-insensitive part of its name (default: lavapipe if present;
+        /// `brdfwave devices` lists them). GPU backend only.
+        #[arg(long, value_parser = parse_device)]
         device: Option<String>,
-        /// Enable the Khronos validation layer (fails the run if it reports anything).
+        /// Enable the Khronos validation layer; the run fails if it reports anything, or if the
+        /// layer is not installed. GPU backend only.
         #[arg(long)]
         validation: bool,
         /// GPU: most paths in flight at a time, 64 to 1048576 (the default). The image does not
@@ -87,11 +100,14 @@ enum Command {
     },
     /// Compare a test image with a reference: RMSE, relMSE (pbrt) and FLIP.
     Diff {
+        /// The image to test (.exr, .png or .pfm).
         test: PathBuf,
+        /// The reference image, the same size.
         reference: PathBuf,
         /// Write an error map image.
         #[arg(long)]
         error_map: Option<PathBuf>,
+        /// Print the metrics as one JSON object on stdout.
         #[arg(long)]
         json: bool,
     },
@@ -143,36 +159,47 @@ enum Command {
 enum BrdfCommand {
     /// Evaluate f and pdf for direction pairs from a CSV (header wi_x,wi_y,wi_z,wo_x,wo_y,wo_z).
     Eval {
-        /// The material as an inline TOML table, e.g. 'model = "ward", ks = [1,1,1], alpha_x = 0.2, alpha_y = 0.1'.
+        /// The material as an inline TOML table, e.g. 'model = "ward", kd = 0.1, ks = 0.8, alpha_x = 0.2, alpha_y = 0.1'.
         #[arg(long)]
         material: String,
+        /// CSV of direction pairs, header wi_x,wi_y,wi_z,wo_x,wo_y,wo_z: unit vectors in the
+        /// local frame (z = normal), both pointing away from the surface, wi toward the light.
         #[arg(long)]
         dirs: PathBuf,
+        /// Where to evaluate: the Rust model or its GLSL twin on the Vulkan device.
         #[arg(long, value_enum, default_value = "cpu")]
         backend: Backend,
-        /// Output CSV (default: stdout).
+        /// Output CSV (default: stdout); missing directories are created.
         #[arg(long)]
         out: Option<PathBuf>,
-        #[arg(long)]
+        /// Vulkan device for --backend gpu: a case-insensitive part of its name (default:
+        /// lavapipe if present; `brdfwave devices` lists them).
+        #[arg(long, value_parser = parse_device)]
         device: Option<String>,
     },
     /// Plot the lobe: polar plot of f·cosθo in the plane of incidence and a hemisphere image.
     Plot {
+        /// The material as an inline TOML table, as for `brdf eval`.
         #[arg(long)]
         material: String,
+        /// Angle of incidence in degrees, in [0, 90).
         #[arg(long, allow_hyphen_values = true)]
         theta_i: f32,
+        /// Output image: .png (as drawn, sRGB), .exr or .pfm (the same colours, linear).
         #[arg(long)]
         out: PathBuf,
     },
     /// Measure every model at representative parameters: albedo, reciprocity, χ², cost, variance.
     Report {
+        /// Directory for report.md, report.csv and lobe_*.png (created if missing).
         #[arg(long, default_value = "out/report")]
         out: PathBuf,
         /// Skip the GPU cost measurement.
         #[arg(long)]
         no_gpu: bool,
-        #[arg(long)]
+        /// Vulkan device for the GPU cost measurement: a case-insensitive part of its name
+        /// (default: lavapipe if present; `brdfwave devices` lists them).
+        #[arg(long, value_parser = parse_device)]
         device: Option<String>,
     },
 }
@@ -195,6 +222,22 @@ fn parse_res(s: &str) -> std::result::Result<(u32, u32), String> {
         ));
     }
     Ok((w, h))
+}
+
+fn parse_device(s: &str) -> std::result::Result<String, String> {
+    if s.trim().is_empty() {
+        return Err("the device name is empty; `brdfwave devices` lists the names".to_string());
+    }
+    Ok(s.to_string())
+}
+
+/// Warns about options given with the CPU backend, which ignores them.
+fn warn_gpu_only(options: &[(&str, bool)]) {
+    for (name, given) in options {
+        if *given {
+            eprintln!("warning: {name} applies to the GPU backend only; ignored");
+        }
+    }
 }
 
 fn main() {
@@ -287,7 +330,7 @@ fn main() {
         }),
     };
     if let Err(e) = result {
-        eprintln!("error: {e:#}");
+        eprintln!("error: {}", brdfwave::errors::chain(&e));
         std::process::exit(1);
     }
 }
@@ -353,24 +396,46 @@ fn render(a: RenderArgs) -> Result<()> {
     }
     if let Some(w) = a.wave_paths {
         brdfwave::gpu::check_wave_paths(w).context("--wave-paths")?;
-        if a.backend == Backend::Cpu {
-            eprintln!("warning: --wave-paths applies to the GPU backend only; ignored");
-        }
     }
-    let outs = if a.out.is_empty() {
+    if a.backend == Backend::Cpu {
+        warn_gpu_only(&[
+            ("--device", a.device.is_some()),
+            ("--validation", a.validation),
+            ("--wave-paths", a.wave_paths.is_some()),
+        ]);
+    } else if a.validation {
+        vk::require_validation().context("--validation")?;
+    }
+    let (outs, out_option) = if a.out.is_empty() {
         let stem = a
             .scene
             .file_stem()
             .and_then(|s| s.to_str())
             .unwrap_or("render");
-        std::fs::create_dir_all("out").context("creating the default output directory out/")?;
-        vec![PathBuf::from(format!("out/{stem}.png"))]
+        (
+            vec![PathBuf::from(format!("out/{stem}.png"))],
+            "the default output",
+        )
     } else {
-        a.out.clone()
+        (a.out.clone(), "--out")
     };
-    for o in outs.iter().chain(a.variance_out.iter()) {
-        imageio::check_writable(o)?;
+    let mut planned: Vec<Output> = outs
+        .iter()
+        .map(|p| Output {
+            option: out_option,
+            path: p,
+        })
+        .collect();
+    if let Some(v) = &a.variance_out {
+        planned.push(Output {
+            option: "--variance-out",
+            path: v,
+        });
     }
+    for o in &planned {
+        imageio::Format::from_path(o.path).with_context(|| o.option.to_string())?;
+    }
+    outfile::prepare(&planned)?;
     let t_bvh = Instant::now();
     let bvh = bvh::build(&sc);
     let seconds_bvh = t_bvh.elapsed().as_secs_f64();
@@ -430,12 +495,17 @@ fn render(a: RenderArgs) -> Result<()> {
             device = format!("CPU reference ({} threads)", rayon::current_num_threads());
         }
     }
-    for o in &outs {
-        imageio::write(o, &output.mean).with_context(|| format!("writing {}", o.display()))?;
-    }
-    if let Some(v) = &a.variance_out {
-        imageio::write(v, &output.variance).with_context(|| format!("writing {}", v.display()))?;
-    }
+    // Every output that can be written is, even when one fails; then the failures are reported.
+    let paths: Vec<&Path> = planned.iter().map(|o| o.path).collect();
+    outfile::write_each(&paths, |i, p| {
+        let img = if i < outs.len() {
+            &output.mean
+        } else {
+            &output.variance
+        };
+        imageio::write(p, img)?;
+        Ok(())
+    })?;
     let paths = sc.width as f64 * sc.height as f64 * output.spp as f64;
     let rays = (output.extension_rays + output.shadow_rays) as f64;
     let base = json!({
@@ -462,6 +532,7 @@ fn render(a: RenderArgs) -> Result<()> {
         "mean_radiance": output.mean.mean(),
         "stage_seconds": output.stage_seconds.iter().map(|(k, v)| json!({"stage": k, "seconds": v})).collect::<Vec<_>>(),
         "outputs": outs.iter().map(|o| o.display().to_string()).collect::<Vec<_>>(),
+        "variance_output": a.variance_out.as_ref().map(|v| v.display().to_string()),
     });
     for (k, v) in base.as_object().unwrap() {
         summary[k] = v.clone();
@@ -547,12 +618,33 @@ fn print_summary(s: &serde_json::Value) {
             .collect();
         println!("stages (s)     {}", parts.join(", "));
     }
-    for o in s["outputs"].as_array().into_iter().flatten() {
+    for o in s["outputs"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .chain(s.get("variance_output").filter(|v| v.is_string()))
+    {
         println!("wrote          {}", o.as_str().unwrap_or(""));
     }
 }
 
 fn diff(test: &Path, reference: &Path, error_map: Option<&Path>, json_out: bool) -> Result<()> {
+    if let Some(p) = error_map {
+        imageio::Format::from_path(p).context("--error-map")?;
+        for (name, input) in [("TEST", test), ("REFERENCE", reference)] {
+            if outfile::resolve(p) == outfile::resolve(input) {
+                bail!(
+                    "--error-map {} is the {name} image: it would be overwritten; give the error \
+                     map its own path",
+                    p.display()
+                );
+            }
+        }
+        outfile::prepare(&[Output {
+            option: "--error-map",
+            path: p,
+        }])?;
+    }
     let a = imageio::read(test)?;
     let b = imageio::read(reference)?;
     let report = metrics::diff(&a, &b)?;
@@ -591,6 +683,15 @@ fn brdf_command(cmd: BrdfCommand) -> Result<()> {
             out,
             device,
         } => {
+            if backend == Backend::Cpu {
+                warn_gpu_only(&[("--device", device.is_some())]);
+            }
+            if let Some(p) = &out {
+                outfile::prepare(&[Output {
+                    option: "--out",
+                    path: p,
+                }])?;
+            }
             let m = parse_inline(&material)?;
             let pairs = tools::read_direction_csv(&dirs)?;
             let values = match backend {
@@ -606,7 +707,7 @@ fn brdf_command(cmd: BrdfCommand) -> Result<()> {
             };
             let csv = tools::format_eval_csv(&pairs, &values);
             match out {
-                Some(p) => tools::write_atomic(&p, csv.as_bytes())?,
+                Some(p) => outfile::write(&p, csv.as_bytes())?,
                 None => print!("{csv}"),
             }
         }
@@ -618,14 +719,13 @@ fn brdf_command(cmd: BrdfCommand) -> Result<()> {
             if !(0.0..90.0).contains(&theta_i) {
                 bail!("--theta-i must be in [0, 90) degrees, got {theta_i}");
             }
+            imageio::Format::from_path(&out).context("--out")?;
+            outfile::prepare(&[Output {
+                option: "--out",
+                path: &out,
+            }])?;
             let m = parse_inline(&material)?;
-            let img = tools::plot_lobe(m.brdf.as_ref(), theta_i);
-            let mut bytes = Vec::new();
-            img.write_to(
-                &mut std::io::Cursor::new(&mut bytes),
-                image::ImageFormat::Png,
-            )?;
-            tools::write_atomic(&out, &bytes)?;
+            tools::write_plot(&out, &tools::plot_lobe(m.brdf.as_ref(), theta_i))?;
             println!("wrote {}", out.display());
         }
         BrdfCommand::Report {
@@ -633,7 +733,10 @@ fn brdf_command(cmd: BrdfCommand) -> Result<()> {
             no_gpu,
             device,
         } => {
-            std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+            if no_gpu {
+                warn_gpu_only(&[("--device", device.is_some())]);
+            }
+            tools::prepare_report_dir(&out)?;
             let gpu = if no_gpu {
                 None
             } else {
@@ -656,22 +759,16 @@ fn brdf_command(cmd: BrdfCommand) -> Result<()> {
                     row.ns_per_eval_gpu =
                         Some(brdfwave::gpu::brdf_probe::eval_cost(ctx, compiler, &m)?);
                 }
-                let img = tools::plot_lobe(m.brdf.as_ref(), 45.0);
-                let mut bytes = Vec::new();
-                img.write_to(
-                    &mut std::io::Cursor::new(&mut bytes),
-                    image::ImageFormat::Png,
-                )?;
-                tools::write_atomic(
+                tools::write_plot(
                     &out.join(format!("lobe_{}.png", tools::slug(label))),
-                    &bytes,
+                    &tools::plot_lobe(m.brdf.as_ref(), 45.0),
                 )?;
                 rows.push(row);
             }
             let device_name = gpu.as_ref().map(|(c, _)| c.device_name.clone());
             let md = tools::report_markdown(&rows, device_name.as_deref());
-            tools::write_atomic(&out.join("report.md"), md.as_bytes())?;
-            tools::write_atomic(&out.join("report.csv"), tools::report_csv(&rows).as_bytes())?;
+            outfile::write(&out.join("report.md"), md.as_bytes())?;
+            outfile::write(&out.join("report.csv"), tools::report_csv(&rows).as_bytes())?;
             print!("{md}");
             println!(
                 "\nwrote {}/report.md, report.csv and lobe_*.png",

@@ -62,8 +62,8 @@ fn sampler_matches_pdf() {
 
 /// Analytic values at normal incidence (k_s = 1, k_d = 0), derived with c = cos(θ/2):
 /// classic, viewer fixed: 8π(1 − 2^{−(n+2)/2})/(n+2); classic, light fixed:
-/// 8π[2(1 − 2^{−(n+4)/2})/(n+4) − (1 − 2^{−(n+2)/2})/(n+2)]; normalized: exactly 1 (Giesen;
-/// brdf-models.md §6 quotes 0.9999 from quadrature).
+/// 8π[2(1 − 2^{−(n+4)/2})/(n+4) − (1 − 2^{−(n+2)/2})/(n+2)]; normalized: exactly 1 (Giesen
+/// 2009, "Phong and Blinn-Phong normalization factors").
 #[test]
 fn white_furnace_against_reference_values() {
     let z = dir_from_theta_deg(0.0, 0.0);

@@ -1,7 +1,8 @@
 //! Cook–Torrance (survey eqs. 6–9) through the validation harness: the survey form is exactly
-//! 4× the Walter form, the albedo table of brdf-models.md §7, energy conservation of the
+//! 4× the Walter form, an albedo table by independent quadrature, energy conservation of the
 //! Walter form, χ² of the sampler, sampled vs quadrature albedo (delta mirror included),
-//! reciprocity, the Fresnel reference values of §12.2 and the parameter errors.
+//! reciprocity, Fresnel reference values (Fresnel's equations; Schlick 1994's approximation) and the
+//! parameter errors.
 
 use brdfwave::brdf::common::{
     fresnel_conductor1, fresnel_dielectric, fresnel_schlick, smith_g1_beckmann_walter,
@@ -80,7 +81,8 @@ fn survey_is_exactly_four_times_walter() {
     }
 }
 
-/// brdf-models.md §7, F = 1: albedo of the survey form and of Walter + V-cavity.
+/// F = 1: albedo of the survey form (Cook & Torrance 1982) and of Walter et al. 2007 (eq. 20)
+/// with the V-cavity G, by an independent double-precision midpoint quadrature.
 #[test]
 fn albedo_table_of_section_7() {
     // (m, θ, survey, walter + V-cavity)
@@ -339,7 +341,9 @@ fn reciprocal() {
     }
 }
 
-/// brdf-models.md §12.2 (exact and Schlick Fresnel) and §12.1 (Walter's G1 approximation).
+/// Exact unpolarised Fresnel reflectance (Born & Wolf, Principles of Optics, §1.5) and Schlick
+/// 1994's approximation for n = 1.5 and two conductors; Walter et al. 2007's rational
+/// approximation of the Smith–Beckmann G1 against the exact G1 (with erfc).
 #[test]
 fn fresnel_and_g1_reference_values() {
     let th = [0.0f32, 30.0, 45.0, 60.0, 75.0, 80.0, 85.0, 89.0];

@@ -2,7 +2,7 @@
 //! direction pairs and parameter sweeps, on lavapipe.
 //!
 //! Tolerance: Vulkan only requires atan/acos to 4096 ULP, exp to 3 + 2|x| ULP and pow to inherit
-//! from exp2(y·log2 x) (brdf-models.md §11), so trig- and pow-heavy models may differ by ~1e-3
+//! from exp2(y·log2 x) (Vulkan specification, "Precision of GLSL.std.450 Instructions"), so trig- and pow-heavy models may differ by ~1e-3
 //! relative between a conformant GPU and Rust's libm; we require |gpu − cpu| ≤ 2e-3·max(|gpu|,
 //! |cpu|) + 1e-5·scale, where scale is the largest value on the grid (an absolute floor for
 //! values that are tiny compared with the lobe's peak). Samples must agree on the direction (to

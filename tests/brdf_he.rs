@@ -1,5 +1,5 @@
 //! He–Torrance–Sillion–Greenberg 1991 (survey eqs. 10–15) through the validation harness:
-//! the rough-limit check against Torrance–Sparrow (brdf-models.md §8), the specular weight
+//! the rough-limit check against Torrance–Sparrow (Torrance & Sparrow 1967), the specular weight
 //! table, the windowed log-space series against an f64 direct sum, χ² of the mixture sampler,
 //! sampled vs quadrature albedo with the delta lobe, reciprocity and parameter errors.
 
@@ -65,7 +65,8 @@ fn windowed_series_matches_a_direct_f64_sum() {
     eprintln!("series worst relative error {worst:e}");
 }
 
-/// brdf-models.md §8: λ = 0.5, σ₀ = 2, τ = 10 µm, wi at 30°, wo at 30/45/60° opposite: He's
+/// λ = 0.5, σ₀ = 2, τ = 10 µm, wi at 30°, wo at 30/45/60° opposite (reference values by an
+/// independent double-precision evaluation of He et al. 1991, eqs. 76–83): He's
 /// directional-diffuse term (F = 1) vs Torrance–Sparrow with Beckmann m = 2σ₀/τ times He's S.
 #[test]
 fn rough_limit_is_torrance_sparrow() {
@@ -108,7 +109,8 @@ fn rough_limit_is_torrance_sparrow() {
     }
 }
 
-/// brdf-models.md §8: e^(−g)·S at the mirror direction, λ = 0.5, τ = 10 (two decimals).
+/// e^(−g)·S (He et al. 1991's specular weight) at the mirror direction, λ = 0.5,
+/// τ = 10 (two decimals, independent double-precision evaluation).
 #[test]
 fn specular_weight_table() {
     let table = [

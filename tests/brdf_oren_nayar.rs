@@ -1,5 +1,5 @@
 //! Oren–Nayar (survey §2.1.2) through the validation harness: sampler vs pdf, white-furnace
-//! albedo against brdf-models.md §4, reciprocity, sampled vs quadrature albedo, bad parameters.
+//! albedo against reference values (Oren & Nayar 1994), reciprocity, sampled vs quadrature albedo, bad parameters.
 
 use brdfwave::brdf::validate::{
     albedo_quadrature, albedo_sampled, chi2_test, dir_from_theta_deg, material_from_toml,
@@ -60,7 +60,7 @@ fn sampler_matches_pdf() {
     eprintln!("smallest χ² p-value {min_p:.4} (level {level:.5})");
 }
 
-/// brdf-models.md §4: the qualitative albedo at normal incidence is exactly ρ·A (0.920, 0.785,
+/// Oren & Nayar 1994, qualitative model: the albedo at normal incidence is exactly ρ·A (0.920, 0.785,
 /// 0.624 for σ = 0.25, 0.5, 1 and ρ = 1); near grazing at σ = 0.25 both exceed 1 (qualitative
 /// 1.007, full 1.030 at 85°).
 #[test]

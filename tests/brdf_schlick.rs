@@ -1,5 +1,5 @@
-//! Schlick 1994 (survey eqs. 18–26) through the validation harness: the albedo table of
-//! brdf-models.md §10 (the glossy lobe exceeds 1 near grazing for small r), the non-normalised
+//! Schlick 1994 (survey eqs. 18–26) through the validation harness: an albedo table by
+//! independent quadrature (the glossy lobe exceeds 1 near grazing for small r), the non-normalised
 //! azimuth factor, the non-conserving survey forms, χ² of the sampler for every form,
 //! anisotropy and the two-layer material, sampled vs quadrature albedo with the mirror delta,
 //! reciprocity and the parameter errors.

@@ -424,3 +424,472 @@ fn bench_writes_its_csv_plot_and_summary() {
     ]);
     assert!(e.contains("unknown configuration 'pbrt'"), "{e}");
 }
+
+/// A fresh, empty directory for one test.
+fn fresh_dir(name: &str) -> PathBuf {
+    let d = tmp(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A quick render on the CPU with the given extra arguments.
+fn render_args<'a>(extra: &[&'a str]) -> Vec<&'a str> {
+    let mut a = vec![
+        "render",
+        "scenes/cornell-box.toml",
+        "--backend",
+        "cpu",
+        "--res",
+        "8x8",
+        "--spp",
+        "1",
+    ];
+    a.extend_from_slice(extra);
+    a
+}
+
+#[test]
+fn every_output_gets_its_missing_directories() {
+    let d = fresh_dir("mkdirs");
+    let png = d.join("a/b/img.png");
+    let exr = d.join("c/img.exr");
+    let var = d.join("d/var.exr");
+    let stdout = ok(&render_args(&[
+        "--out",
+        s(&png),
+        "--out",
+        s(&exr),
+        "--variance-out",
+        s(&var),
+    ]));
+    assert!(png.is_file() && exr.is_file() && var.is_file());
+    // The variance output is listed with the others.
+    assert!(
+        stdout.contains(&format!("wrote          {}", var.display())),
+        "{stdout}"
+    );
+    let map = d.join("e/map.png");
+    ok(&["diff", s(&exr), s(&exr), "--error-map", s(&map)]);
+    assert!(map.is_file());
+    // The error map may not overwrite an input.
+    let before = std::fs::read(&png).unwrap();
+    let err = fails(&["diff", s(&png), s(&exr), "--error-map", s(&png)]);
+    assert!(err.contains("TEST image"), "{err}");
+    assert_eq!(std::fs::read(&png).unwrap(), before);
+    let dirs = d.join("dirs.csv");
+    std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
+    let csv = d.join("f/eval.csv");
+    ok(&[
+        "brdf",
+        "eval",
+        "--material",
+        r#"model = "lambert""#,
+        "--dirs",
+        s(&dirs),
+        "--out",
+        s(&csv),
+    ]);
+    assert!(csv.is_file());
+    let plot = d.join("g/plot.png");
+    ok(&[
+        "brdf",
+        "plot",
+        "--material",
+        r#"model = "lambert""#,
+        "--theta-i",
+        "10",
+        "--out",
+        s(&plot),
+    ]);
+    assert!(plot.is_file());
+}
+
+#[test]
+fn two_outputs_with_the_same_path_are_refused() {
+    let d = fresh_dir("same");
+    let same = d.join("same.exr");
+    let also = d.join("sub/../same.exr");
+    let err = fails(&render_args(&[
+        "--out",
+        s(&same),
+        "--variance-out",
+        s(&also),
+    ]));
+    assert!(
+        err.contains("--out") && err.contains("--variance-out") && err.contains("same file"),
+        "{err}"
+    );
+    assert!(!same.exists(), "nothing is rendered or written");
+    let a = d.join("x.png");
+    let err = fails(&render_args(&[
+        "--out",
+        s(&a),
+        "--out",
+        &format!("{}/./x.png", d.display()),
+    ]));
+    assert!(err.contains("same file"), "{err}");
+    #[cfg(unix)]
+    {
+        // A directory reached through a symbolic link is the same directory.
+        std::os::unix::fs::symlink(&d, d.join("link")).unwrap();
+        let err = fails(&render_args(&[
+            "--out",
+            s(&a),
+            "--out",
+            s(&d.join("link/x.png")),
+        ]));
+        assert!(err.contains("same file"), "{err}");
+    }
+}
+
+#[test]
+fn unwritable_outputs_are_found_before_the_render() {
+    let d = fresh_dir("unwritable");
+    let good = d.join("good.png");
+    // /sys refuses new files even to root; the good output listed first is not written
+    // either, which shows that the check ran before the render, not after it.
+    let err = fails(&render_args(&[
+        "--out",
+        s(&good),
+        "--out",
+        "/sys/brdfwave-x.png",
+    ]));
+    assert!(
+        err.contains("/sys/brdfwave-x.png") && err.contains("cannot"),
+        "{err}"
+    );
+    assert!(!good.exists());
+    // An existing directory as output.
+    let dir_png = d.join("dir.png");
+    std::fs::create_dir(&dir_png).unwrap();
+    let err = fails(&render_args(&["--out", s(&good), "--out", s(&dir_png)]));
+    assert!(
+        err.contains("dir.png") && err.contains("is a directory"),
+        "{err}"
+    );
+    std::fs::remove_dir(&dir_png).unwrap();
+    // A file where a directory must be created.
+    std::fs::write(d.join("plain"), b"x").unwrap();
+    let err = fails(&render_args(&["--out", s(&d.join("plain/x.png"))]));
+    assert!(
+        err.contains("plain") && err.contains("cannot create the directory"),
+        "{err}"
+    );
+    // An unknown extension, before the render too.
+    let err = fails(&render_args(&[
+        "--out",
+        s(&good),
+        "--out",
+        s(&d.join("x.jpg")),
+    ]));
+    assert!(err.contains("x.jpg") && err.contains("extension"), "{err}");
+    assert!(!good.exists());
+    // No temporary files are left by the checks.
+    let left: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(left, vec![std::ffi::OsString::from("plain")], "{left:?}");
+}
+
+#[test]
+fn brdf_plot_honours_the_extension() {
+    let d = fresh_dir("plot-ext");
+    let material = r#"model = "phong", ks = 0.8, kd = 0, exponent = 20"#;
+    let plot = |out: &Path| {
+        run(&[
+            "brdf",
+            "plot",
+            "--material",
+            material,
+            "--theta-i",
+            "40",
+            "--out",
+            s(out),
+        ])
+    };
+    let png = d.join("lobe.png");
+    let exr = d.join("lobe.exr");
+    assert!(plot(&png).status.success());
+    assert!(plot(&exr).status.success());
+    // The EXR is an OpenEXR file holding the PNG's colours, linear.
+    let bytes = std::fs::read(&exr).unwrap();
+    assert_eq!(
+        &bytes[..4],
+        &[0x76, 0x2f, 0x31, 0x01],
+        "OpenEXR magic number"
+    );
+    let a = brdfwave::imageio::read(&png).unwrap();
+    let b = brdfwave::imageio::read(&exr).unwrap();
+    assert_eq!((b.width, b.height), (1024, 512));
+    let max_diff = a
+        .data
+        .iter()
+        .zip(&b.data)
+        .flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs()))
+        .fold(0f32, f32::max);
+    assert!(max_diff < 1e-6, "{max_diff}");
+    let jpg = d.join("lobe.jpg");
+    let out = plot(&jpg);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("lobe.jpg") && err.contains("extension"),
+        "{err}"
+    );
+    assert!(!jpg.exists());
+}
+
+/// Runs brdfwave under `umask 027`.
+#[cfg(unix)]
+fn ok_with_umask(args: &[&str]) {
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg("umask 027 && exec \"$0\" \"$@\"")
+        .arg(env!("CARGO_BIN_EXE_brdfwave"))
+        .args(args)
+        .current_dir(common::repo())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[cfg(unix)]
+#[test]
+fn written_files_follow_the_umask() {
+    use std::os::unix::fs::PermissionsExt;
+    let d = fresh_dir("umask");
+    let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+    let (png, exr) = (d.join("r.png"), d.join("r.exr"));
+    ok_with_umask(&render_args(&["--out", s(&png), "--out", s(&exr)]));
+    let map = d.join("map.png");
+    ok_with_umask(&["diff", s(&exr), s(&exr), "--error-map", s(&map)]);
+    let dirs = d.join("dirs.csv");
+    std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
+    let csv = d.join("eval.csv");
+    ok_with_umask(&[
+        "brdf",
+        "eval",
+        "--material",
+        r#"model = "lambert""#,
+        "--dirs",
+        s(&dirs),
+        "--out",
+        s(&csv),
+    ]);
+    let plot = d.join("plot.png");
+    ok_with_umask(&[
+        "brdf",
+        "plot",
+        "--material",
+        r#"model = "lambert""#,
+        "--theta-i",
+        "10",
+        "--out",
+        s(&plot),
+    ]);
+    for p in [&png, &exr, &map, &csv, &plot] {
+        assert_eq!(mode(p), 0o640, "{}: 0666 & !027 expected", p.display());
+    }
+}
+
+#[test]
+fn messages_name_the_cause_once_and_in_plain_words() {
+    let d = fresh_dir("messages");
+    let scene = |name: &str, edit: &dyn Fn(String) -> String| {
+        let text =
+            std::fs::read_to_string(common::repo().join("scenes/white-furnace.toml")).unwrap();
+        let p = d.join(name);
+        std::fs::write(&p, edit(text)).unwrap();
+        p
+    };
+    // A scene whose only geometry is an OBJ without faces: the error says why.
+    let obj = d.join("lines.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2\n").unwrap();
+    let sc = d.join("obj-only.toml");
+    let text = std::fs::read_to_string(common::repo().join("scenes/white-furnace.toml")).unwrap();
+    let mut kept = String::new();
+    let mut in_shape = false;
+    for line in text.lines() {
+        if line.starts_with("[[shapes]]") {
+            in_shape = true;
+            continue;
+        }
+        if in_shape && line.starts_with('[') {
+            in_shape = false;
+        }
+        if !in_shape {
+            kept += line;
+            kept += "\n";
+        }
+    }
+    let material = text
+        .lines()
+        .find_map(|l| {
+            l.strip_prefix("[materials.")
+                .and_then(|r| r.strip_suffix(']'))
+        })
+        .expect("a material")
+        .to_string();
+    kept += &format!("\n[[shapes]]\nmaterial = \"{material}\"\nobj = \"lines.obj\"\n");
+    std::fs::write(&sc, &kept).unwrap();
+    let err = fails(&["render", s(&sc), "--backend", "cpu"]);
+    assert!(!err.contains("add a [[shapes]] table"), "{err}");
+    assert!(
+        err.contains("lines.obj") && err.contains("no triangles"),
+        "{err}"
+    );
+
+    // A malformed OBJ position: the line is named.
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 x 0\nf 1 2 3\n").unwrap();
+    let err = fails(&["render", s(&sc), "--backend", "cpu"]);
+    assert!(err.contains("line 3") && err.contains("'x'"), "{err}");
+
+    // OS errors once, not repeated by the error chain.
+    let err = fails(&["diff", "nope-a.exr", "nope-b.exr"]);
+    assert_eq!(err.matches("No such file").count(), 1, "{err}");
+
+    // No Rust type names; huge numbers in scientific notation.
+    let p = scene("types.toml", &|t| {
+        t.replacen("fov_y = ", "fov_y = \"wide\" #", 1)
+    });
+    let err = fails(&["render", s(&p), "--backend", "cpu"]);
+    assert!(!err.contains("f64") && err.contains("a number"), "{err}");
+    let p = scene("width.toml", &|t| {
+        t.lines()
+            .map(|l| {
+                if l.starts_with("width") {
+                    "width = -4"
+                } else {
+                    l
+                }
+            })
+            .collect::<Vec<_>>()
+            .join("\n")
+    });
+    let err = fails(&["render", s(&p), "--backend", "cpu"]);
+    assert!(
+        !err.contains("u32") && err.contains("whole number"),
+        "{err}"
+    );
+    let p = scene("radius.toml", &|t| {
+        t.replacen("radius = 1.0", "radius = -1e30", 1)
+    });
+    let err = fails(&["render", s(&p), "--backend", "cpu"]);
+    assert!(err.contains("-1e30") && !err.contains("000000"), "{err}");
+
+    // One range for Ward's alpha, whatever the bad value.
+    let dirs = d.join("dirs.csv");
+    std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
+    for a in ["-0.2", "0", "1.5"] {
+        let m = format!(r#"model = "ward", alpha_x = {a}"#);
+        let err = fails(&["brdf", "eval", "--material", &m, "--dirs", s(&dirs)]);
+        assert!(err.contains("[0.001, 1]"), "alpha_x = {a}: {err}");
+    }
+
+    // brdf report --out naming a file.
+    let file = d.join("report-file");
+    std::fs::write(&file, b"x").unwrap();
+    let err = fails(&["brdf", "report", "--no-gpu", "--out", s(&file)]);
+    assert!(
+        err.contains("is a file") && !err.contains("os error"),
+        "{err}"
+    );
+
+    // A driver list that points nowhere: which files were tried, and how to fix it.
+    let out = bin()
+        .arg("devices")
+        .env("VK_ICD_FILENAMES", "/nonexistent/brdfwave_icd.json")
+        .env_remove("VK_DRIVER_FILES")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("/nonexistent/brdfwave_icd.json (does not exist)")
+            && err.contains("Unset VK_ICD_FILENAMES"),
+        "{err}"
+    );
+}
+
+#[test]
+fn gpu_options_are_refused_or_warned_about_consistently() {
+    let d = fresh_dir("gpu-options");
+    let png = d.join("x.png");
+    for extra in [
+        vec!["--device", "llvmpipe"],
+        vec!["--validation"],
+        vec!["--wave-paths", "4096"],
+    ] {
+        let mut args = extra.clone();
+        args.extend(["--out", s(&png)]);
+        let out = run(&render_args(&args));
+        assert!(out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains(&format!(
+                "warning: {} applies to the GPU backend only; ignored",
+                extra[0]
+            )),
+            "{extra:?}: {err}"
+        );
+    }
+    // The same for brdf eval on the CPU.
+    let dirs = d.join("dirs.csv");
+    std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
+    let out = run(&[
+        "brdf",
+        "eval",
+        "--material",
+        r#"model = "lambert""#,
+        "--dirs",
+        s(&dirs),
+        "--device",
+        "llvmpipe",
+    ]);
+    assert!(out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("warning: --device applies to the GPU backend only; ignored"),
+        "{err}"
+    );
+    // --validation without the layer installed (the loader's explicit-layer search path
+    // pointed at an empty directory) fails before any work, as its help says.
+    let empty = fresh_dir("no-layers");
+    let out = bin()
+        .args([
+            "render",
+            "scenes/cornell-box.toml",
+            "--res",
+            "8x8",
+            "--spp",
+            "1",
+        ])
+        .args(["--validation", "--out", s(&png)])
+        .env("VK_LAYER_PATH", &empty)
+        .current_dir(common::repo())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("--validation") && err.contains("vulkan-validationlayers"),
+        "{err}"
+    );
+    // An empty device name is refused by the argument parser (status 2, as for any bad
+    // option value), before any work.
+    for args in [
+        &["render", "scenes/cornell-box.toml", "--device", ""][..],
+        &["brdf", "report", "--device", " "][..],
+    ] {
+        let out = run(args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("empty"), "{err}");
+    }
+}

@@ -1,4 +1,5 @@
-// He, Torrance, Sillion & Greenberg 1991, survey eqs. 10–15 (formulas of brdf-models.md §8).
+// He, Torrance, Sillion & Greenberg 1991, survey eqs. 10–15 (the paper's eqs. 24–25, 76–83 with
+// its erratum's e^(−a²) in the shadowing).
 // Rust twin: src/brdf/he.rs (parameter table, corrections to the survey's eq. 15, the series
 // window/cap and its accuracy, sampling).
 // Record: p[0].x σ₀, p[0].y τ, p[0].z 1 if σ₀ > 0, p[1].xyz ior, p[2].xyz κ,

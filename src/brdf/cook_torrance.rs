@@ -21,7 +21,7 @@
 //! with the *un-normalised* Beckmann of eq. 6, whose integral ∫ D cosθh dω is π, not 1. Writing
 //! D₆ = π·D, eq. 9 is F·D·G/(cosθi cosθo) = 4 × the Torrance–Sparrow / Walter et al. 2007 BRDF
 //! F·D·G/(4 cosθi cosθo): with F = 1 and m = 0.1 it reflects 4.0 times the incident energy at
-//! normal incidence (brdf-models.md §7). `normalization = "walter"` divides by 4 and is
+//! normal incidence (Walter et al. 2007, eq. 20; quadrature in tests/brdf_cook_torrance.rs). `normalization = "walter"` divides by 4 and is
 //! energy-conserving for kd + ks ≤ 1 (the specular albedo is ≤ F ≤ 1). For `ggx` the survey
 //! form uses π·D_GGX in place of eq. 6, so the ratio survey/walter is exactly 4 for both NDFs.
 //! Both forms are reciprocal (F depends on wi·h = wo·h, D and G are symmetric).

@@ -1,7 +1,10 @@
 //! He, Torrance, Sillion & Greenberg 1991: physical-optics reflection from a rough surface with
 //! Gaussian height statistics. Survey eqs. 10–15: f_r = f_sp + f_dd + f_ud, evaluated per RGB
-//! channel at one wavelength each. Formulas follow brdf-models.md §8 (checked there against the
-//! Torrance–Sparrow rough limit), which corrects the survey's transcription in three places.
+//! channel at one wavelength each. Formulas follow He et al. 1991 (eqs. 24–25 shadowing with the
+//! e^(−a²) factor of the paper's erratum, eqs. 76–83), as re-derived by Pacanowski & Holzschuch
+//! ("Demystifying the He, Torrance, Sillion and Greenberg BRDF") and checked against the
+//! Torrance–Sparrow rough limit (tests/brdf_he.rs); they correct the survey's transcription in
+//! three places.
 //!
 //! | parameter | unit | default | range | meaning |
 //! |---|---|---|---|---|
@@ -52,7 +55,7 @@
 //!
 //! **Sampling**: a mixture chosen from the known direction (cos μ):
 //! * the delta lobe with probability ∝ luminance(F(μ)·e^(−g_s)·S₁(μ)²);
-//! * Beckmann half-vector sampling (brdf-models.md §8) with slope
+//! * Beckmann half-vector sampling (Walter et al. 2007, Beckmann sampling) with slope
 //!   m_s = √((2σ₀/τ)² + (λ_max/(2πτμ))²), clamped to [1e-4, 1]: the rough-limit slope 2σ₀/τ
 //!   widened to the first-order diffraction width λ/(πτ v_z) of the m = 1 term, so that smooth
 //!   surfaces (g ≲ 1) are covered too; weight ∝ 0.9·luminance(F(μ)(1 − e^(−g_s)))·S₁(μ);

@@ -1,5 +1,5 @@
 //! Materials given inline on the command line: the inside of a TOML inline table, as in
-//! `--material 'model = "ward", ks = [1, 1, 1], alpha_x = 0.2, alpha_y = 0.1'`, or the same
+//! `--material 'model = "ward", kd = 0.1, ks = 0.8, alpha_x = 0.2, alpha_y = 0.1'`, or the same
 //! fields one per line.
 
 use super::{parse_material, Material, Origin};

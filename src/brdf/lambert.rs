@@ -5,7 +5,7 @@
 //! | `albedo` | RGB, unitless | `[0.5, 0.5, 0.5]` | [0, 1] | hemispherical reflectance ρ |
 //!
 //! Reciprocal and energy conserving for ρ ≤ 1; the directional albedo is ρ at every angle
-//! (brdf-models.md §3). Sampling is cosine-weighted, so the sample weight is exactly ρ.
+//! (Lambert 1760; survey eq. 3). Sampling is cosine-weighted, so the sample weight is exactly ρ.
 //!
 //! GPU record: `p[0].xyz` = albedo.
 

@@ -5,7 +5,7 @@
 //! local shading frame, plus `pack` to write its parameters into the GPU material record. The
 //! integrators never know which model they hold.
 //!
-//! Conventions (as in `../shared/reference/brdf-models.md` §1):
+//! Conventions (those of Walter et al. 2007 and pbrt):
 //! * local frame: z = shading normal, x = tangent (anisotropy axis), y = bitangent;
 //! * `wi` points toward the light, `wo` toward the viewer, both away from the surface;
 //! * `eval` returns f_r in sr⁻¹ *without* the cosine;

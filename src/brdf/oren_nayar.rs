@@ -1,6 +1,7 @@
 //! Oren–Nayar (1994): rough diffuse surfaces of V-cavity facets, each Lambertian. Survey
 //! §2.1.2 (the survey describes the model in words and cites [Oren and Nayar 1994]; it gives no
-//! equation, so the formulas are the paper's, in the form of brdf-models.md §4).
+//! equation, so the formulas are the paper's: Oren & Nayar 1994, the full model with its
+//! interreflection term, and the paper's qualitative model for `qualitative`).
 //!
 //! | parameter | unit | default | range | meaning |
 //! |---|---|---|---|---|

@@ -29,6 +29,29 @@ pub struct Origin<'a> {
 }
 
 /// Line number (1-based) of a byte offset in `source`.
+/// A number for a message: as written for ordinary magnitudes, in scientific notation (three
+/// significant digits) when it is very large or very small, so that 1e300 is not printed as
+/// three hundred digits.
+pub fn fmt_num<T>(x: T) -> String
+where
+    T: Copy + Into<f64> + std::fmt::Display + std::fmt::LowerExp,
+{
+    let a: f64 = x.into();
+    let a = a.abs();
+    if a != 0.0 && a.is_finite() && !(1e-4..1e7).contains(&a) {
+        let s = format!("{x:.2e}");
+        // 1.00e300 → 1e300, 2.50e-7 → 2.5e-7.
+        match s.split_once('e') {
+            Some((m, e)) if m.contains('.') => {
+                format!("{}e{e}", m.trim_end_matches('0').trim_end_matches('.'))
+            }
+            _ => s,
+        }
+    } else {
+        format!("{x}")
+    }
+}
+
 pub fn line_of(source: &str, offset: usize) -> usize {
     let end = offset.min(source.len());
     source.as_bytes()[..end]
@@ -104,7 +127,13 @@ impl<'a> ParamReader<'a> {
             return Err(self.error(key, format!("{x} is not a finite number")));
         }
         if x.abs() > f32::MAX as f64 {
-            return Err(self.error(key, format!("{x} is out of the single-precision range")));
+            return Err(self.error(
+                key,
+                format!(
+                    "{} is out of the single-precision range (|x| <= 3.4e38)",
+                    fmt_num(x)
+                ),
+            ));
         }
         Ok(x as f32)
     }
@@ -113,11 +142,14 @@ impl<'a> ParamReader<'a> {
         if x < min || x > max {
             let range = match (min == f32::NEG_INFINITY, max == f32::INFINITY) {
                 (true, true) => String::new(),
-                (false, true) => format!(">= {min}"),
-                (true, false) => format!("<= {max}"),
-                (false, false) => format!("in [{min}, {max}]"),
+                (false, true) => format!(">= {}", fmt_num(min)),
+                (true, false) => format!("<= {}", fmt_num(max)),
+                (false, false) => format!("in [{}, {}]", fmt_num(min), fmt_num(max)),
             };
-            return Err(self.error(key, format!("{x} is out of range: must be {range}")));
+            return Err(self.error(
+                key,
+                format!("{} is out of range: must be {range}", fmt_num(x)),
+            ));
         }
         Ok(())
     }

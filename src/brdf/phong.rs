@@ -17,7 +17,8 @@
 //! on which direction is held fixed. With the viewer direction fixed (what this path tracer
 //! integrates) the lobe albedo is k_s ∫ max(0, cosα)ⁿ dω over the lobe part above the horizon
 //! ≤ 2π k_s/(n+1) — π at n = 1 (3× too bright), 0.00627 at n = 1000 (energy lost). With the
-//! light fixed (brdf-models.md §5) it is 2.09 at 0° and 7.95 at 85° for n = 1, k_s = 1, and
+//! light fixed (quadrature in tests/brdf_phong.rs) it is 2π/3 ≈ 2.09 at 0° and 8.73 at 85° for
+//! n = 1, k_s = 1, and
 //! grows without bound toward grazing light. A warning is given when k_d + 2π k_s/(n+1) > 1.
 //! The `normalized` form is reciprocal and conserves energy iff k_d + k_s ≤ 1 (its lobe albedo
 //! is exactly k_s at normal incidence, ≈ k_s cosθ at oblique incidence for large n since part

@@ -46,8 +46,8 @@
 //!   (the "Beckmann-like factor" of eq. 25's first term; the a/π term takes the place of the
 //!   re-emission term), b = 4r(1 − r), and a = 0, c = 1 − b for r < 0.5, a = 1 − b, c = 0
 //!   otherwise: r = 0 is a mirror, r = 0.5 purely glossy, r = 1 Lambertian. The c term is a
-//!   delta lobe with reflectance S(cosθ)·c. This is the form whose albedo table is in
-//!   brdf-models.md §10 (B alone, C = 1, p = 1): because Schlick's G exceeds Smith at grazing
+//!   delta lobe with reflectance S(cosθ)·c. Its albedo (B alone, C = 1, p = 1, by quadrature
+//!   in tests/brdf_schlick.rs) shows that because Schlick's G exceeds Smith at grazing
 //!   angles for r < 0.25 the glossy lobe reflects up to 1.90 at 89° for r = 0.005, i.e. the
 //!   model is not strictly energy conserving there; elsewhere it is ≤ 1.
 //!

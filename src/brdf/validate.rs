@@ -335,7 +335,7 @@ pub fn albedo_quadrature_rgb(b: &dyn Brdf, given: Vec3, n: usize) -> DVec3 {
 }
 
 /// The albedo with the *light* direction held fixed: ρ(wi) = ∫ f(wi, wo) cosθo dωo with
-/// wi = `light` (the convention of brdf-models.md §1 and of its tables). Equal to
+/// wi = `light` (the usual convention of published albedo tables). Equal to
 /// [`albedo_quadrature`] for reciprocal models; for the survey's Phong (eq. 4) the two differ,
 /// and the path tracer (which samples wi given wo) sees [`albedo_quadrature`].
 pub fn albedo_quadrature_light(b: &dyn Brdf, light: Vec3, n: usize) -> f64 {

@@ -12,7 +12,7 @@
 //! Loading never panics on any input.
 
 use super::{Camera, Emitter, Integrator, Scene, Sphere, Triangle};
-use crate::brdf::params::line_of;
+use crate::brdf::params::{fmt_num, line_of};
 use crate::brdf::{self, Origin, ParamError};
 use glam::{Vec2, Vec3};
 use serde::de::value::{MapAccessDeserializer, SeqAccessDeserializer};
@@ -409,9 +409,30 @@ impl Cx<'_> {
             file: self.file.clone(),
             line,
             field,
-            message,
+            message: plain_types(&message),
         }
     }
+}
+
+/// Serde names the Rust type it wanted ("expected f64", "expected u32"); say it in the scene
+/// format's words.
+fn plain_types(message: &str) -> String {
+    const WORDS: [(&str, &str); 6] = [
+        ("expected f64", "expected a number"),
+        ("expected f32", "expected a number"),
+        (
+            "expected u32",
+            "expected a whole number from 0 to 4294967295",
+        ),
+        ("expected u64", "expected a whole number >= 0"),
+        ("expected usize", "expected a whole number >= 0"),
+        ("expected i64", "expected a whole number"),
+    ];
+    let mut m = message.to_string();
+    for (rust, plain) in WORDS {
+        m = m.replace(rust, plain);
+    }
+    m
 }
 
 /// The document as a tree of spanned keys and values, only used to name the field of a
@@ -519,6 +540,11 @@ fn locate(node: &Node, span: &Range<usize>, path: &mut String) {
 // ---------------------------------------------------------------------------------------------
 // Value checks.
 
+/// A vector for a message, `[x, y, z]`, each number as [`fmt_num`] writes it.
+fn fmt_vec(v: Vec3) -> String {
+    format!("[{}, {}, {}]", fmt_num(v.x), fmt_num(v.y), fmt_num(v.z))
+}
+
 impl Cx<'_> {
     fn finite(&self, span: Option<Range<usize>>, field: &str, x: f64) -> Result<f32, SceneError> {
         if !x.is_finite() {
@@ -555,7 +581,10 @@ impl Cx<'_> {
     fn radiance(&self, v: &Sp<Triple>, field: &str) -> Result<Vec3, SceneError> {
         let c = self.vec3(v.span(), field, v.value.0)?;
         if c.min_element() < 0.0 {
-            let msg = format!("{c} has a negative channel: radiance must be >= 0");
+            let msg = format!(
+                "{} has a negative channel: radiance must be >= 0",
+                fmt_vec(c)
+            );
             return Err(self.err(v.span(), field, msg));
         }
         Ok(c)
@@ -700,7 +729,26 @@ fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, SceneError> {
         }
     }
     if out.triangles.is_empty() && out.spheres.is_empty() {
-        let msg = "the scene has no primitives: add a [[shapes]] table with geometry";
+        // With shapes present, their geometry came to nothing (OBJ files without faces, with
+        // lines only, or only zero-area triangles): the warnings say which and why.
+        let msg = if raw.shapes.is_empty() {
+            "the scene has no primitives: add a [[shapes]] table with geometry".to_string()
+        } else {
+            let why: Vec<String> = cx
+                .warnings
+                .iter()
+                .filter(|w| w.contains("OBJ"))
+                .map(|w| format!("\n  {w}"))
+                .collect();
+            format!(
+                "the scene has no primitives: its shapes gave no triangles or spheres{}",
+                if why.is_empty() {
+                    String::new()
+                } else {
+                    format!(", because:{}", why.concat())
+                }
+            )
+        };
         return Err(match raw.shapes.first() {
             Some(s) => cx.err(s.span().or(s.value.material.span()), "shapes", msg),
             None => cx.err(None, "shapes", msg),
@@ -739,7 +787,8 @@ fn camera(cx: &Cx, c: &RawCamera) -> Result<Camera, SceneError> {
     let fov = cx.finite(c.fov_y.span(), "camera.fov_y", c.fov_y.value)?;
     if !(fov > 0.0 && fov < 180.0) {
         let msg = format!(
-            "{fov} is out of range: the vertical field of view in degrees must be in (0, 180)"
+            "{} is out of range: the vertical field of view in degrees must be in (0, 180)",
+            fmt_num(fov)
         );
         return Err(cx.err(c.fov_y.span(), "camera.fov_y", msg));
     }
@@ -895,7 +944,10 @@ fn shape_primitives(
         let fr = format!("{f}.sphere.radius");
         let radius = cx.finite(r.radius.span(), &fr, r.radius.value)?;
         if radius <= 0.0 {
-            let msg = format!("{radius} is out of range: the radius must be > 0");
+            let msg = format!(
+                "{} is out of range: the radius must be > 0",
+                fmt_num(radius)
+            );
             return Err(cx.err(r.radius.span(), &fr, msg));
         }
         out.spheres.push(Sphere {
@@ -966,7 +1018,7 @@ fn transform(cx: &Cx, f: &str, t: &RawTransform) -> Result<Transform, SceneError
         if xf.scale.min_element() <= 0.0 {
             let msg = format!(
                 "{} is out of range: every scale factor must be > 0 (a mirror would turn the mesh inside out)",
-                xf.scale
+                fmt_vec(xf.scale)
             );
             return Err(cx.err(s.span(), &fs, msg));
         }
@@ -988,7 +1040,31 @@ fn scan_obj(text: &str) -> Result<bool, (usize, String)> {
     let mut uses_mtl = false;
     for (l, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
-        match words.next() {
+        let kw = words.next();
+        // tobj reports malformed numbers without a line ("position parse error"): check them.
+        if let Some((what, min, max)) = match kw {
+            Some("v") => Some(("vertex position", 3, 6)),
+            Some("vt") => Some(("texture coordinate", 1, 3)),
+            Some("vn") => Some(("normal", 3, 3)),
+            _ => None,
+        } {
+            let nums: Vec<&str> = line.split_whitespace().skip(1).collect();
+            if nums.len() < min || nums.len() > max {
+                let want = if min == max {
+                    format!("{min}")
+                } else {
+                    format!("{min} to {max}")
+                };
+                return Err((
+                    l + 1,
+                    format!("a {what} needs {want} numbers, found {}", nums.len()),
+                ));
+            }
+            if let Some(bad) = nums.iter().find(|x| x.parse::<f32>().is_err()) {
+                return Err((l + 1, format!("{what}: '{bad}' is not a number")));
+            }
+        }
+        match kw {
             Some("v") => nv += 1,
             Some("vt") => nt += 1,
             Some("vn") => nn += 1,

@@ -1,9 +1,8 @@
 //! On-disk caches (SPIR-V modules, the Vulkan pipeline cache): where they live, the stable hash
-//! that keys them, and atomic writes.
+//! that keys them, and how cache files are written.
 
 use anyhow::{Context as _, Result};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
 
 /// The cache root: `$BRDFWAVE_CACHE_DIR`, else `$XDG_CACHE_HOME/brdfwave`, else
 /// `$HOME/.cache/brdfwave`; `None` when none of these variables is set (caching is then off).
@@ -69,35 +68,15 @@ pub fn fnv1a64(data: &[u8]) -> u64 {
     Fnv64::new().bytes(data).finish()
 }
 
-/// Writes `data` to `path` atomically: a uniquely named temporary file in the same directory is
-/// written and then renamed over `path`, so readers (other processes, parallel tests) see either
-/// the old file or the complete new one, never a partial write.
+/// Writes a cache file with the crate's one atomic writer ([`crate::outfile::write`]: temporary
+/// file, then rename, so readers such as parallel tests never see a partial entry), creating the
+/// cache directory first.
 pub fn write_atomic(path: &Path, data: &[u8]) -> Result<()> {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let dir = path
-        .parent()
-        .context("cache path has no parent directory")?;
+    let dir = crate::outfile::parent_dir(path);
     std::fs::create_dir_all(dir)
         .with_context(|| format!("creating cache directory {}", dir.display()))?;
-    let name = path
-        .file_name()
-        .context("cache path has no file name")?
-        .to_string_lossy();
-    let tmp = dir.join(format!(
-        ".{name}.tmp.{}.{}",
-        std::process::id(),
-        COUNTER.fetch_add(1, Ordering::Relaxed)
-    ));
-    let result = std::fs::write(&tmp, data)
-        .with_context(|| format!("writing {}", tmp.display()))
-        .and_then(|_| {
-            std::fs::rename(&tmp, path)
-                .with_context(|| format!("renaming {} to {}", tmp.display(), path.display()))
-        });
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    crate::outfile::write(path, data)?;
+    Ok(())
 }
 
 #[cfg(test)]

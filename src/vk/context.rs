@@ -286,34 +286,17 @@ fn create_instance(
     let mut use_validation = false;
     let mut validation_features = false;
     if validation {
-        let layer_present = unsafe { entry.enumerate_instance_layer_properties() }
-            .context("vkEnumerateInstanceLayerProperties")?
-            .iter()
-            .any(|l| l.layer_name_as_c_str().ok() == Some(VALIDATION_LAYER));
-        if layer_present {
-            let layer_exts = instance_extensions(entry, Some(VALIDATION_LAYER));
-            let has = |name: &CStr| {
-                available
-                    .iter()
-                    .chain(layer_exts.iter())
-                    .any(|e| e.as_c_str() == name)
-            };
-            if has(ash::ext::debug_utils::NAME) {
+        match validation_support(entry, &available)? {
+            Ok(features) => {
                 use_validation = true;
                 layers.push(VALIDATION_LAYER);
                 extensions.push(ash::ext::debug_utils::NAME);
-                if has(ash::ext::validation_features::NAME) {
+                if features {
                     validation_features = true;
                     extensions.push(ash::ext::validation_features::NAME);
                 }
-            } else {
-                eprintln!("warning: validation requested but VK_EXT_debug_utils is unavailable; running without validation");
             }
-        } else {
-            eprintln!(
-                "warning: validation requested but VK_LAYER_KHRONOS_validation is not installed \
-                 (`sudo apt-get install vulkan-validationlayers`); running without validation"
-            );
+            Err(why) => eprintln!("warning: {why}; running without validation"),
         }
     }
     let app = vk::ApplicationInfo::default()
@@ -339,12 +322,94 @@ fn create_instance(
         }
     }
     let instance = unsafe { entry.create_instance(&info, None) }.map_err(|e| match e {
-        vk::Result::ERROR_INCOMPATIBLE_DRIVER => {
-            anyhow!("vkCreateInstance: no Vulkan 1.2 driver found ({e}); {INSTALL_HINT}")
+        vk::Result::ERROR_INCOMPATIBLE_DRIVER | vk::Result::ERROR_INITIALIZATION_FAILED => {
+            match driver_override_hint() {
+                Some(hint) => anyhow!("vkCreateInstance: {e}: {hint}"),
+                None => {
+                    anyhow!("vkCreateInstance: no Vulkan 1.2 driver could be loaded ({e}); {INSTALL_HINT}")
+                }
+            }
         }
         e => anyhow!("vkCreateInstance: {e}"),
     })?;
     Ok((instance, use_validation))
+}
+
+/// Environment variables that replace the Vulkan loader's list of driver (ICD) manifests.
+const DRIVER_OVERRIDES: [&str; 2] = ["VK_DRIVER_FILES", "VK_ICD_FILENAMES"];
+
+/// When the driver list was overridden through the environment (a usual reason for a failing
+/// `vkCreateInstance`): which manifests were tried, which of them exist, and how to fix it.
+fn driver_override_hint() -> Option<String> {
+    let (var, value) = DRIVER_OVERRIDES.iter().find_map(|v| {
+        std::env::var(v)
+            .ok()
+            .filter(|x| !x.is_empty())
+            .map(|x| (*v, x))
+    })?;
+    let tried: Vec<String> = std::env::split_paths(&value)
+        .map(|p| {
+            let state = if p.is_file() {
+                "exists"
+            } else if p.exists() {
+                "not a file"
+            } else {
+                "does not exist"
+            };
+            format!("{} ({state})", p.display())
+        })
+        .collect();
+    Some(format!(
+        "{var} restricts the Vulkan loader to the driver manifest(s) {}; none gave a usable \
+         driver. Unset {var} to use the installed drivers, or set it to an existing manifest, \
+         e.g. /usr/share/vulkan/icd.d/lvp_icd.{}.json for lavapipe",
+        tried.join(", "),
+        std::env::consts::ARCH
+    ))
+}
+
+/// Whether the validation layer and its debug-utils extension can be enabled: `Ok(Ok(has
+/// VK_EXT_validation_features))`, or `Ok(Err(why not))`.
+fn validation_support(
+    entry: &ash::Entry,
+    available: &[CString],
+) -> Result<std::result::Result<bool, String>> {
+    let layer_present = unsafe { entry.enumerate_instance_layer_properties() }
+        .context("vkEnumerateInstanceLayerProperties")?
+        .iter()
+        .any(|l| l.layer_name_as_c_str().ok() == Some(VALIDATION_LAYER));
+    if !layer_present {
+        return Ok(Err(
+            "the Khronos validation layer (VK_LAYER_KHRONOS_validation) is not installed: \
+             `sudo apt-get install vulkan-validationlayers`"
+                .to_string(),
+        ));
+    }
+    let layer_exts = instance_extensions(entry, Some(VALIDATION_LAYER));
+    let has = |name: &CStr| {
+        available
+            .iter()
+            .chain(layer_exts.iter())
+            .any(|e| e.as_c_str() == name)
+    };
+    if !has(ash::ext::debug_utils::NAME) {
+        return Ok(Err(
+            "the validation layer is installed but VK_EXT_debug_utils, which reports its \
+             messages, is unavailable"
+                .to_string(),
+        ));
+    }
+    Ok(Ok(has(ash::ext::validation_features::NAME)))
+}
+
+/// Checks that the validation layer can be enabled, for callers that must not run without it
+/// (`brdfwave render --validation`); the error says why not and how to install it.
+/// [`Context::new`] itself only warns and runs without validation.
+pub fn require_validation() -> Result<()> {
+    let entry = load_entry()?;
+    let available = instance_extensions(&entry, None);
+    validation_support(&entry, &available)?.map_err(|why| anyhow!("{why}"))?;
+    Ok(())
 }
 
 fn messenger_create_info(sink: &MessageSink) -> vk::DebugUtilsMessengerCreateInfoEXT<'static> {
@@ -364,7 +429,12 @@ fn messenger_create_info(sink: &MessageSink) -> vk::DebugUtilsMessengerCreateInf
 
 fn candidates(instance: &ash::Instance) -> Result<Vec<Candidate>> {
     let pds =
-        unsafe { instance.enumerate_physical_devices() }.context("vkEnumeratePhysicalDevices")?;
+        unsafe { instance.enumerate_physical_devices() }.map_err(
+            |e| match driver_override_hint() {
+                Some(hint) => anyhow!("vkEnumeratePhysicalDevices: {e}: {hint}"),
+                None => anyhow!("vkEnumeratePhysicalDevices: {e}; {INSTALL_HINT}"),
+            },
+        )?;
     let mut out = Vec::new();
     for pd in pds {
         let props = unsafe { instance.get_physical_device_properties(pd) };
@@ -412,6 +482,9 @@ fn candidates(instance: &ash::Instance) -> Result<Vec<Candidate>> {
 /// The device to use (see [`ContextOptions::device`]).
 fn choose(cands: &[Candidate], wanted: Option<&str>) -> Result<usize> {
     if cands.is_empty() {
+        if let Some(hint) = driver_override_hint() {
+            bail!("no Vulkan device found: {hint}");
+        }
         bail!("no Vulkan device found; {INSTALL_HINT}");
     }
     let list = || {
@@ -422,6 +495,9 @@ fn choose(cands: &[Candidate], wanted: Option<&str>) -> Result<usize> {
             .join("\n")
     };
     if let Some(w) = wanted {
+        if w.trim().is_empty() {
+            bail!("the device name to look for is empty; `brdfwave devices` lists the names");
+        }
         let w_lower = w.to_lowercase();
         let matching: Vec<usize> = (0..cands.len())
             .filter(|&i| cands[i].name.to_lowercase().contains(&w_lower))

@@ -35,7 +35,7 @@ mod shader;
 
 pub use buffer::Buffer;
 pub use commands::Recorder;
-pub use context::{Context, ContextOptions, DeviceFeatures, MAX_TIMESTAMPS};
+pub use context::{require_validation, Context, ContextOptions, DeviceFeatures, MAX_TIMESTAMPS};
 pub use pipeline::{reflect_local_size, ComputePipeline, Resource};
 pub use shader::{CompileStats, CompiledShader, ShaderCompiler, EMBEDDED_SHADERS, SHADER_DIR_ENV};
 

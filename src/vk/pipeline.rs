@@ -517,7 +517,10 @@ pub(crate) fn save_pipeline_cache(device: &ash::Device, cache: vk::PipelineCache
     match unsafe { device.get_pipeline_cache_data(cache) } {
         Ok(data) if !data.is_empty() => {
             if let Err(e) = write_atomic(path, &data) {
-                eprintln!("warning: could not save the pipeline cache: {e:#}");
+                eprintln!(
+                    "warning: could not save the pipeline cache: {}",
+                    crate::errors::chain(&e)
+                );
             }
         }
         Ok(_) => {}

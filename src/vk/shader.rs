@@ -256,8 +256,9 @@ impl ShaderCompiler {
             if let Err(e) = write_atomic(entry, &encode_cache_entry(&spirv, key)) {
                 write_failed = true;
                 eprintln!(
-                    "warning: could not write the SPIR-V cache entry {}: {e:#}",
-                    entry.display()
+                    "warning: could not write the SPIR-V cache entry {}: {}",
+                    entry.display(),
+                    crate::errors::chain(&e)
                 );
             }
         }

@@ -1,0 +1,332 @@
+//! Files the program writes: the one atomic writer every output and cache file goes through, and
+//! the checks a command runs on its output paths before any work, so that a typo or an
+//! unwritable directory does not cost a render.
+//!
+//! * [`write_with`] / [`write`]: a uniquely named temporary file in the destination directory is
+//!   written, flushed to disk and renamed over the destination, so readers (other processes,
+//!   parallel tests) see the old file or the complete new one, never a partial write, and a
+//!   failed write leaves no temporary file behind. A new file gets the mode a plain
+//!   `File::create` gives, `0666 & !umask`; a file that is replaced keeps its mode. A symbolic
+//!   link at the destination is replaced, not followed. The directory must exist.
+//! * [`prepare`]: refuses two outputs that resolve to the same file, creates missing parent
+//!   directories, and proves each directory writable by creating and removing a temporary file.
+//! * [`write_each`]: writes every output it can and reports all that failed together.
+
+use std::fs::File;
+use std::io::Write as _;
+use std::path::{Component, Path, PathBuf};
+
+/// A file-system step of an atomic write or an output check that failed. The message names the
+/// file, the step and the operating system's reason.
+#[derive(Debug, thiserror::Error)]
+#[error("{path}: {what}: {source}")]
+pub struct WriteError {
+    pub path: PathBuf,
+    pub what: &'static str,
+    pub source: std::io::Error,
+}
+
+/// `path`'s directory: its parent, or `.` for a bare file name.
+pub fn parent_dir(path: &Path) -> &Path {
+    match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    }
+}
+
+/// Creates the temporary file an atomic write of `path` uses, in `dir`, named after `path`.
+fn temp_file(path: &Path, dir: &Path) -> std::io::Result<tempfile::NamedTempFile> {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let prefix = format!(".{}.", shorten(&name));
+    let mut b = tempfile::Builder::new();
+    b.prefix(&prefix).suffix(".tmp");
+    // Temporary files are private (0600) by default, and that mode would survive the rename.
+    // Ask for 0666 instead: open(2) removes the umask's bits, as for any newly created file.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        b.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    b.tempfile_in(dir)
+}
+
+/// The destination's name shortened for the temporary file's suffix (names are limited to 255
+/// bytes, and the prefix and random part take some).
+fn shorten(name: &str) -> String {
+    name.chars().take(64).collect()
+}
+
+/// Writes a file atomically (see the module documentation): `fill` writes the content into the
+/// temporary file. The directory of `path` must exist.
+pub fn write_with<E: From<WriteError>>(
+    path: &Path,
+    fill: impl FnOnce(&mut File) -> Result<(), E>,
+) -> Result<(), E> {
+    let err = |what: &'static str| {
+        move |source: std::io::Error| WriteError {
+            path: path.to_path_buf(),
+            what,
+            source,
+        }
+    };
+    let dir = parent_dir(path);
+    let mut tmp =
+        temp_file(path, dir).map_err(err("cannot create a temporary file in its directory"))?;
+    if let Ok(meta) = std::fs::metadata(path) {
+        if meta.is_file() {
+            tmp.as_file()
+                .set_permissions(meta.permissions())
+                .map_err(err("cannot copy the permissions of the existing file"))?;
+        }
+    }
+    // On any failure below, dropping `tmp` removes the temporary file.
+    fill(tmp.as_file_mut())?;
+    tmp.as_file_mut()
+        .sync_all()
+        .map_err(err("cannot flush the temporary file"))?;
+    tmp.persist(path)
+        .map_err(|e| err("cannot rename the temporary file over the destination")(e.error))?;
+    Ok(())
+}
+
+/// Writes `bytes` to `path` atomically (see [`write_with`]).
+pub fn write(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
+    write_with(path, |f| {
+        f.write_all(bytes).map_err(|source| WriteError {
+            path: path.to_path_buf(),
+            what: "cannot write the data",
+            source,
+        })
+    })
+}
+
+/// An output of a command: the option that named it (for messages) and its path.
+#[derive(Clone, Debug)]
+pub struct Output<'a> {
+    pub option: &'a str,
+    pub path: &'a Path,
+}
+
+/// Removes `.` and resolves `..` lexically (for the part of a path that does not exist yet).
+fn normalize(p: &Path) -> PathBuf {
+    let mut out = PathBuf::new();
+    for c in p.components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir => {
+                if !out.pop() {
+                    out.push("..");
+                }
+            }
+            other => out.push(other),
+        }
+    }
+    out
+}
+
+/// The file `path` names, made absolute with symbolic links in its directories resolved (the
+/// longest existing ancestor is canonicalised, the rest normalised), so that `out/a.png`,
+/// `./out/a.png` and `out/../out/a.png` compare equal. The last component is kept as it is: a
+/// link there is replaced by the write, not followed.
+pub fn resolve(path: &Path) -> PathBuf {
+    let abs = if path.is_absolute() {
+        path.to_path_buf()
+    } else {
+        std::env::current_dir()
+            .unwrap_or_else(|_| PathBuf::from("."))
+            .join(path)
+    };
+    let abs = normalize(&abs);
+    let (Some(dir), Some(name)) = (abs.parent(), abs.file_name()) else {
+        return abs;
+    };
+    let mut existing = dir.to_path_buf();
+    let mut rest = Vec::new();
+    loop {
+        if let Ok(c) = existing.canonicalize() {
+            let mut r = c;
+            for part in rest.iter().rev() {
+                r.push(part);
+            }
+            return normalize(&r.join(name));
+        }
+        match (
+            existing.file_name().map(|n| n.to_os_string()),
+            existing.parent(),
+        ) {
+            (Some(n), Some(p)) => {
+                rest.push(n);
+                existing = p.to_path_buf();
+            }
+            _ => return abs,
+        }
+    }
+}
+
+/// Checks a command's outputs before it does any work (see the module documentation). Errors
+/// name the option and the path.
+pub fn prepare(outputs: &[Output]) -> anyhow::Result<()> {
+    let resolved: Vec<PathBuf> = outputs.iter().map(|o| resolve(o.path)).collect();
+    for i in 0..outputs.len() {
+        for j in 0..i {
+            if resolved[i] == resolved[j] {
+                let (a, b) = (&outputs[j], &outputs[i]);
+                anyhow::bail!(
+                    "{} {} and {} {} are the same file ({}): one would overwrite the other; \
+                     give each output its own path",
+                    a.option,
+                    a.path.display(),
+                    b.option,
+                    b.path.display(),
+                    resolved[i].display()
+                );
+            }
+        }
+    }
+    for o in outputs {
+        check_one(o)?;
+    }
+    Ok(())
+}
+
+fn check_one(o: &Output) -> anyhow::Result<()> {
+    let shown = o.path.display();
+    if o.path.file_name().is_none() {
+        anyhow::bail!("{} {shown}: names a directory, not a file", o.option);
+    }
+    if o.path.is_dir() {
+        anyhow::bail!("{} {shown}: is a directory; give a file name", o.option);
+    }
+    let dir = parent_dir(o.path);
+    if !dir.is_dir() {
+        std::fs::create_dir_all(dir).map_err(|e| {
+            anyhow::anyhow!(
+                "{} {shown}: cannot create the directory {}: {e}",
+                o.option,
+                dir.display()
+            )
+        })?;
+    }
+    // Creating a file is the only reliable test (permissions, read-only or special file
+    // systems, ACLs, root on /sys): make the temporary file the real write would make, and drop
+    // it, which removes it.
+    temp_file(o.path, dir).map_err(|e| {
+        anyhow::anyhow!(
+            "{} {shown}: cannot write to the directory {}: {e}",
+            o.option,
+            dir.display()
+        )
+    })?;
+    Ok(())
+}
+
+/// Writes each output with `write` even when an earlier one fails; returns the paths written,
+/// or an error listing every output that failed (and the ones that were written).
+pub fn write_each<'p>(
+    paths: &[&'p Path],
+    mut write: impl FnMut(usize, &Path) -> anyhow::Result<()>,
+) -> anyhow::Result<Vec<&'p Path>> {
+    let mut written = Vec::new();
+    let mut failed = Vec::new();
+    for (i, p) in paths.iter().enumerate() {
+        match write(i, p) {
+            Ok(()) => written.push(*p),
+            Err(e) => failed.push(format!("  {}", crate::errors::chain(&e))),
+        }
+    }
+    if failed.is_empty() {
+        return Ok(written);
+    }
+    let done = if written.is_empty() {
+        String::from("none was written")
+    } else {
+        format!(
+            "written: {}",
+            written
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    };
+    anyhow::bail!(
+        "{} of {} outputs could not be written ({done}):\n{}",
+        failed.len(),
+        paths.len(),
+        failed.join("\n")
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn write_replaces_and_leaves_no_temporary() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("x.bin");
+        write(&p, b"one").unwrap();
+        write(&p, b"two").unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"two");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn failed_fill_leaves_the_old_file_and_no_temporary() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("keep.txt");
+        write(&p, b"old").unwrap();
+        let r: anyhow::Result<()> = write_with(&p, |f| {
+            f.write_all(b"partial")?;
+            anyhow::bail!("encoder failed")
+        });
+        assert!(r.is_err());
+        assert_eq!(std::fs::read(&p).unwrap(), b"old");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn resolve_sees_through_dot_dot_and_links() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path().canonicalize().unwrap();
+        std::fs::create_dir(d.join("real")).unwrap();
+        let a = resolve(&d.join("real").join("a.png"));
+        assert_eq!(a, d.join("real/a.png"));
+        assert_eq!(resolve(&d.join("real/./x/../a.png")), a);
+        assert_eq!(resolve(&d.join("new/../real/a.png")), a);
+        #[cfg(unix)]
+        {
+            std::os::unix::fs::symlink(d.join("real"), d.join("link")).unwrap();
+            assert_eq!(resolve(&d.join("link/a.png")), a);
+        }
+        // Not yet existing directories resolve lexically.
+        assert_eq!(resolve(&d.join("n1/n2/b.exr")), d.join("n1/n2/b.exr"));
+    }
+
+    #[test]
+    fn write_each_writes_the_rest_after_a_failure() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b, c) = (
+            dir.path().join("a.txt"),
+            dir.path().join("b.txt"),
+            dir.path().join("c.txt"),
+        );
+        let paths = [a.as_path(), b.as_path(), c.as_path()];
+        let err = write_each(&paths, |i, p| {
+            if i == 1 {
+                anyhow::bail!("{}: simulated failure", p.display());
+            }
+            write(p, b"x")?;
+            Ok(())
+        })
+        .unwrap_err()
+        .to_string();
+        assert!(a.exists() && c.exists() && !b.exists());
+        assert!(err.starts_with("1 of 3 outputs"), "{err}");
+        assert!(err.contains("b.txt: simulated failure"), "{err}");
+        assert!(err.contains("written: ") && err.contains("c.txt"), "{err}");
+    }
+}
