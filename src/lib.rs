@@ -25,5 +25,7 @@ pub mod lights;
 pub mod metrics;
 pub mod output;
 pub mod rng;
+pub mod robust;
 pub mod scene;
+pub mod stress;
 pub mod vk;

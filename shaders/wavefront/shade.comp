@@ -23,13 +23,13 @@ void main() {
     vec3 b = beta[path].xyz;
     vec3 wo = to_local(s.frame, -d);
     if (wo.z <= 0.0) return;
-    vec3 origin = offset_ray_origin(s.p, s.ng);
+    vec3 origin = offset_ray_origin(s.p, s.p_err, s.ng);
 
     // Next-event estimation.
     if (g.num_lights > 0u) {
         LightSample ls = sample_light(rand(path, depth, DIM_LIGHT_SELECT), rand(path, depth, DIM_LIGHT_U),
                                       rand(path, depth, DIM_LIGHT_V));
-        vec3 target = offset_ray_origin(ls.p, ls.n);
+        vec3 target = offset_ray_origin(ls.p, ls.p_err, ls.n);
         vec3 to_light = target - origin;
         float dist2 = dot(to_light, to_light);
         if (dist2 > 0.0) {

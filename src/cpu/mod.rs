@@ -207,7 +207,7 @@ impl<'a> CpuRenderer<'a> {
             if wo.z <= 0.0 {
                 break;
             }
-            let origin = bvh::offset_ray_origin(si.p, si.ng);
+            let origin = bvh::offset_ray_origin(si.p, si.p_err, si.ng);
 
             // Next-event estimation.
             if !self.lights.is_empty() {
@@ -218,7 +218,7 @@ impl<'a> CpuRenderer<'a> {
                     rng.get(depth, dim::LIGHT_U),
                     rng.get(depth, dim::LIGHT_V),
                 );
-                let target = bvh::offset_ray_origin(ls.p, ls.n);
+                let target = bvh::offset_ray_origin(ls.p, ls.p_err, ls.n);
                 let to_light = target - origin;
                 let dist2 = to_light.length_squared();
                 if dist2 > 0.0 {
