@@ -169,3 +169,34 @@ fn huge_meshes_keep_their_triangles() {
         .to_string();
     assert!(e.contains("longer than the single-precision range"), "{e}");
 }
+
+/// Environment radiance 1e20 (and up to 3e38) scales the image linearly on both backends: the
+/// squares of such samples overflow f32, and the GPU film dropped them (an all-black image);
+/// it now scales its per-pixel sums by a power of two when needed.
+#[test]
+fn huge_environment_radiance_scales_the_image_linearly() {
+    let ctx = context();
+    let mut base = scene("white-furnace.toml", 8, 8, 16, 4, 1);
+    base.environment = Vec3::ONE;
+    let ref_cpu = render_cpu(&base);
+    let (ref_gpu, _) = render_gpu(&ctx, &base);
+    for k in [1.0e20f32, 1.0e30, 3.0e38] {
+        let mut s = base.clone();
+        s.environment = Vec3::splat(k);
+        let cpu = render_cpu(&s);
+        let (gpu, _) = render_gpu(&ctx, &s);
+        for (name, out, r) in [("cpu", &cpu, &ref_cpu), ("gpu", &gpu, &ref_gpu)] {
+            assert_eq!(out.nonfinite_samples, 0, "{name} k={k}");
+            for (p, q) in out.mean.data.iter().zip(&r.mean.data) {
+                for c in 0..3 {
+                    let want = q[c] as f64 * k as f64;
+                    let e = (p[c] as f64 - want).abs() / want.max(1e-30);
+                    assert!(e < 1e-5, "{name} k={k}: {} vs {want}", p[c]);
+                }
+            }
+            assert!(out.variance.data.iter().flatten().all(|v| v.is_finite()));
+        }
+    }
+    finish(ctx);
+}
+

@@ -93,11 +93,9 @@ impl<'a> CpuRenderer<'a> {
                                 sample,
                             };
                             let l = self.trace_path(x, y, &rng, &mut stats);
-                            // As the GPU film (f32 sums of l and l²): a sample whose square
-                            // overflows f32 is dropped too. (The sums here are f64 and do not
-                            // overflow; the GPU's f32 running sums can, for a pixel mean
-                            // beyond 3.4e38/spp.)
-                            if !(l.is_finite() && (l * l).is_finite()) {
+                            // Sums in f64: no finite f32 sample overflows them, or its
+                            // square (the GPU film scales its f32 sums instead).
+                            if !l.is_finite() {
                                 bad += 1;
                                 continue;
                             }
