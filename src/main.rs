@@ -83,6 +83,25 @@ enum Command {
         #[command(subcommand)]
         command: BrdfCommand,
     },
+    /// Randomized numerical-stability checks within a time budget (see src/stress.rs).
+    Stress {
+        /// Seconds to spend, shared equally by the groups (each runs at least one case).
+        #[arg(long, default_value_t = 60.0)]
+        budget: f64,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Run again exactly the failing cases listed in this file.
+        #[arg(long)]
+        replay: Option<PathBuf>,
+        /// Where failing cases are written (JSON lines), for --replay.
+        #[arg(long, default_value = "stress-failures.jsonl")]
+        failures: PathBuf,
+        /// Only this group (may be given several times).
+        #[arg(long = "group")]
+        groups: Vec<String>,
+        #[arg(long)]
+        device: Option<String>,
+    },
 }
 
 #[derive(Subcommand)]
@@ -186,6 +205,14 @@ fn main() {
             json,
         } => diff(&test, &reference, error_map.as_deref(), json),
         Command::Brdf { command } => brdf_command(command),
+        Command::Stress {
+            budget,
+            seed,
+            replay,
+            failures,
+            groups,
+            device,
+        } => brdfwave::stress::cli(budget, seed, replay, failures, groups, device),
         Command::Devices => vk::Context::list_devices().map(|d| {
             for name in d {
                 println!("{name}");

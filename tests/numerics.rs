@@ -51,8 +51,11 @@ fn the_cornell_box_renders_the_same_at_every_scale_and_translation() {
         let cpu = render_cpu(&s);
         let (gpu, _) = render_gpu(&ctx, &s);
         for (name, out, reference) in [("cpu", &cpu, &ref_cpu), ("gpu", &gpu, &ref_gpu)] {
-            assert_eq!(out.nonfinite_samples, 0, "{name} scale {scale} shift {shift}");
-                let d = mean_rel_diff(out, reference);
+            assert_eq!(
+                out.nonfinite_samples, 0,
+                "{name} scale {scale} shift {shift}"
+            );
+            let d = mean_rel_diff(out, reference);
             eprintln!("{name}: scale {scale}, shift {shift}: {:.4}%", 100.0 * d);
             assert!(
                 d < 0.005,
@@ -199,4 +202,3 @@ fn huge_environment_radiance_scales_the_image_linearly() {
     }
     finish(ctx);
 }
-
