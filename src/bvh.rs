@@ -967,7 +967,9 @@ mod tests {
 
     #[test]
     fn offset_moves_to_the_normal_side_at_all_scales() {
-        for &s in &[1e-30f32, 1e-6, 1e-3, 0.02, 1.0, 100.0, 1.0e4, -1.0e4, 1.0e6, 1.0e30] {
+        for &s in &[
+            1e-30f32, 1e-6, 1e-3, 0.02, 1.0, 100.0, 1.0e4, -1.0e4, 1.0e6, 1.0e30,
+        ] {
             let v = [
                 Vec3::new(s, -0.7 * s, 0.3 * s),
                 Vec3::new(1.3 * s, -0.2 * s, 0.1 * s),
@@ -990,7 +992,10 @@ mod tests {
             let len = (nn[0] * nn[0] + nn[1] * nn[1] + nn[2] * nn[2]).sqrt();
             let w = sub(q64, v0);
             let dist = (w[0] * nn[0] + w[1] * nn[1] + w[2] * nn[2]) / len;
-            assert!(dist > 0.0, "scale {s}: {p} -> {q} is not on the normal side");
+            assert!(
+                dist > 0.0,
+                "scale {s}: {p} -> {q} is not on the normal side"
+            );
             let bound = (n.abs().dot(err)) as f64;
             assert!(
                 dist >= 0.9 * bound && dist < 4.0 * bound + 2.0 * (s.abs() as f64) * 1e-7,

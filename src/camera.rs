@@ -22,7 +22,9 @@ impl CameraBasis {
         let c = &scene.camera;
         // Scaled first: the camera may be up to ~3e38 from its target, and `up` any length.
         let forward = crate::robust::normalize_scaled(c.target - c.position);
-        let right = forward.cross(crate::robust::normalize_scaled(c.up)).normalize();
+        let right = forward
+            .cross(crate::robust::normalize_scaled(c.up))
+            .normalize();
         let up = right.cross(forward);
         let tan_half = (c.fov_y_deg.to_radians() * 0.5).tan();
         let aspect = scene.width as f32 / scene.height as f32;

@@ -58,7 +58,10 @@ mod tests {
             assert!((a - 1.0).abs() < 1e-12, "scale {s}: {a}");
         }
         let n = normalize_scaled(Vec3::new(2e19, 0.0, 2e19));
-        assert!((n - Vec3::new(1.0, 0.0, 1.0).normalize()).length() < 1e-6, "{n}");
+        assert!(
+            (n - Vec3::new(1.0, 0.0, 1.0).normalize()).length() < 1e-6,
+            "{n}"
+        );
         assert_eq!(normalize_scaled(Vec3::ZERO), Vec3::ZERO);
     }
 
