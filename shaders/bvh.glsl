@@ -276,6 +276,9 @@ bool trace_any(vec3 o, vec3 d, float tmax) {
     return bvh_traverse(o, d, tmax, true, h);
 }
 
+// Shadow rays end this fraction of their length before the light point (Rust: SHADOW_EPSILON).
+#define SHADOW_EPSILON uintBitsToFloat(0x38d1b717u)
+
 // Rust: next_float_up / next_float_down / offset_ray_origin in src/bvh.rs (the same arithmetic).
 // The next float above (below) x; -0 and +0 are treated as +0 (-0). Non-finite x unchanged.
 float bvh_next_float_up(float x) {

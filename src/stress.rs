@@ -691,7 +691,7 @@ fn case_gpu_math(env: &mut Env, seed: u64) -> Result<CaseResult> {
         if e.is_finite() {
             worst = worst.max(e);
         }
-        if !(e <= 1.0) {
+        if e.is_nan() || e > 1.0 {
             return Ok(CaseResult::fail(
                 e,
                 format!(

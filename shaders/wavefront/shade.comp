@@ -45,7 +45,8 @@ void main() {
                     float w = power_heuristic(pdf_l, pdf_b);
                     vec3 contrib = b * f * (wi_local.z * w / pdf_l) * ls.radiance;
                     if (finite_or_count(contrib, counter_nonfinite_shade(pc.queue_slot))) {
-                        shadow_o[path] = vec4(origin, dist);
+                        // Shortened by SHADOW_EPSILON (Rust: bvh::SHADOW_EPSILON).
+                        shadow_o[path] = vec4(origin, dist * (1.0 - SHADOW_EPSILON));
                         shadow_d[path] = vec4(wi, 0.0);
                         shadow_l[path] = vec4(contrib, 0.0);
                         queue_push(QUEUE_SHADOW, COUNTER_SHADOW, path);

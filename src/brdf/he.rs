@@ -363,7 +363,7 @@ pub fn series_window(g: f32, c: f32) -> (f32, f32, f32) {
 /// (which accounts for e^(−c/m)) with at most [`HE_MAX_TERMS`] evaluations (stride s, each
 /// term weighted s; see the module header for the accuracy).
 pub fn series(g: f32, c: f32) -> f32 {
-    if g <= 1e-30 || !(c >= 0.0) {
+    if g <= 1e-30 || c.is_nan() || c < 0.0 {
         return 0.0;
     }
     let (lo, _, hi) = series_window(g, c);

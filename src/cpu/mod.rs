@@ -235,7 +235,8 @@ impl<'a> CpuRenderer<'a> {
                                 stats.nonfinite_shade[material.model] += 1;
                             } else {
                                 stats.shadow_rays += 1;
-                                if !self.bvh.occluded(s, origin, wi, dist) {
+                                let tmax = dist * (1.0 - bvh::SHADOW_EPSILON);
+                                if !self.bvh.occluded(s, origin, wi, tmax) {
                                     l += contrib;
                                 }
                             }
