@@ -11,7 +11,8 @@ layout(std430, set = 0, binding = 0) readonly buffer Mat { Material material; };
 // Inputs, 2 vec4 per item: (a.xyz, u_lobe), (b.xyz or (u.x, u.y, _), _).
 layout(std430, set = 0, binding = 1) readonly buffer Inputs { vec4 inputs[]; };
 // Outputs, 2 vec4 per item. Mode 0 (eval): (f, pdf), (0). Mode 1 (sample): (wi, pdf), (weight,
-// ok | delta << 1). Mode 2 (cost): (sum of f over the reps, 0), (0).
+// ok | delta << 1). Mode 2 (cost): (sum of f over the reps, 0), (0). Mode 3 (math helpers):
+// (helper(x, y), 0, 0, 0), (0); op 4 (he_series) needs a He material with the series.
 layout(std430, set = 0, binding = 2) writeonly buffer Outputs { vec4 outputs[]; };
 
 layout(push_constant) uniform Push { uint count; uint mode; uint reps; } pc;
@@ -29,6 +30,19 @@ void main() {
         vec3 f = BRDF_EVAL(material, a.xyz, b.xyz);
         float pdf = BRDF_PDF(material, a.xyz, b.xyz);
         outputs[2u * i] = vec4(f, pdf);
+        outputs[2u * i + 1u] = vec4(0.0);
+    } else if (pc.mode == 3u) {
+        // GPU math helpers (brdfwave stress, group gpu_math): a = (x, y, op, _).
+        float x = a.x, y = a.y, r = 0.0;
+        uint op = uint(a.z);
+        if (op == 0u) r = erfc(x);
+        else if (op == 1u) r = expm1_f(x);
+        else if (op == 2u) r = log1p_f(x);
+        else if (op == 3u) r = pow_one_minus(x, y);
+#ifdef HE_SERIES
+        else if (op == 4u) r = he_series(x, y);
+#endif
+        outputs[2u * i] = vec4(r, 0.0, 0.0, 0.0);
         outputs[2u * i + 1u] = vec4(0.0);
     } else if (pc.mode == 2u) {
         // Evaluation cost: `reps` evaluations per invocation and one write, so that memory traffic

@@ -312,13 +312,33 @@ bool trace_any(vec3 o, vec3 d, float tmax) {
     return bvh_traverse(o, d, tmax, true, h);
 }
 
-// Wächter & Binder 2019 (Rust: offset_ray_origin): 256 ulps along n per coordinate, or n/65536
-// within 1/32 of zero. n points to the side the new ray leaves from.
-vec3 offset_ray_origin(vec3 p, vec3 n) {
-    ivec3 of_i = ivec3(256.0 * n);
-    precise vec3 p_f = p + (1.0 / 65536.0) * n;
-    vec3 p_i = intBitsToFloat(floatBitsToInt(p) + mix(of_i, -of_i, lessThan(p, vec3(0.0))));
-    return mix(p_i, p_f, lessThan(abs(p), vec3(1.0 / 32.0)));
+// Shadow rays end this fraction of their length before the light point (Rust: SHADOW_EPSILON).
+#define SHADOW_EPSILON uintBitsToFloat(0x38d1b717u)
+
+// Rust: next_float_up / next_float_down / offset_ray_origin in src/bvh.rs (the same arithmetic).
+// The next float above (below) x; -0 and +0 are treated as +0 (-0). Non-finite x unchanged.
+float bvh_next_float_up(float x) {
+    if ((floatBitsToUint(x) & 0x7f800000u) == 0x7f800000u) return x;
+    uint b = x == 0.0 ? 0u : floatBitsToUint(x);
+    return uintBitsToFloat(x >= 0.0 ? b + 1u : b - 1u);
+}
+float bvh_next_float_down(float x) {
+    if ((floatBitsToUint(x) & 0x7f800000u) == 0x7f800000u) return x;
+    uint b = x == 0.0 ? 0x80000000u : floatBitsToUint(x);
+    return uintBitsToFloat(x <= 0.0 ? b + 1u : b - 1u);
+}
+
+// Move p, within err (per coordinate) of the true surface point, off the surface to the side of
+// the unit normal n: by |n|.err along n, then each coordinate one float further along n
+// (Pharr, Jakob & Humphreys 2016, sec. 3.9.5).
+vec3 offset_ray_origin(vec3 p, vec3 err, vec3 n) {
+    precise float d = abs(n.x) * err.x + abs(n.y) * err.y + abs(n.z) * err.z;
+    precise vec3 q = p + n * d;
+    for (int i = 0; i < 3; ++i) {
+        if (n[i] > 0.0) q[i] = bvh_next_float_up(q[i]);
+        else if (n[i] < 0.0) q[i] = bvh_next_float_down(q[i]);
+    }
+    return q;
 }
 
 #endif

@@ -47,8 +47,9 @@
 //! * Spheres: the quadratic in the form of Haines et al. 2019, "Precision Improvements for
 //!   Ray/Sphere Intersection" (Ray Tracing Gems ch. 7): the discriminant from the distance of
 //!   the centre to the line, and the two roots as `c/q` and `q/a` without cancellation.
-//! * Self-intersection: [`offset_ray_origin`] after Wächter & Binder 2019 (Ray Tracing Gems
-//!   ch. 6).
+//! * Self-intersection: [`offset_ray_origin`] from the hit point's own rounding-error bound
+//!   ([`triangle_point`], [`sphere_point`]), after Pharr, Jakob & Humphreys 2016
+//!   ("Physically Based Rendering", 3rd ed., sec. 3.9).
 //!
 //! # Tests
 //! `tests/bvh.rs` compares both traversals with brute force over all primitives (random soups,
@@ -816,24 +817,99 @@ pub fn intersect_sphere(o: Vec3, d: Vec3, center: Vec3, radius: f32, tmax: f32) 
     }
 }
 
-/// Wächter & Binder 2019 (Ray Tracing Gems ch. 6): move `p` off the surface along `n` (the
-/// side the new ray leaves from) by 256 ulps per coordinate, or by `n / 65536` for coordinates
-/// within 1/32 of zero, where ulps are too small. Scale-independent; `p` should be computed
-/// from barycentrics, not from o + t·d.
-pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
-    const ORIGIN: f32 = 1.0 / 32.0;
-    const FLOAT_SCALE: f32 = 1.0 / 65536.0;
-    const INT_SCALE: f32 = 256.0;
-    let one = |p: f32, n: f32| -> f32 {
-        if p.abs() < ORIGIN {
-            p + FLOAT_SCALE * n
+/// `gamma(n) = n·u / (1 - n·u)` with `u = 2^-24` the unit roundoff of f32: a bound on the
+/// relative error of `n` successive roundings (Higham 2002, "Accuracy and Stability of Numerical
+/// Algorithms", lemma 3.1; used this way by Pharr, Jakob & Humphreys 2016, "Physically Based
+/// Rendering" 3rd ed., sec. 3.9).
+pub const fn gamma(n: u32) -> f32 {
+    let nu = n as f32 * (f32::EPSILON * 0.5);
+    nu / (1.0 - nu)
+}
+
+/// The point with barycentrics (b1, b2) of the triangle `v`, computed as
+/// `v0 + (b1·(v1 − v0) + b2·(v2 − v0))`, and the absolute error bound of its distance from the
+/// triangle's plane, per coordinate: `gamma(4)·(|b1·e1| + |b2·e2|) + gamma(2)·|p|`.
+///
+/// Any b1, b2 give a point of the plane in exact arithmetic, so the barycentrics' own error
+/// moves the point within the plane only; what moves it off the plane is the rounding of the
+/// edges, the products and the two sums (Higham 2002, lemma 3.1; Pharr, Jakob & Humphreys
+/// 2016, sec. 3.9.4, which bounds the form Σ bᵢ·vᵢ by gamma(7)·Σ|bᵢ·vᵢ|). For a scene far from
+/// the origin this is about 2 ulps of the coordinates, not 7.
+pub fn triangle_point(v: &[Vec3; 3], b1: f32, b2: f32) -> (Vec3, Vec3) {
+    let e1 = (v[1] - v[0]) * b1;
+    let e2 = (v[2] - v[0]) * b2;
+    let p = v[0] + (e1 + e2);
+    let err = (e1.abs() + e2.abs()) * gamma(4) + p.abs() * gamma(2);
+    (p, err)
+}
+
+/// The sphere point `center + u·radius` for a unit vector `u` (up to `|1 - u·u|`: a normalised
+/// vector, or one made from sines and cosines), and its absolute error bound per coordinate:
+/// `gamma(5)·|u·radius| + gamma(2)·|p|` for the roundings of `u` and of the product and sum,
+/// plus `|1 - u·u|·|radius|` for a `u` that is not exactly unit (Pharr et al. 2016, sec. 3.9.4,
+/// the sphere's reprojected point).
+pub fn sphere_point(center: Vec3, u: Vec3, radius: f32) -> (Vec3, Vec3) {
+    let ur = u * radius;
+    let p = center + ur;
+    let radial = (1.0 - dot3(u, u)).abs() * radius.abs();
+    let err = ur.abs() * gamma(5) + p.abs() * gamma(2) + Vec3::splat(radial);
+    (p, err)
+}
+
+/// Shadow rays end this fraction of their length before the point on the light (Pharr, Jakob &
+/// Humphreys 2016, sec. 3.9.5, `ShadowEpsilon`): the light point is offset off its surface by
+/// its own error bound, but the ray's hit distance with that surface carries the rounding of
+/// the whole ray (origin, direction and intersection), which can be larger where the light's
+/// plane coordinate is small and the others are not (a Cornell box moved so that its ceiling
+/// is near y = 0 lost 15 % of its direct light to shadow rays blocked by the light itself).
+pub const SHADOW_EPSILON: f32 = 1e-4;
+
+/// The next f32 above `x` (towards +inf); +0 for -0. Infinities and NaN are returned as they are.
+#[inline]
+pub fn next_float_up(x: f32) -> f32 {
+    if !x.is_finite() {
+        return x;
+    }
+    let x = if x == 0.0 { 0.0 } else { x };
+    let bits = x.to_bits();
+    f32::from_bits(if x >= 0.0 { bits + 1 } else { bits - 1 })
+}
+
+/// The next f32 below `x` (towards -inf); -0 for +0. Infinities and NaN are returned as they are.
+#[inline]
+pub fn next_float_down(x: f32) -> f32 {
+    if !x.is_finite() {
+        return x;
+    }
+    let x = if x == 0.0 { -0.0 } else { x };
+    let bits = x.to_bits();
+    f32::from_bits(if x <= 0.0 { bits + 1 } else { bits - 1 })
+}
+
+/// Move the surface point `p`, whose coordinates are within `err` of the true surface point,
+/// off the surface to the side of the unit normal `n` the new ray leaves from, far enough that
+/// the new ray cannot hit the surface it starts on (Pharr et al. 2016, sec. 3.9.5, and the
+/// pbrt-v4 sources' `OffsetRayOrigin`): along `n` by `d = |n|·err`, the distance from the plane
+/// of the box `p ± err`, then each coordinate one float further along `n`, so that
+/// the rounding of `p + d·n` cannot bring the point back inside that box. The offset scales
+/// with the error of `p` itself, so it is the same fraction of the scene at every scale and
+/// translation (fixed offsets are not: Wächter & Binder 2019's 256 ulps and `n/65536` near zero
+/// moved origins by a visible part of a scene scaled by 1e-6 or moved 1e6 away).
+pub fn offset_ray_origin(p: Vec3, err: Vec3, n: Vec3) -> Vec3 {
+    let d = dot3(n.abs(), err);
+    let q = p + n * d;
+    // By the sign of n, not of the offset: a point with a zero error bound (a vertex at the
+    // origin) still moves one float.
+    let one = |q: f32, n: f32| -> f32 {
+        if n > 0.0 {
+            next_float_up(q)
+        } else if n < 0.0 {
+            next_float_down(q)
         } else {
-            let of = (INT_SCALE * n) as i32;
-            let of = if p < 0.0 { of.wrapping_neg() } else { of };
-            f32::from_bits((p.to_bits() as i32).wrapping_add(of) as u32)
+            q
         }
     };
-    Vec3::new(one(p.x, n.x), one(p.y, n.y), one(p.z, n.z))
+    Vec3::new(one(q.x, n.x), one(q.y, n.y), one(q.z, n.z))
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1005,20 +1081,60 @@ mod tests {
 
     #[test]
     fn offset_moves_to_the_normal_side_at_all_scales() {
-        for &s in &[1e-3f32, 0.02, 1.0, 100.0, 1.0e4, -1.0e4] {
-            let p = Vec3::new(s, -0.7 * s, 0.3 * s);
-            let n = Vec3::new(0.3, -0.8, 0.52).normalize();
-            let q = offset_ray_origin(p, n);
-            let moved = (q - p).dot(n);
-            assert!(moved > 0.0, "scale {s}: {p} -> {q}");
+        for &s in &[
+            1e-30f32, 1e-6, 1e-3, 0.02, 1.0, 100.0, 1.0e4, -1.0e4, 1.0e6, 1.0e30,
+        ] {
+            let v = [
+                Vec3::new(s, -0.7 * s, 0.3 * s),
+                Vec3::new(1.3 * s, -0.2 * s, 0.1 * s),
+                Vec3::new(0.9 * s, 0.4 * s, -0.5 * s),
+            ];
+            let n = crate::robust::triangle_normal(&v);
+            let (p, err) = triangle_point(&v, 0.3, 0.45);
+            let q = offset_ray_origin(p, err, n);
+            // In f64: the offset point is off the plane by at least the error bound and by
+            // at most a few times it (a tiny fraction of the triangle).
+            let to64 = |a: Vec3| [a.x as f64, a.y as f64, a.z as f64];
+            let (v0, v1, v2, q64) = (to64(v[0]), to64(v[1]), to64(v[2]), to64(q));
+            let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+            let (e1, e2) = (sub(v1, v0), sub(v2, v0));
+            let nn = [
+                e1[1] * e2[2] - e1[2] * e2[1],
+                e1[2] * e2[0] - e1[0] * e2[2],
+                e1[0] * e2[1] - e1[1] * e2[0],
+            ];
+            let len = (nn[0] * nn[0] + nn[1] * nn[1] + nn[2] * nn[2]).sqrt();
+            let w = sub(q64, v0);
+            let dist = (w[0] * nn[0] + w[1] * nn[1] + w[2] * nn[2]) / len;
             assert!(
-                (q - p).length() < 1e-3 * s.abs().max(1.0),
-                "scale {s}: moved too far {}",
-                (q - p).length()
+                dist > 0.0,
+                "scale {s}: {p} -> {q} is not on the normal side"
             );
-            let q = offset_ray_origin(p, -n);
-            assert!((q - p).dot(n) < 0.0);
+            let bound = (n.abs().dot(err)) as f64;
+            assert!(
+                dist >= 0.9 * bound && dist < 4.0 * bound + 2.0 * (s.abs() as f64) * 1e-7,
+                "scale {s}: moved {dist}, error bound {bound}"
+            );
+            let q = offset_ray_origin(p, err, -n);
+            assert!((q - p).dot(n) < 0.0, "scale {s}: not moved to the back");
         }
+        // Coordinates at zero still move (to the smallest subnormal at least).
+        let q = offset_ray_origin(Vec3::ZERO, Vec3::ZERO, Vec3::Z);
+        assert!(q.z > 0.0 && q.x == 0.0 && q.y == 0.0);
+        let q = offset_ray_origin(Vec3::splat(-0.0), Vec3::ZERO, -Vec3::Z);
+        assert!(q.z < 0.0);
+    }
+
+    #[test]
+    fn next_float_steps_one_ulp() {
+        assert_eq!(next_float_up(1.0), 1.0 + f32::EPSILON);
+        assert_eq!(next_float_down(1.0), 1.0 - f32::EPSILON / 2.0);
+        assert_eq!(next_float_up(-1.0), -1.0 + f32::EPSILON / 2.0);
+        assert_eq!(next_float_up(-0.0), f32::from_bits(1));
+        assert_eq!(next_float_down(0.0), -f32::from_bits(1));
+        assert_eq!(next_float_up(f32::MAX), f32::INFINITY);
+        assert_eq!(next_float_up(f32::INFINITY), f32::INFINITY);
+        assert!(next_float_down(f32::NAN).is_nan());
     }
 
     /// Building subtrees in parallel gives the serial build's tree, node for node.
@@ -1072,6 +1188,7 @@ mod tests {
         assert_eq!(bits("BVH_ZERO_PAD"), ZERO_PAD.to_bits());
         assert_eq!(bits("BVH_SPHERE_ON_SURFACE"), SPHERE_ON_SURFACE.to_bits());
         assert_eq!(bits("BVH_FLT_MAX"), f32::MAX.to_bits());
+        assert_eq!(bits("SHADOW_EPSILON"), SHADOW_EPSILON.to_bits());
     }
 
     #[test]

@@ -20,8 +20,11 @@ pub struct CameraBasis {
 impl CameraBasis {
     pub fn new(scene: &Scene) -> CameraBasis {
         let c = &scene.camera;
-        let forward = (c.target - c.position).normalize();
-        let right = forward.cross(c.up).normalize();
+        // Scaled first: the camera may be up to ~3e38 from its target, and `up` any length.
+        let forward = crate::robust::normalize_scaled(c.target - c.position);
+        let right = forward
+            .cross(crate::robust::normalize_scaled(c.up))
+            .normalize();
         let up = right.cross(forward);
         let tan_half = (c.fov_y_deg.to_radians() * 0.5).tan();
         let aspect = scene.width as f32 / scene.height as f32;

@@ -32,5 +32,7 @@ pub mod outfile;
 pub mod output;
 pub mod plot;
 pub mod rng;
+pub mod robust;
 pub mod scene;
+pub mod stress;
 pub mod vk;

@@ -37,7 +37,7 @@ impl LightTable {
         let mut weights = Vec::new();
         for (i, t) in scene.triangles.iter().enumerate() {
             if let Some(e) = t.emitter {
-                let w = t.area() as f64 * luminance(scene.emitters[e as usize].radiance) as f64;
+                let w = t.area() * luminance(scene.emitters[e as usize].radiance) as f64;
                 if w > 0.0 {
                     prims.push(i as u32);
                     weights.push(w);

@@ -153,6 +153,29 @@ enum Command {
         #[command(subcommand)]
         command: BrdfCommand,
     },
+    /// Randomized numerical-stability checks within a time budget (see src/stress.rs).
+    Stress {
+        /// Seconds to spend, shared equally by the groups (each runs at least one case).
+        #[arg(long, default_value_t = 60.0)]
+        budget: f64,
+        /// Seed of the randomized cases (each case gets its own seed from it, written with a
+        /// failure for --replay).
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Run again exactly the failing cases listed in this file.
+        #[arg(long)]
+        replay: Option<PathBuf>,
+        /// Where failing cases are written (JSON lines), for --replay.
+        #[arg(long, default_value = "stress-failures.jsonl")]
+        failures: PathBuf,
+        /// Only this group (may be given several times).
+        #[arg(long = "group")]
+        groups: Vec<String>,
+        /// Vulkan device for the GPU checks: a case-insensitive part of its name (default:
+        /// lavapipe if present).
+        #[arg(long)]
+        device: Option<String>,
+    },
 }
 
 #[derive(Subcommand)]
@@ -323,6 +346,14 @@ fn main() {
             );
             Ok(())
         })(),
+        Command::Stress {
+            budget,
+            seed,
+            replay,
+            failures,
+            groups,
+            device,
+        } => brdfwave::stress::cli(budget, seed, replay, failures, groups, device),
         Command::Devices => vk::Context::list_devices().map(|d| {
             for name in d {
                 println!("{name}");

@@ -613,38 +613,48 @@ fn rays_grazing_along_box_faces_agree_with_brute_force() {
 #[test]
 fn offset_origins_do_not_hit_their_own_surface() {
     let mut rng = Rng(10);
-    for &scale in &[1.0f32, 1.0e3, 1.0e-2] {
+    // Scales down to 1e-6 and up to 1e6, and a scene moved 1e6 from the origin: the offset
+    // comes from the hit point's error bound, which follows the coordinates' magnitude.
+    for &(scale, shift) in &[
+        (1.0f32, 3.0f32),
+        (1.0e3, 3.0e3),
+        (1.0e-2, 3.0e-2),
+        (1.0e-6, 3.0e-6),
+        (1.0e6, 3.0e6),
+        (1.0, 1.0e6),
+    ] {
         let tris: Vec<[Vec3; 3]> = random_soup(&mut rng, 300, 10.0)
             .into_iter()
-            .map(|t| t.map(|v| v * scale + Vec3::splat(3.0 * scale)))
+            .map(|t| t.map(|v| v * scale + Vec3::splat(shift)))
             .collect();
         let sp: Vec<(Vec3, f32, bool)> = random_spheres(&mut rng, 50, 10.0)
             .into_iter()
-            .map(|(c, r, i)| (c * scale + Vec3::splat(3.0 * scale), r * scale, i))
+            .map(|(c, r, i)| (c * scale + Vec3::splat(shift), r * scale, i))
             .collect();
         let s = scene(tris, sp);
         let b = bvh::build(&s);
         let tg = targets(&s, &mut rng);
         let mut count = 0;
         for _ in 0..1500 {
-            let o = rng.vec(-15.0 * scale, 20.0 * scale);
+            let o = rng.vec(-15.0 * scale, 20.0 * scale) + Vec3::splat(shift - 3.0 * scale);
             let d = tg[(rng.next() % tg.len() as u64) as usize] - o;
             let Some(h) = b.closest(&s, o, d, f32::MAX) else {
                 continue;
             };
             // A surface point of the primitive hit (spheres: a random one) and its normal.
-            let (p, ng, radius) = if h.prim & SPHERE_BIT != 0 {
+            let (p, err, ng, radius) = if h.prim & SPHERE_BIT != 0 {
                 let sph = &s.spheres[(h.prim & !SPHERE_BIT) as usize];
                 let u = rng.dir();
-                (sph.center + u * sph.radius, u, sph.radius)
+                let (p, err) = bvh::sphere_point(sph.center, u, sph.radius);
+                (p, err, u, sph.radius)
             } else {
                 let v = s.triangles[h.prim as usize].v;
-                let p = v[0] * (1.0 - h.bary.x - h.bary.y) + v[1] * h.bary.x + v[2] * h.bary.y;
-                (p, (v[1] - v[0]).cross(v[2] - v[0]).normalize(), 0.0)
+                let (p, err) = bvh::triangle_point(&v, h.bary.x, h.bary.y);
+                (p, err, brdfwave::robust::triangle_normal(&v), 0.0)
             };
             // Leave from both sides of the surface.
             for n in [ng, -ng] {
-                let origin = bvh::offset_ray_origin(p, n);
+                let origin = bvh::offset_ray_origin(p, err, n);
                 let mut d = rng.dir();
                 if d.dot(n) < 0.0 {
                     d -= 2.0 * d.dot(n) * n;
@@ -878,7 +888,7 @@ fn print_stats_and_cpu_throughput() {
 // GLSL twin on a Vulkan device (lavapipe in CI): same hits as the CPU traversal
 
 /// The probe kernel: per ray two vec4 in (o, tmax), (d, 0); out two uvec4:
-/// (closest prim or ~0, t, b1, b2) and (any hit, offset_ray_origin(o, d)).
+/// (closest prim or ~0, t, b1, b2) and (any hit, offset_ray_origin(o, |o|·4e-7, d)).
 const PROBE: &str = r#"#version 460
 #extension GL_GOOGLE_include_directive : require
 #define BVH_BINDING 2
@@ -895,7 +905,7 @@ void main() {
     Hit h;
     bool c = trace_closest(o.xyz, d.xyz, o.w, h);
     bool a = trace_any(o.xyz, d.xyz, o.w);
-    vec3 q = offset_ray_origin(o.xyz, d.xyz);
+    vec3 q = offset_ray_origin(o.xyz, abs(o.xyz) * 4.0e-7, d.xyz);
     outp[2u * i] = uvec4(c ? h.prim : 0xFFFFFFFFu, floatBitsToUint(h.t), floatBitsToUint(h.bary.x), floatBitsToUint(h.bary.y));
     outp[2u * i + 1u] = uvec4(a ? 1u : 0u, floatBitsToUint(q.x), floatBitsToUint(q.y), floatBitsToUint(q.z));
 }
@@ -1029,21 +1039,22 @@ fn glsl_traversal_matches_cpu_on_a_vulkan_device() {
             let Some(h) = b.closest(s, o, d, tmax) else {
                 continue;
             };
-            let (p, n) = if h.prim & SPHERE_BIT != 0 {
+            let (p, err, n) = if h.prim & SPHERE_BIT != 0 {
                 let sph = &s.spheres[(h.prim & !SPHERE_BIT) as usize];
                 let u = (o + d * h.t - sph.center).normalize();
-                (sph.center + u * sph.radius, u)
+                let (p, err) = bvh::sphere_point(sph.center, u, sph.radius);
+                (p, err, u)
             } else {
                 let v = s.triangles[h.prim as usize].v;
-                let p = v[0] * (1.0 - h.bary.x - h.bary.y) + v[1] * h.bary.x + v[2] * h.bary.y;
-                (p, (v[1] - v[0]).cross(v[2] - v[0]).normalize())
+                let (p, err) = bvh::triangle_point(&v, h.bary.x, h.bary.y);
+                (p, err, brdfwave::robust::triangle_normal(&v))
             };
             let n = if k % 2 == 0 { n } else { -n };
             let mut dir = rng.dir();
             if dir.dot(n) < 0.0 {
                 dir -= 2.0 * dir.dot(n) * n;
             }
-            rays.push((bvh::offset_ray_origin(p, n), dir, f32::MAX));
+            rays.push((bvh::offset_ray_origin(p, err, n), dir, f32::MAX));
             rays.push((p, dir, f32::MAX));
         }
         // Axis-aligned rays from grid points (zero direction components, box-face origins).
@@ -1074,11 +1085,11 @@ fn glsl_traversal_matches_cpu_on_a_vulkan_device() {
             let [prim, t, b1, b2] = out[2 * i];
             let [any, qx, qy, qz] = out[2 * i + 1];
             let cpu = b.closest(s, o, d, tmax);
-            let q = bvh::offset_ray_origin(o, d);
+            let q = bvh::offset_ray_origin(o, o.abs() * 4.0e-7, d);
             assert_eq!(
                 [qx, qy, qz],
                 [q.x.to_bits(), q.y.to_bits(), q.z.to_bits()],
-                "{name}: offset_ray_origin({o}, {d})"
+                "{name}: offset_ray_origin({o}, |o|·4e-7, {d})"
             );
             assert_eq!(
                 any == 1,

@@ -893,3 +893,70 @@ fn gpu_options_are_refused_or_warned_about_consistently() {
         assert!(err.contains("empty"), "{err}");
     }
 }
+
+/// `brdfwave stress` with a CI-sized budget: every group runs and passes, the table lists them;
+/// `--replay` runs exactly the listed cases; bad arguments are errors, not panics.
+#[test]
+fn stress_runs_every_group_within_a_small_budget_and_replays_cases() {
+    let failures = tmp("stress-failures.jsonl");
+    let _ = std::fs::remove_file(&failures);
+    let out = ok(&[
+        "stress",
+        "--budget",
+        "6",
+        "--seed",
+        "7",
+        "--failures",
+        s(&failures),
+    ]);
+    eprintln!("{out}");
+    for group in [
+        "models",
+        "limits",
+        "gpu_math",
+        "geometry",
+        "radiance",
+        "scene_numbers",
+    ] {
+        let line = out
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(group))
+            .unwrap_or_else(|| panic!("no row for {group}:\n{out}"));
+        let cols: Vec<&str> = line.split_whitespace().collect();
+        let cases: u64 = cols[1].parse().unwrap();
+        assert!(cases >= 1, "{line}");
+        assert_eq!(cols[2], "0", "{line}");
+    }
+    assert!(!failures.exists(), "a passing run wrote a failure file");
+
+    // Replay: a file naming two cases runs those two and nothing else.
+    let replay = tmp("stress-replay.jsonl");
+    std::fs::write(
+        &replay,
+        "{\"group\":\"models\",\"seed\":12345,\"message\":\"\"}\n\
+         {\"group\":\"scene_numbers\",\"seed\":99,\"message\":\"\"}\n",
+    )
+    .unwrap();
+    let out = ok(&["stress", "--replay", s(&replay), "--failures", s(&failures)]);
+    let cases = |group: &str| -> String {
+        let line = out
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(group))
+            .unwrap();
+        line.split_whitespace().nth(1).unwrap().to_string()
+    };
+    assert_eq!(cases("models"), "1", "{out}");
+    assert_eq!(cases("scene_numbers"), "1", "{out}");
+    assert_eq!(cases("geometry"), "0", "{out}");
+
+    std::fs::write(&replay, "not json\n").unwrap();
+    let e = fails(&["stress", "--replay", s(&replay)]);
+    assert!(
+        e.contains("stress-replay.jsonl:1") && e.contains("not a failure record"),
+        "{e}"
+    );
+    let e = fails(&["stress", "--budget", "1", "--group", "nope"]);
+    assert!(e.contains("unknown group 'nope'"), "{e}");
+    let e = fails(&["stress", "--budget=-1"]);
+    assert!(e.contains("--budget"), "{e}");
+}

@@ -1,7 +1,7 @@
 // He, Torrance, Sillion & Greenberg 1991, survey eqs. 10–15 (the paper's eqs. 24–25, 76–83 with
 // its erratum's e^(−a²) in the shadowing).
 // Rust twin: src/brdf/he.rs (parameter table, corrections to the survey's eq. 15, the series
-// window/cap and its accuracy, sampling).
+// window (with its proof)/cap and its accuracy, sampling).
 // Record: p[0].x σ₀, p[0].y τ, p[0].z 1 if σ₀ > 0, p[1].xyz ior, p[2].xyz κ,
 // p[3].xyz wavelengths (µm), p[4].xyz diffuse.
 // Define HE_SERIES to compile the directional-diffuse series (every material with σ₀ > 0
@@ -82,24 +82,73 @@ float he_stirling_remainder(float m) {
     return i * (1.0 / 12.0 - i2 * (1.0 / 360.0 - i2 * (1.0 / 1260.0)));
 }
 
-// Σ_{m≥1} gᵐ e^(−g)/(m!·m) e^(−c/m): log space, window [max(1, g−8√g), g+8√g+10], at most
-// HE_MAX_TERMS strided terms.
+// ln t(m), t(m) = gᵐ e^(−g)/(m!·m) e^(−c/m) (Rust: series_log_term).
+float he_log_term(float g, float c, float m) {
+    float ln_m = log(m);
+    float r = g / m;
+    float lead = (r >= 0.5 && r <= 2.0) ? -m * he_phi_ln(r - 1.0) : m * (log(g) - ln_m) + m - g;
+    return lead - 0.5 * log(2.0 * PI) - 0.5 * ln_m - he_stirling_remainder(m) - ln_m - c / m;
+}
+// ln(t(m+1)/t(m)), decreasing in m (Rust: series_log_ratio).
+float he_log_ratio(float g, float c, float m) {
+    return log(g) + log(m / (m + 1.0)) - log(m + 1.0) + c / (m * (m + 1.0));
+}
+#define HE_WINDOW_DROP 40.0
+#define HE_BISECTION_STEPS 40
+
+bool he_up_ok(float g, float c, float m, float peak) {
+    float lr = he_log_ratio(g, c, m);
+    return lr < 0.0 && he_log_term(g, c, m) - log(expm1_f(-lr)) <= peak;
+}
+bool he_lo_ok(float g, float c, float m, float peak) {
+    if (m <= 1.0) return true;
+    float lr = he_log_ratio(g, c, m - 1.0);
+    return lr > 0.0 && he_log_term(g, c, m) - log(expm1_f(lr)) <= peak;
+}
+
+// Σ_{m≥1} gᵐ e^(−g)/(m!·m) e^(−c/m): log space over the window of the Rust series_window (mode
+// by bisection on the term ratio, ends where the geometric bound on the rest is e^(−40) of it;
+// the proof is there), at most HE_MAX_TERMS strided terms.
 float he_series(float g, float c) {
-    if (g <= 1e-30) return 0.0;
-    float sg = sqrt(g);
-    float lo = max(ceil(g - 8.0 * sg), 1.0);
-    float hi = floor(g + 8.0 * sg + 10.0);
+    if (g <= 1e-30 || !(c >= 0.0)) return 0.0;
+    float start = 2.0 * sqrt(c);
+    float mode = 1.0;
+    if (!(he_log_ratio(g, c, 1.0) < 0.0)) {
+        float a = 1.0;
+        float b = ceil(max(2.0 * g, start)) + 1.0;
+        for (int i = 0; i < HE_BISECTION_STEPS; ++i) {
+            if (b - a <= 1.0) break;
+            float mid = floor(0.5 * (a + b));
+            if (he_log_ratio(g, c, mid) < 0.0) b = mid; else a = mid;
+        }
+        mode = b;
+    }
+    float peak = he_log_term(g, c, mode) - HE_WINDOW_DROP;
+    float a = mode;
+    float b = ceil(max(4.0 * g, start)) + 60.0;
+    if (he_up_ok(g, c, a, peak)) b = a;
+    for (int i = 0; i < HE_BISECTION_STEPS; ++i) {
+        if (b - a <= 1.0) break;
+        float mid = floor(0.5 * (a + b));
+        if (he_up_ok(g, c, mid, peak)) b = mid; else a = mid;
+    }
+    float hi = b;
+    a = 1.0;
+    b = mode;
+    if (he_lo_ok(g, c, b, peak)) a = b;
+    for (int i = 0; i < HE_BISECTION_STEPS; ++i) {
+        if (b - a <= 1.0) break;
+        float mid = floor(0.5 * (a + b));
+        if (he_lo_ok(g, c, mid, peak)) a = mid; else b = mid;
+    }
+    float lo = a;
     float count = hi - lo + 1.0;
     float stride = max(ceil(count / float(HE_MAX_TERMS)), 1.0);
-    float half_ln_2pi = 0.5 * log(2.0 * PI);
     float sum = 0.0;
     for (int j = 0; j < HE_MAX_TERMS; ++j) {
         float mm = lo + float(j) * stride;
         if (mm > hi) break;
-        float ln_m = log(mm);
-        float e = -mm * he_phi_ln(g / mm - 1.0) - half_ln_2pi - 0.5 * ln_m - he_stirling_remainder(mm)
-            - ln_m - c / mm;
-        sum += exp(e);
+        sum += exp(he_log_term(g, c, mm));
     }
     return sum * stride;
 }

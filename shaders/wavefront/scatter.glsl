@@ -40,13 +40,13 @@ Scatter shade_vertex(uint path, uint depth, Hit hit, vec3 o, vec3 d, vec3 b, uin
     Material m = load_material(s.material);
     vec3 wo = to_local(s.frame, -d);
     if (wo.z <= 0.0) return r;
-    vec3 origin = offset_ray_origin(s.p, s.ng);
+    vec3 origin = offset_ray_origin(s.p, s.p_err, s.ng);
 
     // Next-event estimation.
     if (g.num_lights > 0u) {
         LightSample ls = sample_light(rand(path, depth, DIM_LIGHT_SELECT), rand(path, depth, DIM_LIGHT_U),
                                       rand(path, depth, DIM_LIGHT_V));
-        vec3 target = offset_ray_origin(ls.p, ls.n);
+        vec3 target = offset_ray_origin(ls.p, ls.p_err, ls.n);
         vec3 to_light = target - origin;
         float dist2 = dot(to_light, to_light);
         if (dist2 > 0.0) {
@@ -65,7 +65,8 @@ Scatter shade_vertex(uint path, uint depth, Hit hit, vec3 o, vec3 d, vec3 b, uin
                         r.shadow = true;
                         r.shadow_o = origin;
                         r.shadow_d = wi;
-                        r.shadow_tmax = dist;
+                        // Shortened by SHADOW_EPSILON (Rust: bvh::SHADOW_EPSILON).
+                        r.shadow_tmax = dist * (1.0 - SHADOW_EPSILON);
                         r.shadow_l = contrib;
                     }
                 }

@@ -20,6 +20,44 @@ vec3 default_tangent(vec3 n) {
     return vec3(1.0 + s * n.x * n.x * a, s * b, -s * n.x);
 }
 
+// Rust: bvh::gamma(n), triangle_point, sphere_point (the same arithmetic; the bounds are
+// derived there, after Pharr, Jakob & Humphreys 2016, sec. 3.9).
+#define GAMMA2 uintBitsToFloat(0x34000001u)
+#define GAMMA4 uintBitsToFloat(0x34800002u)
+#define GAMMA5 uintBitsToFloat(0x34a00003u)
+// p = v0 + (b1 (v1 - v0) + b2 (v2 - v0)); err bounds its distance from the plane per coordinate.
+void triangle_point(vec3 v0, vec3 v1, vec3 v2, float b1, float b2, out vec3 p, out vec3 err) {
+    precise vec3 e1 = (v1 - v0) * b1;
+    precise vec3 e2 = (v2 - v0) * b2;
+    precise vec3 q = v0 + (e1 + e2);
+    precise vec3 e = (abs(e1) + abs(e2)) * GAMMA4 + abs(q) * GAMMA2;
+    p = q;
+    err = e;
+}
+// p = c + u r for a (nearly) unit u; err bounds its distance from the sphere per coordinate.
+void sphere_point(vec3 c, vec3 u, float r, out vec3 p, out vec3 err) {
+    precise vec3 ur = u * r;
+    precise vec3 q = c + ur;
+    precise float radial = abs(1.0 - (u.x * u.x + u.y * u.y + u.z * u.z)) * abs(r);
+    precise vec3 e = abs(ur) * GAMMA5 + abs(q) * GAMMA2 + vec3(radial);
+    p = q;
+    err = e;
+}
+
+// Rust: robust::scale_to_unit_exponent and triangle_normal. An edge scaled by the power of two
+// that brings its largest component into [0.5, 1) (exact), so that the cross product of huge or
+// tiny edges neither overflows nor underflows; the same normal bit for bit otherwise.
+vec3 scaled_edge(vec3 e) {
+    float m = max(abs(e.x), max(abs(e.y), abs(e.z)));
+    if (!(m > 0.0) || !is_finite_f(m)) return e;
+    int ex;
+    frexp(m, ex);
+    return ldexp(e, ivec3(-ex));
+}
+vec3 triangle_normal(vec3 v0, vec3 v1, vec3 v2) {
+    return normalize(cross(scaled_edge(v1 - v0), scaled_edge(v2 - v0)));
+}
+
 Frame make_frame(vec3 n, vec3 hint) {
     vec3 t = hint - n * dot(n, hint);
     float len2 = dot(t, t);
@@ -33,6 +71,7 @@ Frame make_frame(vec3 n, vec3 hint) {
 
 struct Surface {
     vec3 p;
+    vec3 p_err;    // absolute rounding-error bound of p, per coordinate (offset_ray_origin)
     vec3 ng;       // unit geometric normal, front side
     bool front;
     Frame frame;
@@ -45,7 +84,7 @@ Surface surface_sphere(uint i, float t, vec3 o, vec3 d) {
     vec4 cr = sphere_texel(2u * i);
     uvec4 info = floatBitsToUint(sphere_texel(2u * i + 1u));
     vec3 outward = normalize(o + d * t - cr.xyz);
-    s.p = cr.xyz + outward * cr.w;
+    sphere_point(cr.xyz, outward, cr.w, s.p, s.p_err);
     s.ng = info.z != 0u ? -outward : outward;
     s.front = dot(d, s.ng) < 0.0;
     s.frame = make_frame(s.ng, cross(vec3(0.0, 1.0, 0.0), outward));
@@ -64,10 +103,10 @@ Surface surface_triangle(uint prim, vec2 bary, vec3 d) {
     float b1 = bary.x;
     float b2 = bary.y;
     float b0 = 1.0 - b1 - b2;
-    s.p = a.xyz * b0 + b.xyz * b1 + c.xyz * b2;
+    triangle_point(a.xyz, b.xyz, c.xyz, b1, b2, s.p, s.p_err);
     vec3 e1 = b.xyz - a.xyz;
     vec3 e2 = c.xyz - a.xyz;
-    s.ng = normalize(cross(e1, e2));
+    s.ng = triangle_normal(a.xyz, b.xyz, c.xyz);
     s.front = dot(d, s.ng) < 0.0;
     vec3 ns = s.ng;
 #if defined(SCENE_SHADING_NORMALS) || defined(SCENE_UVS)
@@ -127,7 +166,7 @@ uint select_light(float u) {
 }
 
 // density: the emitter's light-selection density per unit area, lum(Le)/W (host-computed).
-struct LightSample { vec3 p; vec3 n; vec3 radiance; float density; };
+struct LightSample { vec3 p; vec3 p_err; vec3 n; vec3 radiance; float density; };
 
 LightSample sample_sphere_light(uint i, float u1, float u2) {
     LightSample ls;
@@ -137,7 +176,7 @@ LightSample sample_sphere_light(uint i, float u1, float u2) {
     float r = sqrt(max(1.0 - z * z, 0.0));
     float phi = 2.0 * PI * u2;
     vec3 dir = vec3(r * cos(phi), r * sin(phi), z);
-    ls.p = cr.xyz + dir * cr.w;
+    sphere_point(cr.xyz, dir, cr.w, ls.p, ls.p_err);
     ls.n = info.z != 0u ? -dir : dir;
     ls.radiance = emitter(info.y).xyz;
     ls.density = emitter(info.y).w;
@@ -153,8 +192,8 @@ LightSample sample_triangle_light(uint prim, float u1, float u2) {
     float b0 = 1.0 - su;
     float b1 = u2 * su;
     float b2 = 1.0 - b0 - b1;
-    ls.p = a.xyz * b0 + b.xyz * b1 + c.xyz * b2;
-    ls.n = normalize(cross(b.xyz - a.xyz, c.xyz - a.xyz));
+    triangle_point(a.xyz, b.xyz, c.xyz, b1, b2, ls.p, ls.p_err);
+    ls.n = triangle_normal(a.xyz, b.xyz, c.xyz);
     ls.radiance = emitter(floatBitsToUint(b.w)).xyz;
     ls.density = emitter(floatBitsToUint(b.w)).w;
     return ls;

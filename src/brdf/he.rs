@@ -39,15 +39,19 @@
 //! **The series** is summed in log space, term by term
 //! exp(−m·φ(g/m − 1) − ½ln(2πm) − r(m) − ln m − c/m), φ(ε) = ε − ln(1 + ε) (a series in
 //! z = ε/(2+ε) near 0, so no cancellation), r(m) = ln m! − (m ln m − m + ½ ln 2πm) the Stirling
-//! remainder (table for m ≤ 3, three-term series above), over the window
-//! m ∈ [max(1, g − 8√g), g + 8√g + 10]. The loop is capped at [`HE_MAX_TERMS`] = 128
-//! evaluations (the GPU needs a bound): when the window is wider (g ≳ 53) the sum takes every
-//! s-th term times s, s = ⌈window/128⌉ ≈ √g/8 + 1. The terms are a smooth bell of width √g in
-//! m, so by Poisson summation the relative error of the strided sum is ~exp(−2π²g/s²), and
-//! 2π²g/s² ≥ 286 for every g (minimum just above g = 53): < e^(−286), the cap costs no
-//! accuracy. The total error is the window's (≤ 2e-14) plus f32 rounding: measured ≤ 1.3e-5
-//! relative against an f64 direct sum for g from 1e-3 to 1e6 (tests/brdf_he.rs). The cost is
-//! ≤ 128 exp/log pairs per channel per evaluation.
+//! remainder (table for m ≤ 3, three-term series above), over the window of
+//! [`series_window`]: around the largest term m̂ (found by bisection on the ratio of
+//! consecutive terms, which decreases with m), out to where the terms are e^(−40) below it and
+//! fall geometrically; proved there to omit at most 2e^(−40) ≈ 8.5e-18 of the sum for every g
+//! and every c. (The window m ∈ [g − 8√g, g + 8√g + 10] used before ignored that e^(−c/m)
+//! moves the largest terms to m ≫ g when c ≫ g²: rough surfaces far from the specular
+//! direction were 2 % off where the value is below 1e-20.) The loop is capped at
+//! [`HE_MAX_TERMS`] = 128 evaluations (the GPU needs a bound): when the window is wider the sum
+//! takes every s-th term times s. The terms are a smooth bell of width w ≈ 1/√(−d²ln t/dm²)
+//! and the window spans about ±9w, so s ≈ 18w/128 and by Poisson summation the relative error
+//! of the strided sum is ~exp(−2π²w²/s²) ≈ e^(−990): the cap costs no accuracy. The total
+//! error is f32 rounding: measured against an f64 sum of every term (tests/brdf_he.rs). The
+//! cost is ≤ 128 exp/log pairs plus three bisections of ≤ 40 log evaluations per channel.
 //!
 //! **Compiled out**: the directional-diffuse series is compiled only under `HE_SERIES`, which
 //! every material with σ₀ > 0 requests; with σ₀ = 0 g is 0 and f_dd vanishes identically, so
@@ -237,33 +241,144 @@ pub fn stirling_remainder(m: f32) -> f32 {
     i * (1.0 / 12.0 - i2 * (1.0 / 360.0 - i2 * (1.0 / 1260.0)))
 }
 
-/// Σ_{m≥1} gᵐ e^(−g)/(m!·m) · e^(−c/m), in log space over the window
-/// [max(1, g − 8√g), g + 8√g + 10] with at most [`HE_MAX_TERMS`] evaluations (stride s,
-/// each term weighted s; see the module header for the accuracy).
+/// ln t(m) of the series term t(m) = gᵐ e^(−g)/(m!·m) · e^(−c/m), for integer m ≥ 1, as
+/// L − ½ln(2πm) − r(m) − ln m − c/m with L = m ln(g/m) + m − g = −m·φ(g/m − 1): by the series
+/// of [`phi_ln`] for g/m in [½, 2] (where the direct form cancels), and as m(ln g − ln m) + m − g
+/// outside (where φ(g/m − 1) would lose the digits of g in 1 + (g/m − 1): 1.3 % at g = 1e-6).
+pub fn series_log_term(g: f32, c: f32, m: f32) -> f32 {
+    let ln_m = m.ln();
+    let r = g / m;
+    let lead = if (0.5..=2.0).contains(&r) {
+        -m * phi_ln(r - 1.0)
+    } else {
+        m * (g.ln() - ln_m) + m - g
+    };
+    lead - 0.5 * (2.0 * PI).ln() - 0.5 * ln_m - stirling_remainder(m) - ln_m - c / m
+}
+
+/// ln of the ratio of consecutive series terms, ln(t(m+1)/t(m)) = ln g + ln(m/(m+1))
+/// − ln(m+1) + c/(m(m+1)). The ratio decreases with m (see [`series_window`]).
+pub fn series_log_ratio(g: f32, c: f32, m: f32) -> f32 {
+    g.ln() + (m / (m + 1.0)).ln() - (m + 1.0).ln() + c / (m * (m + 1.0))
+}
+
+/// How far below its largest term a window end must be: e^(−40) ≈ 4e-18.
+pub const HE_WINDOW_DROP: f32 = 40.0;
+/// Bisection steps for each of the mode and the two window ends (enough for 2^40 > any m).
+pub const HE_BISECTION_STEPS: u32 = 40;
+
+/// The summation window [lo, hi] of [`series`] and its mode m̂ (largest term).
+///
+/// **Why it is enough** (proof). The ratio of consecutive terms is
+/// ρ(m) = t(m+1)/t(m) = g·m/(m+1)² · e^(c/(m(m+1))), a product of two positive factors that
+/// both decrease for m ≥ 1 (d/dm m/(m+1)² = (1−m)/(m+1)³ ≤ 0; c ≥ 0). So t rises while
+/// ρ ≥ 1 and falls after: the mode m̂ is the smallest m with ρ(m) < 1, and a bisection on the
+/// sign of ln ρ finds it. ρ(m) < 1 for m ≥ max(2g, 2√c): there ln(g/(m+1)) < −ln 2 and
+/// c/(m(m+1)) < ¼, so m̂ ≤ ⌈max(2g, 2√c)⌉ + 1. This is where c enters: e^(−c/m) moves the mode
+/// from g up to about √(c / ln(m̂/g)) when c ≫ g², far outside the old window g ± 8√g.
+///
+/// * Upper end: hi is the smallest m ≥ m̂ with ρ(hi) < 1 and t(hi)·ρ(hi)/(1 − ρ(hi)) ≤
+///   e^(−40)·t(m̂) (in logs: ln t(hi) − ln(1/ρ(hi) − 1) ≤ ln t(m̂) − 40). Since ρ decreases,
+///   t(hi + j) ≤ t(hi)·ρ(hi)^j, so Σ_{m>hi} t(m) ≤ t(hi)·ρ(hi)/(1 − ρ(hi)) ≤ e^(−40)·t(m̂).
+///   The left side decreases with m after m̂ (t falls, ρ falls), so once true the condition
+///   stays true and a bisection finds hi; its upper bracket H = ⌈max(4g, 2√c)⌉ + 60 satisfies
+///   it (from max(4g, 2√c) on, ln ρ < ln(g/(m+1)) + ¼ < −ln 2, and then ≥ 58 halvings).
+/// * Lower end: lo = 1 when no m ≤ m̂ qualifies; otherwise the largest m ≤ m̂ with
+///   ρ(m−1) > 1 and t(m)/(ρ(m−1) − 1) ≤ e^(−40)·t(m̂). Below lo the terms fall at least by
+///   1/ρ(lo−1) per step (ρ is larger further down), so Σ_{m<lo} t(m) ≤ t(lo)/(ρ(lo−1) − 1).
+///
+/// With t(m̂) ≤ Σ t, the window omits at most 2e^(−40) ≈ 8.5e-18 of the sum, for every g > 0
+/// and c ≥ 0, up to the f32 rounding of the tests themselves (ln t has absolute error
+/// ~1e-7·|ln t|, a few units at most, which the 40 absorbs many times over). For c = 0 and
+/// large g the window is about g ± 9.4√g, like the old g ± 8√g.
+pub fn series_window(g: f32, c: f32) -> (f32, f32, f32) {
+    let start = 2.0 * c.sqrt();
+    // Mode: smallest m with ln ρ(m) < 0, in [1, m_up].
+    let m_up = (2.0 * g).max(start).ceil() + 1.0;
+    let mode = if series_log_ratio(g, c, 1.0) < 0.0 {
+        1.0
+    } else {
+        let (mut a, mut b) = (1.0f32, m_up);
+        for _ in 0..HE_BISECTION_STEPS {
+            if b - a <= 1.0 {
+                break;
+            }
+            let mid = (0.5 * (a + b)).floor();
+            if series_log_ratio(g, c, mid) < 0.0 {
+                b = mid;
+            } else {
+                a = mid;
+            }
+        }
+        b
+    };
+    let peak = series_log_term(g, c, mode) - HE_WINDOW_DROP;
+    // Upper end: smallest m in [mode, h_up] with ln ρ(m) < 0 and
+    // ln t(m) − ln(1/ρ(m) − 1) ≤ ln t(m̂) − 40.
+    let h_up = (4.0 * g).max(start).ceil() + 60.0;
+    let up_ok = |m: f32| {
+        let lr = series_log_ratio(g, c, m);
+        lr < 0.0 && series_log_term(g, c, m) - expm1_f(-lr).ln() <= peak
+    };
+    let (mut a, mut b) = (mode, h_up);
+    if up_ok(a) {
+        b = a;
+    }
+    for _ in 0..HE_BISECTION_STEPS {
+        if b - a <= 1.0 {
+            break;
+        }
+        let mid = (0.5 * (a + b)).floor();
+        if up_ok(mid) {
+            b = mid;
+        } else {
+            a = mid;
+        }
+    }
+    let hi = b;
+    // Lower end: largest m in [1, mode] with both conditions, or 1.
+    let lo_ok = |m: f32| {
+        if m <= 1.0 {
+            return true;
+        }
+        let lr = series_log_ratio(g, c, m - 1.0);
+        lr > 0.0 && series_log_term(g, c, m) - expm1_f(lr).ln() <= peak
+    };
+    let (mut a, mut b) = (1.0f32, mode);
+    if lo_ok(b) {
+        a = b;
+    }
+    for _ in 0..HE_BISECTION_STEPS {
+        if b - a <= 1.0 {
+            break;
+        }
+        let mid = (0.5 * (a + b)).floor();
+        if lo_ok(mid) {
+            a = mid;
+        } else {
+            b = mid;
+        }
+    }
+    (a, mode, hi)
+}
+
+/// Σ_{m≥1} gᵐ e^(−g)/(m!·m) · e^(−c/m), in log space over the window of [`series_window`]
+/// (which accounts for e^(−c/m)) with at most [`HE_MAX_TERMS`] evaluations (stride s, each
+/// term weighted s; see the module header for the accuracy).
 pub fn series(g: f32, c: f32) -> f32 {
-    if g <= 1e-30 {
+    if g <= 1e-30 || c.is_nan() || c < 0.0 {
         return 0.0;
     }
-    let sg = g.sqrt();
-    let lo = (g - 8.0 * sg).ceil().max(1.0);
-    let hi = (g + 8.0 * sg + 10.0).floor();
+    let (lo, _, hi) = series_window(g, c);
     let count = hi - lo + 1.0;
     let stride = (count / HE_MAX_TERMS as f32).ceil().max(1.0);
-    let half_ln_2pi = 0.5 * (2.0 * PI).ln();
     let mut sum = 0.0f32;
     for j in 0..HE_MAX_TERMS {
         let mm = lo + j as f32 * stride;
         if mm > hi {
             break;
         }
-        let ln_m = mm.ln();
-        let e = -mm * phi_ln(g / mm - 1.0)
-            - half_ln_2pi
-            - 0.5 * ln_m
-            - stirling_remainder(mm)
-            - ln_m
-            - c / mm;
-        sum += e.exp();
+        sum += series_log_term(g, c, mm).exp();
     }
     sum * stride
 }

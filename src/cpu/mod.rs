@@ -137,11 +137,9 @@ impl<'a> CpuRenderer<'a> {
                             sample,
                         };
                         let l = self.trace_path(x as u32, y as u32, &rng, &mut stats);
-                        // As the GPU film (f32 sums of l and l²): a sample whose square
-                        // overflows f32 is dropped too. (The sums here are f64 and do not
-                        // overflow; the GPU's f32 running sums can, for a pixel mean beyond
-                        // 3.4e38/spp.)
-                        if !(l.is_finite() && (l * l).is_finite()) {
+                        // Sums in f64: no finite f32 sample overflows them, or its
+                        // square (the GPU film scales its f32 sums instead).
+                        if !l.is_finite() {
                             bad += 1;
                             continue;
                         }
@@ -260,7 +258,7 @@ impl<'a> CpuRenderer<'a> {
             if wo.z <= 0.0 {
                 break;
             }
-            let origin = bvh::offset_ray_origin(si.p, si.ng);
+            let origin = bvh::offset_ray_origin(si.p, si.p_err, si.ng);
 
             // Next-event estimation.
             if !self.lights.is_empty() {
@@ -271,7 +269,7 @@ impl<'a> CpuRenderer<'a> {
                     rng.get(depth, dim::LIGHT_U),
                     rng.get(depth, dim::LIGHT_V),
                 );
-                let target = bvh::offset_ray_origin(ls.p, ls.n);
+                let target = bvh::offset_ray_origin(ls.p, ls.p_err, ls.n);
                 let to_light = target - origin;
                 let dist2 = to_light.length_squared();
                 if dist2 > 0.0 {
@@ -291,7 +289,8 @@ impl<'a> CpuRenderer<'a> {
                             } else {
                                 stats.shadow_rays += 1;
                                 stats.segment_shadow[seg] += 1;
-                                if !self.bvh.occluded(s, origin, wi, dist) {
+                                let tmax = dist * (1.0 - bvh::SHADOW_EPSILON);
+                                if !self.bvh.occluded(s, origin, wi, tmax) {
                                     l += contrib;
                                 }
                             }

@@ -1,7 +1,7 @@
 //! Surface interactions and light samples for the CPU reference renderer.
 //! GLSL twins: `shaders/wavefront/surface.glsl` and `shaders/wavefront/lights.glsl`.
 
-use crate::bvh::{Hit, SPHERE_BIT};
+use crate::bvh::{sphere_point, triangle_point, Hit, SPHERE_BIT};
 use crate::lights::LightTable;
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
@@ -51,6 +51,8 @@ pub fn make_frame(n: Vec3, tangent_hint: Vec3) -> Frame {
 
 pub struct Surface {
     pub p: Vec3,
+    /// Absolute rounding-error bound of `p`, per coordinate (for `bvh::offset_ray_origin`).
+    pub p_err: Vec3,
     /// Unit geometric normal on the front side.
     pub ng: Vec3,
     /// The ray arrived at the front side.
@@ -65,13 +67,14 @@ pub fn surface_at(scene: &Scene, hit: &Hit, o: Vec3, d: Vec3) -> Surface {
     if hit.prim & SPHERE_BIT != 0 {
         let s = &scene.spheres[(hit.prim & !SPHERE_BIT) as usize];
         let out = (o + d * hit.t - s.center).normalize();
-        let p = s.center + out * s.radius;
+        let (p, p_err) = sphere_point(s.center, out, s.radius);
         let ng = if s.inward { -out } else { out };
         let front = d.dot(ng) < 0.0;
         // Tangent along lines of latitude around the world y axis.
         let hint = Vec3::Y.cross(out);
         Surface {
             p,
+            p_err,
             ng,
             front,
             frame: make_frame(ng, hint),
@@ -83,10 +86,10 @@ pub fn surface_at(scene: &Scene, hit: &Hit, o: Vec3, d: Vec3) -> Surface {
         let (b1, b2) = (hit.bary.x, hit.bary.y);
         let b0 = 1.0 - b1 - b2;
         let [v0, v1, v2] = tri.v;
-        let p = v0 * b0 + v1 * b1 + v2 * b2;
+        let (p, p_err) = triangle_point(&tri.v, b1, b2);
         let e1 = v1 - v0;
         let e2 = v2 - v0;
-        let ng = e1.cross(e2).normalize();
+        let ng = crate::robust::triangle_normal(&tri.v);
         let front = d.dot(ng) < 0.0;
         let mut ns = ng;
         if let Some([n0, n1, n2]) = tri.n {
@@ -110,6 +113,7 @@ pub fn surface_at(scene: &Scene, hit: &Hit, o: Vec3, d: Vec3) -> Surface {
         }
         Surface {
             p,
+            p_err,
             ng,
             front,
             frame: make_frame(ns, hint),
@@ -121,6 +125,8 @@ pub fn surface_at(scene: &Scene, hit: &Hit, o: Vec3, d: Vec3) -> Surface {
 
 pub struct LightSample {
     pub p: Vec3,
+    /// Absolute rounding-error bound of `p`, per coordinate.
+    pub p_err: Vec3,
     /// Unit normal on the emitting side.
     pub n: Vec3,
     pub radiance: Vec3,
@@ -144,8 +150,10 @@ pub fn sample_light(
         let phi = 2.0 * PI * u2;
         let dir = Vec3::new(r * phi.cos(), r * phi.sin(), z);
         let e = s.emitter.expect("light table holds emitters only");
+        let (p, p_err) = sphere_point(s.center, dir, s.radius);
         LightSample {
-            p: s.center + dir * s.radius,
+            p,
+            p_err,
             n: if s.inward { -dir } else { dir },
             radiance: scene.emitters[e as usize].radiance,
             density: lights.select_density[e as usize],
@@ -156,11 +164,12 @@ pub fn sample_light(
         let b0 = 1.0 - su;
         let b1 = u2 * su;
         let b2 = 1.0 - b0 - b1;
-        let [v0, v1, v2] = t.v;
         let e = t.emitter.expect("light table holds emitters only");
+        let (p, p_err) = triangle_point(&t.v, b1, b2);
         LightSample {
-            p: v0 * b0 + v1 * b1 + v2 * b2,
-            n: (v1 - v0).cross(v2 - v0).normalize(),
+            p,
+            p_err,
+            n: crate::robust::triangle_normal(&t.v),
             radiance: scene.emitters[e as usize].radiance,
             density: lights.select_density[e as usize],
         }
@@ -185,4 +194,22 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
     }
     let r = (b / a).min(1e18);
     1.0 / (1.0 + r * r)
+}
+
+#[cfg(test)]
+mod tests {
+    /// The GLSL twin's gamma(n) are the Rust ones, bit for bit.
+    #[test]
+    fn glsl_gammas_match() {
+        let glsl = include_str!("../../shaders/wavefront/surface.glsl");
+        for n in [2, 4, 5] {
+            let key = format!("#define GAMMA{n} ");
+            let line = glsl
+                .lines()
+                .find(|l| l.starts_with(&key))
+                .unwrap_or_else(|| panic!("GAMMA{n} not in surface.glsl"));
+            let want = format!("uintBitsToFloat({:#010x}u)", crate::bvh::gamma(n).to_bits());
+            assert_eq!(line[key.len()..].trim(), want);
+        }
+    }
 }

@@ -21,6 +21,7 @@ struct Push {
 const MODE_EVAL: u32 = 0;
 const MODE_SAMPLE: u32 = 1;
 const MODE_COST: u32 = 2;
+const MODE_MATH: u32 = 3;
 /// Evaluations per invocation in the cost mode.
 const COST_REPS: u32 = 64;
 
@@ -132,6 +133,24 @@ pub fn eval(
         .chunks(2)
         .map(|c| (Vec3::new(c[0][0], c[0][1], c[0][2]), c[0][3]))
         .collect())
+}
+
+/// A GLSL helper for each `(x, y)` on the GPU, compiled with material `m`'s model: `op` 0
+/// `erfc(x)`, 1 `expm1_f(x)`, 2 `log1p_f(x)`, 3 `pow_one_minus(x, y)`, 4 `he_series(x, y)`
+/// (a He material with σ₀ > 0 only; 0 otherwise). For `brdfwave stress`.
+pub fn math(
+    ctx: &Context,
+    compiler: &ShaderCompiler,
+    m: &Material,
+    op: u32,
+    inputs: &[(f32, f32)],
+) -> Result<Vec<f32>> {
+    let raw: Vec<[f32; 4]> = inputs
+        .iter()
+        .flat_map(|&(x, y)| [[x, y, op as f32, 0.0], [0.0; 4]])
+        .collect();
+    let (out, _) = run(ctx, compiler, m, &raw, MODE_MATH, 0)?;
+    Ok(out.chunks(2).map(|c| c[0][0]).collect())
 }
 
 /// `sample(given, u_lobe, u)` for each input, on the GPU.

@@ -462,8 +462,11 @@ impl<'a> GpuRenderer<'a> {
         let mut mean = crate::imageio::Image::new(scene.width, scene.height);
         let mut variance = crate::imageio::Image::new(scene.width, scene.height);
         for i in 0..pixels {
-            let s = [film[i][0] as f64, film[i][1] as f64, film[i][2] as f64];
-            let s2 = [film2[i][0] as f64, film2[i][1] as f64, film2[i][2] as f64];
+            // The film holds sums of l·2^-k and (l·2^-k)², k in .w (accumulate.comp).
+            let k = film[i][3] as i32;
+            let (sc, sc2) = (2f64.powi(k), 2f64.powi(2 * k));
+            let s = [0, 1, 2].map(|c| film[i][c] as f64 * sc);
+            let s2 = [0, 1, 2].map(|c| film2[i][c] as f64 * sc2);
             let (m, v) = mean_and_variance(s, s2, spp);
             mean.data[i] = m;
             variance.data[i] = v;

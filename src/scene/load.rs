@@ -607,12 +607,29 @@ impl Cx<'_> {
 }
 
 /// Zero-area test: the two edges from `v0` are parallel or empty to within single precision,
-/// `|e1 × e2| <= 1e-6 |e1| |e2|`.
+/// `|e1 × e2| <= 1e-6 |e1| |e2|`, evaluated in f64 so that no finite f32 triangle overflows
+/// (or underflows) into looking degenerate. An edge that itself overflows f32 (vertices of
+/// opposite sign near 3.4e38) counts as degenerate here; the loaders refuse such input first
+/// with a message ([`edge_overflow`]).
 fn degenerate(v: &[Vec3; 3]) -> bool {
-    let e1 = v[1] - v[0];
-    let e2 = v[2] - v[0];
+    let d = |a: Vec3| glam::DVec3::new(a.x as f64, a.y as f64, a.z as f64);
+    let e1 = d(v[1]) - d(v[0]);
+    let e2 = d(v[2]) - d(v[0]);
     let c = e1.cross(e2).length();
-    !(c > 1e-6 * e1.length() * e2.length() && c.is_finite())
+    let edges_finite = (v[1] - v[0]).is_finite() && (v[2] - v[0]).is_finite();
+    !(c > 1e-6 * e1.length() * e2.length() && c.is_finite() && edges_finite)
+}
+
+/// A message when an edge `v1 - v0` or `v2 - v0` of a triangle with finite vertices is not
+/// finite in f32 (the renderers work with f32 edges).
+fn edge_overflow(v: &[Vec3; 3]) -> Option<String> {
+    if (v[1] - v[0]).is_finite() && (v[2] - v[0]).is_finite() && (v[2] - v[1]).is_finite() {
+        return None;
+    }
+    Some(format!(
+        "the triangle {} {} {} has an edge longer than the single-precision range (about 3.4e38)",
+        v[0], v[1], v[2]
+    ))
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -792,13 +809,22 @@ fn camera(cx: &Cx, c: &RawCamera) -> Result<Camera, SceneError> {
         );
         return Err(cx.err(c.fov_y.span(), "camera.fov_y", msg));
     }
-    let dir = (target - position).normalize_or_zero();
+    let diff = target - position;
+    if !diff.is_finite() {
+        let msg = format!(
+            "target - position = {target} - {position} overflows single precision (beyond about 3.4e38)"
+        );
+        return Err(cx.err(c.target.span(), "camera.target", msg));
+    }
+    // Scaled before normalizing: a distance beyond about 1.8e19 would overflow the squared
+    // length, and one below about 1e-19 underflow it.
+    let dir = crate::robust::normalize_scaled(diff);
     if dir == Vec3::ZERO {
         let msg = format!("the target equals the position {position}: no viewing direction");
         return Err(cx.err(c.target.span(), "camera.target", msg));
     }
     let up_span = c.up.as_ref().and_then(|u| u.span()).or(c.target.span());
-    let upn = up.normalize_or_zero();
+    let upn = crate::robust::normalize_scaled(up);
     if upn == Vec3::ZERO {
         return Err(cx.err(up_span, "camera.up", "the up vector has zero length"));
     }
@@ -904,6 +930,9 @@ fn shape_primitives(
             }
             for (half, idx) in [[0, 1, 2], [0, 2, 3]].iter().enumerate() {
                 let t = [p[idx[0]], p[idx[1]], p[idx[2]]];
+                if let Some(msg) = edge_overflow(&t) {
+                    return Err(cx.err(q.span(), &fq, format!("{label}, quad {k}: {msg}")));
+                }
                 if degenerate(&t) {
                     let msg = format!(
                         "{label}, quad {k}: its {} triangle (v{}, v{}, v{}) has zero area \
@@ -929,6 +958,9 @@ fn shape_primitives(
             let mut t = [Vec3::ZERO; 3];
             for (j, v) in q.value.iter().enumerate() {
                 t[j] = cx.vec3(q.span(), &ft, *v)?;
+            }
+            if let Some(msg) = edge_overflow(&t) {
+                return Err(cx.err(q.span(), &ft, format!("{label}, triangle {k}: {msg}")));
             }
             if degenerate(&t) {
                 let msg =
@@ -1237,6 +1269,13 @@ fn obj_triangles(
                     uv[j] = Vec2::new(m.texcoords[2 * i], m.texcoords[2 * i + 1]);
                 }
             }
+            if let Some(msg) = edge_overflow(&v) {
+                let msg = format!(
+                    "OBJ file '{shown}', object '{}', triangle {t}: {msg}",
+                    model.name
+                );
+                return Err(cx.err(span, fo, msg));
+            }
             if degenerate(&v) {
                 skipped += 1;
                 continue;
@@ -1244,7 +1283,7 @@ fn obj_triangles(
             let mut normals = None;
             if has_n {
                 if n.iter().all(|x| x.is_finite() && *x != Vec3::ZERO) {
-                    let g = (v[1] - v[0]).cross(v[2] - v[0]);
+                    let g = crate::robust::triangle_normal(&v);
                     if (n[0] + n[1] + n[2]).dot(g) < 0.0 {
                         flipped += 1;
                     }

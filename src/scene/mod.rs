@@ -112,8 +112,13 @@ impl Triangle {
     pub fn geometric_normal_unnormalized(&self) -> Vec3 {
         (self.v[1] - self.v[0]).cross(self.v[2] - self.v[0])
     }
-    pub fn area(&self) -> f32 {
-        0.5 * self.geometric_normal_unnormalized().length()
+    /// The unit geometric normal, overflow-safe (`robust::triangle_normal`).
+    pub fn geometric_normal(&self) -> Vec3 {
+        crate::robust::triangle_normal(&self.v)
+    }
+    /// The area in f64: finite for every triangle with finite f32 vertices.
+    pub fn area(&self) -> f64 {
+        0.5 * crate::robust::triangle_double_area_f64(&self.v)
     }
 }
 
