@@ -15,7 +15,8 @@ void main() {
     vec3 o = ray_o(path).xyz;
     vec3 e;
     Hit hit;
-    uint slot = segment_end(pc.bounce, o, dd.xyz, dd.w, beta(path).xyz, e, hit);
+    Surface s;
+    uint slot = segment_end(pc.bounce, o, dd.xyz, dd.w, beta(path).xyz, e, hit, s);
     if (e.x != 0.0 || e.y != 0.0 || e.z != 0.0) radiance_set(path, radiance(path) + vec4(e, 0.0));
     if (slot == NO_QUEUE) return;
     hit_rec_set(path, uvec4(hit.prim, floatBitsToUint(hit.bary.x), floatBitsToUint(hit.bary.y), floatBitsToUint(hit.t)));

@@ -21,11 +21,12 @@ void main() {
     vec3 b = beta(path).xyz;
     vec3 e;
     Hit hit;
-    uint slot = segment_end(pc.bounce, o, dd.xyz, dd.w, b, e, hit);
+    Surface s;
+    uint slot = segment_end(pc.bounce, o, dd.xyz, dd.w, b, e, hit, s);
     if (e.x != 0.0 || e.y != 0.0 || e.z != 0.0) radiance_set(path, radiance(path) + vec4(e, 0.0));
     if (slot == NO_QUEUE) return;
     // Counted as the material queue's length, as extend would, for the ray totals.
-    Scatter sc = shade_vertex(path, pc.bounce, hit, o, dd.xyz, b, counter_nonfinite_shade(slot));
+    Scatter sc = shade_vertex(path, pc.bounce, s, dd.xyz, b, counter_nonfinite_shade(slot));
     if (sc.shadow && !trace_any(sc.shadow_o, sc.shadow_d, sc.shadow_tmax)) {
         radiance_set(path, radiance(path) + vec4(sc.shadow_l, 0.0));
     }

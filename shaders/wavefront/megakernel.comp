@@ -45,10 +45,11 @@ void main() {
             Hit hit;
             n_extension += 1u;
             atomicAdd(wg_segment_extension[min(depth, SEGMENTS_COUNTED) - 1u], 1u);
-            uint slot = segment_end(depth, o, d, prev_pdf, b, e, hit);
+            Surface s;
+            uint slot = segment_end(depth, o, d, prev_pdf, b, e, hit, s);
             l += e;
             if (slot == NO_QUEUE) break;
-            Scatter sc = shade_vertex(path, depth, hit, o, d, b, counter_nonfinite_shade(slot));
+            Scatter sc = shade_vertex(path, depth, s, d, b, counter_nonfinite_shade(slot));
             if (sc.shadow) {
                 n_shadow += 1u;
                 atomicAdd(wg_segment_shadow[min(depth, SEGMENTS_COUNTED) - 1u], 1u);

@@ -25,15 +25,16 @@ void camera_ray(uint path, out vec3 o, out vec3 d) {
 // d or 0): the emitted light seen there, MIS-weighted against next-event estimation, or the
 // environment on a miss, goes to `e` (zero when none; a non-finite value is counted at the
 // extend counter and dropped). Returns the material queue slot when the path goes on from a
-// surface, NO_QUEUE when it ends (miss, back face, the depth limit, a black surface).
-uint segment_end(uint depth, vec3 o, vec3 d, float prev_pdf, vec3 b, out vec3 e, out Hit hit) {
+// surface (whose interaction is `s`, for shading), NO_QUEUE when it ends (miss, back face, the
+// depth limit, a black surface).
+uint segment_end(uint depth, vec3 o, vec3 d, float prev_pdf, vec3 b, out vec3 e, out Hit hit, out Surface s) {
     e = vec3(0.0);
     if (!trace_closest(o, d, 3.402823e38, hit)) {
         vec3 env = b * g.environment;
         if (finite_or_count(env, counter_nonfinite_extend())) e = env;
         return NO_QUEUE;
     }
-    Surface s = surface_at(hit.prim, hit.bary, hit.t, o, d);
+    s = surface_at(hit.prim, hit.bary, hit.t, o, d);
     if (!s.front) return NO_QUEUE;
     if (s.emitter != NO_EMITTER) {
         vec3 le = emitter(s.emitter).xyz;

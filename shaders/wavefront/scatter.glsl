@@ -21,10 +21,10 @@ struct Scatter {
     float pdf;
 };
 
-// Shades the vertex at the end of segment `depth` (the hit record of ray o + t d): one light
-// sample (next-event estimation) and one BRDF sample, keyed on (path, depth). Non-finite light
-// contributions and continuations are counted at counter c and dropped.
-Scatter shade_vertex(uint path, uint depth, Hit hit, vec3 o, vec3 d, vec3 b, uint c) {
+// Shades the vertex at the end of segment `depth` (surface s, reached along direction d with
+// throughput b): one light sample (next-event estimation) and one BRDF sample, keyed on (path,
+// depth). Non-finite light contributions and continuations are counted at counter c and dropped.
+Scatter shade_vertex(uint path, uint depth, Surface s, vec3 d, vec3 b, uint c) {
     Scatter r;
     r.shadow = false;
     r.next = false;
@@ -36,7 +36,6 @@ Scatter shade_vertex(uint path, uint depth, Hit hit, vec3 o, vec3 d, vec3 b, uin
     r.d = vec3(0.0);
     r.beta = vec3(0.0);
     r.pdf = 0.0;
-    Surface s = surface_at(hit.prim, hit.bary, hit.t, o, d);
     Material m = load_material(s.material);
     vec3 wo = to_local(s.frame, -d);
     if (wo.z <= 0.0) return r;

@@ -19,8 +19,9 @@ void main() {
     hit.prim = h.x;
     hit.bary = vec2(uintBitsToFloat(h.y), uintBitsToFloat(h.z));
     hit.t = uintBitsToFloat(h.w);
-    Scatter sc = shade_vertex(path, pc.bounce, hit, ray_o(path).xyz, ray_d(path).xyz, beta(path).xyz,
-                              counter_nonfinite_shade(pc.queue_slot));
+    vec3 d = ray_d(path).xyz;
+    Surface s = surface_at(hit.prim, hit.bary, hit.t, ray_o(path).xyz, d);
+    Scatter sc = shade_vertex(path, pc.bounce, s, d, beta(path).xyz, counter_nonfinite_shade(pc.queue_slot));
     if (sc.shadow) {
         shadow_o_set(path, vec4(sc.shadow_o, sc.shadow_tmax));
         shadow_d_set(path, vec4(sc.shadow_d, 0.0));
