@@ -319,7 +319,7 @@ impl Drop for MitsubaRunner {
     }
 }
 
-/// The newest `libLLVM.so.1N` (N >= 6) of the system, for Dr.Jit.
+/// The newest libLLVM of version 16 or later on the system, for Dr.Jit.
 fn newest_libllvm() -> Option<PathBuf> {
     let dir = Path::new("/usr/lib/x86_64-linux-gnu");
     (16..=30)

@@ -327,6 +327,9 @@ fn main() {
             if reference_spp == 0 {
                 bail!("--reference-spp must be at least 1");
             }
+            if let Some(n) = scaling.filter(|&n| n == 0 || n > 1 << 24) {
+                bail!("--scaling takes a triangle count from 1 to 16777216, got {n}");
+            }
             let md = brdfwave::bench::run(&brdfwave::bench::BenchOptions {
                 scene,
                 reference,

@@ -423,6 +423,10 @@ fn bench_writes_its_csv_plot_and_summary() {
         "wavefront,pbrt",
     ]);
     assert!(e.contains("unknown configuration 'pbrt'"), "{e}");
+    let e = fails(&["bench", "scenes/cornell-box.toml", "--scaling", "0"]);
+    assert!(e.contains("--scaling"), "{e}");
+    let e = fails(&["bench", "scenes/cornell-box.toml", "--budget", "0"]);
+    assert!(e.contains("--budget"), "{e}");
 }
 
 /// A fresh, empty directory for one test.
