@@ -807,67 +807,8 @@ fn case_geometry(env: &mut Env, seed: u64) -> Result<CaseResult> {
 
 /// Icosphere triangles (outward winding) with exactly shared vertices.
 fn icosphere(subdiv: u32, center: Vec3, radius: f32) -> Vec<[Vec3; 3]> {
-    let p = (1.0 + 5.0f32.sqrt()) / 2.0;
-    let mut v: Vec<Vec3> = [
-        (-1.0, p, 0.0),
-        (1.0, p, 0.0),
-        (-1.0, -p, 0.0),
-        (1.0, -p, 0.0),
-        (0.0, -1.0, p),
-        (0.0, 1.0, p),
-        (0.0, -1.0, -p),
-        (0.0, 1.0, -p),
-        (p, 0.0, -1.0),
-        (p, 0.0, 1.0),
-        (-p, 0.0, -1.0),
-        (-p, 0.0, 1.0),
-    ]
-    .iter()
-    .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
-    .collect();
-    let mut f: Vec<[usize; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..subdiv {
-        let mut cache = std::collections::HashMap::new();
-        let mut mid = |a: usize, b: usize, v: &mut Vec<Vec3>| -> usize {
-            *cache.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                v.push(((v[a] + v[b]) * 0.5).normalize());
-                v.len() - 1
-            })
-        };
-        let mut nf = Vec::new();
-        for t in &f {
-            let ab = mid(t[0], t[1], &mut v);
-            let bc = mid(t[1], t[2], &mut v);
-            let ca = mid(t[2], t[0], &mut v);
-            nf.extend([[t[0], ab, ca], [t[1], bc, ab], [t[2], ca, bc], [ab, bc, ca]]);
-        }
-        f = nf;
-    }
-    let pts: Vec<Vec3> = v.iter().map(|&p| center + p * radius).collect();
-    f.iter()
-        .map(|t| [pts[t[0]], pts[t[1]], pts[t[2]]])
-        .collect()
+    let (v, f) = crate::scene::shapes::icosphere(subdiv, center, radius);
+    f.iter().map(|t| [v[t[0]], v[t[1]], v[t[2]]]).collect()
 }
 
 // --- radiance ---------------------------------------------------------------------------------

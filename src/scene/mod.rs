@@ -6,6 +6,7 @@
 //! GPU upload (`crate::gpu::scene_buffers`) packs them without further interpretation.
 
 pub mod load;
+pub mod shapes;
 
 use crate::brdf::Material;
 use glam::{Vec2, Vec3};
