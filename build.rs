@@ -30,6 +30,34 @@ fn main() {
         println!("cargo:rustc-link-lib=static={lib}");
     }
     embed_shaders();
+    git_commit();
+}
+
+/// Sets `BRDFWAVE_COMMIT` to the git commit being built (12 hex digits), or empty outside a git
+/// checkout; partial films record it (`src/film.rs`, `code_version`) so that parts rendered by
+/// different versions are not merged. Re-run when HEAD or a branch moves.
+fn git_commit() {
+    let git = |args: &[&str]| -> Option<String> {
+        let out = std::process::Command::new("git").args(args).output().ok()?;
+        out.status
+            .success()
+            .then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
+    };
+    let commit = git(&["rev-parse", "--short=12", "HEAD"]).unwrap_or_default();
+    // A missing file would make cargo re-run the script on every build: name existing ones only.
+    let watch = |path: String| {
+        if std::path::Path::new(&path).exists() {
+            println!("cargo:rerun-if-changed={path}");
+        }
+    };
+    if let Some(dir) = git(&["rev-parse", "--absolute-git-dir"]) {
+        watch(format!("{dir}/HEAD"));
+    }
+    if let Some(common) = git(&["rev-parse", "--path-format=absolute", "--git-common-dir"]) {
+        watch(format!("{common}/refs/heads"));
+        watch(format!("{common}/packed-refs"));
+    }
+    println!("cargo:rustc-env=BRDFWAVE_COMMIT={commit}");
 }
 
 /// File endings treated as shader sources (anything else under `shaders/` is not embedded).

@@ -208,7 +208,7 @@ struct CpuRunner<'a> {
 impl Runner for CpuRunner<'_> {
     fn pass(&mut self, n: u32) -> Result<f64> {
         let t = Instant::now();
-        let start = self.film.spp;
+        let start = self.film.spp();
         self.renderer
             .render_samples(&mut self.film, start..start + n, &|_| {});
         Ok(t.elapsed().as_secs_f64())

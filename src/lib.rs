@@ -11,6 +11,7 @@
 //! * `gpu` — the wavefront integrator built on `vk` (kernels in `shaders/wavefront/`);
 //! * `camera`, `lights` — camera rays and the emitter table both renderers sample;
 //! * `output` — what a render returns, whichever backend made it;
+//! * `film` — per-pixel sample sums, partial films of split renders, and their exact merge;
 //! * `brdf_tools` — `brdfwave brdf eval | plot | report`;
 //! * `imageio`, `metrics` — image files and image comparison;
 //! * `outfile` — the atomic writer of every file, and the up-front checks of output paths;
@@ -24,6 +25,7 @@ pub mod bvh;
 pub mod camera;
 pub mod cpu;
 pub mod errors;
+pub mod film;
 pub mod gpu;
 pub mod imageio;
 pub mod lights;

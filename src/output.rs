@@ -46,22 +46,3 @@ pub fn nonfinite_stages(
     v.push(("accumulate".to_string(), accumulate));
     v
 }
-
-/// Mean and unbiased one-sample variance from sums accumulated in f64. The mean of finite f32
-/// samples is a finite f32; the variance of samples beyond about 1.8e19 is not, and is clamped
-/// to `f32::MAX` (the images are f32).
-pub fn mean_and_variance(sum: [f64; 3], sum2: [f64; 3], n: u32) -> ([f32; 3], [f32; 3]) {
-    let n = n.max(1) as f64;
-    let mut m = [0f32; 3];
-    let mut v = [0f32; 3];
-    for c in 0..3 {
-        let mean = sum[c] / n;
-        m[c] = mean as f32;
-        v[c] = if n > 1.0 {
-            ((sum2[c] - n * mean * mean) / (n - 1.0)).clamp(0.0, f32::MAX as f64) as f32
-        } else {
-            0.0
-        };
-    }
-    (m, v)
-}

@@ -4,9 +4,8 @@
 use std::fs;
 use std::path::Path;
 
-use brdfwave::imageio::{
-    self, linear_to_srgb8, mean_variance_from_sums, srgb_to_linear, Image, ImageError, Moments,
-};
+use brdfwave::film;
+use brdfwave::imageio::{self, linear_to_srgb8, srgb_to_linear, Image, ImageError};
 use brdfwave::metrics::{self, MetricsError, VarianceModel, ZTestOptions};
 
 /// SplitMix64: a small seeded generator for the synthetic data (independent of `brdfwave::rng`).
@@ -275,47 +274,41 @@ fn read_errors_name_the_file() {
     assert!(err.contains("x.jpg") && err.contains("extension"), "{err}");
 }
 
+/// The film's mean and one-sample variance from sums (`film::mean_and_variance`, the one
+/// implementation both renderers and merge use) match a two-pass computation in f64.
 #[test]
-fn moments_match_sums() {
-    let (w, h, n) = (5u32, 4u32, 37u64);
+fn mean_and_variance_from_sums_match_two_passes() {
+    let n = 37u32;
     let mut rng = SplitMix(7);
-    let mut m = Moments::new(w, h);
-    let len = (w * h) as usize;
-    let mut sum = vec![[0.0f64; 3]; len];
-    let mut sum_sq = vec![[0.0f64; 3]; len];
-    for _ in 0..n {
-        let pass = Image::from_fn(w, h, |x, _| {
-            [0, 1, 2].map(|c| (x as f64 + c as f64 + rng.normal()) as f32)
-        });
-        for (i, p) in pass.data.iter().enumerate() {
-            for c in 0..3 {
-                sum[i][c] += p[c] as f64;
-                sum_sq[i][c] += (p[c] as f64).powi(2);
+    for pixel in 0..20 {
+        let xs: Vec<[f32; 3]> = (0..n)
+            .map(|_| [0, 1, 2].map(|c| (pixel as f64 + c as f64 + rng.normal()) as f32))
+            .collect();
+        let mut sums = [0.0f64; 6];
+        for x in &xs {
+            for (s, v) in sums.iter_mut().zip(film::sample_sums(*x)) {
+                *s += v;
             }
         }
-        m.add_pass(&pass).unwrap();
-    }
-    assert_eq!(m.count(), n);
-    let (mean, var) = mean_variance_from_sums(w, h, n, &sum, &sum_sq).unwrap();
-    for (a, b) in m.mean_image().data.iter().zip(&mean.data) {
+        let (m, v) =
+            film::mean_and_variance([sums[0], sums[1], sums[2]], [sums[3], sums[4], sums[5]], n);
         for c in 0..3 {
-            assert!((a[c] - b[c]).abs() < 1e-5);
-        }
-    }
-    for (a, b) in m.variance_image().data.iter().zip(&var.data) {
-        for c in 0..3 {
+            let mean = xs.iter().map(|x| x[c] as f64).sum::<f64>() / n as f64;
+            let var = xs.iter().map(|x| (x[c] as f64 - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
+            assert!((m[c] as f64 - mean).abs() < 1e-6 * mean.abs().max(1.0));
             assert!(
-                (a[c] - b[c]).abs() < 1e-4 * b[c].max(1.0),
-                "{} vs {}",
-                a[c],
-                b[c]
+                (v[c] as f64 - var).abs() < 1e-4 * var.max(1.0),
+                "{} vs {var}",
+                v[c]
             );
         }
     }
-    // Unit-variance noise: the pooled sample variance is close to 1.
-    let pooled = var.mean();
-    assert!(pooled.iter().all(|v| (v - 1.0).abs() < 0.15), "{pooled:?}");
-    assert!(m.add_pass(&Image::new(3, 3)).is_err());
+    // One sample: variance 0; no samples: mean 0.
+    assert_eq!(
+        film::mean_and_variance([2.0; 3], [4.0; 3], 1),
+        ([2.0; 3], [0.0; 3])
+    );
+    assert_eq!(film::mean_and_variance([0.0; 3], [0.0; 3], 0).0, [0.0; 3]);
 }
 
 #[test]
@@ -427,7 +420,8 @@ fn fraction_within_counts_and_ranks_disagreements() {
 }
 
 /// Per-pixel mean and sample variance of `n` exponential samples with mean mu(x, y) + shift
-/// (shift only inside `region`), via [`Moments`]. Exponential: skewed like Monte Carlo radiance.
+/// (shift only inside `region`), from per-pixel sums as a film keeps them. Exponential: skewed
+/// like Monte Carlo radiance.
 fn exponential_render(
     seed: u64,
     w: u32,
@@ -437,17 +431,30 @@ fn exponential_render(
     shift: impl Fn(u32, u32) -> f64,
 ) -> (Image, Image) {
     let mut rng = SplitMix(seed);
-    let mut m = Moments::new(w, h);
+    let mut sums = vec![[0.0f64; 6]; (w * h) as usize];
     for _ in 0..n {
-        let pass = Image::from_fn(w, h, |x, y| {
-            [0, 1, 2].map(|c| {
-                let mean = mu(x, y) * (1.0 + 0.3 * c as f64);
-                (-mean * (1.0 - rng.uniform()).ln() + shift(x, y) * (1.0 + 0.3 * c as f64)) as f32
-            })
-        });
-        m.add_pass(&pass).unwrap();
+        for y in 0..h {
+            for x in 0..w {
+                let l = [0, 1, 2].map(|c| {
+                    let mean = mu(x, y) * (1.0 + 0.3 * c as f64);
+                    (-mean * (1.0 - rng.uniform()).ln() + shift(x, y) * (1.0 + 0.3 * c as f64))
+                        as f32
+                });
+                let s = &mut sums[(y * w + x) as usize];
+                for (a, v) in s.iter_mut().zip(film::sample_sums(l)) {
+                    *a += v;
+                }
+            }
+        }
     }
-    (m.mean_image(), m.variance_image())
+    let mut mean = Image::new(w, h);
+    let mut variance = Image::new(w, h);
+    for (i, s) in sums.iter().enumerate() {
+        let (m, v) = film::mean_and_variance([s[0], s[1], s[2]], [s[3], s[4], s[5]], n as u32);
+        mean.data[i] = m;
+        variance.data[i] = v;
+    }
+    (mean, variance)
 }
 
 #[test]

@@ -48,6 +48,9 @@ layout(scalar, set = 0, binding = BINDING_GLOBALS) uniform Globals {
     uint rr_start_depth;
     uint num_queues;  // material queues in use
     uint capacity;    // path slots per wave
+    uint tile_x;      // the part of the image rendered (all of it unless TILED):
+    uint tile_y;      //   columns tile_x .. tile_x + tile_width, rows from tile_y
+    uint tile_width;
 } g;
 
 // Path state (SoA), storage texel buffers (an image load is a vector gather on lavapipe;
@@ -99,8 +102,17 @@ layout(push_constant) uniform Push {
     uint chunk_pixels;  // pixels in this chunk (chunk_size is a multiple)
 } pc;
 
-// Path slot p holds pixel chunk_offset + p mod chunk_pixels, sample sample_index + p / chunk_pixels.
-uint path_pixel(uint path) { return pc.chunk_offset + path % pc.chunk_pixels; }
+// Path slot p holds pixel chunk_offset + p mod chunk_pixels of the tile (the film's index),
+// sample sample_index + p / chunk_pixels.
+uint path_film_pixel(uint path) { return pc.chunk_offset + path % pc.chunk_pixels; }
+// The path's pixel in the whole image, which keys its random numbers and places its camera ray.
+uint path_pixel(uint path) {
+    uint p = path_film_pixel(path);
+#ifdef TILED
+    p = (g.tile_y + p / g.tile_width) * g.width + g.tile_x + p % g.tile_width;
+#endif
+    return p;
+}
 uint path_sample(uint path) { return pc.sample_index + path / pc.chunk_pixels; }
 
 uint counter_nonfinite_extend() { return COUNTER_MATERIAL + g.num_queues; }

@@ -17,9 +17,9 @@ pub mod surface;
 use crate::brdf::Brdf;
 use crate::bvh::{self, Bvh};
 use crate::camera::CameraBasis;
-use crate::imageio::Image;
+use crate::film::{self, Block, Film, PairwiseSum, Tile};
 use crate::lights::{luminance, LightTable};
-use crate::output::{mean_and_variance, nonfinite_stages, RenderOutput, SEGMENTS_COUNTED};
+use crate::output::{nonfinite_stages, RenderOutput, SEGMENTS_COUNTED};
 use crate::rng::{dim, PathRng};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
@@ -57,14 +57,19 @@ impl PathStats {
     }
 }
 
-/// Per-pixel f64 sums of the samples rendered so far (progressive rendering).
+/// The samples rendered so far of one tile of the image (progressive and split rendering), and
+/// the counts of the paths that made them.
 pub struct CpuFilm {
-    sum: Vec<[f64; 3]>,
-    sum2: Vec<[f64; 3]>,
-    /// Samples per pixel in the sums.
-    pub spp: u32,
+    pub film: Film,
     stats: PathStats,
     nonfinite_accumulate: u64,
+}
+
+impl CpuFilm {
+    /// Samples per pixel held.
+    pub fn spp(&self) -> u32 {
+        self.film.spp()
+    }
 }
 
 pub struct CpuRenderer<'a> {
@@ -92,61 +97,76 @@ impl<'a> CpuRenderer<'a> {
         self.output(&film)
     }
 
-    /// An empty film for [`render_samples`](Self::render_samples).
+    /// An empty film of the whole image, for [`render_samples`](Self::render_samples).
     pub fn film(&self) -> CpuFilm {
-        let n = (self.scene.width * self.scene.height) as usize;
+        self.film_of(Tile::full(self.scene.width, self.scene.height))
+    }
+
+    /// An empty film of one tile of the image (which must lie within it).
+    pub fn film_of(&self, tile: Tile) -> CpuFilm {
+        assert!(tile
+            .check_within(self.scene.width, self.scene.height)
+            .is_ok());
         CpuFilm {
-            sum: vec![[0.0; 3]; n],
-            sum2: vec![[0.0; 3]; n],
-            spp: 0,
+            film: Film::new(tile),
             stats: PathStats::default(),
             nonfinite_accumulate: 0,
         }
     }
 
-    /// Adds the samples `samples` (sample indices, the next ones after those in `film`) of every
-    /// pixel to `film`. Each pixel's samples are added in sample order, so any split into passes
-    /// gives the same sums. `progress` is called with the number of rows finished.
+    /// Adds the samples `samples` (sample indices; the next ones after those in `film`, or any
+    /// when it is empty) of every pixel of the film's tile. Each pixel's samples are summed in
+    /// the dyadic blocks of `crate::film`, so any split into passes, processes or machines
+    /// gives the same sums, bit for bit. `progress` is called with the number of rows finished.
     pub fn render_samples(
         &self,
         film: &mut CpuFilm,
         samples: std::ops::Range<u32>,
         progress: &(dyn Fn(u32) + Sync),
     ) {
-        assert_eq!(
-            samples.start, film.spp,
+        assert!(
+            film.film.blocks.is_empty() || samples.start == film.film.samples().end,
             "samples must follow those in the film"
         );
+        if samples.is_empty() {
+            return;
+        }
         let s = self.scene;
-        let w = s.width as usize;
+        let tile = film.film.tile;
+        let blocks = film::dyadic_blocks(samples);
+        let nb = blocks.len();
         let rows_done = AtomicU64::new(0);
-        let per_row: Vec<(PathStats, u64)> = film
-            .sum
-            .par_chunks_mut(w)
-            .zip(film.sum2.par_chunks_mut(w))
+        // Pixel p's sums of block b at p·nb + b, split into the blocks' planes below.
+        let mut sums = vec![[0f64; 6]; tile.pixels() * nb];
+        let per_row: Vec<(PathStats, u64)> = sums
+            .par_chunks_mut(tile.width as usize * nb)
             .enumerate()
-            .map(|(y, (sum_row, sum2_row))| {
+            .map(|(row, out)| {
                 let mut stats = PathStats::default();
                 let mut bad = 0u64;
-                for x in 0..w {
-                    let pixel = (y * w + x) as u32;
-                    for sample in samples.clone() {
-                        let rng = PathRng {
-                            seed: s.integrator.seed,
-                            pixel,
-                            sample,
-                        };
-                        let l = self.trace_path(x as u32, y as u32, &rng, &mut stats);
-                        // Sums in f64: no finite f32 sample overflows them, or its
-                        // square (the GPU film scales its f32 sums instead).
-                        if !l.is_finite() {
-                            bad += 1;
-                            continue;
+                let y = tile.y + row as u32;
+                for (i, x) in (tile.x..tile.x + tile.width).enumerate() {
+                    let pixel = y * s.width + x;
+                    for (b, range) in blocks.iter().enumerate() {
+                        let mut acc = PairwiseSum::default();
+                        for sample in range.clone() {
+                            let rng = PathRng {
+                                seed: s.integrator.seed,
+                                pixel,
+                                sample,
+                            };
+                            let l = self.trace_path(x, y, &rng, &mut stats);
+                            // Sums in f64: no finite f32 sample overflows them, or its
+                            // square (the GPU film scales its f32 sums instead). A
+                            // non-finite sample is dropped, counted, and adds 0.
+                            acc.push(if l.is_finite() {
+                                film::sample_sums(l.to_array())
+                            } else {
+                                bad += 1;
+                                [0.0; 6]
+                            });
                         }
-                        for c in 0..3 {
-                            sum_row[x][c] += l[c] as f64;
-                            sum2_row[x][c] += (l[c] as f64) * (l[c] as f64);
-                        }
+                        out[i * nb + b] = acc.total();
                     }
                 }
                 let done = rows_done.fetch_add(1, Ordering::Relaxed) + 1;
@@ -158,19 +178,22 @@ impl<'a> CpuRenderer<'a> {
             film.stats.add(&stats);
             film.nonfinite_accumulate += bad;
         }
-        film.spp = samples.end;
+        film.film.add_blocks(
+            blocks
+                .into_iter()
+                .enumerate()
+                .map(|(b, range)| Block {
+                    samples: range,
+                    sums: sums.iter().skip(b).step_by(nb).copied().collect(),
+                })
+                .collect(),
+        );
     }
 
-    /// The image of the samples in `film`, and its counts.
+    /// The image of the film's tile, and its counts.
     pub fn output(&self, film: &CpuFilm) -> RenderOutput {
         let s = self.scene;
-        let mut mean = Image::new(s.width, s.height);
-        let mut variance = Image::new(s.width, s.height);
-        for i in 0..film.sum.len() {
-            let (m, v) = mean_and_variance(film.sum[i], film.sum2[i], film.spp);
-            mean.data[i] = m;
-            variance.data[i] = v;
-        }
+        let (mean, variance) = film.film.images();
         let stats = &film.stats;
         let nonfinite_by_stage = nonfinite_stages(
             stats.nonfinite_extend,
@@ -182,7 +205,7 @@ impl<'a> CpuRenderer<'a> {
         RenderOutput {
             mean,
             variance,
-            spp: film.spp,
+            spp: film.spp(),
             nonfinite_samples: nonfinite_by_stage.iter().map(|s| s.1).sum(),
             nonfinite_by_stage,
             extension_rays: stats.extension_rays,

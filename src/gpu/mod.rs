@@ -36,8 +36,9 @@ pub mod scene_buffers;
 
 use crate::brdf::MODELS;
 use crate::bvh::Bvh;
+use crate::film::{Block, Film, Tile};
 use crate::lights::LightTable;
-use crate::output::{mean_and_variance, nonfinite_stages, RenderOutput};
+use crate::output::{nonfinite_stages, RenderOutput};
 use crate::scene::Scene;
 use crate::vk::{Buffer, ComputePipeline, Context, Recorder, Resource, ShaderCompiler};
 use anyhow::{bail, Context as _, Result};
@@ -174,8 +175,11 @@ pub struct GpuRenderer<'a> {
     integrator: Integrator,
     counters: Counters,
     capacity: u32,
-    /// Samples per pixel in the film so far.
-    samples_done: u32,
+    /// The part of the image rendered (the whole image unless split into tiles).
+    tile: Tile,
+    /// The samples in the film: `film_samples.start` is the first one rendered since the last
+    /// reset, `film_samples.end` the next to render.
+    film_samples: Range<u32>,
     stage_seconds: Vec<(String, f64)>,
     pub setup: SetupStats,
 }
@@ -221,10 +225,28 @@ impl<'a> GpuRenderer<'a> {
         wave_paths: u32,
         integrator: Integrator,
     ) -> Result<Self> {
+        let tile = Tile::full(scene.width, scene.height);
+        Self::with_tile(ctx, scene, bvh, compiler, wave_paths, integrator, tile)
+    }
+
+    /// As [`with_options`](Self::with_options), rendering only the pixels of `tile` (which must
+    /// lie within the image): its film is the tile's size, and each pixel gets the samples it
+    /// gets in a render of the whole image (the random numbers are keyed on the image's pixel).
+    pub fn with_tile(
+        ctx: &'a Context,
+        scene: &'a Scene,
+        bvh: &Bvh,
+        compiler: &ShaderCompiler,
+        wave_paths: u32,
+        integrator: Integrator,
+        tile: Tile,
+    ) -> Result<Self> {
         check_wave_paths(wave_paths).context("wave size")?;
         check_max_depth(scene.integrator.max_depth)?;
+        tile.check_within(scene.width, scene.height)
+            .map_err(anyhow::Error::msg)?;
         let mut setup = SetupStats::default();
-        let pixels = scene.width as u64 * scene.height as u64;
+        let pixels = tile.pixels() as u64;
         // Path slots: all the samples that fit of the whole image, or one chunk of it.
         let spp = scene.integrator.spp.max(1) as u64;
         let wave = wave_paths as u64;
@@ -256,9 +278,12 @@ impl<'a> GpuRenderer<'a> {
         let queue_bytes = (layout::QUEUE_MATERIAL as u64 + num_queues as u64) * capacity as u64 * 4;
         if film_bytes > limit || queue_bytes > limit {
             bail!(
-                "image of {}x{} needs a {} MiB film buffer, over this device's storage-buffer range of {} MiB; render a smaller image",
-                scene.width,
-                scene.height,
+                "{} pixels need a {} MiB film buffer, over this device's storage-buffer range of {} MiB; render a smaller image or split it into tiles (--tile)",
+                if tile == Tile::full(scene.width, scene.height) {
+                    format!("an image of {}x{}", scene.width, scene.height)
+                } else {
+                    format!("a tile of {}x{}", tile.width, tile.height)
+                },
                 film_bytes >> 20,
                 limit >> 20
             );
@@ -305,7 +330,7 @@ impl<'a> GpuRenderer<'a> {
                 )?,
                 Binding::Globals => ctx.create_buffer_with_data(
                     name,
-                    &scene_buffers::globals(scene, &lights, num_queues, capacity),
+                    &scene_buffers::globals(scene, &lights, num_queues, capacity, tile),
                     usage,
                 )?,
                 Binding::RayO
@@ -344,8 +369,9 @@ impl<'a> GpuRenderer<'a> {
         }
         setup.seconds_upload = t_upload.elapsed().as_secs_f64();
 
+        let tiled = tile != Tile::full(scene.width, scene.height);
         let (stages, shade) = build_kernels(
-            ctx, scene, &models, &mut owned, compiler, &mut setup, integrator,
+            ctx, scene, &mut owned, compiler, &mut setup, integrator, tiled,
         )?;
         Ok(GpuRenderer {
             ctx,
@@ -356,7 +382,8 @@ impl<'a> GpuRenderer<'a> {
             integrator,
             counters,
             capacity,
-            samples_done: 0,
+            tile,
+            film_samples: 0..0,
             stage_seconds: Vec::new(),
             setup,
         })
@@ -377,25 +404,27 @@ impl<'a> GpuRenderer<'a> {
         rec.fill_buffer(self.owned.buffer(Binding::Film2), 0);
         rec.fill_buffer(self.owned.buffer(Binding::Counters), 0);
         self.ctx.submit_and_wait(rec)?;
-        self.samples_done = 0;
+        self.film_samples = 0..0;
         self.stage_seconds.clear();
         Ok(())
     }
 
     /// Adds the samples `samples` (sample indices; the next ones after those already in the
-    /// film) of every pixel to the film. `progress` gets the samples per pixel done so far: after
+    /// film, or any after a reset) of every pixel of the tile to the film. `progress` gets the samples per pixel done so far: after
     /// each batch of waves, and, while a batch holds a single wave (a slow device), after each
     /// segment, as a fraction of the wave by segments.
     pub fn render_samples(&mut self, samples: Range<u32>, progress: &dyn Fn(f64)) -> Result<()> {
-        if samples.start != self.samples_done {
+        if self.film_samples.is_empty() {
+            self.film_samples = samples.start..samples.start;
+        } else if samples.start != self.film_samples.end {
             bail!(
-                "samples from {} asked for, but the film holds samples 0..{}",
+                "samples from {} asked for, but the film holds samples {}..{}",
                 samples.start,
-                self.samples_done
+                self.film_samples.start,
+                self.film_samples.end
             );
         }
-        let scene = self.scene;
-        let pixels = scene.width * scene.height;
+        let pixels = self.tile.width * self.tile.height;
         let ctx = self.ctx;
         // The waves, in order: k samples of the whole image when it fits in a wave, else one
         // sample of one chunk of pixels. Consecutive waves share a command buffer (a batch) whose
@@ -409,7 +438,7 @@ impl<'a> GpuRenderer<'a> {
             let t_batch = Instant::now();
             let mut rec = ctx.begin()?;
             rec.timestamp("start");
-            let mut samples_done = self.samples_done;
+            let mut samples_done = self.film_samples.end;
             for w in waves.by_ref().take(batch) {
                 samples_done = w.samples_done;
                 let push = Push {
@@ -420,7 +449,8 @@ impl<'a> GpuRenderer<'a> {
                     ..Default::default()
                 };
                 // The part of a sample per pixel this wave is, for progress.
-                let start = w.sample as f64 + w.offset as f64 / pixels as f64;
+                let start =
+                    (w.sample - self.film_samples.start) as f64 + w.offset as f64 / pixels as f64;
                 let end = start + w.samples as f64 * w.pixels as f64 / pixels as f64;
                 let report = |fraction: f64| progress(start + (end - start) * fraction);
                 let split = batch == 1;
@@ -441,8 +471,8 @@ impl<'a> GpuRenderer<'a> {
             }
             ctx.submit_and_wait(rec)?;
             add_stage_times(ctx.read_timestamps()?, &mut self.stage_seconds);
-            self.samples_done = samples_done;
-            progress(samples_done as f64);
+            self.film_samples.end = samples_done;
+            progress((samples_done - self.film_samples.start) as f64);
             if t_batch.elapsed().as_secs_f64() < BATCH_SECONDS {
                 batch = (batch * 2).min(MAX_BATCH);
             }
@@ -450,27 +480,42 @@ impl<'a> GpuRenderer<'a> {
         Ok(())
     }
 
-    /// The image of the samples in the film so far, and the counters.
+    /// The film so far: one block of per-pixel sums over the samples rendered since the last
+    /// reset, in f64 (the GPU's sums are f32, in sample order per pixel).
+    pub fn film(&self) -> Result<Film> {
+        let film: Vec<[f32; 4]> = self.ctx.download(self.owned.buffer(Binding::Film))?;
+        let film2: Vec<[f32; 4]> = self.ctx.download(self.owned.buffer(Binding::Film2))?;
+        let mut f = Film::new(self.tile);
+        if self.film_samples.is_empty() {
+            return Ok(f);
+        }
+        // The film holds sums of l·2^-k and (l·2^-k)², k in .w (accumulate.comp).
+        let sums = film
+            .iter()
+            .zip(&film2)
+            .map(|(s, s2)| {
+                let k = s[3] as i32;
+                let (sc, sc2) = (2f64.powi(k), 2f64.powi(2 * k));
+                std::array::from_fn(|i| match i {
+                    0..=2 => s[i] as f64 * sc,
+                    _ => s2[i - 3] as f64 * sc2,
+                })
+            })
+            .collect();
+        f.add_blocks(vec![Block {
+            samples: self.film_samples.clone(),
+            sums,
+        }]);
+        Ok(f)
+    }
+
+    /// The image of the samples in the film so far (of the tile), and the counters.
     pub fn output(&self) -> Result<RenderOutput> {
         let scene = self.scene;
-        let pixels = (scene.width * scene.height) as usize;
-        let spp = self.samples_done;
-        let ctx = self.ctx;
-        let counters: Vec<u32> = ctx.download(self.owned.buffer(Binding::Counters))?;
-        let film: Vec<[f32; 4]> = ctx.download(self.owned.buffer(Binding::Film))?;
-        let film2: Vec<[f32; 4]> = ctx.download(self.owned.buffer(Binding::Film2))?;
-        let mut mean = crate::imageio::Image::new(scene.width, scene.height);
-        let mut variance = crate::imageio::Image::new(scene.width, scene.height);
-        for i in 0..pixels {
-            // The film holds sums of l·2^-k and (l·2^-k)², k in .w (accumulate.comp).
-            let k = film[i][3] as i32;
-            let (sc, sc2) = (2f64.powi(k), 2f64.powi(2 * k));
-            let s = [0, 1, 2].map(|c| film[i][c] as f64 * sc);
-            let s2 = [0, 1, 2].map(|c| film2[i][c] as f64 * sc2);
-            let (m, v) = mean_and_variance(s, s2, spp);
-            mean.data[i] = m;
-            variance.data[i] = v;
-        }
+        let counters: Vec<u32> = self.ctx.download(self.owned.buffer(Binding::Counters))?;
+        let film = self.film()?;
+        let (mean, variance) = film.images();
+        let spp = film.spp();
         let c = self.counters;
         let nonfinite_by_stage = nonfinite_stages(
             counters[c.nonfinite_extend()] as u64,
@@ -674,22 +719,28 @@ fn ray_queue_in(depth: u32) -> u32 {
 }
 
 /// Compiles and creates the pipelines `integrator` needs (each stage, or the megakernel, and
-/// `accumulate`) and one shade pipeline per model in `models` for the wavefront.
+/// `accumulate`) and one shade pipeline per model of the scene (`Scene::shaded_models`) for the
+/// wavefront.
 fn build_kernels(
     ctx: &Context,
     scene: &Scene,
-    models: &[usize],
     owned: &mut Owned,
     compiler: &ShaderCompiler,
     setup: &mut SetupStats,
     integrator: Integrator,
+    tiled: bool,
 ) -> Result<(Stages, Vec<ShadeKernel>)> {
+    let models = &scene.shaded_models()[..];
     // Defines added to every stage: the layout's numbers, and subgroup-aggregated queue pushes
     // where the device has subgroup ballots (see `queue_push` in state.glsl).
     let mut common = layout::defines();
     common.push(("NO_QUEUE".into(), format!("{}u", scene_buffers::NO_QUEUE)));
     if ctx.features.subgroup_ballot {
         common.push(("SUBGROUP_QUEUES".into(), "1".into()));
+    }
+    // A render of one tile maps its pixels to the image's (see `path_pixel` in state.glsl).
+    if tiled {
+        common.push(("TILED".into(), "1".into()));
     }
     common.extend(
         scene_features(scene)

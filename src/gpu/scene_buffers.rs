@@ -102,7 +102,13 @@ pub fn emitter_data(scene: &Scene, lights: &LightTable) -> Vec<[f32; 4]> {
 }
 
 /// The `Globals` block (scalar layout) of state.glsl.
-pub fn globals(scene: &Scene, lights: &LightTable, num_queues: u32, capacity: u32) -> Vec<u32> {
+pub fn globals(
+    scene: &Scene,
+    lights: &LightTable,
+    num_queues: u32,
+    capacity: u32,
+    tile: crate::film::Tile,
+) -> Vec<u32> {
     let cam = CameraBasis::new(scene);
     let mut w: Vec<u32> = Vec::with_capacity(32);
     for v in [
@@ -125,6 +131,9 @@ pub fn globals(scene: &Scene, lights: &LightTable, num_queues: u32, capacity: u3
         it.rr_start_depth,
         num_queues,
         capacity,
+        tile.x,
+        tile.y,
+        tile.width,
     ]);
     w
 }
