@@ -5,14 +5,15 @@ use anyhow::{bail, Context as _, Result};
 use brdfwave::{
     bvh,
     cpu::CpuRenderer,
+    film::{self, Tile},
     gpu::GpuRenderer,
     imageio, metrics,
     outfile::{self, Output},
-    output::RenderOutput,
     scene, vk,
 };
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -71,10 +72,20 @@ enum Command {
         /// gives nearly the same image on both backends.
         #[arg(long)]
         seed: Option<u32>,
-        /// Output files (.exr, .png or .pfm); may be given several times; missing directories
-        /// are created. Default: out/<scene name>.png
+        /// Output files (.exr, .png or .pfm images; .bwfilm, a partial film for `brdfwave
+        /// merge`); may be given several times; missing directories are created. Default:
+        /// out/<scene name>.png
         #[arg(long = "out")]
         out: Vec<PathBuf>,
+        /// Render only these sample indices, START..END (END exclusive), e.g. 0..256, for a
+        /// partial film: parts with consecutive ranges merge into the image of one render
+        /// (default: 0..spp).
+        #[arg(long, value_parser = brdfwave::film::parse_samples, conflicts_with = "spp")]
+        samples: Option<std::ops::Range<u32>>,
+        /// Render only the pixels of this tile, X,Y,W,H (from the top-left corner), for a
+        /// partial film; images written are the tile's size (default: the whole image).
+        #[arg(long, value_parser = brdfwave::film::Tile::parse)]
+        tile: Option<Tile>,
         /// Also write the per-pixel variance of one sample (EXR), for statistical tests.
         #[arg(long)]
         variance_out: Option<PathBuf>,
@@ -94,6 +105,26 @@ enum Command {
         /// `megakernel` (one kernel per wave, the benchmark's baseline). Same image.
         #[arg(long, value_enum, default_value = "wavefront")]
         integrator: IntegratorArg,
+        /// Print the summary as one JSON object on stdout.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Merge partial films (.bwfilm outputs of `render`) into one image: the parts must come
+    /// from the same scene, settings and program version and cover every pixel and sample once.
+    Merge {
+        /// The partial films (.bwfilm), in any order.
+        #[arg(required = true)]
+        parts: Vec<PathBuf>,
+        /// Output images (.exr, .png or .pfm); may be given several times.
+        #[arg(long = "out", required = true)]
+        out: Vec<PathBuf>,
+        /// The samples the parts must hold together, START..END: a set that holds fewer (a
+        /// missing last part) is refused (default: any one range, without gaps or overlaps).
+        #[arg(long, value_parser = brdfwave::film::parse_samples)]
+        samples: Option<std::ops::Range<u32>>,
+        /// Also write the per-pixel variance of one sample (EXR).
+        #[arg(long)]
+        variance_out: Option<PathBuf>,
         /// Print the summary as one JSON object on stdout.
         #[arg(long)]
         json: bool,
@@ -239,9 +270,10 @@ fn parse_res(s: &str) -> std::result::Result<(u32, u32), String> {
         .trim()
         .parse()
         .map_err(|_| format!("bad height in '{s}'"))?;
-    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+    let max = brdfwave::scene::load::MAX_FILM_SIZE;
+    if w == 0 || h == 0 || w > max || h > max {
         return Err(format!(
-            "resolution '{s}' must be between 1x1 and 16384x16384"
+            "resolution '{s}' must be between 1x1 and {max}x{max}"
         ));
     }
     Ok((w, h))
@@ -280,6 +312,8 @@ fn main() {
             max_depth,
             seed,
             out,
+            samples,
+            tile,
             variance_out,
             device,
             validation,
@@ -294,6 +328,8 @@ fn main() {
             max_depth,
             seed,
             out,
+            samples,
+            tile,
             variance_out,
             device,
             validation,
@@ -301,6 +337,13 @@ fn main() {
             integrator,
             json,
         }),
+        Command::Merge {
+            parts,
+            out,
+            samples,
+            variance_out,
+            json,
+        } => merge(&parts, &out, samples, variance_out.as_deref(), json),
         Command::Diff {
             test,
             reference,
@@ -377,6 +420,8 @@ struct RenderArgs {
     max_depth: Option<u32>,
     seed: Option<u32>,
     out: Vec<PathBuf>,
+    samples: Option<std::ops::Range<u32>>,
+    tile: Option<Tile>,
     variance_out: Option<PathBuf>,
     device: Option<String>,
     validation: bool,
@@ -395,6 +440,163 @@ fn progress_bar(len: u64, what: &str) -> ProgressBar {
         .progress_chars("=> "),
     );
     pb
+}
+
+/// What `render` reports: printed as text, or as one JSON object with `--json`.
+#[derive(Serialize)]
+struct RenderSummary {
+    backend: &'static str,
+    device: String,
+    scene: String,
+    width: u32,
+    height: u32,
+    /// The part of the image rendered, when not all of it (`--tile`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    tile: Option<Tile>,
+    /// The sample indices rendered, START..END.
+    samples: [u32; 2],
+    spp: u32,
+    max_depth: u32,
+    seed: u32,
+    russian_roulette: bool,
+    /// GPU only.
+    #[serde(flatten)]
+    gpu: Option<GpuSetup>,
+    seconds_bvh: f64,
+    bvh_nodes: usize,
+    seconds_setup: f64,
+    seconds_render: f64,
+    paths_per_second: f64,
+    rays_per_second: f64,
+    extension_rays: u64,
+    shadow_rays: u64,
+    rays_by_segment: Vec<SegmentRays>,
+    nonfinite_samples: u64,
+    nonfinite_by_stage: Vec<StageCount>,
+    mean_radiance: [f64; 3],
+    stage_seconds: Vec<StageSeconds>,
+    outputs: Vec<String>,
+    variance_output: Option<String>,
+}
+
+#[derive(Serialize)]
+struct GpuSetup {
+    pipelines: Vec<String>,
+    seconds_shader_compile: f64,
+    seconds_pipeline_create: f64,
+    wave_paths: u32,
+    integrator: &'static str,
+    subgroup_queues: bool,
+}
+
+#[derive(Serialize)]
+struct SegmentRays {
+    extension: u64,
+    shadow: u64,
+}
+
+#[derive(Serialize)]
+struct StageCount {
+    stage: String,
+    count: u64,
+}
+
+#[derive(Serialize)]
+struct StageSeconds {
+    stage: String,
+    seconds: f64,
+}
+
+fn stage_counts(v: &[(String, u64)]) -> Vec<StageCount> {
+    v.iter()
+        .map(|(stage, count)| StageCount {
+            stage: stage.clone(),
+            count: *count,
+        })
+        .collect()
+}
+
+impl std::fmt::Display for RenderSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "backend        {} on {}", self.backend, self.device)?;
+        let part = match (&self.tile, self.samples[0]) {
+            (None, 0) => String::new(),
+            (tile, _) => format!(
+                " (samples {}..{}{})",
+                self.samples[0],
+                self.samples[1],
+                tile.map(|t| format!(", tile {t}")).unwrap_or_default()
+            ),
+        };
+        writeln!(
+            f,
+            "image          {}x{}, {} spp{part}, max depth {}",
+            self.width, self.height, self.spp, self.max_depth
+        )?;
+        if let Some(g) = &self.gpu {
+            writeln!(
+                f,
+                "pipelines      {} (compile {:.3} s, create {:.3} s)",
+                g.pipelines.join(", "),
+                g.seconds_shader_compile,
+                g.seconds_pipeline_create
+            )?;
+            let sg = if g.subgroup_queues {
+                ", subgroup-aggregated queue pushes"
+            } else {
+                ""
+            };
+            writeln!(f, "wave           {} paths in flight{sg}", g.wave_paths)?;
+        }
+        writeln!(
+            f,
+            "time           set-up {:.3} s (BVH {:.3} s), render {:.3} s",
+            self.seconds_setup, self.seconds_bvh, self.seconds_render
+        )?;
+        writeln!(
+            f,
+            "throughput     {:.3} M paths/s, {:.3} M rays/s",
+            self.paths_per_second / 1e6,
+            self.rays_per_second / 1e6
+        )?;
+        write_nonfinite(f, self.nonfinite_samples, &self.nonfinite_by_stage)?;
+        if !self.stage_seconds.is_empty() {
+            let parts: Vec<String> = self
+                .stage_seconds
+                .iter()
+                .map(|e| format!("{} {:.3}", e.stage, e.seconds))
+                .collect();
+            writeln!(f, "stages (s)     {}", parts.join(", "))?;
+        }
+        for o in self.outputs.iter().chain(&self.variance_output) {
+            writeln!(f, "wrote          {o}")?;
+        }
+        Ok(())
+    }
+}
+
+fn write_nonfinite(
+    f: &mut std::fmt::Formatter<'_>,
+    total: u64,
+    by_stage: &[StageCount],
+) -> std::fmt::Result {
+    let by_stage: Vec<String> = by_stage
+        .iter()
+        .map(|e| format!("{} {}", e.stage, e.count))
+        .collect();
+    writeln!(
+        f,
+        "non-finite     {total} values dropped ({})",
+        by_stage.join(", ")
+    )
+}
+
+/// Where a render's outputs go: images get the mean (or, for `--variance-out`, the variance);
+/// `.bwfilm` files get the partial film.
+fn is_partial_film(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("bwfilm"))
 }
 
 fn render(a: RenderArgs) -> Result<()> {
@@ -428,6 +630,14 @@ fn render(a: RenderArgs) -> Result<()> {
     if let Some(s) = a.seed {
         sc.integrator.seed = s;
     }
+    // The samples and pixels to render: all of them unless a part is asked for.
+    let samples = a.samples.clone().unwrap_or(0..sc.integrator.spp);
+    sc.integrator.spp = samples.end - samples.start;
+    let full = Tile::full(sc.width, sc.height);
+    let tile = a.tile.unwrap_or(full);
+    tile.check_within(sc.width, sc.height)
+        .map_err(anyhow::Error::msg)
+        .context("--tile")?;
     if let Some(w) = a.wave_paths {
         brdfwave::gpu::check_wave_paths(w).context("--wave-paths")?;
     }
@@ -466,16 +676,24 @@ fn render(a: RenderArgs) -> Result<()> {
             path: v,
         });
     }
-    for o in &planned {
-        imageio::Format::from_path(o.path).with_context(|| o.option.to_string())?;
+    for (i, o) in planned.iter().enumerate() {
+        if i < outs.len() && is_partial_film(o.path) {
+            continue;
+        }
+        imageio::Format::from_path(o.path).with_context(|| {
+            if i < outs.len() {
+                format!("{} (a partial film ends in .bwfilm)", o.option)
+            } else {
+                o.option.to_string()
+            }
+        })?;
     }
     outfile::prepare(&planned)?;
     let t_bvh = Instant::now();
     let bvh = bvh::build(&sc);
     let seconds_bvh = t_bvh.elapsed().as_secs_f64();
 
-    let mut summary = json!({});
-    let (output, device, seconds_setup, seconds_render): (RenderOutput, String, f64, f64);
+    let (output, film, device, gpu, seconds_setup, seconds_render);
     match a.backend {
         Backend::Gpu => {
             let ctx = vk::Context::new(&vk::ContextOptions {
@@ -485,7 +703,7 @@ fn render(a: RenderArgs) -> Result<()> {
             let compiler = vk::ShaderCompiler::new()?;
             let wave = a.wave_paths.unwrap_or(brdfwave::gpu::MAX_CAPACITY);
             let mut r =
-                GpuRenderer::with_options(&ctx, &sc, &bvh, &compiler, wave, a.integrator.gpu())?;
+                GpuRenderer::with_tile(&ctx, &sc, &bvh, &compiler, wave, a.integrator.gpu(), tile)?;
             seconds_setup = t0.elapsed().as_secs_f64();
             // Per mille of a sample, so that a single wave shows progress by segment.
             let pb = progress_bar(sc.integrator.spp as u64 * 1000, "samples");
@@ -497,16 +715,21 @@ fn render(a: RenderArgs) -> Result<()> {
                 .progress_chars("=> "),
             );
             let t = Instant::now();
-            output = r.render(&|n| pb.set_position((n * 1000.0) as u64))?;
+            r.reset()?;
+            r.render_samples(samples.clone(), &|n| pb.set_position((n * 1000.0) as u64))?;
+            output = r.output()?;
+            film = r.film()?;
             seconds_render = t.elapsed().as_secs_f64();
             pb.finish_and_clear();
             device = ctx.device_name.clone();
-            summary["pipelines"] = json!(r.setup.pipelines);
-            summary["seconds_shader_compile"] = json!(r.setup.seconds_shader_compile);
-            summary["seconds_pipeline_create"] = json!(r.setup.seconds_pipeline_create);
-            summary["wave_paths"] = json!(r.setup.wave_paths);
-            summary["integrator"] = json!(a.integrator.gpu().name());
-            summary["subgroup_queues"] = json!(r.setup.subgroup_queues);
+            gpu = Some(GpuSetup {
+                pipelines: r.setup.pipelines.clone(),
+                seconds_shader_compile: r.setup.seconds_shader_compile,
+                seconds_pipeline_create: r.setup.seconds_pipeline_create,
+                wave_paths: r.setup.wave_paths,
+                integrator: a.integrator.gpu().name(),
+                subgroup_queues: r.setup.subgroup_queues,
+            });
             drop(r);
             // Tear down now so that messages raised at device destruction (leaks) count too.
             let msgs = ctx.finish();
@@ -521,60 +744,92 @@ fn render(a: RenderArgs) -> Result<()> {
         Backend::Cpu => {
             seconds_setup = t0.elapsed().as_secs_f64();
             let r = CpuRenderer::new(&sc, &bvh);
-            let pb = progress_bar(sc.height as u64, "rows");
+            let pb = progress_bar(tile.height as u64, "rows");
             let t = Instant::now();
-            output = r.render(&|n| pb.set_position(n as u64));
+            let mut f = r.film_of(tile);
+            r.render_samples(&mut f, samples.clone(), &|n| pb.set_position(n as u64));
+            output = r.output(&f);
             seconds_render = t.elapsed().as_secs_f64();
+            film = f.film;
             pb.finish_and_clear();
             device = format!("CPU reference ({} threads)", rayon::current_num_threads());
+            gpu = None;
         }
     }
+    let backend = match a.backend {
+        Backend::Gpu => "gpu",
+        Backend::Cpu => "cpu",
+    };
+    let part = film::Part::of_render(
+        &a.scene.display().to_string(),
+        &sc,
+        film,
+        &output,
+        backend,
+        &device,
+        seconds_render,
+    );
     // Every output that can be written is, even when one fails; then the failures are reported.
     let paths: Vec<&Path> = planned.iter().map(|o| o.path).collect();
     outfile::write_each(&paths, |i, p| {
-        let img = if i < outs.len() {
-            &output.mean
+        if i < outs.len() && is_partial_film(p) {
+            film::write_part(p, &part)?;
         } else {
-            &output.variance
-        };
-        imageio::write(p, img)?;
+            let img = if i < outs.len() {
+                &output.mean
+            } else {
+                &output.variance
+            };
+            imageio::write(p, img)?;
+        }
         Ok(())
     })?;
-    let paths = sc.width as f64 * sc.height as f64 * output.spp as f64;
+    let paths = tile.pixels() as f64 * output.spp as f64;
     let rays = (output.extension_rays + output.shadow_rays) as f64;
-    let base = json!({
-        "backend": match a.backend { Backend::Gpu => "gpu", Backend::Cpu => "cpu" },
-        "device": device,
-        "scene": a.scene.display().to_string(),
-        "width": sc.width,
-        "height": sc.height,
-        "spp": output.spp,
-        "max_depth": sc.integrator.max_depth,
-        "seed": sc.integrator.seed,
-        "russian_roulette": sc.integrator.russian_roulette,
-        "seconds_bvh": seconds_bvh,
-        "bvh_nodes": bvh.nodes.len(),
-        "seconds_setup": seconds_setup,
-        "seconds_render": seconds_render,
-        "paths_per_second": paths / seconds_render.max(1e-9),
-        "rays_per_second": rays / seconds_render.max(1e-9),
-        "extension_rays": output.extension_rays,
-        "shadow_rays": output.shadow_rays,
-        "rays_by_segment": output.rays_by_segment.iter().map(|(e, s)| json!({"extension": e, "shadow": s})).collect::<Vec<_>>(),
-        "nonfinite_samples": output.nonfinite_samples,
-        "nonfinite_by_stage": output.nonfinite_by_stage.iter().map(|(k, v)| json!({"stage": k, "count": v})).collect::<Vec<_>>(),
-        "mean_radiance": output.mean.mean(),
-        "stage_seconds": output.stage_seconds.iter().map(|(k, v)| json!({"stage": k, "seconds": v})).collect::<Vec<_>>(),
-        "outputs": outs.iter().map(|o| o.display().to_string()).collect::<Vec<_>>(),
-        "variance_output": a.variance_out.as_ref().map(|v| v.display().to_string()),
-    });
-    for (k, v) in base.as_object().unwrap() {
-        summary[k] = v.clone();
-    }
+    let summary = RenderSummary {
+        backend,
+        device,
+        scene: a.scene.display().to_string(),
+        width: sc.width,
+        height: sc.height,
+        tile: (tile != full).then_some(tile),
+        samples: [samples.start, samples.end],
+        spp: output.spp,
+        max_depth: sc.integrator.max_depth,
+        seed: sc.integrator.seed,
+        russian_roulette: sc.integrator.russian_roulette,
+        gpu,
+        seconds_bvh,
+        bvh_nodes: bvh.nodes.len(),
+        seconds_setup,
+        seconds_render,
+        paths_per_second: paths / seconds_render.max(1e-9),
+        rays_per_second: rays / seconds_render.max(1e-9),
+        extension_rays: output.extension_rays,
+        shadow_rays: output.shadow_rays,
+        rays_by_segment: output
+            .rays_by_segment
+            .iter()
+            .map(|&(extension, shadow)| SegmentRays { extension, shadow })
+            .collect(),
+        nonfinite_samples: output.nonfinite_samples,
+        nonfinite_by_stage: stage_counts(&output.nonfinite_by_stage),
+        mean_radiance: output.mean.mean(),
+        stage_seconds: output
+            .stage_seconds
+            .iter()
+            .map(|(stage, seconds)| StageSeconds {
+                stage: stage.clone(),
+                seconds: *seconds,
+            })
+            .collect(),
+        outputs: outs.iter().map(|o| o.display().to_string()).collect(),
+        variance_output: a.variance_out.as_ref().map(|v| v.display().to_string()),
+    };
     if a.json {
         println!("{}", serde_json::to_string(&summary)?);
     } else {
-        print_summary(&summary);
+        print!("{summary}");
     }
     if output.nonfinite_samples > 0 {
         eprintln!(
@@ -585,81 +840,134 @@ fn render(a: RenderArgs) -> Result<()> {
     Ok(())
 }
 
-fn print_summary(s: &serde_json::Value) {
-    println!(
-        "backend        {} on {}",
-        s["backend"].as_str().unwrap_or(""),
-        s["device"].as_str().unwrap_or("")
-    );
-    println!(
-        "image          {}x{}, {} spp, max depth {}",
-        s["width"], s["height"], s["spp"], s["max_depth"]
-    );
-    if let Some(p) = s.get("pipelines") {
-        println!(
-            "pipelines      {} (compile {:.3} s, create {:.3} s)",
-            p.as_array()
-                .map(|a| a
-                    .iter()
-                    .filter_map(|x| x.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", "))
-                .unwrap_or_default(),
-            s["seconds_shader_compile"].as_f64().unwrap_or(0.0),
-            s["seconds_pipeline_create"].as_f64().unwrap_or(0.0)
+/// What `merge` reports.
+#[derive(Serialize)]
+struct MergeSummary {
+    scene: String,
+    parts: usize,
+    tiles: usize,
+    width: u32,
+    height: u32,
+    samples: [u32; 2],
+    spp: u32,
+    backends: Vec<String>,
+    extension_rays: u64,
+    shadow_rays: u64,
+    nonfinite_samples: u64,
+    nonfinite_by_stage: Vec<StageCount>,
+    /// The parts' render times added: the compute time of the whole job.
+    seconds_render: f64,
+    mean_radiance: [f64; 3],
+    outputs: Vec<String>,
+    variance_output: Option<String>,
+}
+
+impl std::fmt::Display for MergeSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "merged         {} parts ({} tile{}) of {}",
+            self.parts,
+            self.tiles,
+            if self.tiles == 1 { "" } else { "s" },
+            self.scene
+        )?;
+        writeln!(
+            f,
+            "image          {}x{}, {} spp (samples {}..{})",
+            self.width, self.height, self.spp, self.samples[0], self.samples[1]
+        )?;
+        writeln!(f, "rendered on    {}", self.backends.join("; "))?;
+        writeln!(
+            f,
+            "work           {:.3} s of rendering, {} extension and {} shadow rays",
+            self.seconds_render, self.extension_rays, self.shadow_rays
+        )?;
+        write_nonfinite(f, self.nonfinite_samples, &self.nonfinite_by_stage)?;
+        for o in self.outputs.iter().chain(&self.variance_output) {
+            writeln!(f, "wrote          {o}")?;
+        }
+        Ok(())
+    }
+}
+
+fn merge(
+    parts: &[PathBuf],
+    out: &[PathBuf],
+    samples: Option<std::ops::Range<u32>>,
+    variance_out: Option<&Path>,
+    json: bool,
+) -> Result<()> {
+    let mut planned: Vec<Output> = out
+        .iter()
+        .map(|p| Output {
+            option: "--out",
+            path: p,
+        })
+        .collect();
+    if let Some(v) = variance_out {
+        planned.push(Output {
+            option: "--variance-out",
+            path: v,
+        });
+    }
+    for o in &planned {
+        imageio::Format::from_path(o.path).with_context(|| o.option.to_string())?;
+        if let Some(p) = parts
+            .iter()
+            .find(|p| outfile::resolve(p) == outfile::resolve(o.path))
+        {
+            bail!(
+                "{} {} is also a part to merge: it would be overwritten",
+                o.option,
+                p.display()
+            );
+        }
+    }
+    outfile::prepare(&planned)?;
+    let m = film::merge(parts)?;
+    if let Some(want) = samples.filter(|w| *w != m.samples) {
+        bail!(
+            "the parts hold samples {}..{}, not the {}..{} asked for (--samples): a part is missing or left over",
+            m.samples.start,
+            m.samples.end,
+            want.start,
+            want.end
         );
     }
-    if let Some(w) = s.get("wave_paths") {
-        let sg = if s["subgroup_queues"] == true {
-            ", subgroup-aggregated queue pushes"
-        } else {
-            ""
-        };
-        println!("wave           {w} paths in flight{sg}");
+    let paths: Vec<&Path> = planned.iter().map(|o| o.path).collect();
+    outfile::write_each(&paths, |i, p| {
+        imageio::write(p, if i < out.len() { &m.mean } else { &m.variance })?;
+        Ok(())
+    })?;
+    let nonfinite_samples = m.nonfinite_by_stage.iter().map(|s| s.1).sum();
+    let summary = MergeSummary {
+        scene: m.scene.clone(),
+        parts: parts.len(),
+        tiles: m.tiles,
+        width: m.mean.width,
+        height: m.mean.height,
+        samples: [m.samples.start, m.samples.end],
+        spp: m.samples.end - m.samples.start,
+        backends: m.backends.clone(),
+        extension_rays: m.extension_rays,
+        shadow_rays: m.shadow_rays,
+        nonfinite_samples,
+        nonfinite_by_stage: stage_counts(&m.nonfinite_by_stage),
+        seconds_render: m.seconds_render,
+        mean_radiance: m.mean.mean(),
+        outputs: out.iter().map(|o| o.display().to_string()).collect(),
+        variance_output: variance_out.map(|v| v.display().to_string()),
+    };
+    if json {
+        println!("{}", serde_json::to_string(&summary)?);
+    } else {
+        print!("{summary}");
     }
-    println!(
-        "time           set-up {:.3} s (BVH {:.3} s), render {:.3} s",
-        s["seconds_setup"].as_f64().unwrap_or(0.0),
-        s["seconds_bvh"].as_f64().unwrap_or(0.0),
-        s["seconds_render"].as_f64().unwrap_or(0.0)
-    );
-    println!(
-        "throughput     {:.3} M paths/s, {:.3} M rays/s",
-        s["paths_per_second"].as_f64().unwrap_or(0.0) / 1e6,
-        s["rays_per_second"].as_f64().unwrap_or(0.0) / 1e6
-    );
-    let by_stage: Vec<String> = s["nonfinite_by_stage"]
-        .as_array()
-        .into_iter()
-        .flatten()
-        .map(|e| format!("{} {}", e["stage"].as_str().unwrap_or(""), e["count"]))
-        .collect();
-    println!(
-        "non-finite     {} values dropped ({})",
-        s["nonfinite_samples"],
-        by_stage.join(", ")
-    );
-    if let Some(st) = s["stage_seconds"].as_array().filter(|a| !a.is_empty()) {
-        let parts: Vec<String> = st
-            .iter()
-            .map(|e| {
-                format!(
-                    "{} {:.3}",
-                    e["stage"].as_str().unwrap_or(""),
-                    e["seconds"].as_f64().unwrap_or(0.0)
-                )
-            })
-            .collect();
-        println!("stages (s)     {}", parts.join(", "));
+    if nonfinite_samples > 0 {
+        eprintln!("warning: the parts dropped {nonfinite_samples} non-finite values");
     }
-    for o in s["outputs"]
-        .as_array()
-        .into_iter()
-        .flatten()
-        .chain(s.get("variance_output").filter(|v| v.is_string()))
-    {
-        println!("wrote          {}", o.as_str().unwrap_or(""));
-    }
+    Ok(())
 }
 
 fn diff(test: &Path, reference: &Path, error_map: Option<&Path>, json_out: bool) -> Result<()> {
