@@ -526,16 +526,7 @@ pub fn sample(m: &He, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
     BrdfSample::scattered(wi, |wi| pdf(m, given, wi), |wi| eval(m, wi, given))
 }
 
-impl Brdf for He {
-    fn eval(&self, wi: Vec3, wo: Vec3) -> Vec3 {
-        eval(self, wi, wo)
-    }
-    fn pdf(&self, given: Vec3, sampled: Vec3) -> f32 {
-        pdf(self, given, sampled)
-    }
-    fn sample(&self, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
-        sample(self, given, u_lobe, u)
-    }
+impl_brdf!(He {
     fn pack(&self) -> Params {
         let mut p = Params::default();
         p.set(0, self.sigma0)
@@ -554,7 +545,7 @@ impl Brdf for He {
             Vec::new()
         }
     }
-}
+});
 
 #[cfg(test)]
 mod tests {
