@@ -1,16 +1,16 @@
 //! Blinn–Phong (survey eq. 5 with Phong's eq. 4: `classic`; Giesen-normalized: `normalized`)
 //! through the validation harness.
 
+mod common;
 use brdfwave::brdf::validate::{
-    albedo_quadrature, albedo_quadrature_light, albedo_sampled, chi2_test, dir_from_theta_deg,
-    material_from_toml, reciprocity_error, sample_consistency, sidak,
+    albedo_quadrature, albedo_quadrature_light, dir_from_theta_deg, reciprocity_error,
 };
 use brdfwave::brdf::Material;
+use common::brdf::{
+    check_sampled_albedo, check_sampler, material, materials, AlbedoCheck, Chi2Config,
+    SamplerCheck, Seeds,
+};
 use std::f64::consts::PI;
-
-fn material(src: &str) -> Result<(Material, Vec<String>), String> {
-    material_from_toml("test.toml", src)
-}
 
 fn bp(kd: f32, ks: f32, n: f32, form: &str) -> Material {
     let src = format!(
@@ -36,28 +36,27 @@ fn default_is_the_classic_form() {
 
 #[test]
 fn sampler_matches_pdf() {
-    let mut min_p = 1.0f64;
-    // A different seed per configuration: the Šidák level assumes independent tests.
-    let mut seed = 100u64;
-    let level = sidak(0.01, 18);
+    let mut models = Vec::new();
     for form in FORMS {
         for n in [1.0, 40.0, 1000.0] {
-            let m = bp(0.4, 0.6, n, form);
-            for th in [0.0, 45.0, 80.0] {
-                let wo = dir_from_theta_deg(th, 10.0);
-                seed += 1;
-                let r = chi2_test(m.brdf.as_ref(), wo, 200_000, seed);
-                min_p = min_p.min(r.p_value);
-                assert_eq!(r.zero_pdf_hits, 0, "{form} n={n} {th}°: {r:?}");
-                assert!(r.p_value > level, "{form} n={n} {th}°: {r:?}");
-                assert!((r.pdf_integral - r.sample_fraction).abs() < 0.01, "{r:?}");
-                let c = sample_consistency(m.brdf.as_ref(), wo, 20_000, 5);
-                assert!(c.bad_samples == 0 && c.pdf_rel_error < 1e-5, "{c:?}");
-                assert!(c.weight_rel_error < 1e-4, "{form} n={n} {th}°: {c:?}");
-            }
+            models.push((format!("{form} n={n}"), bp(0.4, 0.6, n, form)));
         }
     }
-    eprintln!("smallest χ² p-value {min_p:.4} (level {level:.5})");
+    check_sampler(
+        &materials(&models),
+        &SamplerCheck {
+            angles: &[0.0, 45.0, 80.0],
+            phi: 10.0,
+            chi2_samples: 200_000,
+            seeds: Seeds::After(100),
+            grid: Chi2Config::default(),
+            integral: Some(0.01),
+            consistency_samples: 20_000,
+            consistency_seed: 5,
+            pdf_rel: 1e-5,
+            weight_rel: 1e-4,
+        },
+    );
 }
 
 /// Analytic values at normal incidence (k_s = 1, k_d = 0), derived with c = cos(θ/2):
@@ -128,19 +127,26 @@ fn sampled_albedo_agrees_with_quadrature() {
         for n in [3.0, 300.0] {
             let m = bp(0.3, 0.6, n, form);
             for t in ANGLES {
-                let wo = dir_from_theta_deg(t, 0.0);
-                let q = albedo_quadrature(m.brdf.as_ref(), wo, 100);
-                let ns = 100_000;
-                let (s, var) = albedo_sampled(m.brdf.as_ref(), wo, ns, 3);
-                let se = (var / ns as f64).sqrt();
-                assert!(
-                    (s - q).abs() < 5.0 * se + 2e-3 * q,
-                    "{form} n={n} {t}°: sampled {s} ± {se}, quadrature {q}"
+                check_sampled_albedo(
+                    &format!("{form} n={n}"),
+                    m.brdf.as_ref(),
+                    (t, 0.0),
+                    0.0,
+                    &ALBEDO,
                 );
             }
         }
     }
 }
+
+/// The sampled albedo: 100 000 samples, within 5 standard errors + 0.2 %.
+const ALBEDO: AlbedoCheck = AlbedoCheck {
+    quadrature: (100, 100),
+    samples: 100_000,
+    seed: 3,
+    sigmas: 5.0,
+    rel: 2e-3,
+};
 
 #[test]
 fn reciprocity() {

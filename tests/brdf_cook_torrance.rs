@@ -10,16 +10,13 @@ use brdfwave::brdf::common::{
 use brdfwave::brdf::cook_torrance::{
     self, CookTorrance, Distribution, Fresnel, Geometry, Normalization,
 };
+mod common;
 use brdfwave::brdf::validate::{
-    albedo_quadrature, albedo_quadrature_rgb, albedo_sampled, chi2_test_with, dir_from_theta_deg,
-    material_from_toml, reciprocity_error, sample_consistency, sidak, Chi2Config,
+    albedo_quadrature, albedo_quadrature_rgb, albedo_sampled, dir_from_theta_deg, reciprocity_error,
 };
-use brdfwave::brdf::{Brdf, Material};
+use brdfwave::brdf::Brdf;
+use common::brdf::{check_sampler, material, models, Chi2Config, SamplerCheck, Seeds};
 use glam::{Vec2, Vec3};
-
-fn material(src: &str) -> Result<(Material, Vec<String>), String> {
-    material_from_toml("test.toml", src)
-}
 
 /// F ≡ 1 (Schlick with f0 = 1), no diffuse: the setting of the §7 table.
 fn white(m: f32, distribution: Distribution, geometry: Geometry, n: Normalization) -> CookTorrance {
@@ -271,34 +268,21 @@ fn chi2_variants() -> Vec<(String, CookTorrance)> {
 #[test]
 fn sampler_matches_pdf() {
     let vs = chi2_variants();
-    let angles = [10.0, 45.0, 80.0];
-    let level = sidak(0.01, vs.len() * angles.len());
-    for (name, m) in &vs {
-        for th in angles {
-            let wo = dir_from_theta_deg(th, 30.0);
-            // Narrow lobes near grazing have sub-degree azimuthal structure (the half vector's
-            // tangential offset scales with given.z + wi.z): a finer pdf sub-grid than the
-            // default 6 × 6 is needed to integrate the expected counts.
-            let cfg = Chi2Config::default();
-            let r = chi2_test_with(m, wo, 100_000, 3, cfg);
-            eprintln!(
-                "{name} θ={th}: p={:.3} dof={} ∫pdf={:.4}",
-                r.p_value, r.dof, r.pdf_integral
-            );
-            assert_eq!(r.zero_pdf_hits, 0, "{name} θ={th}: {r:?}");
-            assert!(r.p_value > level, "{name} θ={th}: {r:?}");
-            assert!(
-                (r.pdf_integral - r.sample_fraction).abs() < 0.01,
-                "{name} θ={th}: {r:?}"
-            );
-            let c = sample_consistency(m, wo, 5000, 8);
-            assert_eq!(c.bad_samples + c.delta_with_pdf, 0, "{name}: {c:?}");
-            assert!(
-                c.pdf_rel_error < 1e-4 && c.weight_rel_error < 1e-3,
-                "{name}: {c:?}"
-            );
-        }
-    }
+    check_sampler(
+        &models(&vs),
+        &SamplerCheck {
+            angles: &[10.0, 45.0, 80.0],
+            phi: 30.0,
+            chi2_samples: 100_000,
+            seeds: Seeds::Same(3),
+            grid: Chi2Config::default(),
+            integral: Some(0.01),
+            consistency_samples: 5000,
+            consistency_seed: 8,
+            pdf_rel: 1e-4,
+            weight_rel: 1e-3,
+        },
+    );
 }
 
 #[test]

@@ -5,16 +5,12 @@
 
 use brdfwave::brdf::common::erfc;
 use brdfwave::brdf::he::{self, He};
-use brdfwave::brdf::validate::{
-    albedo_quadrature, albedo_sampled, chi2_test_with, dir_from_theta_deg, material_from_toml,
-    reciprocity_error, sample_consistency, sidak, Chi2Config,
+mod common;
+use brdfwave::brdf::validate::{albedo_quadrature, albedo_sampled, dir_from_theta_deg};
+use common::brdf::{
+    check_reciprocal, check_sampler, material, models, Chi2Config, SamplerCheck, Seeds,
 };
-use brdfwave::brdf::Material;
 use glam::Vec3;
-
-fn material(src: &str) -> Result<(Material, Vec<String>), String> {
-    material_from_toml("test.toml", src)
-}
 
 #[test]
 fn erfc_has_relative_accuracy() {
@@ -181,27 +177,21 @@ fn variants() -> Vec<(&'static str, He)> {
 #[test]
 fn sampler_matches_pdf() {
     let vs = variants();
-    let angles = [10.0, 45.0, 75.0];
-    let level = sidak(0.01, vs.len() * angles.len());
-    let cfg = Chi2Config::default();
-    for (name, m) in &vs {
-        for th in angles {
-            let wo = dir_from_theta_deg(th, 20.0);
-            let r = chi2_test_with(m, wo, 40_000, 4, cfg);
-            eprintln!(
-                "{name} θ={th}: p={:.3} dof={} ∫pdf={:.4}",
-                r.p_value, r.dof, r.pdf_integral
-            );
-            assert_eq!(r.zero_pdf_hits, 0, "{name} θ={th}: {r:?}");
-            assert!(r.p_value > level, "{name} θ={th}: {r:?}");
-            let c = sample_consistency(m, wo, 3000, 8);
-            assert_eq!(c.bad_samples + c.delta_with_pdf, 0, "{name}: {c:?}");
-            assert!(
-                c.pdf_rel_error < 1e-4 && c.weight_rel_error < 1e-3,
-                "{name}: {c:?}"
-            );
-        }
-    }
+    check_sampler(
+        &models(&vs),
+        &SamplerCheck {
+            angles: &[10.0, 45.0, 75.0],
+            phi: 20.0,
+            chi2_samples: 40_000,
+            seeds: Seeds::Same(4),
+            grid: Chi2Config::default(),
+            integral: None,
+            consistency_samples: 3000,
+            consistency_seed: 8,
+            pdf_rel: 1e-4,
+            weight_rel: 1e-3,
+        },
+    );
 }
 
 #[test]
@@ -240,11 +230,7 @@ fn sampled_albedo_matches_quadrature_plus_delta() {
 
 #[test]
 fn reciprocal() {
-    for (name, m) in variants() {
-        let e = reciprocity_error(&m, 3000, 2);
-        eprintln!("{name}: reciprocity error {e:e}");
-        assert!(e < 1e-4, "{name}: {e}");
-    }
+    check_reciprocal(&models(&variants()), 3000, 2, 1e-4);
 }
 
 #[test]

@@ -1,15 +1,12 @@
 //! Lambert (survey eq. 3) through the validation harness: the albedo is ρ at every angle, the
 //! sampler matches its pdf, the model is reciprocal, and bad parameters are rejected.
 
+mod common;
 use brdfwave::brdf::validate::{
-    albedo_quadrature, albedo_sampled, chi2_test, dir_from_theta_deg, material_from_toml,
-    reciprocity_error, sample_consistency, sidak,
+    albedo_quadrature, albedo_sampled, chi2_test, dir_from_theta_deg, reciprocity_error,
 };
 use brdfwave::brdf::{Brdf, Material};
-
-fn material(src: &str) -> Result<(Material, Vec<String>), String> {
-    material_from_toml("test.toml", src)
-}
+use common::brdf::{check_sampler, material, materials, Chi2Config, SamplerCheck, Seeds};
 
 fn lambert(rho: [f32; 3]) -> Material {
     material(&format!(
@@ -40,19 +37,26 @@ fn albedo_is_rho_at_every_angle() {
 
 #[test]
 fn sampler_matches_pdf() {
-    let m = lambert([0.5; 3]);
-    let level = sidak(0.01, 3);
-    for th in [0.0, 45.0, 85.0] {
-        let wo = dir_from_theta_deg(th, 0.0);
-        let r = chi2_test(m.brdf.as_ref(), wo, 200_000, 11);
-        eprintln!("lambert chi2 at {th}°: {r:?}");
-        assert_eq!(r.zero_pdf_hits, 0, "{th}°: {r:?}");
-        assert!(r.p_value > level, "{th}°: {r:?}");
-        assert!((r.pdf_integral - 1.0).abs() < 1e-3, "{th}°: {r:?}");
-        assert!((r.sample_fraction - 1.0).abs() < 1e-9, "{th}°: {r:?}");
-        let c = sample_consistency(m.brdf.as_ref(), wo, 20_000, 3);
-        assert_eq!(c.bad_samples, 0);
-        assert!(c.pdf_rel_error < 1e-6 && c.weight_rel_error < 1e-5, "{c:?}");
+    let models = [("lambert".to_string(), lambert([0.5; 3]))];
+    let results = check_sampler(
+        &materials(&models),
+        &SamplerCheck {
+            angles: &[0.0, 45.0, 85.0],
+            phi: 0.0,
+            chi2_samples: 200_000,
+            seeds: Seeds::Same(11),
+            grid: Chi2Config::default(),
+            integral: Some(1e-3),
+            consistency_samples: 20_000,
+            consistency_seed: 3,
+            pdf_rel: 1e-6,
+            weight_rel: 1e-5,
+        },
+    );
+    // Every sample lands in the hemisphere, and the pdf integrates to 1.
+    for r in results {
+        assert!((r.pdf_integral - 1.0).abs() < 1e-3, "{r:?}");
+        assert!((r.sample_fraction - 1.0).abs() < 1e-9, "{r:?}");
     }
 }
 

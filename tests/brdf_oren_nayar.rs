@@ -1,15 +1,13 @@
 //! Oren–Nayar (survey §2.1.2) through the validation harness: sampler vs pdf, white-furnace
 //! albedo against reference values (Oren & Nayar 1994), reciprocity, sampled vs quadrature albedo, bad parameters.
 
-use brdfwave::brdf::validate::{
-    albedo_quadrature, albedo_sampled, chi2_test, dir_from_theta_deg, material_from_toml,
-    reciprocity_error, sample_consistency, sidak,
-};
+mod common;
+use brdfwave::brdf::validate::{albedo_quadrature, dir_from_theta_deg};
 use brdfwave::brdf::Material;
-
-fn material(src: &str) -> Result<(Material, Vec<String>), String> {
-    material_from_toml("test.toml", src)
-}
+use common::brdf::{
+    check_reciprocal, check_sampled_albedo, check_sampler, material, materials, AlbedoCheck,
+    Chi2Config, SamplerCheck, Seeds,
+};
 
 fn on(albedo: f32, sigma: f32, variant: &str) -> Material {
     let src = format!(
@@ -39,25 +37,25 @@ fn default_is_the_full_model() {
 
 #[test]
 fn sampler_matches_pdf() {
-    let mut min_p = 1.0f64;
-    // A different seed per configuration: the Šidák level assumes independent tests.
-    let mut seed = 100u64;
-    let level = sidak(0.01, 6);
-    for v in VARIANTS {
-        let m = on(0.8, 0.5, v);
-        for th in [0.0, 50.0, 85.0] {
-            let wo = dir_from_theta_deg(th, 30.0);
-            seed += 1;
-            let r = chi2_test(m.brdf.as_ref(), wo, 200_000, seed);
-            min_p = min_p.min(r.p_value);
-            assert_eq!(r.zero_pdf_hits, 0, "{v} {th}°: {r:?}");
-            assert!(r.p_value > level, "{v} {th}°: {r:?}");
-            let c = sample_consistency(m.brdf.as_ref(), wo, 20_000, 5);
-            assert!(c.bad_samples == 0 && c.pdf_rel_error < 1e-5, "{c:?}");
-            assert!(c.weight_rel_error < 1e-4, "{v} {th}°: {c:?}");
-        }
-    }
-    eprintln!("smallest χ² p-value {min_p:.4} (level {level:.5})");
+    let models: Vec<_> = VARIANTS
+        .iter()
+        .map(|v| (v.to_string(), on(0.8, 0.5, v)))
+        .collect();
+    check_sampler(
+        &materials(&models),
+        &SamplerCheck {
+            angles: &[0.0, 50.0, 85.0],
+            phi: 30.0,
+            chi2_samples: 200_000,
+            seeds: Seeds::After(100),
+            grid: Chi2Config::default(),
+            integral: None,
+            consistency_samples: 20_000,
+            consistency_seed: 5,
+            pdf_rel: 1e-5,
+            weight_rel: 1e-4,
+        },
+    );
 }
 
 /// Oren & Nayar 1994, qualitative model: the albedo at normal incidence is exactly ρ·A (0.920, 0.785,
@@ -100,30 +98,30 @@ fn white_furnace_against_reference_values() {
 
 #[test]
 fn sampled_albedo_agrees_with_quadrature() {
+    let check = AlbedoCheck {
+        quadrature: (100, 100),
+        samples: 100_000,
+        seed: 3,
+        sigmas: 5.0,
+        rel: 2e-3,
+    };
     for v in VARIANTS {
         let m = on(0.9, 0.7, v);
         for t in ANGLES {
-            let wo = dir_from_theta_deg(t, 0.0);
-            let q = albedo_quadrature(m.brdf.as_ref(), wo, 100);
-            let n = 100_000;
-            let (s, var) = albedo_sampled(m.brdf.as_ref(), wo, n, 3);
-            let se = (var / n as f64).sqrt();
-            assert!(
-                (s - q).abs() < 5.0 * se + 2e-3 * q,
-                "{v} {t}°: sampled {s} ± {se}, quadrature {q}"
-            );
+            check_sampled_albedo(v, m.brdf.as_ref(), (t, 0.0), 0.0, &check);
         }
     }
 }
 
 #[test]
 fn reciprocal() {
+    let mut models = Vec::new();
     for v in VARIANTS {
         for sigma in [0.2, 0.8, 1.5] {
-            let e = reciprocity_error(on(0.7, sigma, v).brdf.as_ref(), 20_000, 9);
-            assert!(e < 1e-5, "{v} σ {sigma}: {e}");
+            models.push((format!("{v} σ {sigma}"), on(0.7, sigma, v)));
         }
     }
+    check_reciprocal(&materials(&models), 20_000, 9, 1e-5);
 }
 
 #[test]

@@ -5,16 +5,13 @@
 //! reciprocity and the parameter errors.
 
 use brdfwave::brdf::schlick::{self, Form, Schlick};
-use brdfwave::brdf::validate::{
-    albedo_quadrature, albedo_sampled, chi2_test_with, dir_from_theta_deg, material_from_toml,
-    reciprocity_error, sample_consistency, sidak, Chi2Config,
+mod common;
+use brdfwave::brdf::validate::{albedo_quadrature, albedo_sampled, dir_from_theta_deg};
+use brdfwave::brdf::{Brdf, BrdfSample, Params};
+use common::brdf::{
+    check_reciprocal, check_sampler, material, models, Chi2Config, SamplerCheck, Seeds,
 };
-use brdfwave::brdf::{Brdf, BrdfSample, Material, Params};
 use glam::{Vec2, Vec3};
-
-fn material(src: &str) -> Result<(Material, Vec<String>), String> {
-    material_from_toml("test.toml", src)
-}
 
 /// The glossy lobe B = G G' Z A/(4π v v') alone with S ≡ 1 (C = 1): the quantity of the §10
 /// table, which no single scene material isolates for r ≠ 0.5.
@@ -245,27 +242,21 @@ fn variants() -> Vec<(&'static str, Schlick)> {
 #[test]
 fn sampler_matches_pdf() {
     let vs = variants();
-    let angles = [10.0, 45.0, 75.0];
-    let level = sidak(0.01, vs.len() * angles.len());
-    let cfg = Chi2Config::default();
-    for (name, m) in &vs {
-        for th in angles {
-            let wo = dir_from_theta_deg(th, 70.0);
-            let r = chi2_test_with(m, wo, 100_000, 6, cfg);
-            eprintln!(
-                "{name} θ={th}: p={:.3} dof={} ∫pdf={:.4}",
-                r.p_value, r.dof, r.pdf_integral
-            );
-            assert_eq!(r.zero_pdf_hits, 0, "{name} θ={th}: {r:?}");
-            assert!(r.p_value > level, "{name} θ={th}: {r:?}");
-            let c = sample_consistency(m, wo, 5000, 8);
-            assert_eq!(c.bad_samples + c.delta_with_pdf, 0, "{name}: {c:?}");
-            assert!(
-                c.pdf_rel_error < 1e-4 && c.weight_rel_error < 1e-3,
-                "{name}: {c:?}"
-            );
-        }
-    }
+    check_sampler(
+        &models(&vs),
+        &SamplerCheck {
+            angles: &[10.0, 45.0, 75.0],
+            phi: 70.0,
+            chi2_samples: 100_000,
+            seeds: Seeds::Same(6),
+            grid: Chi2Config::default(),
+            integral: None,
+            consistency_samples: 5000,
+            consistency_seed: 8,
+            pdf_rel: 1e-4,
+            weight_rel: 1e-3,
+        },
+    );
 }
 
 #[test]
@@ -301,10 +292,7 @@ fn sampled_albedo_matches_quadrature_plus_delta() {
 
 #[test]
 fn reciprocal() {
-    for (name, m) in variants() {
-        let e = reciprocity_error(&m, 20_000, 9);
-        assert!(e < 1e-4, "{name}: {e}");
-    }
+    check_reciprocal(&models(&variants()), 20_000, 9, 1e-4);
 }
 
 #[test]

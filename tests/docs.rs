@@ -440,7 +440,7 @@ fn scene_and_model_tables_are_complete() {
     }
 }
 
-/// Nothing in the repository cites notes that are not part of it (issue 9, item 11): comments
+/// Nothing in the repository cites notes that are not part of it: comments
 /// cite the papers, and what the code needs is in the repository's own docs.
 #[test]
 fn no_citations_of_files_outside_the_repository() {

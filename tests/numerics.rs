@@ -1,4 +1,4 @@
-//! Numerical-range regressions from issue 8: scenes far from unit scale, coordinates and
+//! Numerical-range regressions: scenes far from unit scale, coordinates and
 //! radiance near the f32 limit. (The randomized versions run in `brdfwave stress`.)
 
 mod common;

@@ -53,11 +53,7 @@ float blinn_phong_pdf(Material m, vec3 given, vec3 sampled) {
 }
 
 bool blinn_phong_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s) {
-    s.wi = vec3(0.0, 0.0, 1.0);
-    s.weight = vec3(0.0);
-    s.pdf = 0.0;
-    s.delta = false;
-    if (given.z <= 0.0) return false;
+    if (!sample_begin(given, s)) return false;
     vec3 wi;
     if (u_lobe < m.p[2].x) {
         // cos(theta_h) = u'^(1/(e+1)), u' = 1 - u.x in (0, 1].
@@ -71,13 +67,7 @@ bool blinn_phong_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSa
     } else {
         wi = sample_cosine_hemisphere(u);
     }
-    if (wi.z <= 0.0) return false;
-    float p = blinn_phong_pdf(m, given, wi);
-    if (p <= 0.0) return false;
-    s.wi = wi;
-    s.pdf = p;
-    s.weight = blinn_phong_eval(m, wi, given) * (wi.z / p);
-    return true;
+    RETURN_SCATTERED(wi, blinn_phong_pdf(m, given, wi), blinn_phong_eval(m, wi, given));
 }
 
 #endif

@@ -1,7 +1,12 @@
-// Building blocks shared by the models. Rust twin: src/brdf/common.rs.
+// Building blocks shared by the models, grouped by topic as in the Rust twin
+// (src/brdf/common.rs): same names, same arithmetic.
 #ifndef BRDF_COMMON_GLSL
 #define BRDF_COMMON_GLSL
 #include "brdf/../common.glsl"  // = shaders/common.glsl both for glslangValidator -I (a bare "common.glsl" finds this file first) and for vk::ShaderCompiler (root-relative, no "../" above the root)
+
+// ---------------------------------------------------------------------------------------------
+// Sampling the hemisphere
+// ---------------------------------------------------------------------------------------------
 
 // Cosine-weighted hemisphere sample, concentric mapping (Shirley & Chiu 1997). pdf = cosθ/π.
 vec3 sample_cosine_hemisphere(vec2 u) {
@@ -27,8 +32,7 @@ float cosine_hemisphere_pdf(float cos_theta) { return max(cos_theta, 0.0) * INV_
 bool same_hemisphere_up(vec3 a, vec3 b) { return a.z > 0.0 && b.z > 0.0; }
 
 // ---------------------------------------------------------------------------------------------
-// Helpers added by models-a (Oren–Nayar, Phong, Blinn–Phong, Ward). Rust twins under the same
-// marker in src/brdf/common.rs, same names and the same arithmetic.
+// Directions and frames
 // ---------------------------------------------------------------------------------------------
 
 vec3 reflect_z(vec3 w) { return vec3(-w.x, -w.y, w.z); }
@@ -45,6 +49,18 @@ void orthonormal_basis(vec3 n, out vec3 t, out vec3 b) {
 }
 
 vec3 rotate_z(vec3 w, float c, float s) { return vec3(c * w.x - s * w.y, s * w.x + c * w.y, w.z); }
+
+// 1 - dot(a, b) for unit vectors, accurate when nearly parallel.
+float one_minus_dot(vec3 a, vec3 b) {
+    precise vec3 d = a - b;
+    return 0.5 * dot(d, d);
+}
+
+float tan2_theta(vec3 w) { return (w.x * w.x + w.y * w.y) / (w.z * w.z); }
+
+// ---------------------------------------------------------------------------------------------
+// Special functions: accurate where GLSL has no library function
+// ---------------------------------------------------------------------------------------------
 
 // e^x - 1, relative accuracy near 0: series to x^6 for |x| < 0.1.
 float expm1_f(float x) {
@@ -70,17 +86,6 @@ float pow_one_minus(float x, float n) {
     return exp(n * log1p_f(-max(x, 0.0)));
 }
 
-// 1 - dot(a, b) for unit vectors, accurate when nearly parallel.
-float one_minus_dot(vec3 a, vec3 b) {
-    precise vec3 d = a - b;
-    return 0.5 * dot(d, d);
-}
-
-// ─────────────────────────────────────────────────────────────────────────────────────────────
-// models-b section: special functions, Fresnel, microfacet NDFs and Smith masking used by
-// cook_torrance, he and schlick. Rust twins of the same names in src/brdf/common.rs.
-// ─────────────────────────────────────────────────────────────────────────────────────────────
-
 // erfc with relative accuracy (Numerical Recipes erfcc form), |x| clamped to 10.
 float erfc(float x) {
     float z = min(abs(x), 10.0);
@@ -96,6 +101,10 @@ float erfc(float x) {
     float r = t * exp(-z * z + p);
     return x >= 0.0 ? r : 2.0 - r;
 }
+
+// ---------------------------------------------------------------------------------------------
+// Fresnel reflectance
+// ---------------------------------------------------------------------------------------------
 
 // Survey eq. 7, unpolarised dielectric Fresnel (see the Rust twin for the guards).
 float fresnel_dielectric(float c, float n) {
@@ -152,7 +161,9 @@ vec3 fresnel_schlick(float c, vec3 f0) {
     return f0 + (vec3(1.0) - f0) * m5;
 }
 
-float tan2_theta(vec3 w) { return (w.x * w.x + w.y * w.y) / (w.z * w.z); }
+// ---------------------------------------------------------------------------------------------
+// Microfacet distributions (Beckmann, GGX): normal distributions, Smith masking, sampling
+// ---------------------------------------------------------------------------------------------
 
 // Normalised isotropic Beckmann NDF (survey eq. 6 / π).
 float beckmann_d(vec3 h, float alpha) {
@@ -205,5 +216,35 @@ vec3 sample_ggx_h(vec2 u, float alpha) {
     float tan2 = alpha * alpha * u.x / max(1.0 - u.x, 1e-30);
     return half_vector_from_tan2(tan2, u.y);
 }
+
+// ---------------------------------------------------------------------------------------------
+// The start and the end of every <model>_sample
+// ---------------------------------------------------------------------------------------------
+
+// Clears `s` to "no sample" (an out parameter is written on every path) and says whether
+// sampling may go on: not for a `given` direction below the horizon. Every <model>_sample
+// starts with `if (!sample_begin(given, s)) return false;`.
+bool sample_begin(vec3 given, out BrdfSample s) {
+    s.wi = vec3(0.0, 0.0, 1.0);
+    s.weight = vec3(0.0);
+    s.pdf = 0.0;
+    s.delta = false;
+    return !(given.z <= 0.0);
+}
+
+// The end of sampling a non-delta lobe, as Rust's BrdfSample::scattered ends it: refuse a
+// direction WI below the horizon or with zero density, otherwise weight = f·cosθ/pdf with PDF
+// the density of the whole mixture at WI and F the BRDF there. A macro, because GLSL has no
+// closures: PDF and F are evaluated only when needed. Writes `s` and returns from the sampler.
+#define RETURN_SCATTERED(WI, PDF, F) \
+    { \
+        if (WI.z <= 0.0) return false; \
+        float p_scattered = PDF; \
+        if (p_scattered <= 0.0) return false; \
+        s.wi = WI; \
+        s.pdf = p_scattered; \
+        s.weight = (F) * (WI.z / p_scattered); \
+        return true; \
+    }
 
 #endif

@@ -69,11 +69,7 @@ float cook_torrance_pdf(Material m, vec3 given, vec3 sampled) {
 }
 
 bool cook_torrance_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s) {
-    s.wi = vec3(0.0, 0.0, 1.0);
-    s.weight = vec3(0.0);
-    s.pdf = 0.0;
-    s.delta = false;
-    if (given.z <= 0.0) return false;
+    if (!sample_begin(given, s)) return false;
     float ps = ct_specular_probability(m, given.z);
     vec3 wi;
     if (u_lobe < ps) {
@@ -89,11 +85,5 @@ bool cook_torrance_sample(Material m, vec3 given, float u_lobe, vec2 u, out Brdf
     } else {
         wi = sample_cosine_hemisphere(u);
     }
-    if (wi.z <= 0.0) return false;
-    float p = cook_torrance_pdf(m, given, wi);
-    if (p <= 0.0) return false;
-    s.wi = wi;
-    s.pdf = p;
-    s.weight = cook_torrance_eval(m, wi, given) * (wi.z / p);
-    return true;
+    RETURN_SCATTERED(wi, cook_torrance_pdf(m, given, wi), cook_torrance_eval(m, wi, given));
 }

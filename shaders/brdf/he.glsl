@@ -250,11 +250,7 @@ float he_pdf(Material m, vec3 given, vec3 sampled) {
 }
 
 bool he_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s) {
-    s.wi = vec3(0.0, 0.0, 1.0);
-    s.weight = vec3(0.0);
-    s.pdf = 0.0;
-    s.delta = false;
-    if (given.z <= 0.0) return false;
+    if (!sample_begin(given, s)) return false;
     vec4 lp = he_lobe_probabilities(m, given);
     vec3 wi;
     if (u_lobe < lp.x) {
@@ -269,11 +265,5 @@ bool he_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s) {
     } else {
         wi = sample_cosine_hemisphere(u);
     }
-    if (wi.z <= 0.0) return false;
-    float p = he_pdf(m, given, wi);
-    if (p <= 0.0) return false;
-    s.wi = wi;
-    s.pdf = p;
-    s.weight = he_eval(m, wi, given) * (wi.z / p);
-    return true;
+    RETURN_SCATTERED(wi, he_pdf(m, given, wi), he_eval(m, wi, given));
 }

@@ -43,11 +43,7 @@ float oren_nayar_pdf(Material m, vec3 given, vec3 sampled) {
 }
 
 bool oren_nayar_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s) {
-    s.wi = vec3(0.0, 0.0, 1.0);
-    s.weight = vec3(0.0);
-    s.pdf = 0.0;
-    s.delta = false;
-    if (given.z <= 0.0) return false;
+    if (!sample_begin(given, s)) return false;
     s.wi = sample_cosine_hemisphere(u);
     s.pdf = cosine_hemisphere_pdf(s.wi.z);
     if (s.pdf <= 0.0) return false;

@@ -32,11 +32,7 @@ float phong_pdf(Material m, vec3 given, vec3 sampled) {
 }
 
 bool phong_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s) {
-    s.wi = vec3(0.0, 0.0, 1.0);
-    s.weight = vec3(0.0);
-    s.pdf = 0.0;
-    s.delta = false;
-    if (given.z <= 0.0) return false;
+    if (!sample_begin(given, s)) return false;
     vec3 wi;
     if (u_lobe < m.p[2].x) {
         vec3 r = reflect_z(given);
@@ -51,13 +47,7 @@ bool phong_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s
     } else {
         wi = sample_cosine_hemisphere(u);
     }
-    if (wi.z <= 0.0) return false;
-    float p = phong_pdf(m, given, wi);
-    if (p <= 0.0) return false;
-    s.wi = wi;
-    s.pdf = p;
-    s.weight = phong_eval(m, wi, given) * (wi.z / p);
-    return true;
+    RETURN_SCATTERED(wi, phong_pdf(m, given, wi), phong_eval(m, wi, given));
 }
 
 #endif

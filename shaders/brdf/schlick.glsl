@@ -179,11 +179,7 @@ float schlick_pdf(Material m, vec3 given, vec3 sampled) {
 }
 
 bool schlick_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s) {
-    s.wi = vec3(0.0, 0.0, 1.0);
-    s.weight = vec3(0.0);
-    s.pdf = 0.0;
-    s.delta = false;
-    if (given.z <= 0.0) return false;
+    if (!sample_begin(given, s)) return false;
     float cs = m.p[3].x;
     float sn = m.p[3].y;
     vec4 pr = schlick_lobe_probabilities(m, given);
@@ -204,11 +200,5 @@ bool schlick_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample
     } else {
         wi = sample_cosine_hemisphere(u);
     }
-    if (wi.z <= 0.0) return false;
-    float p = schlick_pdf(m, given, wi);
-    if (p <= 0.0) return false;
-    s.wi = wi;
-    s.pdf = p;
-    s.weight = schlick_eval(m, wi, given) * (wi.z / p);
-    return true;
+    RETURN_SCATTERED(wi, schlick_pdf(m, given, wi), schlick_eval(m, wi, given));
 }

@@ -104,11 +104,7 @@ float ward_pdf(Material m, vec3 given, vec3 sampled) {
 }
 
 bool ward_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s) {
-    s.wi = vec3(0.0, 0.0, 1.0);
-    s.weight = vec3(0.0);
-    s.pdf = 0.0;
-    s.delta = false;
-    if (given.z <= 0.0) return false;
+    if (!sample_begin(given, s)) return false;
     vec3 g = ward_rotate_in(m, given);
     vec3 wi;
     if (u_lobe < m.p[1].w) {

@@ -1,7 +1,14 @@
-//! Building blocks shared by the models (GLSL twin: `shaders/brdf/common.glsl`).
+//! Building blocks shared by the models, grouped by topic: sampling the hemisphere, directions
+//! and frames, special functions, colour, Fresnel reflectance, microfacet distributions. Each
+//! function has a GLSL twin of the same name and the same arithmetic in
+//! `shaders/brdf/common.glsl`, so that both renderers compute the same numbers.
 
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
+
+// ---------------------------------------------------------------------------------------------
+// Sampling the hemisphere
+// ---------------------------------------------------------------------------------------------
 
 /// Cosine-weighted hemisphere sample (Malley's method on the concentric disk, Shirley & Chiu
 /// 1997). pdf = cosθ/π.
@@ -33,15 +40,8 @@ pub fn same_hemisphere_up(a: Vec3, b: Vec3) -> bool {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Helpers added by models-a (Oren–Nayar, Phong, Blinn–Phong, Ward). GLSL twins under the same
-// marker in shaders/brdf/common.glsl, same names and the same arithmetic.
+// Directions and frames
 // ---------------------------------------------------------------------------------------------
-
-/// Rec. 709 luminance, used to turn RGB lobe albedos into lobe-selection probabilities.
-#[inline]
-pub fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
-}
 
 /// Mirror direction about the normal z: refl(w) = (−w.x, −w.y, w.z).
 #[inline]
@@ -72,6 +72,23 @@ pub fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
 pub fn rotate_z(w: Vec3, c: f32, s: f32) -> Vec3 {
     Vec3::new(c * w.x - s * w.y, s * w.x + c * w.y, w.z)
 }
+
+/// 1 − a·b for unit vectors, accurate when they are nearly parallel: |a − b|²/2.
+#[inline]
+pub fn one_minus_dot(a: Vec3, b: Vec3) -> f32 {
+    0.5 * (a - b).length_squared()
+}
+
+/// tan²θ of a direction or (un-normalised) half vector from its components: (x² + y²)/z²,
+/// never (1 − cos²)/cos². Requires z > 0.
+#[inline]
+pub fn tan2_theta(w: Vec3) -> f32 {
+    (w.x * w.x + w.y * w.y) / (w.z * w.z)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Special functions: accurate where GLSL has no library function
+// ---------------------------------------------------------------------------------------------
 
 /// e^x − 1 with relative accuracy near 0 (GLSL has no expm1): Taylor series to x⁶ for
 /// |x| < 0.1 (truncation < 3e-10 relative), exp(x) − 1 elsewhere.
@@ -114,19 +131,6 @@ pub fn pow_one_minus(x: f32, n: f32) -> f32 {
     (n * log1p_f(-x.max(0.0))).exp()
 }
 
-/// 1 − a·b for unit vectors, accurate when they are nearly parallel: |a − b|²/2.
-#[inline]
-pub fn one_minus_dot(a: Vec3, b: Vec3) -> f32 {
-    0.5 * (a - b).length_squared()
-}
-
-// ───────────────────────────────────────────────────────────────────────────────────────────
-// models-b section: special functions, Fresnel, microfacet NDFs and Smith masking used by
-// cook_torrance, he and schlick (luminance, reflect_z and reflect_about are in the models-a
-// section above). Each function has a GLSL twin of the same name in shaders/brdf/common.glsl
-// with the same arithmetic.
-// ───────────────────────────────────────────────────────────────────────────────────────────
-
 /// Complementary error function with *relative* accuracy (fractional error < 1.2e-7 for all
 /// x in exact arithmetic): the Chebyshev-fitted form exp(−x² + P(t))·t, t = 1/(1 + x/2), of
 /// Numerical Recipes' `erfcc`. |x| is clamped to 10 (erfc(10) ≈ 2e-45 is below f32's normal
@@ -149,6 +153,20 @@ pub fn erfc(x: f32) -> f32 {
         2.0 - r
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// Colour
+// ---------------------------------------------------------------------------------------------
+
+/// Rec. 709 luminance, used to turn RGB lobe albedos into lobe-selection probabilities.
+#[inline]
+pub fn luminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+// ---------------------------------------------------------------------------------------------
+// Fresnel reflectance
+// ---------------------------------------------------------------------------------------------
 
 /// Unpolarised Fresnel reflectance of a dielectric, survey eq. 7 (Cook & Torrance 1982):
 /// F = ½ (g−c)²/(g+c)² · [1 + (c(g+c) − 1)²/(c(g−c) + 1)²], g² = n² + c² − 1, with c = cos of
@@ -219,12 +237,9 @@ pub fn fresnel_schlick(c: f32, f0: Vec3) -> Vec3 {
     f0 + (Vec3::ONE - f0) * m5
 }
 
-/// tan²θ of a direction or (un-normalised) half vector from its components: (x² + y²)/z²,
-/// never (1 − cos²)/cos². Requires z > 0.
-#[inline]
-pub fn tan2_theta(w: Vec3) -> f32 {
-    (w.x * w.x + w.y * w.y) / (w.z * w.z)
-}
+// ---------------------------------------------------------------------------------------------
+// Microfacet distributions (Beckmann, GGX): normal distributions, Smith masking, sampling
+// ---------------------------------------------------------------------------------------------
 
 /// Normalised isotropic Beckmann NDF, D = exp(−tan²θh/α²)/(π α² cos⁴θh) (the survey's eq. 6
 /// divided by π, so that ∫ D cosθh dω = 1). `h` unit, upper hemisphere; 0 otherwise.
@@ -303,7 +318,7 @@ pub fn sample_ggx_h(u: Vec2, alpha: f32) -> Vec3 {
 }
 
 #[cfg(test)]
-mod models_a_tests {
+mod tests {
     use super::*;
 
     #[test]

@@ -356,16 +356,7 @@ pub fn sample(m: &CookTorrance, given: Vec3, u_lobe: f32, u: Vec2) -> Option<Brd
     BrdfSample::scattered(wi, |wi| pdf(m, given, wi), |wi| eval(m, wi, given))
 }
 
-impl Brdf for CookTorrance {
-    fn eval(&self, wi: Vec3, wo: Vec3) -> Vec3 {
-        eval(self, wi, wo)
-    }
-    fn pdf(&self, given: Vec3, sampled: Vec3) -> f32 {
-        pdf(self, given, sampled)
-    }
-    fn sample(&self, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
-        sample(self, given, u_lobe, u)
-    }
+impl_brdf!(CookTorrance {
     fn pack(&self) -> Params {
         let mut p = Params::default();
         p.set3(0, self.kd).set(3, self.roughness);
@@ -390,7 +381,7 @@ impl Brdf for CookTorrance {
     fn scatters(&self) -> bool {
         self.kd != Vec3::ZERO || self.ks != Vec3::ZERO
     }
-}
+});
 
 #[cfg(test)]
 mod tests {

@@ -43,9 +43,9 @@
 //! [`series_window`]: around the largest term m̂ (found by bisection on the ratio of
 //! consecutive terms, which decreases with m), out to where the terms are e^(−40) below it and
 //! fall geometrically; proved there to omit at most 2e^(−40) ≈ 8.5e-18 of the sum for every g
-//! and every c. (The window m ∈ [g − 8√g, g + 8√g + 10] used before ignored that e^(−c/m)
-//! moves the largest terms to m ≫ g when c ≫ g²: rough surfaces far from the specular
-//! direction were 2 % off where the value is below 1e-20.) The loop is capped at
+//! and every c. (A window fixed around g, such as m ∈ [g − 8√g, g + 8√g + 10], would miss that
+//! e^(−c/m) moves the largest terms to m ≫ g when c ≫ g²: rough surfaces far from the specular
+//! direction would be 2 % off where the value is below 1e-20.) The loop is capped at
 //! [`HE_MAX_TERMS`] = 128 evaluations (the GPU needs a bound): when the window is wider the sum
 //! takes every s-th term times s. The terms are a smooth bell of width w ≈ 1/√(−d²ln t/dm²)
 //! and the window spans about ±9w, so s ≈ 18w/128 and by Poisson summation the relative error
@@ -526,16 +526,7 @@ pub fn sample(m: &He, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
     BrdfSample::scattered(wi, |wi| pdf(m, given, wi), |wi| eval(m, wi, given))
 }
 
-impl Brdf for He {
-    fn eval(&self, wi: Vec3, wo: Vec3) -> Vec3 {
-        eval(self, wi, wo)
-    }
-    fn pdf(&self, given: Vec3, sampled: Vec3) -> f32 {
-        pdf(self, given, sampled)
-    }
-    fn sample(&self, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
-        sample(self, given, u_lobe, u)
-    }
+impl_brdf!(He {
     fn pack(&self) -> Params {
         let mut p = Params::default();
         p.set(0, self.sigma0)
@@ -554,7 +545,7 @@ impl Brdf for He {
             Vec::new()
         }
     }
-}
+});
 
 #[cfg(test)]
 mod tests {

@@ -40,7 +40,7 @@ pub fn pdf(_m: &Lambert, given: Vec3, sampled: Vec3) -> f32 {
     cosine_hemisphere_pdf(sampled.z)
 }
 
-pub fn sample(m: &Lambert, given: Vec3, u: Vec2) -> Option<BrdfSample> {
+pub fn sample(m: &Lambert, given: Vec3, _u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
     if given.z <= 0.0 {
         return None;
     }
@@ -58,16 +58,7 @@ pub fn sample(m: &Lambert, given: Vec3, u: Vec2) -> Option<BrdfSample> {
     })
 }
 
-impl Brdf for Lambert {
-    fn eval(&self, wi: Vec3, wo: Vec3) -> Vec3 {
-        eval(self, wi, wo)
-    }
-    fn pdf(&self, given: Vec3, sampled: Vec3) -> f32 {
-        pdf(self, given, sampled)
-    }
-    fn sample(&self, given: Vec3, _u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
-        sample(self, given, u)
-    }
+impl_brdf!(Lambert {
     fn pack(&self) -> Params {
         let mut p = Params::default();
         p.set3(0, self.albedo);
@@ -76,4 +67,4 @@ impl Brdf for Lambert {
     fn scatters(&self) -> bool {
         self.albedo != Vec3::ZERO
     }
-}
+});

@@ -16,6 +16,32 @@
 //!
 //! Adding a model: a Rust file here, a GLSL file in `shaders/brdf/`, one line in [`MODELS`].
 
+/// Implements [`Brdf`] for a model type by forwarding `eval`, `pdf` and `sample` to the free
+/// functions of the model's file, which carry the names and arguments of its GLSL twin
+/// (`ward::eval` ↔ `ward_eval`); the methods written in the braces (`pack`, and `defines` or
+/// `scatters` where the defaults do not fit) complete the impl.
+macro_rules! impl_brdf {
+    ($model:ty { $($methods:tt)* }) => {
+        impl $crate::brdf::Brdf for $model {
+            fn eval(&self, wi: glam::Vec3, wo: glam::Vec3) -> glam::Vec3 {
+                eval(self, wi, wo)
+            }
+            fn pdf(&self, given: glam::Vec3, sampled: glam::Vec3) -> f32 {
+                pdf(self, given, sampled)
+            }
+            fn sample(
+                &self,
+                given: glam::Vec3,
+                u_lobe: f32,
+                u: glam::Vec2,
+            ) -> Option<$crate::brdf::BrdfSample> {
+                sample(self, given, u_lobe, u)
+            }
+            $($methods)*
+        }
+    };
+}
+
 pub mod blinn_phong;
 pub mod common;
 pub mod cook_torrance;

@@ -141,7 +141,7 @@ pub fn pdf(_m: &OrenNayar, given: Vec3, sampled: Vec3) -> f32 {
     cosine_hemisphere_pdf(sampled.z)
 }
 
-pub fn sample(m: &OrenNayar, given: Vec3, u: Vec2) -> Option<BrdfSample> {
+pub fn sample(m: &OrenNayar, given: Vec3, _u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
     if given.z <= 0.0 {
         return None;
     }
@@ -160,16 +160,7 @@ pub fn sample(m: &OrenNayar, given: Vec3, u: Vec2) -> Option<BrdfSample> {
     })
 }
 
-impl Brdf for OrenNayar {
-    fn eval(&self, wi: Vec3, wo: Vec3) -> Vec3 {
-        eval(self, wi, wo)
-    }
-    fn pdf(&self, given: Vec3, sampled: Vec3) -> f32 {
-        pdf(self, given, sampled)
-    }
-    fn sample(&self, given: Vec3, _u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
-        sample(self, given, u)
-    }
+impl_brdf!(OrenNayar {
     fn pack(&self) -> Params {
         let mut p = Params::default();
         p.set3(0, self.albedo).set(3, self.sigma);
@@ -186,7 +177,7 @@ impl Brdf for OrenNayar {
     fn scatters(&self) -> bool {
         self.albedo != Vec3::ZERO
     }
-}
+});
 
 #[cfg(test)]
 mod tests {
@@ -237,7 +228,7 @@ mod tests {
                             f.is_finite() && f.min_element() >= 0.0,
                             "{sigma} {v:?} {a} {b}: {f}"
                         );
-                        let s = sample(&m, a, Vec2::new(0.3, 0.7)).unwrap();
+                        let s = sample(&m, a, 0.0, Vec2::new(0.3, 0.7)).unwrap();
                         assert!(s.weight.is_finite() && s.pdf > 0.0);
                     }
                 }

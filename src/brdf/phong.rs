@@ -163,16 +163,7 @@ pub fn sample(m: &Phong, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample
     BrdfSample::scattered(wi, |wi| pdf(m, given, wi), |wi| eval(m, wi, given))
 }
 
-impl Brdf for Phong {
-    fn eval(&self, wi: Vec3, wo: Vec3) -> Vec3 {
-        eval(self, wi, wo)
-    }
-    fn pdf(&self, given: Vec3, sampled: Vec3) -> f32 {
-        pdf(self, given, sampled)
-    }
-    fn sample(&self, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
-        sample(self, given, u_lobe, u)
-    }
+impl_brdf!(Phong {
     fn pack(&self) -> Params {
         let mut p = Params::default();
         p.set3(0, self.kd).set(3, self.exponent);
@@ -190,7 +181,7 @@ impl Brdf for Phong {
     fn scatters(&self) -> bool {
         self.kd != Vec3::ZERO || self.ks != Vec3::ZERO
     }
-}
+});
 
 #[cfg(test)]
 mod tests {

@@ -427,16 +427,7 @@ pub fn sample(m: &Schlick, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSamp
     BrdfSample::scattered(wi, |wi| pdf(m, given, wi), |wi| eval(m, wi, given))
 }
 
-impl Brdf for Schlick {
-    fn eval(&self, wi: Vec3, wo: Vec3) -> Vec3 {
-        eval(self, wi, wo)
-    }
-    fn pdf(&self, given: Vec3, sampled: Vec3) -> f32 {
-        pdf(self, given, sampled)
-    }
-    fn sample(&self, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
-        sample(self, given, u_lobe, u)
-    }
+impl_brdf!(Schlick {
     fn pack(&self) -> Params {
         let mut p = Params::default();
         let (cs, sn) = self.rotation_cs();
@@ -469,7 +460,7 @@ impl Brdf for Schlick {
     fn scatters(&self) -> bool {
         self.c != Vec3::ZERO || (self.layered && self.c2 != Vec3::ZERO)
     }
-}
+});
 
 #[cfg(test)]
 mod tests {

@@ -295,16 +295,7 @@ pub fn sample(m: &Ward, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample>
     })
 }
 
-impl Brdf for Ward {
-    fn eval(&self, wi: Vec3, wo: Vec3) -> Vec3 {
-        eval(self, wi, wo)
-    }
-    fn pdf(&self, given: Vec3, sampled: Vec3) -> f32 {
-        pdf(self, given, sampled)
-    }
-    fn sample(&self, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
-        sample(self, given, u_lobe, u)
-    }
+impl_brdf!(Ward {
     fn pack(&self) -> Params {
         let mut p = Params::default();
         let variant = match self.variant {
@@ -330,7 +321,7 @@ impl Brdf for Ward {
     fn scatters(&self) -> bool {
         self.kd != Vec3::ZERO || self.ks != Vec3::ZERO
     }
-}
+});
 
 #[cfg(test)]
 mod tests {

@@ -18,7 +18,7 @@ use crate::brdf::Brdf;
 use crate::bvh::{self, Bvh};
 use crate::camera::CameraBasis;
 use crate::film::{self, Block, Film, PairwiseSum, Tile};
-use crate::lights::{luminance, LightTable};
+use crate::lights::LightTable;
 use crate::output::{nonfinite_stages, RenderOutput, SEGMENTS_COUNTED};
 use crate::rng::{dim, PathRng};
 use crate::scene::Scene;
@@ -353,9 +353,4 @@ impl<'a> CpuRenderer<'a> {
         }
         l
     }
-}
-
-/// Luminance helper re-exported for reports.
-pub fn pixel_luminance(p: [f32; 3]) -> f32 {
-    luminance(Vec3::from_array(p))
 }

@@ -1,5 +1,5 @@
 //! Surface interactions and light samples for the CPU reference renderer.
-//! GLSL twins: `shaders/wavefront/surface.glsl` and `shaders/wavefront/lights.glsl`.
+//! GLSL twin: `shaders/wavefront/surface.glsl` (surfaces and light sampling).
 
 use crate::bvh::{sphere_point, triangle_point, Hit, SPHERE_BIT};
 use crate::lights::LightTable;

@@ -5,8 +5,12 @@
 //! index and an optional emitter index. The BVH (`crate::bvh`) is built over these lists and the
 //! GPU upload (`crate::gpu::scene_buffers`) packs them without further interpretation.
 
+mod assemble;
 pub mod load;
+mod obj;
+mod schema;
 pub mod shapes;
+mod spanned;
 
 use crate::brdf::Material;
 use glam::{Vec2, Vec3};

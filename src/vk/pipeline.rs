@@ -6,6 +6,7 @@
 use super::buffer::Buffer;
 use super::cache::{default_cache_dir, write_atomic};
 use super::context::Context;
+use super::shader::SPIRV_MAGIC;
 use anyhow::{anyhow, bail, Context as _, Result};
 use ash::vk;
 use std::collections::HashMap;
@@ -528,7 +529,6 @@ pub(crate) fn save_pipeline_cache(device: &ash::Device, cache: vk::PipelineCache
     }
 }
 
-const SPIRV_MAGIC: u32 = 0x0723_0203;
 const OP_ENTRY_POINT: u32 = 15;
 const OP_EXECUTION_MODE: u32 = 16;
 const OP_CONSTANT: u32 = 43;

@@ -31,7 +31,8 @@ const CACHE_FORMAT_VERSION: u64 = 1;
 /// The compile options, hashed into the cache key.
 const OPTIONS_TAG: &str = "glsl compute main; vulkan1.2; spirv1.5; opt=performance";
 const CACHE_MAGIC: &[u8; 8] = b"BWSPIRV1";
-const SPIRV_MAGIC: u32 = 0x0723_0203;
+/// The first word of every SPIR-V module (SPIR-V specification, section 2.3).
+pub(crate) const SPIRV_MAGIC: u32 = 0x0723_0203;
 /// Deeper include nesting than this is taken to be an include cycle without a guard.
 const MAX_INCLUDE_DEPTH: usize = 32;
 

@@ -1,6 +1,8 @@
 //! Helpers shared by the integration tests that render.
 #![allow(dead_code)]
 
+pub mod brdf;
+
 use brdfwave::bvh;
 use brdfwave::cpu::CpuRenderer;
 use brdfwave::gpu::GpuRenderer;

@@ -1,0 +1,571 @@
+//! Assembly: the raw scene ([`super::schema`]) checked value by value and turned into the flat
+//! primitive lists of [`Scene`] (quads, triangles, spheres, OBJ meshes, each transformed and
+//! tagged with its material and emitter).
+
+use super::load::{SceneError, MAX_FILM_SIZE};
+use super::obj::{obj_triangles, ObjShape};
+use super::schema::{MaterialTable, RawCamera, RawScene, RawShape, RawTransform, Triple, V3};
+use super::spanned::{Cx, Sp};
+use super::{Camera, Emitter, Integrator, Scene, Sphere, Triangle};
+use crate::brdf::params::fmt_num;
+use crate::brdf::{self, Origin};
+use glam::Vec3;
+use std::collections::{BTreeMap, HashMap};
+use std::ops::Range;
+use std::path::Path;
+
+/// A vector for a message, `[x, y, z]`, each number as [`fmt_num`] writes it.
+pub(super) fn fmt_vec(v: Vec3) -> String {
+    format!("[{}, {}, {}]", fmt_num(v.x), fmt_num(v.y), fmt_num(v.z))
+}
+
+impl Cx<'_> {
+    pub(super) fn finite(
+        &self,
+        span: Option<Range<usize>>,
+        field: &str,
+        x: f64,
+    ) -> Result<f32, SceneError> {
+        if !x.is_finite() {
+            return Err(self.err(span, field, format!("{x} is not a finite number")));
+        }
+        if x.abs() > f32::MAX as f64 {
+            return Err(self.err(
+                span,
+                field,
+                format!("{x:e} is out of the single-precision range"),
+            ));
+        }
+        Ok(x as f32)
+    }
+
+    pub(super) fn vec3(
+        &self,
+        span: Option<Range<usize>>,
+        field: &str,
+        v: [f64; 3],
+    ) -> Result<Vec3, SceneError> {
+        Ok(Vec3::new(
+            self.finite(span.clone(), field, v[0])?,
+            self.finite(span.clone(), field, v[1])?,
+            self.finite(span, field, v[2])?,
+        ))
+    }
+
+    pub(super) fn v3(&self, v: &V3, field: &str) -> Result<Vec3, SceneError> {
+        self.vec3(v.span(), field, v.value)
+    }
+
+    /// A non-negative RGB radiance.
+    pub(super) fn radiance(&self, v: &Sp<Triple>, field: &str) -> Result<Vec3, SceneError> {
+        let c = self.vec3(v.span(), field, v.value.0)?;
+        if c.min_element() < 0.0 {
+            let msg = format!(
+                "{} has a negative channel: radiance must be >= 0",
+                fmt_vec(c)
+            );
+            return Err(self.err(v.span(), field, msg));
+        }
+        Ok(c)
+    }
+
+    pub(super) fn at_least_one(
+        &self,
+        v: &Option<Sp<u32>>,
+        field: &str,
+        default: u32,
+    ) -> Result<u32, SceneError> {
+        match v {
+            None => Ok(default),
+            Some(x) if x.value == 0 => {
+                Err(self.err(x.span(), field, "0 is out of range: must be >= 1"))
+            }
+            Some(x) => Ok(x.value),
+        }
+    }
+}
+
+/// Zero-area test: the two edges from `v0` are parallel or empty to within single precision,
+/// `|e1 × e2| <= 1e-6 |e1| |e2|`, evaluated in f64 so that no finite f32 triangle overflows
+/// (or underflows) into looking degenerate. An edge that itself overflows f32 (vertices of
+/// opposite sign near 3.4e38) counts as degenerate here; the loaders refuse such input first
+/// with a message ([`edge_overflow`]).
+pub(super) fn degenerate(v: &[Vec3; 3]) -> bool {
+    let d = |a: Vec3| glam::DVec3::new(a.x as f64, a.y as f64, a.z as f64);
+    let e1 = d(v[1]) - d(v[0]);
+    let e2 = d(v[2]) - d(v[0]);
+    let c = e1.cross(e2).length();
+    let edges_finite = (v[1] - v[0]).is_finite() && (v[2] - v[0]).is_finite();
+    !(c > 1e-6 * e1.length() * e2.length() && c.is_finite() && edges_finite)
+}
+
+/// A message when an edge `v1 - v0` or `v2 - v0` of a triangle with finite vertices is not
+/// finite in f32 (the renderers work with f32 edges).
+pub(super) fn edge_overflow(v: &[Vec3; 3]) -> Option<String> {
+    if (v[1] - v[0]).is_finite() && (v[2] - v[0]).is_finite() && (v[2] - v[1]).is_finite() {
+        return None;
+    }
+    Some(format!(
+        "the triangle {} {} {} has an edge longer than the single-precision range (about 3.4e38)",
+        v[0], v[1], v[2]
+    ))
+}
+
+pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, SceneError> {
+    let camera = camera(cx, &raw.camera)?;
+
+    let size = |v: &Sp<u32>, field: &str| {
+        if v.value == 0 || v.value > MAX_FILM_SIZE {
+            let msg = format!(
+                "{} is out of range: must be in [1, {MAX_FILM_SIZE}]",
+                v.value
+            );
+            return Err(cx.err(v.span(), field, msg));
+        }
+        Ok(v.value)
+    };
+    let width = size(&raw.film.width, "film.width")?;
+    let height = size(&raw.film.height, "film.height")?;
+
+    let mut integrator = Integrator::default();
+    if let Some(i) = &raw.integrator {
+        let d = Integrator::default();
+        integrator.spp = cx.at_least_one(&i.spp, "integrator.spp", d.spp)?;
+        integrator.max_depth =
+            cx.at_least_one(&i.max_depth, "integrator.max_depth", d.max_depth)?;
+        integrator.seed = i.seed.unwrap_or(d.seed);
+        integrator.russian_roulette = i.russian_roulette.unwrap_or(d.russian_roulette);
+        integrator.rr_start_depth = cx.at_least_one(
+            &i.rr_start_depth,
+            "integrator.rr_start_depth",
+            d.rr_start_depth,
+        )?;
+    }
+
+    let environment = match raw.environment.as_ref().and_then(|e| e.radiance.as_ref()) {
+        Some(r) => cx.radiance(r, "environment.radiance")?,
+        None => Vec3::ZERO,
+    };
+
+    // Materials, in file order (the map is sorted by name; the spans give the order).
+    let mut defs: Vec<(String, Option<Range<usize>>, MaterialTable)> = Vec::new();
+    for (name, table) in raw.materials {
+        // A table made by dotted keys has no span of its own: use its first field's.
+        let span = table.span.clone().or_else(|| {
+            table
+                .value
+                .values()
+                .filter_map(|v| v.span())
+                .min_by_key(|s| s.start)
+        });
+        defs.push((name, span, table.value));
+    }
+    defs.sort_by_key(|(_, span, _)| span.as_ref().map_or(0, |s| s.start));
+    let mut materials = Vec::new();
+    let mut material_names = Vec::new();
+    let mut material_spans = Vec::new();
+    for (name, span, table) in defs {
+        let mut fields = BTreeMap::new();
+        for (key, v) in table {
+            let Some(s) = v.span() else {
+                let msg = format!(
+                    "material '{name}': a parameter cannot be a table (dotted key '{key}.…')"
+                );
+                return Err(cx.err(span, &format!("materials.{name}.{key}"), msg));
+            };
+            fields.insert(key, toml::Spanned::new(s, v.value));
+        }
+        let table_span = span.clone().unwrap_or(0..0);
+        let origin = Origin {
+            file: &cx.file,
+            source: cx.source,
+            material: &name,
+            span: table_span,
+        };
+        let (m, w) = brdf::parse_material(origin, fields)?;
+        cx.warnings.extend(w);
+        materials.push(m);
+        material_names.push(name);
+        material_spans.push(span);
+    }
+    let index: HashMap<&str, usize> = material_names
+        .iter()
+        .enumerate()
+        .map(|(i, n)| (n.as_str(), i))
+        .collect();
+    let mut used = vec![false; materials.len()];
+
+    let mut out = Shapes::default();
+    for (i, shape) in raw.shapes.iter().enumerate() {
+        let f = format!("shapes[{i}]");
+        let m = &shape.value.material;
+        let Some(&material) = index.get(m.value.as_str()) else {
+            let known = if material_names.is_empty() {
+                "no materials are defined: add a [materials.NAME] table".to_string()
+            } else {
+                format!("defined materials: {}", material_names.join(", "))
+            };
+            let msg = format!("unknown material '{}' ({known})", m.value);
+            return Err(cx.err(m.span(), &format!("{f}.material"), msg));
+        };
+        used[material] = true;
+        shape_primitives(cx, &f, shape, material as u32, &mut out)?;
+    }
+
+    for (k, u) in used.iter().enumerate() {
+        if !u {
+            let (span, field) = (
+                material_spans[k].clone(),
+                format!("materials.{}", material_names[k]),
+            );
+            cx.warn(span, &field, "the material is defined but no shape uses it");
+        }
+    }
+    if out.triangles.is_empty() && out.spheres.is_empty() {
+        // With shapes present, their geometry came to nothing (OBJ files without faces, with
+        // lines only, or only zero-area triangles): the warnings say which and why.
+        let msg = if raw.shapes.is_empty() {
+            "the scene has no primitives: add a [[shapes]] table with geometry".to_string()
+        } else {
+            let why: Vec<String> = cx
+                .warnings
+                .iter()
+                .filter(|w| w.contains("OBJ"))
+                .map(|w| format!("\n  {w}"))
+                .collect();
+            format!(
+                "the scene has no primitives: its shapes gave no triangles or spheres{}",
+                if why.is_empty() {
+                    String::new()
+                } else {
+                    format!(", because:{}", why.concat())
+                }
+            )
+        };
+        return Err(match raw.shapes.first() {
+            Some(s) => cx.err(s.span().or(s.value.material.span()), "shapes", msg),
+            None => cx.err(None, "shapes", msg),
+        });
+    }
+    if out.emitters.is_empty() && environment == Vec3::ZERO {
+        cx.warnings.push(format!(
+            "warning: {}: the scene has no emitter and a black environment: every image will be black",
+            cx.file
+        ));
+    }
+
+    Ok(Scene {
+        path: path.to_path_buf(),
+        camera,
+        width,
+        height,
+        integrator,
+        materials,
+        material_names,
+        emitters: out.emitters,
+        triangles: out.triangles,
+        spheres: out.spheres,
+        environment,
+        warnings: std::mem::take(&mut cx.warnings),
+    })
+}
+
+pub(super) fn camera(cx: &Cx, c: &RawCamera) -> Result<Camera, SceneError> {
+    let position = cx.v3(&c.position, "camera.position")?;
+    let target = cx.v3(&c.target, "camera.target")?;
+    let up = match &c.up {
+        Some(u) => cx.v3(u, "camera.up")?,
+        None => Vec3::Y,
+    };
+    let fov = cx.finite(c.fov_y.span(), "camera.fov_y", c.fov_y.value)?;
+    if !(fov > 0.0 && fov < 180.0) {
+        let msg = format!(
+            "{} is out of range: the vertical field of view in degrees must be in (0, 180)",
+            fmt_num(fov)
+        );
+        return Err(cx.err(c.fov_y.span(), "camera.fov_y", msg));
+    }
+    let diff = target - position;
+    if !diff.is_finite() {
+        let msg = format!(
+            "target - position = {target} - {position} overflows single precision (beyond about 3.4e38)"
+        );
+        return Err(cx.err(c.target.span(), "camera.target", msg));
+    }
+    // Scaled before normalizing: a distance beyond about 1.8e19 would overflow the squared
+    // length, and one below about 1e-19 underflow it.
+    let dir = crate::robust::normalize_scaled(diff);
+    if dir == Vec3::ZERO {
+        let msg = format!("the target equals the position {position}: no viewing direction");
+        return Err(cx.err(c.target.span(), "camera.target", msg));
+    }
+    let up_span = c.up.as_ref().and_then(|u| u.span()).or(c.target.span());
+    let upn = crate::robust::normalize_scaled(up);
+    if upn == Vec3::ZERO {
+        return Err(cx.err(up_span, "camera.up", "the up vector has zero length"));
+    }
+    if dir.cross(upn).length() < 1e-4 {
+        let msg = format!(
+            "up {up} is parallel to the viewing direction {}",
+            target - position
+        );
+        return Err(cx.err(up_span, "camera.up", msg));
+    }
+    Ok(Camera {
+        position,
+        target,
+        up,
+        fov_y_deg: fov,
+    })
+}
+
+#[derive(Default)]
+pub(super) struct Shapes {
+    pub(super) triangles: Vec<Triangle>,
+    pub(super) spheres: Vec<Sphere>,
+    pub(super) emitters: Vec<Emitter>,
+}
+
+pub(super) fn shape_primitives(
+    cx: &mut Cx,
+    f: &str,
+    shape: &Sp<RawShape>,
+    material: u32,
+    out: &mut Shapes,
+) -> Result<(), SceneError> {
+    let s = &shape.value;
+    let label = match &s.name {
+        Some(n) => format!("shape '{n}'"),
+        None => format!("shape {f}"),
+    };
+
+    // Exactly one geometry kind.
+    let kinds: Vec<(&str, Option<Range<usize>>)> = [
+        s.quads.as_ref().map(|q| ("quads", q.span())),
+        s.triangles.as_ref().map(|q| ("triangles", q.span())),
+        s.sphere
+            .as_ref()
+            .map(|q| ("sphere", q.span().or(q.value.radius.span()))),
+        s.obj.as_ref().map(|q| ("obj", q.span())),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    match kinds.as_slice() {
+        [] => {
+            let msg = format!(
+                "{label} has no geometry: give exactly one of quads, triangles, sphere, obj"
+            );
+            return Err(cx.err(shape.span().or(s.material.span()), f, msg));
+        }
+        [_] => {}
+        [(a, _), (b, span), ..] => {
+            let msg =
+                format!("{label} has both {a} and {b}: give exactly one geometry kind per shape");
+            return Err(cx.err(span.clone(), &format!("{f}.{b}"), msg));
+        }
+    }
+    if let Some(t) = &s.transform {
+        if s.obj.is_none() {
+            let msg = "transform applies only to obj shapes (write quads, triangles and spheres in world space)";
+            let span = t.span().or(shape.span());
+            return Err(cx.err(span, &format!("{f}.transform"), msg));
+        }
+    }
+
+    let emitter = match &s.emission {
+        Some(e) => {
+            let radiance = cx.radiance(e, &format!("{f}.emission"))?;
+            if radiance == Vec3::ZERO {
+                None
+            } else {
+                out.emitters.push(Emitter { radiance });
+                Some(out.emitters.len() as u32 - 1)
+            }
+        }
+        None => None,
+    };
+
+    let tri = |v: [Vec3; 3]| Triangle {
+        v,
+        n: None,
+        uv: None,
+        material,
+        emitter,
+    };
+    if let Some(quads) = &s.quads {
+        if quads.value.is_empty() {
+            let msg = format!("{label}: the list of quads is empty");
+            return Err(cx.err(quads.span(), &format!("{f}.quads"), msg));
+        }
+        for (k, q) in quads.value.iter().enumerate() {
+            let fq = format!("{f}.quads[{k}]");
+            let mut p = [Vec3::ZERO; 4];
+            for (j, v) in q.value.iter().enumerate() {
+                p[j] = cx.vec3(q.span(), &fq, *v)?;
+            }
+            for (half, idx) in [[0, 1, 2], [0, 2, 3]].iter().enumerate() {
+                let t = [p[idx[0]], p[idx[1]], p[idx[2]]];
+                if let Some(msg) = edge_overflow(&t) {
+                    return Err(cx.err(q.span(), &fq, format!("{label}, quad {k}: {msg}")));
+                }
+                if degenerate(&t) {
+                    let msg = format!(
+                        "{label}, quad {k}: its {} triangle (v{}, v{}, v{}) has zero area \
+                         (collinear or repeated vertices)",
+                        ["first", "second"][half],
+                        idx[0],
+                        idx[1],
+                        idx[2]
+                    );
+                    return Err(cx.err(q.span(), &fq, msg));
+                }
+                out.triangles.push(tri(t));
+            }
+        }
+    }
+    if let Some(tris) = &s.triangles {
+        if tris.value.is_empty() {
+            let msg = format!("{label}: the list of triangles is empty");
+            return Err(cx.err(tris.span(), &format!("{f}.triangles"), msg));
+        }
+        for (k, q) in tris.value.iter().enumerate() {
+            let ft = format!("{f}.triangles[{k}]");
+            let mut t = [Vec3::ZERO; 3];
+            for (j, v) in q.value.iter().enumerate() {
+                t[j] = cx.vec3(q.span(), &ft, *v)?;
+            }
+            if let Some(msg) = edge_overflow(&t) {
+                return Err(cx.err(q.span(), &ft, format!("{label}, triangle {k}: {msg}")));
+            }
+            if degenerate(&t) {
+                let msg =
+                    format!("{label}, triangle {k} has zero area (collinear or repeated vertices)");
+                return Err(cx.err(q.span(), &ft, msg));
+            }
+            out.triangles.push(tri(t));
+        }
+    }
+    if let Some(sp) = &s.sphere {
+        let r = &sp.value;
+        let center = cx.v3(&r.center, &format!("{f}.sphere.center"))?;
+        let fr = format!("{f}.sphere.radius");
+        let radius = cx.finite(r.radius.span(), &fr, r.radius.value)?;
+        if radius <= 0.0 {
+            let msg = format!(
+                "{} is out of range: the radius must be > 0",
+                fmt_num(radius)
+            );
+            return Err(cx.err(r.radius.span(), &fr, msg));
+        }
+        out.spheres.push(Sphere {
+            center,
+            radius,
+            material,
+            emitter,
+            inward: r.inward,
+        });
+    }
+    if let Some(obj) = &s.obj {
+        let xf = match &s.transform {
+            Some(t) => transform(cx, f, &t.value)?,
+            None => Transform::identity(),
+        };
+        let mesh = ObjShape {
+            field: format!("{f}.obj"),
+            label,
+            material,
+            emitter,
+        };
+        obj_triangles(cx, &mesh, obj, &xf, &mut out.triangles)?;
+    }
+    Ok(())
+}
+
+/// `p' = translate + R_y(angle) · (scale ⊙ p)`; normals `n' = normalize(R_y · (n / scale))`.
+pub(super) struct Transform {
+    pub(super) translate: Vec3,
+    pub(super) scale: Vec3,
+    pub(super) cos: f32,
+    pub(super) sin: f32,
+}
+
+impl Transform {
+    pub(super) fn identity() -> Self {
+        Transform {
+            translate: Vec3::ZERO,
+            scale: Vec3::ONE,
+            cos: 1.0,
+            sin: 0.0,
+        }
+    }
+    /// Rotation about +y, counter-clockwise seen from above (+z turns toward +x).
+    fn rot(&self, p: Vec3) -> Vec3 {
+        Vec3::new(
+            self.cos * p.x + self.sin * p.z,
+            p.y,
+            -self.sin * p.x + self.cos * p.z,
+        )
+    }
+    pub(super) fn point(&self, p: Vec3) -> Vec3 {
+        self.translate + self.rot(self.scale * p)
+    }
+    pub(super) fn normal(&self, n: Vec3) -> Vec3 {
+        self.rot(n / self.scale).normalize_or_zero()
+    }
+}
+
+pub(super) fn transform(cx: &Cx, f: &str, t: &RawTransform) -> Result<Transform, SceneError> {
+    let mut xf = Transform::identity();
+    if let Some(v) = &t.translate {
+        xf.translate = cx.v3(v, &format!("{f}.transform.translate"))?;
+    }
+    if let Some(s) = &t.scale {
+        let fs = format!("{f}.transform.scale");
+        xf.scale = cx.vec3(s.span(), &fs, s.value.0)?;
+        if xf.scale.min_element() <= 0.0 {
+            let msg = format!(
+                "{} is out of range: every scale factor must be > 0 (a mirror would turn the mesh inside out)",
+                fmt_vec(xf.scale)
+            );
+            return Err(cx.err(s.span(), &fs, msg));
+        }
+    }
+    if let Some(a) = &t.rotate_y_deg {
+        let deg = cx.finite(a.span(), &format!("{f}.transform.rotate_y_deg"), a.value)?;
+        let rad = (deg as f64).to_radians();
+        xf.cos = rad.cos() as f32;
+        xf.sin = rad.sin() as f32;
+    }
+    Ok(xf)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn transform_rotates_counter_clockwise_from_above() {
+        let mut xf = Transform::identity();
+        xf.cos = 0.0;
+        xf.sin = 1.0;
+        assert!((xf.point(Vec3::Z) - Vec3::X).length() < 1e-6);
+        xf.scale = Vec3::new(2.0, 1.0, 1.0);
+        // A normal of a plane x = y stretched in x: the normal tilts toward y.
+        let n = Transform {
+            cos: 1.0,
+            sin: 0.0,
+            ..xf
+        }
+        .normal(Vec3::new(1.0, -1.0, 0.0));
+        assert!((n - Vec3::new(1.0, -2.0, 0.0).normalize()).length() < 1e-6);
+    }
+
+    #[test]
+    fn degenerate_triangles() {
+        assert!(degenerate(&[Vec3::ZERO, Vec3::X, 2.0 * Vec3::X]));
+        assert!(degenerate(&[Vec3::ZERO, Vec3::ZERO, Vec3::Y]));
+        assert!(!degenerate(&[Vec3::ZERO, Vec3::X, Vec3::Y]));
+        assert!(degenerate(&[Vec3::ZERO, Vec3::X, Vec3::splat(f32::NAN)]));
+    }
+}

@@ -1,0 +1,130 @@
+//! The raw (serde) form of a scene file: one struct per table of the format
+//! (`scenes/README.md`), every table `deny_unknown_fields`, every value that a message may
+//! point at wrapped in [`Sp`] so that its line is known. No value is checked here; that is
+//! [`super::assemble`]'s job.
+
+use super::spanned::Sp;
+use serde::de::{self, Deserializer, SeqAccess, Visitor};
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::fmt;
+
+pub(super) type V3 = Sp<[f64; 3]>;
+pub(super) type Quads = Vec<Sp<[[f64; 3]; 4]>>;
+pub(super) type Tris = Vec<Sp<[[f64; 3]; 3]>>;
+/// A material's fields, given to [`brdf::parse_material`].
+pub(super) type MaterialTable = BTreeMap<String, Sp<toml::Value>>;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawScene {
+    pub(super) camera: RawCamera,
+    pub(super) film: RawFilm,
+    pub(super) integrator: Option<RawIntegrator>,
+    pub(super) environment: Option<RawEnvironment>,
+    #[serde(default)]
+    pub(super) materials: BTreeMap<String, Sp<MaterialTable>>,
+    #[serde(default)]
+    pub(super) shapes: Vec<Sp<RawShape>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawCamera {
+    pub(super) position: V3,
+    pub(super) target: V3,
+    pub(super) up: Option<V3>,
+    pub(super) fov_y: Sp<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawFilm {
+    pub(super) width: Sp<u32>,
+    pub(super) height: Sp<u32>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawIntegrator {
+    pub(super) spp: Option<Sp<u32>>,
+    pub(super) max_depth: Option<Sp<u32>>,
+    pub(super) seed: Option<u32>,
+    pub(super) russian_roulette: Option<bool>,
+    pub(super) rr_start_depth: Option<Sp<u32>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawEnvironment {
+    pub(super) radiance: Option<Sp<Triple>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawShape {
+    pub(super) name: Option<String>,
+    pub(super) material: Sp<String>,
+    pub(super) emission: Option<Sp<Triple>>,
+    pub(super) quads: Option<Sp<Quads>>,
+    pub(super) triangles: Option<Sp<Tris>>,
+    pub(super) sphere: Option<Sp<RawSphere>>,
+    pub(super) obj: Option<Sp<String>>,
+    pub(super) transform: Option<Sp<RawTransform>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawSphere {
+    pub(super) center: V3,
+    pub(super) radius: Sp<f64>,
+    #[serde(default)]
+    pub(super) inward: bool,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawTransform {
+    pub(super) translate: Option<V3>,
+    pub(super) scale: Option<Sp<Triple>>,
+    pub(super) rotate_y_deg: Option<Sp<f64>>,
+}
+
+/// A number (meaning the same value three times) or an array of three numbers.
+pub(super) struct Triple(pub(super) [f64; 3]);
+
+impl<'de> Deserialize<'de> for Triple {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = Triple;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number or an array of 3 numbers")
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Triple, E> {
+                Ok(Triple([v as f64; 3]))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Triple, E> {
+                Ok(Triple([v as f64; 3]))
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<Triple, E> {
+                Ok(Triple([v; 3]))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Triple, A::Error> {
+                let mut t = [0.0; 3];
+                let mut n = 0;
+                while let Some(x) = seq.next_element::<f64>()? {
+                    if n < 3 {
+                        t[n] = x;
+                    }
+                    n += 1;
+                }
+                if n != 3 {
+                    return Err(de::Error::invalid_length(n, &self));
+                }
+                Ok(Triple(t))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
