@@ -2,7 +2,7 @@
 //! and measure every model under comparable conditions (the survey's "compare the models under
 //! similar conditions", measured).
 
-use crate::brdf::{validate, Brdf, Material, MODELS};
+use crate::brdf::{validate, Brdf, Material};
 use crate::lights::luminance;
 use anyhow::{anyhow, bail, Context as _, Result};
 use glam::Vec3;
@@ -307,12 +307,6 @@ pub struct ReportRow {
     pub ns_per_eval_gpu: Option<f64>,
     /// Variance of one sample of the sampled albedo estimator at 30°.
     pub sampled_albedo_variance: f64,
-}
-
-/// Whether the model named in a representative row exists (models land one by one).
-pub fn available(label_toml: &str) -> bool {
-    let name = label_toml.split('"').nth(1).unwrap_or("");
-    MODELS.iter().any(|m| m.name == name)
 }
 
 /// Luminance albedo of the delta lobes alone, E[weight · 1{delta}], by the model's sampler

@@ -1091,10 +1091,6 @@ fn brdf_command(cmd: BrdfCommand) -> Result<()> {
             };
             let mut rows = Vec::new();
             for (label, src) in tools::REPRESENTATIVE {
-                if !tools::available(src) {
-                    eprintln!("skipping {label}: model not built into this binary");
-                    continue;
-                }
                 eprintln!("measuring {label}");
                 let (mut row, m) = tools::report_row(label, src)?;
                 if let Some((ctx, compiler)) = &gpu {
