@@ -53,62 +53,7 @@ impl IntegratorArg {
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene file to one or more images (.exr linear, .png sRGB).
-    Render {
-        /// The scene file (TOML; scenes/README.md documents the format).
-        scene: PathBuf,
-        /// Renderer: the Vulkan wavefront path tracer or the CPU reference.
-        #[arg(long, value_enum, default_value = "gpu")]
-        backend: Backend,
-        /// Samples per pixel (overrides the scene).
-        #[arg(long)]
-        spp: Option<u32>,
-        /// Image size WxH (overrides the scene).
-        #[arg(long, value_parser = parse_res)]
-        res: Option<(u32, u32)>,
-        /// Maximum path segments; the camera segment is one (overrides the scene).
-        #[arg(long)]
-        max_depth: Option<u32>,
-        /// Seed of the random numbers, 0 to 4294967295 (overrides the scene); the same seed
-        /// gives nearly the same image on both backends.
-        #[arg(long)]
-        seed: Option<u32>,
-        /// Output files (.exr, .png or .pfm images; .bwfilm, a partial film for `brdfwave
-        /// merge`); may be given several times; missing directories are created. Default:
-        /// out/<scene name>.png
-        #[arg(long = "out")]
-        out: Vec<PathBuf>,
-        /// Render only these sample indices, START..END (END exclusive), e.g. 0..256, for a
-        /// partial film: parts with consecutive ranges merge into the image of one render
-        /// (default: 0..spp).
-        #[arg(long, value_parser = brdfwave::film::parse_samples, conflicts_with = "spp")]
-        samples: Option<std::ops::Range<u32>>,
-        /// Render only the pixels of this tile, X,Y,W,H (from the top-left corner), for a
-        /// partial film; images written are the tile's size (default: the whole image).
-        #[arg(long, value_parser = brdfwave::film::Tile::parse)]
-        tile: Option<Tile>,
-        /// Also write the per-pixel variance of one sample (EXR), for statistical tests.
-        #[arg(long)]
-        variance_out: Option<PathBuf>,
-        /// Vulkan device: a case-insensitive part of its name (default: lavapipe if present;
-        /// `brdfwave devices` lists them). GPU backend only.
-        #[arg(long, value_parser = parse_device)]
-        device: Option<String>,
-        /// Enable the Khronos validation layer; the run fails if it reports anything, or if the
-        /// layer is not installed. GPU backend only.
-        #[arg(long)]
-        validation: bool,
-        /// GPU: most paths in flight at a time, 64 to 1048576 (the default). The image does not
-        /// depend on it.
-        #[arg(long)]
-        wave_paths: Option<u32>,
-        /// GPU: how paths are followed: `wavefront` (the stages with queues, the default) or
-        /// `megakernel` (one kernel per wave, the benchmark's baseline). Same image.
-        #[arg(long, value_enum, default_value = "wavefront")]
-        integrator: IntegratorArg,
-        /// Print the summary as one JSON object on stdout.
-        #[arg(long)]
-        json: bool,
-    },
+    Render(RenderArgs),
     /// Merge partial films (.bwfilm outputs of `render`) into one image: the parts must come
     /// from the same scene, settings and program version and cover every pixel and sample once.
     Merge {
@@ -304,39 +249,7 @@ fn main() {
     }
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Render {
-            scene,
-            backend,
-            spp,
-            res,
-            max_depth,
-            seed,
-            out,
-            samples,
-            tile,
-            variance_out,
-            device,
-            validation,
-            wave_paths,
-            integrator,
-            json,
-        } => render(RenderArgs {
-            scene,
-            backend,
-            spp,
-            res,
-            max_depth,
-            seed,
-            out,
-            samples,
-            tile,
-            variance_out,
-            device,
-            validation,
-            wave_paths,
-            integrator,
-            json,
-        }),
+        Command::Render(args) => render(args),
         Command::Merge {
             parts,
             out,
@@ -412,21 +325,62 @@ fn main() {
     }
 }
 
+/// The options of `brdfwave render`.
+#[derive(clap::Args)]
 struct RenderArgs {
+    /// The scene file (TOML; scenes/README.md documents the format).
     scene: PathBuf,
+    /// Renderer: the Vulkan wavefront path tracer or the CPU reference.
+    #[arg(long, value_enum, default_value = "gpu")]
     backend: Backend,
+    /// Samples per pixel (overrides the scene).
+    #[arg(long)]
     spp: Option<u32>,
+    /// Image size WxH (overrides the scene).
+    #[arg(long, value_parser = parse_res)]
     res: Option<(u32, u32)>,
+    /// Maximum path segments; the camera segment is one (overrides the scene).
+    #[arg(long)]
     max_depth: Option<u32>,
+    /// Seed of the random numbers, 0 to 4294967295 (overrides the scene); the same seed
+    /// gives nearly the same image on both backends.
+    #[arg(long)]
     seed: Option<u32>,
+    /// Output files (.exr, .png or .pfm images; .bwfilm, a partial film for `brdfwave
+    /// merge`); may be given several times; missing directories are created. Default:
+    /// out/<scene name>.png
+    #[arg(long = "out")]
     out: Vec<PathBuf>,
+    /// Render only these sample indices, START..END (END exclusive), e.g. 0..256, for a
+    /// partial film: parts with consecutive ranges merge into the image of one render
+    /// (default: 0..spp).
+    #[arg(long, value_parser = brdfwave::film::parse_samples, conflicts_with = "spp")]
     samples: Option<std::ops::Range<u32>>,
+    /// Render only the pixels of this tile, X,Y,W,H (from the top-left corner), for a
+    /// partial film; images written are the tile's size (default: the whole image).
+    #[arg(long, value_parser = brdfwave::film::Tile::parse)]
     tile: Option<Tile>,
+    /// Also write the per-pixel variance of one sample (EXR), for statistical tests.
+    #[arg(long)]
     variance_out: Option<PathBuf>,
+    /// Vulkan device: a case-insensitive part of its name (default: lavapipe if present;
+    /// `brdfwave devices` lists them). GPU backend only.
+    #[arg(long, value_parser = parse_device)]
     device: Option<String>,
+    /// Enable the Khronos validation layer; the run fails if it reports anything, or if the
+    /// layer is not installed. GPU backend only.
+    #[arg(long)]
     validation: bool,
+    /// GPU: most paths in flight at a time, 64 to 1048576 (the default). The image does not
+    /// depend on it.
+    #[arg(long)]
     wave_paths: Option<u32>,
+    /// GPU: how paths are followed: `wavefront` (the stages with queues, the default) or
+    /// `megakernel` (one kernel per wave, the benchmark's baseline). Same image.
+    #[arg(long, value_enum, default_value = "wavefront")]
     integrator: IntegratorArg,
+    /// Print the summary as one JSON object on stdout.
+    #[arg(long)]
     json: bool,
 }
 
