@@ -1,4 +1,4 @@
-// Counter-based random numbers keyed on (seed, pixel, sample, bounce, dimension).
+// Counter-based random numbers keyed on (seed, pixel, sample, depth, dimension).
 // Rust twin: src/rng.rs (bit-identical; dimension numbers listed there in `dim`).
 #ifndef RNG_GLSL
 #define RNG_GLSL
@@ -9,16 +9,16 @@ uint pcg_hash(uint v) {
     return (word >> 22u) ^ word;
 }
 
-uint random_u32(uint seed, uint pixel, uint sample_index, uint bounce, uint dim) {
+uint random_u32(uint seed, uint pixel, uint sample_index, uint depth, uint dim) {
     uint h = pcg_hash(seed ^ 0x9E3779B9u);
     h = pcg_hash(h ^ pixel);
     h = pcg_hash(h ^ sample_index);
-    h = pcg_hash(h ^ (bounce * 64u + dim));
+    h = pcg_hash(h ^ (depth * 64u + dim));
     return h;
 }
 
-float random_f32(uint seed, uint pixel, uint sample_index, uint bounce, uint dim) {
-    return float(random_u32(seed, pixel, sample_index, bounce, dim) >> 8u) * (1.0 / 16777216.0);
+float random_f32(uint seed, uint pixel, uint sample_index, uint depth, uint dim) {
+    return float(random_u32(seed, pixel, sample_index, depth, dim) >> 8u) * (1.0 / 16777216.0);
 }
 
 #define DIM_PIXEL_X 0u

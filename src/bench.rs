@@ -16,7 +16,7 @@
 
 use crate::bvh::{self, Bvh};
 use crate::cpu::{CpuFilm, CpuRenderer};
-use crate::gpu::{GpuRenderer, Integrator, MAX_CAPACITY};
+use crate::gpu::{GpuRenderer, Integrator, MAX_WAVE_PATHS};
 use crate::imageio::{self, Image};
 use crate::metrics;
 use crate::plot::{self, Series};
@@ -147,7 +147,7 @@ struct Details {
     device: String,
     setup_seconds: f64,
     rays: u64,
-    /// (extension, shadow) rays by path segment: the queue sizes per bounce.
+    /// (extension, shadow) rays by path segment: the queue sizes per segment.
     rays_by_segment: Vec<(u64, u64)>,
     stage_seconds: Vec<(String, f64)>,
     pipelines_compile: f64,
@@ -543,7 +543,7 @@ pub fn run(o: &BenchOptions) -> Result<String> {
         let runner: Result<Box<dyn Runner + '_>> = match (c, ctx) {
             (Config::Gpu { integrator, .. }, Some(ctx)) => {
                 let t = Instant::now();
-                GpuRenderer::with_options(ctx, &sc, &bvh, &compiler, MAX_CAPACITY, *integrator)
+                GpuRenderer::with_options(ctx, &sc, &bvh, &compiler, MAX_WAVE_PATHS, *integrator)
                     .and_then(|mut r| {
                         r.reset()?;
                         Ok(Box::new(GpuRunner {
@@ -798,7 +798,7 @@ fn summary(
             .collect();
         let _ = writeln!(
             md,
-            "- Queue sizes per bounce (`{name}`), extension/shadow rays per camera path by segment: {}",
+            "- Queue sizes per segment (`{name}`), extension/shadow rays per camera path by segment: {}",
             parts.join(", ")
         );
     }

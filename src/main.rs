@@ -655,7 +655,7 @@ fn render(a: RenderArgs) -> Result<()> {
                 validation: a.validation,
             })?;
             let compiler = vk::ShaderCompiler::new()?;
-            let wave = a.wave_paths.unwrap_or(brdfwave::gpu::MAX_CAPACITY);
+            let wave = a.wave_paths.unwrap_or(brdfwave::gpu::MAX_WAVE_PATHS);
             let mut r =
                 GpuRenderer::with_tile(&ctx, &sc, &bvh, &compiler, wave, a.integrator.gpu(), tile)?;
             seconds_setup = t0.elapsed().as_secs_f64();

@@ -23,7 +23,7 @@ pub struct RenderOutput {
     /// Shadow (any-hit) rays traced.
     pub shadow_rays: u64,
     /// (extension, shadow) rays by path segment from 1, up to the maximum depth or
-    /// [`SEGMENTS_COUNTED`] (which then also holds the deeper ones): the queue sizes per bounce.
+    /// [`SEGMENTS_COUNTED`] (which then also holds the deeper ones): the queue sizes per segment.
     pub rays_by_segment: Vec<(u64, u64)>,
     /// Time per stage (GPU timestamps; empty for the CPU), summed over all passes.
     pub stage_seconds: Vec<(String, f64)>,

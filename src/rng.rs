@@ -1,11 +1,11 @@
 //! Counter-based random numbers shared by both renderers.
 //!
-//! Every random number is a pure function of (seed, pixel, sample index, bounce, dimension), so
+//! Every random number is a pure function of (seed, pixel, sample index, depth, dimension), so
 //! the result does not depend on the order in which queues are processed, and the CPU reference
 //! follows exactly the sample paths of the GPU renderer. The GLSL twin is `shaders/rng.glsl`;
 //! both must stay bit-identical (tested in `tests/rng_parity.rs`).
 //!
-//! Dimensions per bounce are listed in [`dim`].
+//! Dimensions per depth are listed in [`dim`].
 
 /// PCG output permutation used as a 32-bit integer hash (Jarzynski & Olano 2020, "Hash
 /// Functions for GPU Rendering", JCGT 9(3): `pcg`).
@@ -16,26 +16,26 @@ pub fn pcg_hash(v: u32) -> u32 {
     (word >> 22) ^ word
 }
 
-/// The 32-bit random integer for one (seed, pixel, sample, bounce, dimension) key.
+/// The 32-bit random integer for one (seed, pixel, sample, depth, dimension) key.
 #[inline]
-pub fn random_u32(seed: u32, pixel: u32, sample: u32, bounce: u32, dim: u32) -> u32 {
+pub fn random_u32(seed: u32, pixel: u32, sample: u32, depth: u32, dim: u32) -> u32 {
     let mut h = pcg_hash(seed ^ 0x9E37_79B9);
     h = pcg_hash(h ^ pixel);
     h = pcg_hash(h ^ sample);
-    h = pcg_hash(h ^ (bounce.wrapping_mul(64).wrapping_add(dim)));
+    h = pcg_hash(h ^ (depth.wrapping_mul(64).wrapping_add(dim)));
     h
 }
 
 /// A uniform float in [0, 1), with 24 bits: exactly representable in f32, never 1.
 #[inline]
-pub fn random_f32(seed: u32, pixel: u32, sample: u32, bounce: u32, dim: u32) -> f32 {
-    (random_u32(seed, pixel, sample, bounce, dim) >> 8) as f32 * (1.0 / 16_777_216.0)
+pub fn random_f32(seed: u32, pixel: u32, sample: u32, depth: u32, dim: u32) -> f32 {
+    (random_u32(seed, pixel, sample, depth, dim) >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
-/// Dimension numbers within one bounce. Bounce 0 is the camera vertex; bounce k >= 1 is the
+/// Dimension numbers within one depth. Depth 0 is the camera vertex; depth k >= 1 is the
 /// vertex at the end of path segment k.
 pub mod dim {
-    /// Bounce 0: sub-pixel position (box filter, one pixel wide).
+    /// Depth 0: sub-pixel position (box filter, one pixel wide).
     pub const PIXEL_X: u32 = 0;
     pub const PIXEL_Y: u32 = 1;
     /// Next-event estimation: which emitter, then a point on it.
@@ -60,8 +60,8 @@ pub struct PathRng {
 
 impl PathRng {
     #[inline]
-    pub fn get(&self, bounce: u32, dim: u32) -> f32 {
-        random_f32(self.seed, self.pixel, self.sample, bounce, dim)
+    pub fn get(&self, depth: u32, dim: u32) -> f32 {
+        random_f32(self.seed, self.pixel, self.sample, depth, dim)
     }
 }
 

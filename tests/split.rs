@@ -8,7 +8,7 @@ mod common;
 use brdfwave::bvh;
 use brdfwave::cpu::CpuRenderer;
 use brdfwave::film::{self, Part, Tile};
-use brdfwave::gpu::{GpuRenderer, Integrator, MAX_CAPACITY};
+use brdfwave::gpu::{GpuRenderer, Integrator, MAX_WAVE_PATHS};
 use brdfwave::imageio::Image;
 use brdfwave::scene::Scene;
 use common::{context, finish, scene};
@@ -57,7 +57,7 @@ fn gpu_part(
         s,
         &b,
         &compiler,
-        MAX_CAPACITY,
+        MAX_WAVE_PATHS,
         Integrator::Wavefront,
         t,
     )

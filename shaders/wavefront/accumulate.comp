@@ -28,7 +28,7 @@ void main() {
     vec3 sum = f.xyz;
     int k = int(f.w);
     vec3 sum2 = film2[pixel].xyz;
-    for (uint path = p; path < pc.chunk_size; path += pc.chunk_pixels) {
+    for (uint path = p; path < pc.wave_size; path += pc.chunk_pixels) {
         vec3 l = radiance(path).xyz;
         if (!is_finite_v(l)) {
             atomicAdd(counters[COUNTER_NONFINITE], 1u);

@@ -1,6 +1,6 @@
 #version 460
 // Stages 2, 3 and 4 in one kernel, for a scene with one shaded model: the closest hit of every
-// queued ray of segment `bounce` (wavefront/path.glsl `segment_end`, as extend.comp), then,
+// queued ray of segment `depth` (wavefront/path.glsl `segment_end`, as extend.comp), then,
 // where the path goes on, the shading of that vertex on the spot (wavefront/scatter.glsl
 // `shade_vertex`, as shade.comp) and its shadow ray, without a trip through the hit record, a
 // material queue and the shadow queue. The material queues keep the SIMD lanes of a shade
@@ -15,22 +15,22 @@ layout(local_size_x = 64) in;
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= counters[COUNTER_RAY + ray_queue_in()]) return;
-    uint path = queue_entry(ray_queue_in() * g.capacity + i);
+    uint path = queue_entry(ray_queue_in() * g.wave_paths + i);
     vec4 dd = ray_d(path);
     vec3 o = ray_o(path).xyz;
     vec3 b = beta(path).xyz;
     vec3 e;
     Hit hit;
     Surface s;
-    uint slot = segment_end(pc.bounce, o, dd.xyz, dd.w, b, e, hit, s);
+    uint slot = segment_end(pc.depth, o, dd.xyz, dd.w, b, e, hit, s);
     if (e.x != 0.0 || e.y != 0.0 || e.z != 0.0) radiance_set(path, radiance(path) + vec4(e, 0.0));
     if (slot == NO_QUEUE) return;
     // Counted as the material queue's length, as extend would, for the ray totals.
-    Scatter sc = shade_vertex(path, pc.bounce, s, dd.xyz, b, counter_nonfinite_shade(slot));
+    Scatter sc = shade_vertex(path, pc.depth, s, dd.xyz, b, counter_nonfinite_shade(slot));
     if (sc.shadow && !trace_any(sc.shadow_o, sc.shadow_d, sc.shadow_tmax)) {
         radiance_set(path, radiance(path) + vec4(sc.shadow_l, 0.0));
     }
-    count_rays(COUNTER_SHADOW_TOTAL, counter_segment_shadow(pc.bounce), sc.shadow);
+    count_rays(COUNTER_SHADOW_TOTAL, counter_segment_shadow(pc.depth), sc.shadow);
     if (!sc.next) return;
     beta_set(path, vec4(sc.beta, 0.0));
     ray_o_set(path, vec4(sc.o, 0.0));

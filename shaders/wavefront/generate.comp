@@ -7,8 +7,8 @@ layout(local_size_x = 64) in;
 
 void main() {
     uint path = gl_GlobalInvocationID.x;
-    if (path == 0u) counters[COUNTER_RAY] = pc.chunk_size;
-    if (path >= pc.chunk_size) return;
+    if (path == 0u) counters[COUNTER_RAY] = pc.wave_size;
+    if (path >= pc.wave_size) return;
     vec3 o;
     vec3 d;
     camera_ray(path, o, d);

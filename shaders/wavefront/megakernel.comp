@@ -31,7 +31,7 @@ void main() {
     }
     barrier();
     uint path = gl_GlobalInvocationID.x;
-    if (path < pc.chunk_size) {
+    if (path < pc.wave_size) {
         uint n_extension = 0u;
         uint n_shadow = 0u;
         vec3 o;

@@ -20,7 +20,7 @@ void main() {
         uint rays = counters[COUNTER_RAY + ray_queue_in()];
         args[ARGS_RAY] = groups(rays);
         add_total(COUNTER_EXT_TOTAL, rays);
-        add_total(counter_segment_extension(pc.bounce), rays);
+        add_total(counter_segment_extension(pc.depth), rays);
         counters[COUNTER_RAY + ray_queue_out()] = 0u;
         counters[COUNTER_SHADOW] = 0u;
         for (uint k = 0u; k < g.num_queues; ++k) counters[COUNTER_MATERIAL + k] = 0u;
@@ -29,6 +29,6 @@ void main() {
     } else {
         args[ARGS_SHADOW] = groups(counters[COUNTER_SHADOW]);
         add_total(COUNTER_SHADOW_TOTAL, counters[COUNTER_SHADOW]);
-        add_total(counter_segment_shadow(pc.bounce), counters[COUNTER_SHADOW]);
+        add_total(counter_segment_shadow(pc.depth), counters[COUNTER_SHADOW]);
     }
 }

@@ -13,7 +13,7 @@ layout(local_size_x = 64) in;
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= counters[COUNTER_MATERIAL + pc.queue_slot]) return;
-    uint path = queue_entry((QUEUE_MATERIAL + pc.queue_slot) * g.capacity + i);
+    uint path = queue_entry((QUEUE_MATERIAL + pc.queue_slot) * g.wave_paths + i);
     uvec4 h = hit_rec(path);
     Hit hit;
     hit.prim = h.x;
@@ -21,7 +21,7 @@ void main() {
     hit.t = uintBitsToFloat(h.w);
     vec3 d = ray_d(path).xyz;
     Surface s = surface_at(hit.prim, hit.bary, hit.t, ray_o(path).xyz, d);
-    Scatter sc = shade_vertex(path, pc.bounce, s, d, beta(path).xyz, counter_nonfinite_shade(pc.queue_slot));
+    Scatter sc = shade_vertex(path, pc.depth, s, d, beta(path).xyz, counter_nonfinite_shade(pc.queue_slot));
     if (sc.shadow) {
         shadow_o_set(path, vec4(sc.shadow_o, sc.shadow_tmax));
         shadow_d_set(path, vec4(sc.shadow_d, 0.0));

@@ -1,6 +1,6 @@
 #version 460
 // Stage 4: any-hit test of every queued shadow ray; an unoccluded ray adds its contribution.
-// Each path has at most one shadow ray per bounce, so each radiance entry has one writer.
+// Each path has at most one shadow ray per segment, so each radiance entry has one writer.
 #extension GL_GOOGLE_include_directive : require
 #include "wavefront/state.glsl"
 layout(local_size_x = 64) in;
@@ -8,7 +8,7 @@ layout(local_size_x = 64) in;
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= counters[COUNTER_SHADOW]) return;
-    uint path = queue_entry(QUEUE_SHADOW * g.capacity + i);
+    uint path = queue_entry(QUEUE_SHADOW * g.wave_paths + i);
     vec4 o = shadow_o(path);
     if (!trace_any(o.xyz, shadow_d(path).xyz, o.w)) radiance_set(path, radiance(path) + vec4(shadow_l(path).xyz, 0.0));
 }

@@ -47,7 +47,7 @@ layout(scalar, set = 0, binding = BINDING_GLOBALS) uniform Globals {
     uint rr_enabled;
     uint rr_start_depth;
     uint num_queues;  // material queues in use
-    uint capacity;    // path slots per wave
+    uint wave_paths;    // path slots per wave
     uint tile_x;      // the part of the image rendered (all of it unless TILED):
     uint tile_y;      //   columns tile_x .. tile_x + tile_width, rows from tile_y
     uint tile_width;
@@ -89,17 +89,17 @@ layout(std430, set = 0, binding = BINDING_ARGS) buffer Args { uvec4 args[]; };
 layout(std430, set = 0, binding = BINDING_FILM) buffer Film { vec4 film[]; };
 layout(std430, set = 0, binding = BINDING_FILM2) buffer Film2 { vec4 film2[]; };
 
-// A wave traces chunk_size = chunk_pixels × k paths: k consecutive samples of the pixels
+// A wave traces wave_size = chunk_pixels × k paths: k consecutive samples of the pixels
 // [chunk_offset, chunk_offset + chunk_pixels). Small images take several samples per wave, so
 // that a large GPU has enough paths in flight; large images take one sample of one chunk.
 layout(push_constant) uniform Push {
-    uint bounce;        // segment index d of the rays being traced / the vertex being shaded
+    uint depth;         // segment index d of the rays being traced / the vertex being shaded
     uint sample_index;  // sample of the wave's first path
     uint chunk_offset;  // first pixel of this chunk
-    uint chunk_size;    // paths in this wave
+    uint wave_size;    // paths in this wave
     uint phase;         // prepare kernel: which arguments to write
     uint queue_slot;    // shade kernels: which material queue
-    uint chunk_pixels;  // pixels in this chunk (chunk_size is a multiple)
+    uint chunk_pixels;  // pixels in this chunk (wave_size is a multiple)
 } pc;
 
 // Path slot p holds pixel chunk_offset + p mod chunk_pixels of the tile (the film's index),
@@ -129,8 +129,8 @@ bool finite_or_count(vec3 v, uint c) {
     return false;
 }
 
-uint ray_queue_in() { return (pc.bounce + 1u) & 1u; }  // segment 1 reads queue 0
-uint ray_queue_out() { return pc.bounce & 1u; }
+uint ray_queue_in() { return (pc.depth + 1u) & 1u; }  // segment 1 reads queue 0
+uint ray_queue_out() { return pc.depth & 1u; }
 
 // Append a path index to queue q (counter c). With SUBGROUP_QUEUES (set where the device has
 // subgroup ballots), the invocations of a subgroup that push to the same queue take their slots
@@ -145,13 +145,13 @@ void queue_push(uint q, uint c, uint path) {
             uint base = 0u;
             if (subgroupElect()) base = atomicAdd(counters[c], subgroupBallotBitCount(mask));
             base = subgroupBroadcastFirst(base);
-            queue_entry_set(q * g.capacity + base + subgroupBallotExclusiveBitCount(mask), path);
+            queue_entry_set(q * g.wave_paths + base + subgroupBallotExclusiveBitCount(mask), path);
             return;
         }
     }
 #else
     uint slot = atomicAdd(counters[c], 1u);
-    queue_entry_set(q * g.capacity + slot, path);
+    queue_entry_set(q * g.wave_paths + slot, path);
 #endif
 }
 
@@ -179,8 +179,8 @@ void count_rays(uint total, uint segment, bool traced) {
 #endif
 }
 
-float rand(uint path, uint bounce, uint dim) {
-    return random_f32(g.seed, path_pixel(path), path_sample(path), bounce, dim);
+float rand(uint path, uint depth, uint dim) {
+    return random_f32(g.seed, path_pixel(path), path_sample(path), depth, dim);
 }
 
 #endif

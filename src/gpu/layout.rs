@@ -239,7 +239,7 @@ pub const ARGS_RAY: u32 = 0;
 pub const ARGS_SHADOW: u32 = 1;
 pub const ARGS_MATERIAL: u32 = 2;
 
-/// Queue regions of binding `queues`, each `capacity` entries: two ping-pong ray queues, the
+/// Queue regions of binding `queues`, each `wave_paths` entries: two ping-pong ray queues, the
 /// shadow queue, then one per material queue.
 pub const QUEUE_SHADOW: u32 = 2;
 pub const QUEUE_MATERIAL: u32 = 3;

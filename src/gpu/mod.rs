@@ -1,6 +1,6 @@
 //! The wavefront path tracer on Vulkan compute.
 //!
-//! The work comes in waves of up to `MAX_CAPACITY` paths: a small image takes several
+//! The work comes in waves of up to `MAX_WAVE_PATHS` paths: a small image takes several
 //! consecutive samples of every pixel per wave (so that a large GPU has enough paths in flight),
 //! a large one one sample of one chunk of pixels per wave. One command buffer holds one or more
 //! waves:
@@ -53,10 +53,10 @@ use std::time::Instant;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 struct Push {
-    bounce: u32,
+    depth: u32,
     sample_index: u32,
     chunk_offset: u32,
-    chunk_size: u32,
+    wave_size: u32,
     phase: u32,
     queue_slot: u32,
     chunk_pixels: u32,
@@ -64,8 +64,8 @@ struct Push {
 
 const LOCAL_SIZE: u32 = 64;
 /// Most path slots in a wave: bounded by the 65535-workgroup dispatch limit and lavapipe's
-/// 128 MiB storage-buffer range (the queue buffer holds (3 + models) × capacity indices).
-pub const MAX_CAPACITY: u32 = 1 << 20;
+/// 128 MiB storage-buffer range (the queue buffer holds (3 + models) × wave_paths indices).
+pub const MAX_WAVE_PATHS: u32 = 1 << 20;
 /// Segments recorded between two checks whether any path is left (deep renders only: a scene
 /// with `max_depth` at most this never waits for the host within a wave).
 const SEGMENTS_PER_CHECK: u32 = 16;
@@ -174,7 +174,7 @@ pub struct GpuRenderer<'a> {
     shade: Vec<ShadeKernel>,
     integrator: Integrator,
     counters: Counters,
-    capacity: u32,
+    wave_paths: u32,
     /// The part of the image rendered (the whole image unless split into tiles).
     tile: Tile,
     /// The samples in the film: `film_samples.start` is the first one rendered since the last
@@ -185,7 +185,7 @@ pub struct GpuRenderer<'a> {
 }
 
 impl<'a> GpuRenderer<'a> {
-    /// A wavefront renderer with the largest wave ([`MAX_CAPACITY`] paths). Larger waves were
+    /// A wavefront renderer with the largest wave ([`MAX_WAVE_PATHS`] paths). Larger waves were
     /// faster on every device measured (BENCHMARKS.md).
     pub fn new(
         ctx: &'a Context,
@@ -198,7 +198,7 @@ impl<'a> GpuRenderer<'a> {
             scene,
             bvh,
             compiler,
-            MAX_CAPACITY,
+            MAX_WAVE_PATHS,
             Integrator::Wavefront,
         )
     }
@@ -214,9 +214,9 @@ impl<'a> GpuRenderer<'a> {
         Self::with_options(ctx, scene, bvh, compiler, wave_paths, Integrator::Wavefront)
     }
 
-    /// A renderer that traces at most `wave_paths` paths at a time (64 ..= [`MAX_CAPACITY`])
+    /// A renderer that traces at most `wave_paths` paths at a time (64 ..= [`MAX_WAVE_PATHS`])
     /// with `integrator`. The image depends on neither: the random numbers are keyed on (pixel,
-    /// sample, bounce, dimension) and the film adds each pixel's samples in sample order.
+    /// sample, depth, dimension) and the film adds each pixel's samples in sample order.
     pub fn with_options(
         ctx: &'a Context,
         scene: &'a Scene,
@@ -247,15 +247,15 @@ impl<'a> GpuRenderer<'a> {
             .map_err(anyhow::Error::msg)?;
         let mut setup = SetupStats::default();
         let pixels = tile.pixels() as u64;
-        // Path slots: all the samples that fit of the whole image, or one chunk of it.
+        // Path slots: all the samples of the tile that fit in `wave_paths`, or one chunk of it.
         let spp = scene.integrator.spp.max(1) as u64;
-        let wave = wave_paths as u64;
-        let capacity = if pixels <= wave {
-            (pixels * spp.min(wave / pixels.max(1))) as u32
+        let most = wave_paths as u64;
+        let wave_paths = if pixels <= most {
+            (pixels * spp.min(most / pixels.max(1))) as u32
         } else {
             wave_paths
         };
-        setup.wave_paths = capacity;
+        setup.wave_paths = wave_paths;
         setup.subgroup_queues = ctx.features.subgroup_ballot;
 
         // Which models need a queue: those of materials that scatter.
@@ -275,7 +275,8 @@ impl<'a> GpuRenderer<'a> {
         let lights = LightTable::build(scene);
         let film_bytes = pixels * 16;
         let limit = ctx.limits.max_storage_buffer_range as u64;
-        let queue_bytes = (layout::QUEUE_MATERIAL as u64 + num_queues as u64) * capacity as u64 * 4;
+        let queue_bytes =
+            (layout::QUEUE_MATERIAL as u64 + num_queues as u64) * wave_paths as u64 * 4;
         if film_bytes > limit || queue_bytes > limit {
             bail!(
                 "{} pixels need a {} MiB film buffer, over this device's storage-buffer range of {} MiB; render a smaller image or split it into tiles (--tile)",
@@ -294,7 +295,7 @@ impl<'a> GpuRenderer<'a> {
             views: Vec::new(),
             kernels: Vec::new(),
         };
-        let cap = capacity as u64;
+        let cap = wave_paths as u64;
         let gpu = MemoryLocation::GpuOnly;
         for b in Binding::ALL {
             let name = b.name();
@@ -330,7 +331,7 @@ impl<'a> GpuRenderer<'a> {
                 )?,
                 Binding::Globals => ctx.create_buffer_with_data(
                     name,
-                    &scene_buffers::globals(scene, &lights, num_queues, capacity, tile),
+                    &scene_buffers::globals(scene, &lights, num_queues, wave_paths, tile),
                     usage,
                 )?,
                 Binding::RayO
@@ -381,7 +382,7 @@ impl<'a> GpuRenderer<'a> {
             shade,
             integrator,
             counters,
-            capacity,
+            wave_paths,
             tile,
             film_samples: 0..0,
             stage_seconds: Vec::new(),
@@ -432,7 +433,7 @@ impl<'a> GpuRenderer<'a> {
         // up by a wait per wave and a slow device still reports progress. A command buffer is
         // also split before its timestamp queries run out, and, in a deep render, every
         // SEGMENTS_PER_CHECK segments to stop once no path is left.
-        let mut waves = waves(pixels, samples.clone(), self.capacity).peekable();
+        let mut waves = waves(pixels, samples.clone(), self.wave_paths).peekable();
         let mut batch = 1usize;
         while waves.peek().is_some() {
             let t_batch = Instant::now();
@@ -444,7 +445,7 @@ impl<'a> GpuRenderer<'a> {
                 let push = Push {
                     sample_index: w.sample,
                     chunk_offset: w.offset,
-                    chunk_size: w.pixels * w.samples,
+                    wave_size: w.pixels * w.samples,
                     chunk_pixels: w.pixels,
                     ..Default::default()
                 };
@@ -565,7 +566,7 @@ impl<'a> GpuRenderer<'a> {
             &mut rec,
             st.generate,
             &push,
-            Dispatch::Groups(push.chunk_size.div_ceil(LOCAL_SIZE)),
+            Dispatch::Groups(push.wave_size.div_ceil(LOCAL_SIZE)),
             "generate",
         );
         for depth in 1..=max_depth {
@@ -580,7 +581,7 @@ impl<'a> GpuRenderer<'a> {
                 }
             }
             rec = self.ensure_timestamps(rec, 1 + per_segment)?;
-            push.bounce = depth;
+            push.depth = depth;
             self.prepare(&mut rec, &mut push, 0);
             let label = self.owned.kernels[st.extend].pipeline.name.clone();
             self.dispatch(
@@ -637,7 +638,7 @@ impl<'a> GpuRenderer<'a> {
         'a: 'r,
     {
         rec = self.ensure_timestamps(rec, 1)?;
-        let groups = push.chunk_size.div_ceil(LOCAL_SIZE);
+        let groups = push.wave_size.div_ceil(LOCAL_SIZE);
         self.dispatch(
             &mut rec,
             self.stages.megakernel,
@@ -888,8 +889,8 @@ pub fn scene_features(scene: &Scene) -> Vec<&'static str> {
     f
 }
 
-/// Largest `max_depth` accepted (segments per path): the random-number key holds bounce × 64 +
-/// dimension in 32 bits, and a deeper path would reuse another bounce's numbers long before.
+/// Largest `max_depth` accepted (segments per path): the random-number key holds depth × 64 +
+/// dimension in 32 bits, and a deeper path would reuse another depth's numbers long before.
 pub const MAX_DEPTH: u32 = 1 << 20;
 
 /// A `max_depth` the GPU renderer accepts: 1 ..= [`MAX_DEPTH`].
@@ -900,10 +901,10 @@ pub fn check_max_depth(max_depth: u32) -> Result<()> {
     Ok(())
 }
 
-/// A wave size [`GpuRenderer::with_wave_paths`] accepts: 64 ..= [`MAX_CAPACITY`] paths.
+/// A wave size [`GpuRenderer::with_wave_paths`] accepts: 64 ..= [`MAX_WAVE_PATHS`] paths.
 pub fn check_wave_paths(wave_paths: u32) -> Result<()> {
-    if !(LOCAL_SIZE..=MAX_CAPACITY).contains(&wave_paths) {
-        bail!("must be between {LOCAL_SIZE} and {MAX_CAPACITY} paths, got {wave_paths}");
+    if !(LOCAL_SIZE..=MAX_WAVE_PATHS).contains(&wave_paths) {
+        bail!("must be between {LOCAL_SIZE} and {MAX_WAVE_PATHS} paths, got {wave_paths}");
     }
     Ok(())
 }
@@ -948,18 +949,18 @@ struct Wave {
     samples_done: u32,
 }
 
-/// The waves that render the sample indices `samples` over `pixels` pixels with `capacity`
+/// The waves that render the sample indices `samples` over `pixels` pixels with `wave_paths`
 /// path slots, in order (an iterator: a long render at a high sample count holds no list of
 /// them).
-fn waves(pixels: u32, samples: Range<u32>, capacity: u32) -> impl Iterator<Item = Wave> {
+fn waves(pixels: u32, samples: Range<u32>, wave_paths: u32) -> impl Iterator<Item = Wave> {
     let spp = samples.end;
     let (mut sample, mut offset) = (samples.start, 0u32);
     std::iter::from_fn(move || {
         if sample >= spp {
             return None;
         }
-        if pixels <= capacity {
-            let k = (capacity / pixels).min(spp - sample);
+        if pixels <= wave_paths {
+            let k = (wave_paths / pixels).min(spp - sample);
             let w = Wave {
                 sample,
                 samples: k,
@@ -970,7 +971,7 @@ fn waves(pixels: u32, samples: Range<u32>, capacity: u32) -> impl Iterator<Item 
             sample += k;
             Some(w)
         } else {
-            let n = (pixels - offset).min(capacity);
+            let n = (pixels - offset).min(wave_paths);
             let w = Wave {
                 sample,
                 samples: 1,
@@ -1037,14 +1038,14 @@ mod tests {
     }
 
     /// Every (pixel, sample) pair lies in exactly one wave, in sample order per pixel, and no
-    /// wave is larger than the capacity.
-    fn check(pixels: u32, spp: u32, capacity: u32) -> Vec<Wave> {
-        let w: Vec<Wave> = waves(pixels, 0..spp, capacity).collect();
+    /// wave is larger than `wave_paths`.
+    fn check(pixels: u32, spp: u32, wave_paths: u32) -> Vec<Wave> {
+        let w: Vec<Wave> = waves(pixels, 0..spp, wave_paths).collect();
         let mut seen = vec![0u32; (pixels * spp) as usize];
         let mut next_sample = vec![0u32; pixels as usize];
         let mut done = 0;
         for x in &w {
-            assert!(x.pixels * x.samples <= capacity, "{x:?}");
+            assert!(x.pixels * x.samples <= wave_paths, "{x:?}");
             assert!(x.samples_done >= done, "progress goes back: {x:?}");
             done = x.samples_done;
             for s in x.sample..x.sample + x.samples {
@@ -1057,7 +1058,7 @@ mod tests {
         }
         assert!(
             seen.iter().all(|&c| c == 1),
-            "{pixels} px × {spp} spp, capacity {capacity}"
+            "{pixels} px × {spp} spp, wave_paths {wave_paths}"
         );
         assert_eq!(done, spp);
         w
@@ -1069,7 +1070,7 @@ mod tests {
         assert_eq!(check(480, 5, 960).len(), 3);
         // Chunks of the image, the last one partial.
         assert_eq!(check(480, 3, 64).len(), 3 * 8);
-        // Exactly one wave; one pixel; capacity equal to the image.
+        // Exactly one wave; one pixel; wave_paths equal to the image.
         assert_eq!(check(100, 4, 1 << 20).len(), 1);
         check(1, 7, 64);
         check(640, 2, 640);

@@ -106,7 +106,7 @@ pub fn globals(
     scene: &Scene,
     lights: &LightTable,
     num_queues: u32,
-    capacity: u32,
+    wave_paths: u32,
     tile: crate::film::Tile,
 ) -> Vec<u32> {
     let cam = CameraBasis::new(scene);
@@ -130,7 +130,7 @@ pub fn globals(
         it.russian_roulette as u32,
         it.rr_start_depth,
         num_queues,
-        capacity,
+        wave_paths,
         tile.x,
         tile.y,
         tile.width,

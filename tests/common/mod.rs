@@ -44,7 +44,7 @@ pub fn render_cpu(s: &Scene) -> RenderOutput {
 /// Render on the GPU; returns the output and the names of the pipelines built. Fails the test
 /// if the validation layer reported anything.
 pub fn render_gpu(ctx: &Context, s: &Scene) -> (RenderOutput, Vec<String>) {
-    render_gpu_wave(ctx, s, brdfwave::gpu::MAX_CAPACITY)
+    render_gpu_wave(ctx, s, brdfwave::gpu::MAX_WAVE_PATHS)
 }
 
 /// [`render_gpu`] with at most `wave_paths` paths in flight.
