@@ -1323,8 +1323,11 @@ fn geometry_inside_closed_mesh(env: &mut Env, r: &mut Rng, seed: u64) -> Result<
             let d = ((p - want).abs() / want.max(Vec3::splat(1e-30))).max_element() as f64;
             let d = if emitting {
                 d / 1e-5
+            } else if p == Vec3::ZERO {
+                0.0
             } else {
-                (p != Vec3::ZERO) as u8 as f64
+                // Any light at all is a leak: no tolerance (2 marks it as a failure).
+                2.0
             };
             if !p.is_finite() {
                 bad = Some(format!("pixel {i} = {p}"));
