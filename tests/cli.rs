@@ -907,7 +907,7 @@ fn stress_runs_every_group_within_a_small_budget_and_replays_cases() {
     let out = ok(&[
         "stress",
         "--budget",
-        "6",
+        "14",
         "--seed",
         "7",
         "--failures",
@@ -921,6 +921,7 @@ fn stress_runs_every_group_within_a_small_budget_and_replays_cases() {
         "geometry",
         "radiance",
         "scene_numbers",
+        "degenerate",
     ] {
         let line = out
             .lines()
