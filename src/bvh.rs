@@ -826,22 +826,45 @@ pub const fn gamma(n: u32) -> f32 {
     nu / (1.0 - nu)
 }
 
-/// The point with barycentrics (b1, b2) of the triangle `v`, computed as
-/// `v0 + (b1·(v1 − v0) + b2·(v2 − v0))`, and the absolute error bound of its distance from the
-/// triangle's plane, per coordinate: `gamma(4)·(|b1·e1| + |b2·e2|) + gamma(2)·|p|`.
+/// The point with barycentrics (b1, b2) of the triangle `v`, moved a little towards the
+/// triangle's centroid, and the absolute error bound of its distance from the triangle's plane,
+/// per coordinate.
 ///
-/// Any b1, b2 give a point of the plane in exact arithmetic, so the barycentrics' own error
-/// moves the point within the plane only; what moves it off the plane is the rounding of the
-/// edges, the products and the two sums (Higham 2002, lemma 3.1; Pharr, Jakob & Humphreys
-/// 2016, sec. 3.9.4, which bounds the form Σ bᵢ·vᵢ by gamma(7)·Σ|bᵢ·vᵢ|). For a scene far from
-/// the origin this is about 2 ulps of the coordinates, not 7.
+/// The point is computed as `v0 + (b1·(v1 − v0) + b2·(v2 − v0))`. Any b1, b2 give a point of the
+/// plane in exact arithmetic, so the barycentrics' own error moves the point within the plane
+/// only; what moves it off the plane is the rounding of the edges, the products and the two
+/// sums: `gamma(4)·(|b1·e1| + |b2·e2|) + gamma(2)·|p|` (Higham 2002, lemma 3.1; Pharr, Jakob &
+/// Humphreys 2016, sec. 3.9.4, which bounds the form Σ bᵢ·vᵢ by gamma(7)·Σ|bᵢ·vᵢ|).
+///
+/// Within the plane, that error (the intersection's barycentrics and the rounding of the
+/// coordinates, a few ulps of the largest coordinate) can put a point near an edge on, or just
+/// beyond, the plane of the neighbouring face. A ray leaving from there, offset only along this
+/// face's normal, starts on that plane and passes through the face unseen (a closed box seen
+/// from inside showed the environment through its corners). So the point is moved towards the
+/// centroid by `SHIFT_TOWARDS_CENTROID` times the largest vertex coordinate (about 16 ulps of
+/// it; at most half way): a point of the triangle, a few error bounds inside every edge. The
+/// move adds the centroid's own off-plane rounding (`gamma(4)·max|vᵢ|`, half of it at most) and
+/// that of the sum to the bound. Huge vertices (the sums overflow) keep the point unmoved.
 pub fn triangle_point(v: &[Vec3; 3], b1: f32, b2: f32) -> (Vec3, Vec3) {
     let e1 = (v[1] - v[0]) * b1;
     let e2 = (v[2] - v[0]) * b2;
     let p = v[0] + (e1 + e2);
     let err = (e1.abs() + e2.abs()) * gamma(4) + p.abs() * gamma(2);
-    (p, err)
+    let third = 1.0 / 3.0;
+    let to_centroid = (v[0] * third + v[1] * third + v[2] * third) - p;
+    let dist = to_centroid.length();
+    let vmax = v[0].abs().max(v[1].abs()).max(v[2].abs());
+    let delta = vmax.max_element() * SHIFT_TOWARDS_CENTROID;
+    if !(dist > 0.0 && dist.is_finite()) {
+        return (p, err);
+    }
+    let q = p + to_centroid * (delta / dist).min(0.5);
+    (q, err * 1.5 + vmax * gamma(4) + q.abs() * gamma(2))
 }
+
+/// How far [`triangle_point`] moves a point towards the centroid, relative to the largest
+/// vertex coordinate: 2^-19, 16 ulps (2^-23 each) of it.
+pub const SHIFT_TOWARDS_CENTROID: f32 = 1.0 / 524_288.0;
 
 /// The sphere point `center + u·radius` for a unit vector `u` (up to `|1 - u·u|`: a normalised
 /// vector, or one made from sines and cosines), and its absolute error bound per coordinate:

@@ -206,3 +206,75 @@ fn huge_environment_radiance_scales_the_image_linearly() {
     }
     finish(ctx);
 }
+
+/// A ray origin made at a hit near an edge or a corner of a closed box, at any scale and far
+/// from the origin, lies strictly inside the box (so a ray leaving it meets a face): the hit
+/// point is moved towards its triangle's centroid before the offset along the normal. Without
+/// that, a point on a face's edge could round onto the neighbouring face's plane, and a camera
+/// inside a box 43 000 from the origin saw the environment through a corner (stress suite).
+#[test]
+fn ray_origins_near_the_edges_of_a_closed_box_stay_inside() {
+    use brdfwave::bvh::{offset_ray_origin, triangle_point};
+    let mut rng = 0x2545_f491_4f6c_dd1du64;
+    let mut uniform = move || {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        (rng >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let mut checked = 0;
+    for (lo, size) in [
+        (Vec3::new(-230.64294, 15276.683, 41832.973), 2404.6895f32),
+        (Vec3::splat(0.0), 1.0),
+        (Vec3::new(1e6, -3e5, 2e6), 3.0),
+        (Vec3::new(-1e-4, 2e-4, 5e-5), 1e-5),
+    ] {
+        let hi = lo + Vec3::splat(size);
+        // The faces with inward normals, two triangles each.
+        for axis in 0..3 {
+            for side in [0, 1] {
+                let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+                let corner = |a: bool, b: bool| {
+                    let mut p = if side == 0 { lo } else { hi };
+                    p[u] = if a { hi[u] } else { lo[u] };
+                    p[v] = if b { hi[v] } else { lo[v] };
+                    p
+                };
+                let mut n = Vec3::ZERO;
+                n[axis] = if side == 0 { 1.0 } else { -1.0 };
+                let quads = [
+                    corner(false, false),
+                    corner(true, false),
+                    corner(true, true),
+                    corner(false, true),
+                ];
+                for tri in [
+                    [quads[0], quads[1], quads[2]],
+                    [quads[0], quads[2], quads[3]],
+                ] {
+                    for k in 0..400 {
+                        // Points on an edge or a vertex, or a hair inside.
+                        let t = uniform();
+                        let tiny = if k % 2 == 0 { 0.0 } else { 1e-7 * uniform() };
+                        let (b1, b2) = match k % 4 {
+                            0 => (t, tiny),
+                            1 => (tiny, t),
+                            2 => (t, 1.0 - t - tiny),
+                            _ => [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)][k / 4 % 3],
+                        };
+                        let (p, err) = triangle_point(&tri, b1, b2);
+                        let o = offset_ray_origin(p, err, n);
+                        for c in 0..3 {
+                            assert!(
+                                lo[c] < o[c] && o[c] < hi[c],
+                                "box {lo}..{hi}: origin {o} from b = ({b1}, {b2}) on {tri:?} is not inside"
+                            );
+                        }
+                        checked += 1;
+                    }
+                }
+            }
+        }
+    }
+    assert_eq!(checked, 4 * 6 * 2 * 400);
+}
