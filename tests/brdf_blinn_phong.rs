@@ -7,8 +7,8 @@ use brdfwave::brdf::validate::{
 };
 use brdfwave::brdf::Material;
 use common::brdf::{
-    check_sampled_albedo, check_sampler, material, materials, AlbedoCheck, Chi2Config,
-    SamplerCheck, Seeds,
+    check_sampled_albedo, check_sampler, default_evaluates_as, lobe_sampler, material, materials,
+    rejects, warns_once, AlbedoCheck,
 };
 use std::f64::consts::PI;
 
@@ -24,14 +24,12 @@ const ANGLES: [f32; 5] = [0.0, 30.0, 60.0, 80.0, 89.0];
 
 #[test]
 fn default_is_the_classic_form() {
-    let (m, w) = material("model = \"blinn_phong\"\n").unwrap();
-    assert!(w.is_empty(), "{w:?}");
-    let c = bp(0.5, 0.3, 80.0, "classic");
-    let (a, b) = (
+    default_evaluates_as(
+        "blinn_phong",
+        &bp(0.5, 0.3, 80.0, "classic"),
         dir_from_theta_deg(50.0, 0.0),
         dir_from_theta_deg(45.0, 170.0),
     );
-    assert_eq!(m.brdf.eval(a, b), c.brdf.eval(a, b));
 }
 
 #[test]
@@ -42,21 +40,7 @@ fn sampler_matches_pdf() {
             models.push((format!("{form} n={n}"), bp(0.4, 0.6, n, form)));
         }
     }
-    check_sampler(
-        &materials(&models),
-        &SamplerCheck {
-            angles: &[0.0, 45.0, 80.0],
-            phi: 10.0,
-            chi2_samples: 200_000,
-            seeds: Seeds::After(100),
-            grid: Chi2Config::default(),
-            integral: Some(0.01),
-            consistency_samples: 20_000,
-            consistency_seed: 5,
-            pdf_rel: 1e-5,
-            weight_rel: 1e-4,
-        },
-    );
+    check_sampler(&materials(&models), &lobe_sampler());
 }
 
 /// Analytic values at normal incidence (k_s = 1, k_d = 0), derived with c = cos(θ/2):
@@ -168,21 +152,22 @@ fn reciprocity() {
 
 #[test]
 fn bad_parameters() {
-    let e = material("model = \"blinn_phong\"\nexponent = 2e6\n").unwrap_err();
-    assert!(
-        e.contains("test.toml:2") && e.contains("exponent") && e.contains("out of range"),
-        "{e}"
+    for (src, needles) in [
+        (
+            "exponent = 2e6",
+            &["test.toml:2", "exponent", "out of range"][..],
+        ),
+        ("form = \"survey\"", &["form", "classic, normalized"]),
+        ("kd = [0.1, 0.2, -0.3]", &["kd", "-0.3"]),
+    ] {
+        rejects(&format!("model = \"blinn_phong\"\n{src}\n"), needles);
+    }
+    warns_once(
+        "model = \"blinn_phong\"\nform = \"normalized\"\nkd = 0.6\nks = 0.6\n",
+        &["kd + ks = 1.200"],
     );
-    let e = material("model = \"blinn_phong\"\nform = \"survey\"\n").unwrap_err();
-    assert!(
-        e.contains("form") && e.contains("classic, normalized"),
-        "{e}"
+    warns_once(
+        "model = \"blinn_phong\"\nexponent = 1\nks = 0.5\n",
+        &["classic"],
     );
-    let e = material("model = \"blinn_phong\"\nkd = [0.1, 0.2, -0.3]\n").unwrap_err();
-    assert!(e.contains("kd") && e.contains("-0.3"), "{e}");
-    let (_, w) =
-        material("model = \"blinn_phong\"\nform = \"normalized\"\nkd = 0.6\nks = 0.6\n").unwrap();
-    assert!(w.len() == 1 && w[0].contains("kd + ks = 1.200"), "{w:?}");
-    let (_, w) = material("model = \"blinn_phong\"\nexponent = 1\nks = 0.5\n").unwrap();
-    assert!(w.len() == 1 && w[0].contains("classic"), "{w:?}");
 }

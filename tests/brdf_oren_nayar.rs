@@ -5,8 +5,8 @@ mod common;
 use brdfwave::brdf::validate::{albedo_quadrature, dir_from_theta_deg};
 use brdfwave::brdf::Material;
 use common::brdf::{
-    check_reciprocal, check_sampled_albedo, check_sampler, material, materials, AlbedoCheck,
-    Chi2Config, SamplerCheck, Seeds,
+    check_reciprocal, check_sampled_albedo, check_sampler, default_evaluates_as, lobe_sampler,
+    material, materials, rejects, warns_once, AlbedoCheck, SamplerCheck,
 };
 
 fn on(albedo: f32, sigma: f32, variant: &str) -> Material {
@@ -21,14 +21,11 @@ const ANGLES: [f32; 5] = [0.0, 30.0, 60.0, 80.0, 89.0];
 
 #[test]
 fn default_is_the_full_model() {
-    let (m, w) = material("model = \"oren_nayar\"\n").unwrap();
-    assert!(w.is_empty());
-    let full = on(0.5, 0.3, "full");
     let (a, b) = (
         dir_from_theta_deg(60.0, 0.0),
         dir_from_theta_deg(40.0, 30.0),
     );
-    assert_eq!(m.brdf.eval(a, b), full.brdf.eval(a, b));
+    let m = default_evaluates_as("oren_nayar", &on(0.5, 0.3, "full"), a, b);
     assert_ne!(
         m.brdf.eval(a, b),
         on(0.5, 0.3, "qualitative").brdf.eval(a, b)
@@ -46,14 +43,8 @@ fn sampler_matches_pdf() {
         &SamplerCheck {
             angles: &[0.0, 50.0, 85.0],
             phi: 30.0,
-            chi2_samples: 200_000,
-            seeds: Seeds::After(100),
-            grid: Chi2Config::default(),
             integral: None,
-            consistency_samples: 20_000,
-            consistency_seed: 5,
-            pdf_rel: 1e-5,
-            weight_rel: 1e-4,
+            ..lobe_sampler()
         },
     );
 }
@@ -126,26 +117,16 @@ fn reciprocal() {
 
 #[test]
 fn bad_parameters() {
-    let e = material("model = \"oren_nayar\"\nsigma = 20\n").unwrap_err();
-    assert!(
-        e.contains("test.toml:2") && e.contains("sigma") && e.contains("radians"),
-        "{e}"
-    );
-    let e = material("model = \"oren_nayar\"\nsigma = -0.1\n").unwrap_err();
-    assert!(e.contains("sigma") && e.contains("out of range"), "{e}");
-    let e = material("model = \"oren_nayar\"\nvariant = \"fast\"\n").unwrap_err();
-    assert!(
-        e.contains("variant") && e.contains("full, qualitative"),
-        "{e}"
-    );
-    let e = material("model = \"oren_nayar\"\nroughness = 0.3\n").unwrap_err();
-    assert!(
-        e.contains("roughness") && e.contains("unknown field"),
-        "{e}"
-    );
-    let (_, w) = material("model = \"oren_nayar\"\nalbedo = 0.99\n").unwrap();
-    assert!(
-        w.len() == 1 && w[0].contains("albedo") && w[0].contains("0.97"),
-        "{w:?}"
+    for (src, needles) in [
+        ("sigma = 20", &["test.toml:2", "sigma", "radians"][..]),
+        ("sigma = -0.1", &["sigma", "out of range"]),
+        ("variant = \"fast\"", &["variant", "full, qualitative"]),
+        ("roughness = 0.3", &["roughness", "unknown field"]),
+    ] {
+        rejects(&format!("model = \"oren_nayar\"\n{src}\n"), needles);
+    }
+    warns_once(
+        "model = \"oren_nayar\"\nalbedo = 0.99\n",
+        &["albedo", "0.97"],
     );
 }

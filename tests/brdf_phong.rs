@@ -6,8 +6,8 @@ use brdfwave::brdf::validate::{
 };
 use brdfwave::brdf::Material;
 use common::brdf::{
-    check_sampled_albedo, check_sampler, material, materials, AlbedoCheck, Chi2Config,
-    SamplerCheck, Seeds,
+    check_sampled_albedo, check_sampler, default_evaluates_as, lobe_sampler, material, materials,
+    rejects, warns_once, AlbedoCheck,
 };
 
 fn phong(kd: f32, ks: f32, n: f32, form: &str) -> Material {
@@ -21,14 +21,12 @@ const ANGLES: [f32; 5] = [0.0, 30.0, 60.0, 80.0, 89.0];
 
 #[test]
 fn default_is_the_survey_form() {
-    let (m, w) = material("model = \"phong\"\n").unwrap();
-    assert!(w.is_empty(), "{w:?}");
-    let s = phong(0.5, 0.3, 20.0, "survey");
-    let (a, b) = (
+    default_evaluates_as(
+        "phong",
+        &phong(0.5, 0.3, 20.0, "survey"),
         dir_from_theta_deg(50.0, 0.0),
         dir_from_theta_deg(45.0, 170.0),
     );
-    assert_eq!(m.brdf.eval(a, b), s.brdf.eval(a, b));
 }
 
 #[test]
@@ -39,21 +37,7 @@ fn sampler_matches_pdf() {
             models.push((format!("{form} n={n}"), phong(0.4, 0.6, n, form)));
         }
     }
-    check_sampler(
-        &materials(&models),
-        &SamplerCheck {
-            angles: &[0.0, 45.0, 80.0],
-            phi: 10.0,
-            chi2_samples: 200_000,
-            seeds: Seeds::After(100),
-            grid: Chi2Config::default(),
-            integral: Some(0.01),
-            consistency_samples: 20_000,
-            consistency_seed: 5,
-            pdf_rel: 1e-5,
-            weight_rel: 1e-4,
-        },
-    );
+    check_sampler(&materials(&models), &lobe_sampler());
 }
 
 /// k_s = 1, light direction fixed: survey albedo (Phong 1975) 2π/3 ≈ 2.09 at 0° and 8.725 at
@@ -174,26 +158,23 @@ fn reciprocity() {
 
 #[test]
 fn bad_parameters() {
-    let e = material("model = \"phong\"\nexponent = -1\n").unwrap_err();
-    assert!(
-        e.contains("test.toml:2") && e.contains("exponent") && e.contains("out of range"),
-        "{e}"
+    for (src, needles) in [
+        (
+            "exponent = -1",
+            &["test.toml:2", "exponent", "out of range"][..],
+        ),
+        ("ks = nan", &["ks", "finite"]),
+        ("form = \"blinn\"", &["form", "survey, normalized"]),
+        ("shininess = 3", &["shininess", "unknown field"]),
+    ] {
+        rejects(&format!("model = \"phong\"\n{src}\n"), needles);
+    }
+    warns_once(
+        "model = \"phong\"\nform = \"normalized\"\nkd = 0.7\nks = 0.5\n",
+        &["kd + ks = 1.200"],
     );
-    let e = material("model = \"phong\"\nks = nan\n").unwrap_err();
-    assert!(e.contains("ks") && e.contains("finite"), "{e}");
-    let e = material("model = \"phong\"\nform = \"blinn\"\n").unwrap_err();
-    assert!(
-        e.contains("form") && e.contains("survey, normalized"),
-        "{e}"
+    warns_once(
+        "model = \"phong\"\nkd = 0.5\nks = 1\nexponent = 1\n",
+        &["eq. 4"],
     );
-    let e = material("model = \"phong\"\nshininess = 3\n").unwrap_err();
-    assert!(
-        e.contains("shininess") && e.contains("unknown field"),
-        "{e}"
-    );
-    let (_, w) =
-        material("model = \"phong\"\nform = \"normalized\"\nkd = 0.7\nks = 0.5\n").unwrap();
-    assert!(w.len() == 1 && w[0].contains("kd + ks = 1.200"), "{w:?}");
-    let (_, w) = material("model = \"phong\"\nkd = 0.5\nks = 1\nexponent = 1\n").unwrap();
-    assert!(w.len() == 1 && w[0].contains("eq. 4"), "{w:?}");
 }

@@ -232,6 +232,23 @@ bool sample_begin(vec3 given, out BrdfSample s) {
     return !(given.z <= 0.0);
 }
 
+// The pdf of the diffuse models (Lambert, Oren–Nayar): cosθ/π over the upper hemisphere, 0
+// unless both directions are above the surface.
+float diffuse_pdf(vec3 given, vec3 sampled) {
+    if (!same_hemisphere_up(given, sampled)) return 0.0;
+    return cosine_hemisphere_pdf(sampled.z);
+}
+
+// The sample of the diffuse models (Lambert, Oren–Nayar): a cosine-weighted direction s.wi and
+// its pdf; false when `given` is not above the surface or the pdf is 0. The model then sets
+// s.weight = f·cosθ/pdf, written out (no 0/0 at the horizon).
+bool sample_diffuse(vec3 given, vec2 u, out BrdfSample s) {
+    if (!sample_begin(given, s)) return false;
+    s.wi = sample_cosine_hemisphere(u);
+    s.pdf = cosine_hemisphere_pdf(s.wi.z);
+    return !(s.pdf <= 0.0);
+}
+
 // The end of sampling a non-delta lobe, as Rust's BrdfSample::scattered ends it: refuse a
 // direction WI below the horizon or with zero density, otherwise weight = f·cosθ/pdf with PDF
 // the density of the whole mixture at WI and F the BRDF there. A macro, because GLSL has no

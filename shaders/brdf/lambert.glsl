@@ -9,15 +9,11 @@ vec3 lambert_eval(Material m, vec3 wi, vec3 wo) {
 }
 
 float lambert_pdf(Material m, vec3 given, vec3 sampled) {
-    if (!same_hemisphere_up(given, sampled)) return 0.0;
-    return cosine_hemisphere_pdf(sampled.z);
+    return diffuse_pdf(given, sampled);
 }
 
 bool lambert_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s) {
-    if (!sample_begin(given, s)) return false;
-    s.wi = sample_cosine_hemisphere(u);
-    s.pdf = cosine_hemisphere_pdf(s.wi.z);
-    if (s.pdf <= 0.0) return false;
+    if (!sample_diffuse(given, u, s)) return false;
     // f·cos/pdf = ρ exactly.
     s.weight = m.p[0].xyz;
     return true;

@@ -39,6 +39,39 @@ pub fn same_hemisphere_up(a: Vec3, b: Vec3) -> bool {
     a.z > 0.0 && b.z > 0.0
 }
 
+/// The pdf of the diffuse models (Lambert, Oren–Nayar): cosθ/π over the upper hemisphere, 0
+/// unless both directions are above the surface.
+pub fn diffuse_pdf(given: Vec3, sampled: Vec3) -> f32 {
+    if !same_hemisphere_up(given, sampled) {
+        return 0.0;
+    }
+    cosine_hemisphere_pdf(sampled.z)
+}
+
+/// The sample of the diffuse models (Lambert, Oren–Nayar): a cosine-weighted direction wi with
+/// the weight `weight(wi)` = f·cosθ/pdf, which each model writes out (no 0/0 at the horizon).
+/// None when `given` is not above the surface or the pdf of wi is 0.
+pub fn sample_diffuse(
+    given: Vec3,
+    u: Vec2,
+    weight: impl FnOnce(Vec3) -> Vec3,
+) -> Option<super::BrdfSample> {
+    if given.z <= 0.0 {
+        return None;
+    }
+    let wi = sample_cosine_hemisphere(u);
+    let pdf = cosine_hemisphere_pdf(wi.z);
+    if pdf <= 0.0 {
+        return None;
+    }
+    Some(super::BrdfSample {
+        wi,
+        weight: weight(wi),
+        pdf,
+        delta: false,
+    })
+}
+
 // ---------------------------------------------------------------------------------------------
 // Directions and frames
 // ---------------------------------------------------------------------------------------------

@@ -386,12 +386,7 @@ impl_brdf!(CookTorrance {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn dir(theta_deg: f32, phi_deg: f32) -> Vec3 {
-        let (st, ct) = theta_deg.to_radians().sin_cos();
-        let (sp, cp) = phi_deg.to_radians().sin_cos();
-        Vec3::new(st * cp, st * sp, ct)
-    }
+    use crate::brdf::validate::dir_from_theta_deg as dir;
 
     fn variants() -> Vec<CookTorrance> {
         let mut v = Vec::new();

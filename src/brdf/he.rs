@@ -550,12 +550,7 @@ impl_brdf!(He {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn dir(theta_deg: f32, phi_deg: f32) -> Vec3 {
-        let (st, ct) = theta_deg.to_radians().sin_cos();
-        let (sp, cp) = phi_deg.to_radians().sin_cos();
-        Vec3::new(st * cp, st * sp, ct)
-    }
+    use crate::brdf::validate::{assert_finite_on_sample_grid, dir_from_theta_deg as dir};
 
     #[test]
     fn phi_ln_matches_f64() {
@@ -623,28 +618,7 @@ mod tests {
             Vec3::new(-1.0, 0.0, 1e-7).normalize(),
         ];
         for m in &ms {
-            for &a in &dirs {
-                for &b in &dirs {
-                    let f = eval(m, a, b);
-                    assert!(
-                        f.is_finite() && f.min_element() >= 0.0,
-                        "{m:?} {a} {b}: {f}"
-                    );
-                    let p = pdf(m, a, b);
-                    assert!(p.is_finite() && p >= 0.0, "{m:?} {a} {b}: {p}");
-                }
-                for i in 0..64 {
-                    let u = Vec2::new((i % 8) as f32 / 8.0, (i / 8) as f32 / 8.0);
-                    for ul in [0.0, 0.3, 0.7, 0.99] {
-                        if let Some(s) = sample(m, a, ul, u) {
-                            assert!(
-                                s.weight.is_finite() && s.pdf.is_finite(),
-                                "{m:?} {a}: {s:?}"
-                            );
-                        }
-                    }
-                }
-            }
+            assert_finite_on_sample_grid(m, &dirs, &[0.0, 0.3, 0.7, 0.99], &format!("{m:?}"));
         }
     }
 

@@ -9,7 +9,7 @@
 //!
 //! GPU record: `p[0].xyz` = albedo.
 
-use super::common::{cosine_hemisphere_pdf, same_hemisphere_up, sample_cosine_hemisphere};
+use super::common::{diffuse_pdf, same_hemisphere_up, sample_diffuse};
 use super::{Brdf, BrdfSample, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
@@ -34,28 +34,12 @@ pub fn eval(m: &Lambert, wi: Vec3, wo: Vec3) -> Vec3 {
 }
 
 pub fn pdf(_m: &Lambert, given: Vec3, sampled: Vec3) -> f32 {
-    if !same_hemisphere_up(given, sampled) {
-        return 0.0;
-    }
-    cosine_hemisphere_pdf(sampled.z)
+    diffuse_pdf(given, sampled)
 }
 
 pub fn sample(m: &Lambert, given: Vec3, _u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
-    if given.z <= 0.0 {
-        return None;
-    }
-    let wi = sample_cosine_hemisphere(u);
-    let pdf = cosine_hemisphere_pdf(wi.z);
-    if pdf <= 0.0 {
-        return None;
-    }
     // f·cos/pdf = (ρ/π)·cos/(cos/π) = ρ, returned directly instead of as 0/0 at the horizon.
-    Some(BrdfSample {
-        wi,
-        weight: m.albedo,
-        pdf,
-        delta: false,
-    })
+    sample_diffuse(given, u, |_| m.albedo)
 }
 
 impl_brdf!(Lambert {

@@ -41,7 +41,7 @@
 //!
 //! GPU record: `p[0].xyz` = albedo, `p[0].w` = σ, `p[1].x` = variant (0 full, 1 qualitative).
 
-use super::common::{cosine_hemisphere_pdf, same_hemisphere_up, sample_cosine_hemisphere};
+use super::common::{diffuse_pdf, same_hemisphere_up, sample_diffuse};
 use super::{Brdf, BrdfSample, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, PI};
@@ -135,29 +135,12 @@ pub fn eval(m: &OrenNayar, wi: Vec3, wo: Vec3) -> Vec3 {
 }
 
 pub fn pdf(_m: &OrenNayar, given: Vec3, sampled: Vec3) -> f32 {
-    if !same_hemisphere_up(given, sampled) {
-        return 0.0;
-    }
-    cosine_hemisphere_pdf(sampled.z)
+    diffuse_pdf(given, sampled)
 }
 
 pub fn sample(m: &OrenNayar, given: Vec3, _u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
-    if given.z <= 0.0 {
-        return None;
-    }
-    let wi = sample_cosine_hemisphere(u);
-    let pdf = cosine_hemisphere_pdf(wi.z);
-    if pdf <= 0.0 {
-        return None;
-    }
     // f·cosθ/(cosθ/π) = π·f, without the 0/0 at the horizon.
-    let weight = eval(m, wi, given) * PI;
-    Some(BrdfSample {
-        wi,
-        weight,
-        pdf,
-        delta: false,
-    })
+    sample_diffuse(given, u, |wi| eval(m, wi, given) * PI)
 }
 
 impl_brdf!(OrenNayar {

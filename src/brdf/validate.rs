@@ -539,6 +539,83 @@ pub fn sample_consistency(
     r
 }
 
+/// For the lobe models' unit tests: at the normal, at 30°, at grazing (down to z = 1e-30) and
+/// at `extra` directions, `eval` and `pdf` between every two are finite and non-negative, and
+/// every sample drawn from each (lobe choice 0 and 0.99; u at the origin, at the far edge and
+/// in the middle) has a finite weight, a positive pdf and a unit direction above the surface.
+/// `label` names the model in failure messages.
+#[cfg(test)]
+pub(crate) fn assert_finite_at_mirror_and_grazing(m: &dyn Brdf, extra: &[Vec3], label: &str) {
+    let mut dirs = vec![
+        Vec3::Z,
+        dir_from_theta_deg(89.9999, 0.0),
+        dir_from_theta_deg(89.9999, 180.0),
+        Vec3::new(1.0, 0.0, 1e-30),
+        Vec3::new(-1.0, 0.0, 1e-30),
+        Vec3::new(-1.0, 0.0, 1e-12),
+        dir_from_theta_deg(30.0, 180.0),
+        dir_from_theta_deg(30.0, 0.0),
+    ];
+    dirs.extend_from_slice(extra);
+    let dirs = &dirs[..];
+    assert_eval_pdf_finite(m, dirs, label);
+    for &a in dirs {
+        for ul in [0.0, 0.99] {
+            for u in [
+                Vec2::ZERO,
+                Vec2::new(0.999_999_9, 0.5),
+                Vec2::new(0.5, 0.25),
+            ] {
+                if let Some(s) = m.sample(a, ul, u) {
+                    assert!(s.weight.is_finite() && s.pdf > 0.0 && s.wi.z > 0.0);
+                    assert!((s.wi.length() - 1.0).abs() < 1e-5);
+                }
+            }
+        }
+    }
+}
+
+/// For the models' unit tests of models with a delta lobe: `eval` and `pdf` between every two
+/// of `dirs` are finite and non-negative, and every sample drawn from each (u on an 8 × 8 grid,
+/// each lobe choice of `u_lobes`) has a finite weight and pdf.
+#[cfg(test)]
+pub(crate) fn assert_finite_on_sample_grid(
+    m: &dyn Brdf,
+    dirs: &[Vec3],
+    u_lobes: &[f32],
+    label: &str,
+) {
+    assert_eval_pdf_finite(m, dirs, label);
+    for &a in dirs {
+        for i in 0..64 {
+            let u = Vec2::new((i % 8) as f32 / 8.0, (i / 8) as f32 / 8.0);
+            for &ul in u_lobes {
+                if let Some(s) = m.sample(a, ul, u) {
+                    assert!(
+                        s.weight.is_finite() && s.pdf.is_finite(),
+                        "{label} {a}: {s:?}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+fn assert_eval_pdf_finite(m: &dyn Brdf, dirs: &[Vec3], label: &str) {
+    for &a in dirs {
+        for &b in dirs {
+            let f = m.eval(a, b);
+            assert!(
+                f.is_finite() && f.min_element() >= 0.0,
+                "{label} {a} {b}: {f}"
+            );
+            let p = m.pdf(a, b);
+            assert!(p.is_finite() && p >= 0.0, "{label} {a} {b}: {p}");
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
