@@ -841,10 +841,11 @@ pub const fn gamma(n: u32) -> f32 {
 /// beyond, the plane of the neighbouring face. A ray leaving from there, offset only along this
 /// face's normal, starts on that plane and passes through the face unseen (a closed box seen
 /// from inside showed the environment through its corners). So the point is moved towards the
-/// centroid by `SHIFT_TOWARDS_CENTROID` times the largest vertex coordinate (about 16 ulps of
-/// it; at most half way): a point of the triangle, a few error bounds inside every edge. The
-/// move adds the centroid's own off-plane rounding (`gamma(4)·max|vᵢ|`, half of it at most) and
-/// that of the sum to the bound. Huge vertices (the sums overflow) keep the point unmoved.
+/// centroid by [`SHIFT_ULPS`] ulps of the largest vertex coordinate (at most half way): a point
+/// of the triangle, a few roundings inside every edge, and no further (the move is a bias: 16
+/// ulps darkened a Cornell box moved 1e6 away by 0.4 %). The move adds the centroid's own
+/// off-plane rounding (`gamma(4)·max|vᵢ|`, half of it at most) and that of the sum to the bound.
+/// Huge vertices (the sums overflow) keep the point unmoved.
 pub fn triangle_point(v: &[Vec3; 3], b1: f32, b2: f32) -> (Vec3, Vec3) {
     let e1 = (v[1] - v[0]) * b1;
     let e2 = (v[2] - v[0]) * b2;
@@ -854,7 +855,7 @@ pub fn triangle_point(v: &[Vec3; 3], b1: f32, b2: f32) -> (Vec3, Vec3) {
     let to_centroid = (v[0] * third + v[1] * third + v[2] * third) - p;
     let dist = to_centroid.length();
     let vmax = v[0].abs().max(v[1].abs()).max(v[2].abs());
-    let delta = vmax.max_element() * SHIFT_TOWARDS_CENTROID;
+    let delta = ulp(vmax.max_element()) * SHIFT_ULPS;
     if !(dist > 0.0 && dist.is_finite()) {
         return (p, err);
     }
@@ -862,9 +863,20 @@ pub fn triangle_point(v: &[Vec3; 3], b1: f32, b2: f32) -> (Vec3, Vec3) {
     (q, err * 1.5 + vmax * gamma(4) + q.abs() * gamma(2))
 }
 
-/// How far [`triangle_point`] moves a point towards the centroid, relative to the largest
-/// vertex coordinate: 2^-19, 16 ulps (2^-23 each) of it.
-pub const SHIFT_TOWARDS_CENTROID: f32 = 1.0 / 524_288.0;
+/// How far [`triangle_point`] moves a point towards the centroid, in ulps of the largest vertex
+/// coordinate.
+pub const SHIFT_ULPS: f32 = 4.0;
+
+/// The spacing of the floats at `x` (finite, non-negative): 2^(exponent − 23), or the smallest
+/// subnormal below 2^-126.
+pub fn ulp(x: f32) -> f32 {
+    let e = (x.to_bits() >> 23) & 0xff;
+    if e > 23 {
+        f32::from_bits((e - 23) << 23)
+    } else {
+        f32::from_bits(1)
+    }
+}
 
 /// The sphere point `center + u·radius` for a unit vector `u` (up to `|1 - u·u|`: a normalised
 /// vector, or one made from sines and cosines), and its absolute error bound per coordinate:

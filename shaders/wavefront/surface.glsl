@@ -20,15 +20,20 @@ vec3 default_tangent(vec3 n) {
     return vec3(1.0 + s * n.x * n.x * a, s * b, -s * n.x);
 }
 
-// Rust: bvh::gamma(n), triangle_point, SHIFT_TOWARDS_CENTROID, sphere_point (the same arithmetic; the bounds are
+// Rust: bvh::gamma(n), triangle_point, SHIFT_ULPS, ulp, sphere_point (the same arithmetic; the bounds are
 // derived there, after Pharr, Jakob & Humphreys 2016, sec. 3.9).
 #define GAMMA2 uintBitsToFloat(0x34000001u)
 #define GAMMA4 uintBitsToFloat(0x34800002u)
 #define GAMMA5 uintBitsToFloat(0x34a00003u)
-#define SHIFT_TOWARDS_CENTROID (1.0 / 524288.0)
-// p = v0 + (b1 (v1 - v0) + b2 (v2 - v0)), moved towards the centroid by 2^-19 of the largest
-// vertex coordinate (at most half way) so that a point near an edge is not on or beyond the
-// neighbouring face's plane; err bounds its distance from the plane per coordinate.
+#define SHIFT_ULPS 4.0
+// The spacing of the floats at x >= 0 (2^(exponent - 23)).
+float ulp(float x) {
+    uint e = (floatBitsToUint(x) >> 23) & 0xffu;
+    return e > 23u ? uintBitsToFloat((e - 23u) << 23) : uintBitsToFloat(1u);
+}
+// p = v0 + (b1 (v1 - v0) + b2 (v2 - v0)), moved towards the centroid by SHIFT_ULPS ulps of the
+// largest vertex coordinate (at most half way) so that a point near an edge is not on or beyond
+// the neighbouring face's plane; err bounds its distance from the plane per coordinate.
 void triangle_point(vec3 v0, vec3 v1, vec3 v2, float b1, float b2, out vec3 p, out vec3 err) {
     precise vec3 e1 = (v1 - v0) * b1;
     precise vec3 e2 = (v2 - v0) * b2;
@@ -38,7 +43,7 @@ void triangle_point(vec3 v0, vec3 v1, vec3 v2, float b1, float b2, out vec3 p, o
     precise vec3 to_centroid = (v0 * third + v1 * third + v2 * third) - q;
     precise float dist = sqrt(dot(to_centroid, to_centroid));
     vec3 vmax = max(abs(v0), max(abs(v1), abs(v2)));
-    precise float delta = max(vmax.x, max(vmax.y, vmax.z)) * SHIFT_TOWARDS_CENTROID;
+    precise float delta = ulp(max(vmax.x, max(vmax.y, vmax.z))) * SHIFT_ULPS;
     if (dist > 0.0 && is_finite_f(dist)) {
         q = q + to_centroid * min(delta / dist, 0.5);
         e = e * 1.5 + vmax * GAMMA4 + abs(q) * GAMMA2;
