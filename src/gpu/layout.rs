@@ -162,26 +162,42 @@ impl Binding {
     }
 }
 
-/// The counters (one u32 each) in binding `counters`: fixed ones first, then per material
-/// queue k its length, then the non-finite counts of `extend` and of each shade kernel.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Counter {
+/// Declares [`Counter`] and, with each counter, the `#define` the shaders know it by: adding a
+/// counter is one line here (and its use in a shader).
+macro_rules! fixed_counters {
+    ($($(#[$doc:meta])* $name:ident => $define:literal,)*) => {
+        /// The counters (one u32 each) in binding `counters`: these fixed ones first, then per
+        /// material queue k its length, then the non-finite counts of `extend` and of each shade
+        /// kernel, then the rays by segment ([`Counters`]).
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        pub enum Counter {
+            $($(#[$doc])* $name,)*
+        }
+
+        impl Counter {
+            /// Every fixed counter, in order, with its `#define` name.
+            pub const ALL: &'static [(Counter, &'static str)] = &[$((Counter::$name, $define),)*];
+        }
+    };
+}
+
+fixed_counters! {
     /// Lengths of the two ping-pong ray queues.
-    RayQueue0,
-    RayQueue1,
+    RayQueue0 => "COUNTER_RAY",
+    RayQueue1 => "COUNTER_RAY_1",
     /// Length of the shadow-ray queue.
-    ShadowQueue,
+    ShadowQueue => "COUNTER_SHADOW",
     /// Non-finite samples dropped by `accumulate`.
-    NonfiniteAccumulate,
+    NonfiniteAccumulate => "COUNTER_NONFINITE",
     /// 64-bit running totals (low word, high word) of extension and shadow rays traced.
-    ExtensionRaysLo,
-    ExtensionRaysHi,
-    ShadowRaysLo,
-    ShadowRaysHi,
+    ExtensionRaysLo => "COUNTER_EXT_TOTAL",
+    ExtensionRaysHi => "COUNTER_EXT_TOTAL_HI",
+    ShadowRaysLo => "COUNTER_SHADOW_TOTAL",
+    ShadowRaysHi => "COUNTER_SHADOW_TOTAL_HI",
 }
 
 /// Counters before the per-queue ones.
-pub const FIXED_COUNTERS: u32 = 8;
+pub const FIXED_COUNTERS: u32 = Counter::ALL.len() as u32;
 /// Path segments counted one by one in the per-segment ray counts; deeper ones add to the last.
 pub const SEGMENTS_COUNTED: u32 = 32;
 
@@ -257,12 +273,8 @@ pub fn defines() -> Vec<(String, String)> {
         })
         .collect();
     let c = |name: &str, v: u32| (name.to_string(), format!("{v}u"));
+    d.extend(Counter::ALL.iter().map(|&(k, name)| c(name, k as u32)));
     d.extend([
-        c("COUNTER_RAY", Counter::RayQueue0 as u32),
-        c("COUNTER_SHADOW", Counter::ShadowQueue as u32),
-        c("COUNTER_NONFINITE", Counter::NonfiniteAccumulate as u32),
-        c("COUNTER_EXT_TOTAL", Counter::ExtensionRaysLo as u32),
-        c("COUNTER_SHADOW_TOTAL", Counter::ShadowRaysLo as u32),
         c("COUNTER_MATERIAL", FIXED_COUNTERS),
         c("ARGS_RAY", ARGS_RAY),
         c("ARGS_SHADOW", ARGS_SHADOW),
@@ -287,6 +299,15 @@ mod tests {
         names.sort();
         names.dedup();
         assert_eq!(names.len(), Binding::ALL.len());
+    }
+
+    #[test]
+    fn fixed_counters_are_numbered_in_order_with_distinct_defines() {
+        for (i, (k, name)) in Counter::ALL.iter().enumerate() {
+            assert_eq!(*k as usize, i);
+            assert!(name.starts_with("COUNTER_"));
+            assert_eq!(Counter::ALL.iter().filter(|(_, n)| n == name).count(), 1);
+        }
     }
 
     #[test]
