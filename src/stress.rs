@@ -1486,7 +1486,13 @@ fn case_degenerate(env: &mut Env, seed: u64) -> Result<CaseResult> {
             for x in v {
                 obj += &format!("v {:e} {:e} {:e}\n", x.x, x.y, x.z);
             }
-            obj_faces += &format!("f {} {} {}\n", nv + 1, nv + 2, nv + 3);
+            // In the OBJ, sometimes also a face that repeats an index (zero area) or a quad
+            // with a repeated corner, which the loader splits into triangles.
+            obj_faces += &match r.next_u64() % 4 {
+                0 => format!("f {} {} {}\n", nv + 1, nv + 1, nv + 2),
+                1 => format!("f {} {} {} {}\n", nv + 1, nv + 2, nv + 3, nv + 3),
+                _ => format!("f {} {} {}\n", nv + 1, nv + 2, nv + 3),
+            };
             nv += 3;
         }
         if let Some((center, radius, inward)) = sphere {
