@@ -9,10 +9,7 @@
 # usage: scripts/render-part.sh INDEX PARTS SCENE SPP DIR [render options, e.g. --res 1024x1024]
 # The program is `brdfwave` on PATH, or $BRDFWAVE.
 set -euo pipefail
-if [ $# -lt 5 ]; then
-    sed -n '2,10p' "$0" | sed 's/^# \{0,1\}//' >&2
-    exit 2
-fi
+[ $# -ge 5 ] || { sed -n '2,10p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }  # the usage above
 index=$1 parts=$2 scene=$3 spp=$4 dir=$5
 shift 5
 for n in "$index" "$parts" "$spp"; do

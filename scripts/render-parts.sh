@@ -7,10 +7,7 @@
 # usage: scripts/render-parts.sh SCENE SPP PARTS JOBS OUT [render options, e.g. --res 1024x1024]
 # The program is `brdfwave` on PATH, or $BRDFWAVE.
 set -euo pipefail
-if [ $# -lt 5 ]; then
-    sed -n '2,8p' "$0" | sed 's/^# \{0,1\}//' >&2
-    exit 2
-fi
+[ $# -ge 5 ] || { sed -n '2,8p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }  # the usage above
 scene=$1 spp=$2 parts=$3 jobs=$4 out=$5
 shift 5
 case $jobs in '' | *[!0-9]* | 0) echo "render-parts: JOBS must be a positive whole number, got '$jobs'" >&2; exit 2 ;; esac

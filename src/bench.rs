@@ -16,7 +16,7 @@
 
 use crate::bvh::{self, Bvh};
 use crate::cpu::{CpuFilm, CpuRenderer};
-use crate::gpu::{GpuRenderer, Integrator, MAX_WAVE_PATHS};
+use crate::gpu::{GpuOptions, GpuRenderer, Integrator};
 use crate::imageio::{self, Image};
 use crate::metrics;
 use crate::plot::{self, Series};
@@ -543,16 +543,25 @@ pub fn run(o: &BenchOptions) -> Result<String> {
         let runner: Result<Box<dyn Runner + '_>> = match (c, ctx) {
             (Config::Gpu { integrator, .. }, Some(ctx)) => {
                 let t = Instant::now();
-                GpuRenderer::with_options(ctx, &sc, &bvh, &compiler, MAX_WAVE_PATHS, *integrator)
-                    .and_then(|mut r| {
-                        r.reset()?;
-                        Ok(Box::new(GpuRunner {
-                            renderer: r,
-                            device: ctx.device_name.clone(),
-                            setup_seconds: t.elapsed().as_secs_f64(),
-                            done: 0,
-                        }) as Box<dyn Runner>)
-                    })
+                GpuRenderer::with_options(
+                    ctx,
+                    &sc,
+                    &bvh,
+                    &compiler,
+                    GpuOptions {
+                        integrator: *integrator,
+                        ..GpuOptions::default()
+                    },
+                )
+                .and_then(|mut r| {
+                    r.reset()?;
+                    Ok(Box::new(GpuRunner {
+                        renderer: r,
+                        device: ctx.device_name.clone(),
+                        setup_seconds: t.elapsed().as_secs_f64(),
+                        done: 0,
+                    }) as Box<dyn Runner>)
+                })
             }
             (Config::Cpu, _) => {
                 let r = CpuRenderer::new(&sc, &bvh);

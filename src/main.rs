@@ -656,8 +656,17 @@ fn render(a: RenderArgs) -> Result<()> {
             })?;
             let compiler = vk::ShaderCompiler::new()?;
             let wave = a.wave_paths.unwrap_or(brdfwave::gpu::MAX_WAVE_PATHS);
-            let mut r =
-                GpuRenderer::with_tile(&ctx, &sc, &bvh, &compiler, wave, a.integrator.gpu(), tile)?;
+            let mut r = GpuRenderer::with_options(
+                &ctx,
+                &sc,
+                &bvh,
+                &compiler,
+                brdfwave::gpu::GpuOptions {
+                    wave_paths: wave,
+                    integrator: a.integrator.gpu(),
+                    tile: Some(tile),
+                },
+            )?;
             seconds_setup = t0.elapsed().as_secs_f64();
             // Per mille of a sample, so that a single wave shows progress by segment.
             let pb = progress_bar(sc.integrator.spp as u64 * 1000, "samples");

@@ -439,7 +439,7 @@ fn copy_dir(from: &std::path::Path, to: &std::path::Path) {
 /// same film, ray counts and non-finite counts, on a scene with every model (one switch).
 #[test]
 fn the_megakernel_renders_the_wavefront_image() {
-    use brdfwave::gpu::{GpuRenderer, Integrator, MAX_WAVE_PATHS};
+    use brdfwave::gpu::{GpuRenderer, Integrator};
     let ctx = context();
     let compiler = brdfwave::vk::ShaderCompiler::new().unwrap();
     for (name, w, h) in [("lineup.toml", 40, 16), ("cornell-box-glossy.toml", 24, 20)] {
@@ -448,9 +448,17 @@ fn the_megakernel_renders_the_wavefront_image() {
         let mut outs = Vec::new();
         let mut pipelines = Vec::new();
         for integrator in [Integrator::Wavefront, Integrator::Megakernel] {
-            let mut r =
-                GpuRenderer::with_options(&ctx, &s, &b, &compiler, MAX_WAVE_PATHS, integrator)
-                    .expect("set-up");
+            let mut r = GpuRenderer::with_options(
+                &ctx,
+                &s,
+                &b,
+                &compiler,
+                brdfwave::gpu::GpuOptions {
+                    integrator,
+                    ..Default::default()
+                },
+            )
+            .expect("set-up");
             outs.push(r.render(&|_| {}).expect("render"));
             pipelines.push(r.setup.pipelines.clone());
         }

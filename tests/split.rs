@@ -8,7 +8,7 @@ mod common;
 use brdfwave::bvh;
 use brdfwave::cpu::CpuRenderer;
 use brdfwave::film::{self, Part, Tile};
-use brdfwave::gpu::{GpuRenderer, Integrator, MAX_WAVE_PATHS};
+use brdfwave::gpu::{GpuOptions, GpuRenderer};
 use brdfwave::imageio::Image;
 use brdfwave::scene::Scene;
 use common::{context, finish, scene};
@@ -52,16 +52,11 @@ fn gpu_part(
 ) -> PathBuf {
     let b = bvh::build(s);
     let compiler = brdfwave::vk::ShaderCompiler::new().unwrap();
-    let mut r = GpuRenderer::with_tile(
-        ctx,
-        s,
-        &b,
-        &compiler,
-        MAX_WAVE_PATHS,
-        Integrator::Wavefront,
-        t,
-    )
-    .unwrap();
+    let options = GpuOptions {
+        tile: Some(t),
+        ..GpuOptions::default()
+    };
+    let mut r = GpuRenderer::with_options(ctx, s, &b, &compiler, options).unwrap();
     r.reset().unwrap();
     r.render_samples(samples, &|_| {}).unwrap();
     let out = r.output().unwrap();

@@ -166,6 +166,31 @@ struct Stages {
     megakernel: usize,
 }
 
+/// How a [`GpuRenderer`] renders; none of it changes the image.
+#[derive(Clone, Copy, Debug)]
+pub struct GpuOptions {
+    /// Most paths in flight at a time, 64 ..= [`MAX_WAVE_PATHS`] (the default). The random
+    /// numbers are keyed on (pixel, sample, depth, dimension) and the film adds each pixel's
+    /// samples in sample order, so the waves do not show in the image.
+    pub wave_paths: u32,
+    /// The stages with queues (default), or the megakernel.
+    pub integrator: Integrator,
+    /// Only the pixels of this tile (which must lie within the image; default: all of it). The
+    /// film is the tile's size, and each pixel gets the samples it gets in a render of the
+    /// whole image (the random numbers are keyed on the image's pixel).
+    pub tile: Option<Tile>,
+}
+
+impl Default for GpuOptions {
+    fn default() -> Self {
+        GpuOptions {
+            wave_paths: MAX_WAVE_PATHS,
+            integrator: Integrator::Wavefront,
+            tile: None,
+        }
+    }
+}
+
 pub struct GpuRenderer<'a> {
     ctx: &'a Context,
     scene: &'a Scene,
@@ -185,22 +210,15 @@ pub struct GpuRenderer<'a> {
 }
 
 impl<'a> GpuRenderer<'a> {
-    /// A wavefront renderer with the largest wave ([`MAX_WAVE_PATHS`] paths). Larger waves were
-    /// faster on every device measured (BENCHMARKS.md).
+    /// A wavefront renderer of the whole image with the largest wave ([`MAX_WAVE_PATHS`]
+    /// paths). Larger waves were faster on every device measured (BENCHMARKS.md).
     pub fn new(
         ctx: &'a Context,
         scene: &'a Scene,
         bvh: &Bvh,
         compiler: &ShaderCompiler,
     ) -> Result<Self> {
-        Self::with_options(
-            ctx,
-            scene,
-            bvh,
-            compiler,
-            MAX_WAVE_PATHS,
-            Integrator::Wavefront,
-        )
+        Self::with_options(ctx, scene, bvh, compiler, GpuOptions::default())
     }
 
     /// A wavefront renderer that traces at most `wave_paths` paths at a time.
@@ -211,36 +229,27 @@ impl<'a> GpuRenderer<'a> {
         compiler: &ShaderCompiler,
         wave_paths: u32,
     ) -> Result<Self> {
-        Self::with_options(ctx, scene, bvh, compiler, wave_paths, Integrator::Wavefront)
+        let options = GpuOptions {
+            wave_paths,
+            ..GpuOptions::default()
+        };
+        Self::with_options(ctx, scene, bvh, compiler, options)
     }
 
-    /// A renderer that traces at most `wave_paths` paths at a time (64 ..= [`MAX_WAVE_PATHS`])
-    /// with `integrator`. The image depends on neither: the random numbers are keyed on (pixel,
-    /// sample, depth, dimension) and the film adds each pixel's samples in sample order.
+    /// A renderer with `options` (see [`GpuOptions`]).
     pub fn with_options(
         ctx: &'a Context,
         scene: &'a Scene,
         bvh: &Bvh,
         compiler: &ShaderCompiler,
-        wave_paths: u32,
-        integrator: Integrator,
+        options: GpuOptions,
     ) -> Result<Self> {
-        let tile = Tile::full(scene.width, scene.height);
-        Self::with_tile(ctx, scene, bvh, compiler, wave_paths, integrator, tile)
-    }
-
-    /// As [`with_options`](Self::with_options), rendering only the pixels of `tile` (which must
-    /// lie within the image): its film is the tile's size, and each pixel gets the samples it
-    /// gets in a render of the whole image (the random numbers are keyed on the image's pixel).
-    pub fn with_tile(
-        ctx: &'a Context,
-        scene: &'a Scene,
-        bvh: &Bvh,
-        compiler: &ShaderCompiler,
-        wave_paths: u32,
-        integrator: Integrator,
-        tile: Tile,
-    ) -> Result<Self> {
+        let GpuOptions {
+            wave_paths,
+            integrator,
+            tile,
+        } = options;
+        let tile = tile.unwrap_or(Tile::full(scene.width, scene.height));
         check_wave_paths(wave_paths).context("wave size")?;
         check_max_depth(scene.integrator.max_depth)?;
         tile.check_within(scene.width, scene.height)
