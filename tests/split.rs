@@ -337,3 +337,45 @@ fn slurm_example_renders_and_merges_like_one_render() {
     let read = |p: &Path| brdfwave::imageio::read(p).unwrap();
     assert!(read(&out).data == read(&single).data);
 }
+
+/// An image whose film does not fit one storage buffer of the device (lavapipe: 128 MiB, about
+/// 8 M pixels) is refused with a message that points to --tile, and a tile of it renders.
+#[test]
+fn an_image_too_large_for_the_device_renders_by_tiles() {
+    let dir = tempfile::tempdir().unwrap();
+    let exe = env!("CARGO_BIN_EXE_brdfwave");
+    let scene = common::repo().join("scenes/cornell-box.toml");
+    let run = |extra: &[&str]| {
+        Command::new(exe)
+            .arg("render")
+            .arg(&scene)
+            .args(["--res", "4096x4096", "--spp", "1", "--max-depth", "2"])
+            .args(extra)
+            .current_dir(dir.path())
+            .output()
+            .unwrap()
+    };
+    // The film of the whole image: 4096² pixels × 16 bytes = 256 MiB.
+    let range = {
+        let ctx = context();
+        let r = ctx.limits.max_storage_buffer_range as u64;
+        finish(ctx);
+        r
+    };
+    let o = run(&["--out", "whole.exr"]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    if range < 256 << 20 {
+        assert!(!o.status.success(), "a 256 MiB film was accepted");
+        assert!(
+            e.contains("an image of 4096x4096") && e.contains("--tile"),
+            "{e}"
+        );
+    } else {
+        assert!(o.status.success(), "{e}");
+    }
+    let o = run(&["--tile", "2000,3000,48,32", "--out", "tile.bwfilm"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let part = film::read_part(&dir.path().join("tile.bwfilm")).unwrap();
+    assert_eq!((part.header.width, part.header.height), (4096, 4096));
+    assert_eq!(part.film.tile, tile(2000, 3000, 48, 32));
+}

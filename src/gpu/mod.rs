@@ -288,7 +288,7 @@ impl<'a> GpuRenderer<'a> {
             (layout::QUEUE_MATERIAL as u64 + num_queues as u64) * wave_paths as u64 * 4;
         if film_bytes > limit || queue_bytes > limit {
             bail!(
-                "{} pixels need a {} MiB film buffer, over this device's storage-buffer range of {} MiB; render a smaller image or split it into tiles (--tile)",
+                "{}: its film needs {} MiB, over this device's storage-buffer range of {} MiB; render a smaller image or split it into tiles (--tile)",
                 if tile == Tile::full(scene.width, scene.height) {
                     format!("an image of {}x{}", scene.width, scene.height)
                 } else {
