@@ -250,6 +250,33 @@ fn report(name: &str, b: &Bvh, tally: &Tally) {
     );
 }
 
+/// `rays` random rays from [−extent, extent]³ checked against brute force, every other one
+/// aimed at a point of the scene, tmax from [`tmax_of`] with `tmax_scale`; reported as `name`.
+fn check_random_rays(
+    s: &Scene,
+    rng: &mut Rng,
+    name: &str,
+    rays: usize,
+    extent: f32,
+    tmax_scale: f32,
+) -> Tally {
+    let b = bvh::build(s);
+    let tg = targets(s, rng);
+    let mut tally = Tally::default();
+    for k in 0..rays {
+        let o = rng.vec(-extent, extent);
+        let d = if k % 2 == 0 {
+            rng.dir()
+        } else {
+            tg[(rng.next() % tg.len() as u64) as usize] - o
+        };
+        let tmax = tmax_of(rng, tmax_scale);
+        check(s, &b, o, d, tmax, &mut tally);
+    }
+    report(name, &b, &tally);
+    tally
+}
+
 // ---------------------------------------------------------------------------------------------
 // Agreement with brute force
 
@@ -257,20 +284,7 @@ fn report(name: &str, b: &Bvh, tally: &Tally) {
 fn random_triangle_soup_matches_brute_force() {
     let mut rng = Rng(1);
     let s = scene(random_soup(&mut rng, 2000, 10.0), vec![]);
-    let b = bvh::build(&s);
-    let tg = targets(&s, &mut rng);
-    let mut tally = Tally::default();
-    for k in 0..4000 {
-        let o = rng.vec(-15.0, 15.0);
-        let d = if k % 2 == 0 {
-            rng.dir()
-        } else {
-            tg[(rng.next() % tg.len() as u64) as usize] - o
-        };
-        let tmax = tmax_of(&mut rng, 30.0);
-        check(&s, &b, o, d, tmax, &mut tally);
-    }
-    report("soup", &b, &tally);
+    let tally = check_random_rays(&s, &mut rng, "soup", 4000, 15.0, 30.0);
     assert!(
         tally.hits > 2000,
         "too few hits to mean anything: {tally:?}"
@@ -368,20 +382,7 @@ fn mixed_scene_matches_brute_force() {
     let mut sp = random_spheres(&mut rng, 60, 5.0);
     sp.push((Vec3::ZERO, 20.0, true));
     let s = scene(tris, sp);
-    let b = bvh::build(&s);
-    let tg = targets(&s, &mut rng);
-    let mut tally = Tally::default();
-    for k in 0..3000 {
-        let o = rng.vec(-8.0, 8.0);
-        let d = if k % 2 == 0 {
-            rng.dir()
-        } else {
-            tg[(rng.next() % tg.len() as u64) as usize] - o
-        };
-        let tmax = tmax_of(&mut rng, 10.0);
-        check(&s, &b, o, d, tmax, &mut tally);
-    }
-    report("mixed", &b, &tally);
+    check_random_rays(&s, &mut rng, "mixed", 3000, 8.0, 10.0);
 }
 
 // ---------------------------------------------------------------------------------------------
