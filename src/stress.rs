@@ -547,6 +547,21 @@ struct Approach {
     bias: f64,
 }
 
+/// The normalized form of `model` (Phong or Blinn–Phong) with a random ks and exponents 1e3
+/// to 1e6; `limit` maps ks to the limit albedo, the bias allowed is 1e-4 (see the callers).
+fn normalized_lobe(r: &mut Rng, model: &str, what: &str, limit: impl Fn(f64) -> f64) -> Approach {
+    let ks = r.range(0.05, 0.95);
+    let f = |n: f32| {
+        format!(r#"model = "{model}", kd = 0, ks = {ks:e}, exponent = {n:e}, form = "normalized""#)
+    };
+    Approach {
+        what: what.into(),
+        materials: vec![f(1e3), f(1e4), f(1e5), f(1e6)],
+        limit: limit(ks as f64),
+        bias: 1e-4,
+    }
+}
+
 fn approach(r: &mut Rng, given: Vec3) -> Approach {
     let mu = given.z as f64;
     match r.next_u64() % 7 {
@@ -597,34 +612,17 @@ fn approach(r: &mut Rng, given: Vec3) -> Approach {
             // Normalized Blinn–Phong: weight = ks·(n+4)/(n + 2^(−n/2))·(wo·h)·cos θi/cos θh
             // (module header) → ks cos²θ as the half vector goes to the normal; the
             // corrections are 4/n and the lobe width 1/√n squared: ≤ 1e-4 at n = 1e5.
-            let ks = r.range(0.05, 0.95);
-            let f = |n: f32| {
-                format!(
-                    r#"model = "blinn_phong", kd = 0, ks = {ks:e}, exponent = {n:e}, form = "normalized""#
-                )
-            };
-            Approach {
-                what: "Blinn-Phong normalized → ks·cos²θ".into(),
-                materials: vec![f(1e3), f(1e4), f(1e5), f(1e6)],
-                limit: ks as f64 * mu * mu,
-                bias: 1e-4,
-            }
+            normalized_lobe(
+                r,
+                "blinn_phong",
+                "Blinn-Phong normalized → ks·cos²θ",
+                |ks| ks * mu * mu,
+            )
         }
         3 => {
             // Normalized Phong: weight = ks·(n+2)/(n+1)·cos θi (module header) → ks cos θ as
             // the lobe narrows around the mirror direction; corrections 1/n and 1/√n squared.
-            let ks = r.range(0.05, 0.95);
-            let f = |n: f32| {
-                format!(
-                    r#"model = "phong", kd = 0, ks = {ks:e}, exponent = {n:e}, form = "normalized""#
-                )
-            };
-            Approach {
-                what: "Phong normalized → ks·cosθ".into(),
-                materials: vec![f(1e3), f(1e4), f(1e5), f(1e6)],
-                limit: ks as f64 * mu,
-                bias: 1e-4,
-            }
+            normalized_lobe(r, "phong", "Phong normalized → ks·cosθ", |ks| ks * mu)
         }
         4 => {
             // Schlick continuum form, single isotropic layer: r < 0.5 splits the light into the
@@ -1140,16 +1138,7 @@ fn geometry_shared_edges(env: &mut Env, r: &mut Rng) -> Result<CaseResult> {
     let tris = icosphere(2, center, scale);
     let mut scene = env.cornell()?;
     scene.spheres.clear();
-    scene.triangles = tris
-        .iter()
-        .map(|v| crate::scene::Triangle {
-            v: *v,
-            n: None,
-            uv: None,
-            material: 0,
-            emitter: None,
-        })
-        .collect();
+    scene.triangles = tris.iter().map(|&v| flat_triangle(v, 0, None)).collect();
     let bvh = crate::bvh::build(&scene);
     for k in 0..200 {
         let t = &tris[(r.next_u64() % tris.len() as u64) as usize];
@@ -1287,16 +1276,7 @@ fn geometry_inside_closed_mesh(env: &mut Env, r: &mut Rng, seed: u64) -> Result<
     scene.spheres.clear();
     let what = match &shape {
         Closed::Mesh(t) => {
-            scene.triangles = t
-                .iter()
-                .map(|v| crate::scene::Triangle {
-                    v: *v,
-                    n: None,
-                    uv: None,
-                    material: 0,
-                    emitter,
-                })
-                .collect();
+            scene.triangles = t.iter().map(|&v| flat_triangle(v, 0, emitter)).collect();
             format!("a closed mesh of {} triangles", t.len())
         }
         Closed::Sphere(c, rad) => {
@@ -1360,6 +1340,17 @@ fn geometry_inside_closed_mesh(env: &mut Env, r: &mut Rng, seed: u64) -> Result<
 }
 
 /// Icosphere triangles (outward winding) with exactly shared vertices.
+/// A triangle without shading normals or texture coordinates.
+fn flat_triangle(v: [Vec3; 3], material: u32, emitter: Option<u32>) -> crate::scene::Triangle {
+    crate::scene::Triangle {
+        v,
+        n: None,
+        uv: None,
+        material,
+        emitter,
+    }
+}
+
 fn icosphere(subdiv: u32, center: Vec3, radius: f32) -> Vec<[Vec3; 3]> {
     let (v, f) = crate::scene::shapes::icosphere(subdiv, center, radius);
     f.iter().map(|t| [v[t[0]], v[t[1]], v[t[2]]]).collect()
@@ -1476,13 +1467,7 @@ fn case_degenerate(env: &mut Env, seed: u64) -> Result<CaseResult> {
         };
         let material = (r.next_u64() % scene.materials.len() as u64) as u32;
         if let Some(v) = tri {
-            scene.triangles.push(crate::scene::Triangle {
-                v,
-                n: None,
-                uv: None,
-                material,
-                emitter,
-            });
+            scene.triangles.push(flat_triangle(v, material, emitter));
             for x in v {
                 obj += &format!("v {:e} {:e} {:e}\n", x.x, x.y, x.z);
             }

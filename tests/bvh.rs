@@ -7,34 +7,24 @@ use brdfwave::bvh::{self, Bvh, Hit, MAX_DEPTH, SPHERE_BIT};
 use brdfwave::gpu::scene_buffers;
 use brdfwave::scene::shapes::icosphere;
 use brdfwave::scene::{Camera, Integrator, Scene, Sphere, Triangle};
+use brdfwave::stress::Rng;
 use brdfwave::vk::{raw, Context, ContextOptions, Resource, ShaderCompiler};
 use glam::{Vec2, Vec3};
 
 // ---------------------------------------------------------------------------------------------
 // Helpers
 
-/// SplitMix64: small, deterministic, good enough for test rays.
-struct Rng(u64);
+/// Random points and directions for test rays, from the stress tests' SplitMix64.
+trait RayRng {
+    fn vec(&mut self, lo: f32, hi: f32) -> Vec3;
+    /// Uniform direction.
+    fn dir(&mut self) -> Vec3;
+}
 
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [0, 1).
-    fn f(&mut self) -> f32 {
-        (self.next() >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.f()
-    }
+impl RayRng for Rng {
     fn vec(&mut self, lo: f32, hi: f32) -> Vec3 {
         Vec3::new(self.range(lo, hi), self.range(lo, hi), self.range(lo, hi))
     }
-    /// Uniform direction.
     fn dir(&mut self) -> Vec3 {
         let z = self.range(-1.0, 1.0);
         let phi = self.range(0.0, std::f32::consts::TAU);
@@ -202,7 +192,7 @@ fn random_spheres(rng: &mut Rng, n: usize, extent: f32) -> Vec<(Vec3, f32, bool)
 fn targets(s: &Scene, rng: &mut Rng) -> Vec<Vec3> {
     let mut t: Vec<Vec3> = Vec::new();
     for tri in &s.triangles {
-        t.push(tri.v[(rng.next() % 3) as usize]);
+        t.push(tri.v[(rng.next_u64() % 3) as usize]);
         t.push((tri.v[0] + tri.v[1] + tri.v[2]) / 3.0);
     }
     for sp in &s.spheres {
@@ -250,27 +240,41 @@ fn report(name: &str, b: &Bvh, tally: &Tally) {
     );
 }
 
+/// `rays` random rays from [−extent, extent]³ checked against brute force, every other one
+/// aimed at a point of the scene, tmax from [`tmax_of`] with `tmax_scale`; reported as `name`.
+fn check_random_rays(
+    s: &Scene,
+    rng: &mut Rng,
+    name: &str,
+    rays: usize,
+    extent: f32,
+    tmax_scale: f32,
+) -> Tally {
+    let b = bvh::build(s);
+    let tg = targets(s, rng);
+    let mut tally = Tally::default();
+    for k in 0..rays {
+        let o = rng.vec(-extent, extent);
+        let d = if k % 2 == 0 {
+            rng.dir()
+        } else {
+            tg[(rng.next_u64() % tg.len() as u64) as usize] - o
+        };
+        let tmax = tmax_of(rng, tmax_scale);
+        check(s, &b, o, d, tmax, &mut tally);
+    }
+    report(name, &b, &tally);
+    tally
+}
+
 // ---------------------------------------------------------------------------------------------
 // Agreement with brute force
 
 #[test]
 fn random_triangle_soup_matches_brute_force() {
-    let mut rng = Rng(1);
+    let mut rng = Rng::new(1);
     let s = scene(random_soup(&mut rng, 2000, 10.0), vec![]);
-    let b = bvh::build(&s);
-    let tg = targets(&s, &mut rng);
-    let mut tally = Tally::default();
-    for k in 0..4000 {
-        let o = rng.vec(-15.0, 15.0);
-        let d = if k % 2 == 0 {
-            rng.dir()
-        } else {
-            tg[(rng.next() % tg.len() as u64) as usize] - o
-        };
-        let tmax = tmax_of(&mut rng, 30.0);
-        check(&s, &b, o, d, tmax, &mut tally);
-    }
-    report("soup", &b, &tally);
+    let tally = check_random_rays(&s, &mut rng, "soup", 4000, 15.0, 30.0);
     assert!(
         tally.hits > 2000,
         "too few hits to mean anything: {tally:?}"
@@ -279,7 +283,7 @@ fn random_triangle_soup_matches_brute_force() {
 
 #[test]
 fn spheres_match_brute_force_from_outside_inside_and_on_surface() {
-    let mut rng = Rng(2);
+    let mut rng = Rng::new(2);
     let mut sp = random_spheres(&mut rng, 300, 10.0);
     // An inward room around everything.
     sp.push((Vec3::new(0.5, -0.25, 0.125), 40.0, true));
@@ -297,7 +301,7 @@ fn spheres_match_brute_force_from_outside_inside_and_on_surface() {
             }
             // From exactly on a sphere's surface (as far as f32 allows), any direction.
             _ => {
-                let sph = &s.spheres[(rng.next() % s.spheres.len() as u64) as usize];
+                let sph = &s.spheres[(rng.next_u64() % s.spheres.len() as u64) as usize];
                 (sph.center + rng.dir() * sph.radius, rng.dir())
             }
         };
@@ -320,7 +324,7 @@ fn spheres_match_brute_force_from_outside_inside_and_on_surface() {
 #[test]
 fn rays_from_a_room_surface_find_the_far_side() {
     // Points on an inward room sphere, rays going inwards: the far side, never t ≈ 0.
-    let mut rng = Rng(3);
+    let mut rng = Rng::new(3);
     for &(c, r) in &[
         (Vec3::ZERO, 1.0f32),
         (Vec3::new(100.0, -50.0, 20.0), 30.0),
@@ -361,27 +365,14 @@ fn rays_from_a_room_surface_find_the_far_side() {
 
 #[test]
 fn mixed_scene_matches_brute_force() {
-    let mut rng = Rng(4);
+    let mut rng = Rng::new(4);
     let mut tris = random_soup(&mut rng, 600, 5.0);
     let (v, f) = icosphere(2, Vec3::new(2.0, 1.0, -1.0), 1.5);
     tris.extend(f.iter().map(|t| [v[t[0]], v[t[1]], v[t[2]]]));
     let mut sp = random_spheres(&mut rng, 60, 5.0);
     sp.push((Vec3::ZERO, 20.0, true));
     let s = scene(tris, sp);
-    let b = bvh::build(&s);
-    let tg = targets(&s, &mut rng);
-    let mut tally = Tally::default();
-    for k in 0..3000 {
-        let o = rng.vec(-8.0, 8.0);
-        let d = if k % 2 == 0 {
-            rng.dir()
-        } else {
-            tg[(rng.next() % tg.len() as u64) as usize] - o
-        };
-        let tmax = tmax_of(&mut rng, 10.0);
-        check(&s, &b, o, d, tmax, &mut tally);
-    }
-    report("mixed", &b, &tally);
+    check_random_rays(&s, &mut rng, "mixed", 3000, 8.0, 10.0);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -390,7 +381,7 @@ fn mixed_scene_matches_brute_force() {
 /// Rays from inside a closed mesh aimed exactly at its vertices and at points on its edges
 /// must all hit (and agree with brute force).
 fn watertight_icosphere(center: Vec3, radius: f32, seed: u64) -> Tally {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::new(seed);
     let (v, f) = icosphere(3, center, radius);
     let s = scene(
         f.iter().map(|t| [v[t[0]], v[t[1]], v[t[2]]]).collect(),
@@ -458,7 +449,7 @@ fn grid_cube_axis_aligned_rays_through_vertices_and_edges_hit() {
     let b = bvh::build(&s);
     let coord = |i: usize| -1.0 + 2.0 * i as f32 / n as f32;
     let mut tally = Tally::default();
-    let mut rng = Rng(8);
+    let mut rng = Rng::new(8);
     for i in 0..=n {
         for j in 0..=n {
             for axis in 0..3 {
@@ -494,9 +485,9 @@ fn grid_cube_axis_aligned_rays_through_vertices_and_edges_hit() {
     }
     // Diagonal rays in coordinate planes (one zero component) through interior grid lines.
     for _ in 0..2000 {
-        let axis = (rng.next() % 3) as usize;
+        let axis = (rng.next_u64() % 3) as usize;
         let mut o = rng.vec(-0.9, 0.9).to_array();
-        o[axis] = coord((rng.next() % (n as u64 + 1)) as usize);
+        o[axis] = coord((rng.next_u64() % (n as u64 + 1)) as usize);
         let mut d = rng.dir().to_array();
         d[axis] = 0.0;
         let (o, d) = (Vec3::from(o), Vec3::from(d));
@@ -520,17 +511,17 @@ fn rays_grazing_along_box_faces_agree_with_brute_force() {
     let s = scene(grid_cube(4, -1.0, 1.0), vec![]);
     let b = bvh::build(&s);
     let mut tally = Tally::default();
-    let mut rng = Rng(9);
+    let mut rng = Rng::new(9);
     let mut hits = 0;
     for _ in 0..500 {
-        let axis = (rng.next() % 3) as usize;
+        let axis = (rng.next_u64() % 3) as usize;
         let mut o = rng.vec(-0.95, 0.95).to_array();
         o[axis] = if rng.f() < 0.5 { -1.0 } else { 1.0 };
         let mut d = rng.dir().to_array();
         d[axis] = 0.0;
         if rng.f() < 0.5 {
             // Axis-aligned within the face.
-            let k = (axis + 1 + (rng.next() % 2) as usize) % 3;
+            let k = (axis + 1 + (rng.next_u64() % 2) as usize) % 3;
             d = [0.0; 3];
             d[k] = if rng.f() < 0.5 { -1.0 } else { 1.0 };
         }
@@ -550,7 +541,7 @@ fn rays_grazing_along_box_faces_agree_with_brute_force() {
 
 #[test]
 fn offset_origins_do_not_hit_their_own_surface() {
-    let mut rng = Rng(10);
+    let mut rng = Rng::new(10);
     // Scales down to 1e-6 and up to 1e6, and a scene moved 1e6 from the origin: the offset
     // comes from the hit point's error bound, which follows the coordinates' magnitude.
     for &(scale, shift) in &[
@@ -575,7 +566,7 @@ fn offset_origins_do_not_hit_their_own_surface() {
         let mut count = 0;
         for _ in 0..1500 {
             let o = rng.vec(-15.0 * scale, 20.0 * scale) + Vec3::splat(shift - 3.0 * scale);
-            let d = tg[(rng.next() % tg.len() as u64) as usize] - o;
+            let d = tg[(rng.next_u64() % tg.len() as u64) as usize] - o;
             let Some(h) = b.closest(&s, o, d, f32::MAX) else {
                 continue;
             };
@@ -636,7 +627,7 @@ fn empty_scene_hits_nothing() {
 
 #[test]
 fn single_primitives_and_zero_directions() {
-    let mut rng = Rng(11);
+    let mut rng = Rng::new(11);
     let tri = [
         Vec3::new(0.0, 0.0, 0.0),
         Vec3::new(1.0, 0.0, 0.0),
@@ -682,7 +673,7 @@ fn single_primitives_and_zero_directions() {
 
 #[test]
 fn coincident_and_degenerate_primitives() {
-    let mut rng = Rng(12);
+    let mut rng = Rng::new(12);
     let tri = [
         Vec3::new(-1.0, -1.0, 2.0),
         Vec3::new(1.0, -1.0, 2.0),
@@ -717,7 +708,7 @@ fn coincident_and_degenerate_primitives() {
 fn pathological_distribution_keeps_depth_within_the_stack() {
     // Geometric spacing (x = 2^(i/2)) with sizes growing alike: binned SAH peels off the largest
     // triangles at every level, so without the depth limit the tree would be ~100 levels deep.
-    let mut rng = Rng(13);
+    let mut rng = Rng::new(13);
     let tris: Vec<[Vec3; 3]> = (0..400)
         .map(|i| {
             let x = 2.0f32.powf(i as f32 * 0.5 - 100.0);
@@ -761,7 +752,7 @@ fn pathological_distribution_keeps_depth_within_the_stack() {
 
 #[test]
 fn print_stats_and_cpu_throughput() {
-    let mut rng = Rng(14);
+    let mut rng = Rng::new(14);
     for (name, s) in [
         (
             "soup 20k",
@@ -793,7 +784,7 @@ fn print_stats_and_cpu_throughput() {
                     if k % 2 == 0 {
                         rng.dir()
                     } else {
-                        tg[(rng.next() % tg.len() as u64) as usize] - o
+                        tg[(rng.next_u64() % tg.len() as u64) as usize] - o
                     },
                 )
             })
@@ -939,7 +930,7 @@ fn run_probe(ctx: &Context, spirv: &[u32], s: &Scene, b: &Bvh, rays: &[[f32; 4]]
 fn glsl_traversal_matches_cpu_on_a_vulkan_device() {
     let spirv = compile_probe();
     let ctx = Context::new(&ContextOptions::default()).expect("a Vulkan device (lavapipe)");
-    let mut rng = Rng(15);
+    let mut rng = Rng::new(15);
     let mut mixed = random_soup(&mut rng, 800, 5.0);
     let (v, f) = icosphere(2, Vec3::new(2.0, 1.0, -1.0), 1.5);
     mixed.extend(f.iter().map(|t| [v[t[0]], v[t[1]], v[t[2]]]));
@@ -966,7 +957,7 @@ fn glsl_traversal_matches_cpu_on_a_vulkan_device() {
             let d = if k % 2 == 0 || tg.is_empty() {
                 rng.dir()
             } else {
-                tg[(rng.next() % tg.len() as u64) as usize] - o
+                tg[(rng.next_u64() % tg.len() as u64) as usize] - o
             };
             rays.push((o, d, tmax_of(&mut rng, 10.0)));
         }
@@ -998,8 +989,8 @@ fn glsl_traversal_matches_cpu_on_a_vulkan_device() {
         // Axis-aligned rays from grid points (zero direction components, box-face origins).
         for k in 0..3000 {
             let o = Vec3::new(
-                (rng.next() % 9) as f32 * 0.25 - 1.0,
-                (rng.next() % 9) as f32 * 0.25 - 1.0,
+                (rng.next_u64() % 9) as f32 * 0.25 - 1.0,
+                (rng.next_u64() % 9) as f32 * 0.25 - 1.0,
                 rng.range(-0.9, 0.9),
             );
             let mut d = [0.0f32; 3];

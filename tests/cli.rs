@@ -49,6 +49,21 @@ fn fails(args: &[&str]) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
+/// Runs a command that must fail with a message naming `needle`; returns its stderr.
+#[track_caller]
+fn fails_naming(args: &[&str], needle: &str) -> String {
+    let err = fails(args);
+    assert!(err.contains(needle), "{err}");
+    err
+}
+
+/// `brdf eval` of `material` on the directions file `dirs`, then `extra`.
+fn eval_args<'a>(material: &'a str, dirs: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut a = vec!["brdf", "eval", "--material", material, "--dirs", dirs];
+    a.extend_from_slice(extra);
+    a
+}
+
 fn tmp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("brdfwave-cli-{}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
@@ -169,26 +184,34 @@ fn bad_inputs_name_the_file_and_field() {
     let text = std::fs::read_to_string(common::repo().join("scenes/cornell-box.toml")).unwrap();
     let bad = text.replacen("[camera]", "[camera]\nfov_y_bogus = 3", 1);
     std::fs::write(&scene, bad).unwrap();
-    let err = fails(&["render", s(&scene), "--backend", "cpu", "--spp", "1"]);
-    assert!(err.contains("bad.toml"), "{err}");
+    let err = fails_naming(
+        &["render", s(&scene), "--backend", "cpu", "--spp", "1"],
+        "bad.toml",
+    );
     assert!(err.contains("fov_y_bogus"), "{err}");
 
     // Missing scene file.
-    let err = fails(&["render", "scenes/does-not-exist.toml"]);
-    assert!(err.contains("does-not-exist.toml"), "{err}");
+    fails_naming(
+        &["render", "scenes/does-not-exist.toml"],
+        "does-not-exist.toml",
+    );
 
     // Bad command-line values are refused before any work.
-    let err = fails(&[
-        "render",
-        "scenes/cornell-box.toml",
+    fails_naming(
+        &[
+            "render",
+            "scenes/cornell-box.toml",
+            "--spp",
+            "0",
+            "--backend",
+            "cpu",
+        ],
         "--spp",
-        "0",
-        "--backend",
-        "cpu",
-    ]);
-    assert!(err.contains("--spp"), "{err}");
-    let err = fails(&["render", "scenes/cornell-box.toml", "--wave-paths", "10"]);
-    assert!(err.contains("--wave-paths"), "{err}");
+    );
+    fails_naming(
+        &["render", "scenes/cornell-box.toml", "--wave-paths", "10"],
+        "--wave-paths",
+    );
     let out = run(&["render", "scenes/cornell-box.toml", "--res", "12by12"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("12by12"));
@@ -196,24 +219,15 @@ fn bad_inputs_name_the_file_and_field() {
     // Inline materials: unknown model and negative roughness.
     let dirs = tmp("dirs-ok.csv");
     std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
-    let err = fails(&[
-        "brdf",
-        "eval",
-        "--material",
-        r#"model = "wardd""#,
-        "--dirs",
-        s(&dirs),
-    ]);
-    assert!(err.contains("wardd"), "{err}");
-    let err = fails(&[
-        "brdf",
-        "eval",
-        "--material",
-        r#"model = "cook_torrance", roughness = -0.1"#,
-        "--dirs",
-        s(&dirs),
-    ]);
-    assert!(err.contains("roughness"), "{err}");
+    fails_naming(&eval_args(r#"model = "wardd""#, s(&dirs), &[]), "wardd");
+    fails_naming(
+        &eval_args(
+            r#"model = "cook_torrance", roughness = -0.1"#,
+            s(&dirs),
+            &[],
+        ),
+        "roughness",
+    );
 
     // A direction CSV with a bad value names the file and line.
     let bad_csv = tmp("dirs-bad.csv");
@@ -222,20 +236,14 @@ fn bad_inputs_name_the_file_and_field() {
         "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n0,0,1,0,zero,1\n",
     )
     .unwrap();
-    let err = fails(&[
-        "brdf",
-        "eval",
-        "--material",
-        r#"model = "lambert""#,
-        "--dirs",
-        s(&bad_csv),
-    ]);
-    assert!(err.contains("dirs-bad.csv"), "{err}");
+    let err = fails_naming(
+        &eval_args(r#"model = "lambert""#, s(&bad_csv), &[]),
+        "dirs-bad.csv",
+    );
     assert!(err.contains('3'), "line number missing: {err}");
 
     // diff of a missing image.
-    let err = fails(&["diff", "nope-a.exr", "nope-b.exr"]);
-    assert!(err.contains("nope-a.exr"), "{err}");
+    fails_naming(&["diff", "nope-a.exr", "nope-b.exr"], "nope-a.exr");
 }
 
 #[test]
@@ -270,29 +278,13 @@ fn brdf_eval_agrees_between_backends_and_keeps_the_columns() {
             .map(|l| l.split(',').map(|v| v.parse::<f64>().unwrap()).collect())
             .collect()
     };
-    let cpu = parse(&ok(&[
-        "brdf",
-        "eval",
-        "--material",
-        material,
-        "--dirs",
-        s(&dirs),
-        "--backend",
-        "cpu",
-    ]));
+    let cpu = parse(&ok(&eval_args(material, s(&dirs), &["--backend", "cpu"])));
     let out = tmp("gpu-eval.csv");
-    ok(&[
-        "brdf",
-        "eval",
-        "--material",
+    ok(&eval_args(
         material,
-        "--dirs",
         s(&dirs),
-        "--backend",
-        "gpu",
-        "--out",
-        s(&out),
-    ]);
+        &["--backend", "gpu", "--out", s(&out)],
+    ));
     let gpu = parse(&std::fs::read_to_string(&out).unwrap());
     assert_eq!(cpu.len(), 3);
     assert_eq!(gpu.len(), 3);
@@ -345,17 +337,19 @@ fn brdf_plot_writes_a_png_and_refuses_bad_angles() {
         red(0, 256),
         red(256, 512)
     );
-    let err = fails(&[
-        "brdf",
-        "plot",
-        "--material",
-        r#"model = "lambert""#,
+    fails_naming(
+        &[
+            "brdf",
+            "plot",
+            "--material",
+            r#"model = "lambert""#,
+            "--theta-i",
+            "95",
+            "--out",
+            s(&out),
+        ],
         "--theta-i",
-        "95",
-        "--out",
-        s(&out),
-    ]);
-    assert!(err.contains("--theta-i"), "{err}");
+    );
 }
 
 /// `bench` at a tiny budget (the CI smoke test; no timing is asserted): every configuration
@@ -416,17 +410,23 @@ fn bench_writes_its_csv_plot_and_summary() {
         .unwrap()
         .collect();
     assert_eq!(cached.len(), 1);
-    let e = fails(&[
-        "bench",
-        "scenes/cornell-box.toml",
-        "--configs",
-        "wavefront,pbrt",
-    ]);
-    assert!(e.contains("unknown configuration 'pbrt'"), "{e}");
-    let e = fails(&["bench", "scenes/cornell-box.toml", "--scaling", "0"]);
-    assert!(e.contains("--scaling"), "{e}");
-    let e = fails(&["bench", "scenes/cornell-box.toml", "--budget", "0"]);
-    assert!(e.contains("--budget"), "{e}");
+    fails_naming(
+        &[
+            "bench",
+            "scenes/cornell-box.toml",
+            "--configs",
+            "wavefront,pbrt",
+        ],
+        "unknown configuration 'pbrt'",
+    );
+    fails_naming(
+        &["bench", "scenes/cornell-box.toml", "--scaling", "0"],
+        "--scaling",
+    );
+    fails_naming(
+        &["bench", "scenes/cornell-box.toml", "--budget", "0"],
+        "--budget",
+    );
 }
 
 /// A fresh, empty directory for one test.
@@ -439,18 +439,31 @@ fn fresh_dir(name: &str) -> PathBuf {
 
 /// A quick render on the CPU with the given extra arguments.
 fn render_args<'a>(extra: &[&'a str]) -> Vec<&'a str> {
-    let mut a = vec![
-        "render",
-        "scenes/cornell-box.toml",
-        "--backend",
-        "cpu",
-        "--res",
-        "8x8",
-        "--spp",
-        "1",
-    ];
+    let mut a = vec!["render", "scenes/cornell-box.toml"];
+    a.extend_from_slice(&common::QUICK_RENDER);
     a.extend_from_slice(extra);
     a
+}
+
+/// Writes a directions file with one pair at `dirs`; returns the `brdf eval` arguments that
+/// evaluate a Lambertian on it into `csv`.
+fn lambert_eval_args<'a>(dirs: &'a Path, csv: &'a Path) -> Vec<&'a str> {
+    std::fs::write(dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
+    eval_args(r#"model = "lambert""#, s(dirs), &["--out", s(csv)])
+}
+
+/// The `brdf plot` arguments that plot a Lambertian at θi = 10° into `plot`.
+fn lambert_plot_args(plot: &Path) -> [&str; 8] {
+    [
+        "brdf",
+        "plot",
+        "--material",
+        r#"model = "lambert""#,
+        "--theta-i",
+        "10",
+        "--out",
+        s(plot),
+    ]
 }
 
 #[test]
@@ -478,34 +491,17 @@ fn every_output_gets_its_missing_directories() {
     assert!(map.is_file());
     // The error map may not overwrite an input.
     let before = std::fs::read(&png).unwrap();
-    let err = fails(&["diff", s(&png), s(&exr), "--error-map", s(&png)]);
-    assert!(err.contains("TEST image"), "{err}");
+    fails_naming(
+        &["diff", s(&png), s(&exr), "--error-map", s(&png)],
+        "TEST image",
+    );
     assert_eq!(std::fs::read(&png).unwrap(), before);
     let dirs = d.join("dirs.csv");
-    std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
     let csv = d.join("f/eval.csv");
-    ok(&[
-        "brdf",
-        "eval",
-        "--material",
-        r#"model = "lambert""#,
-        "--dirs",
-        s(&dirs),
-        "--out",
-        s(&csv),
-    ]);
+    ok(&lambert_eval_args(&dirs, &csv));
     assert!(csv.is_file());
     let plot = d.join("g/plot.png");
-    ok(&[
-        "brdf",
-        "plot",
-        "--material",
-        r#"model = "lambert""#,
-        "--theta-i",
-        "10",
-        "--out",
-        s(&plot),
-    ]);
+    ok(&lambert_plot_args(&plot));
     assert!(plot.is_file());
 }
 
@@ -526,13 +522,10 @@ fn two_outputs_with_the_same_path_are_refused() {
     );
     assert!(!same.exists(), "nothing is rendered or written");
     let a = d.join("x.png");
-    let err = fails(&render_args(&[
-        "--out",
-        s(&a),
-        "--out",
-        &format!("{}/./x.png", d.display()),
-    ]));
-    assert!(err.contains("same file"), "{err}");
+    fails_naming(
+        &render_args(&["--out", s(&a), "--out", &format!("{}/./x.png", d.display())]),
+        "same file",
+    );
     #[cfg(unix)]
     {
         // A directory reached through a symbolic link is the same directory.
@@ -674,29 +667,10 @@ fn written_files_follow_the_umask() {
     let map = d.join("map.png");
     ok_with_umask(&["diff", s(&exr), s(&exr), "--error-map", s(&map)]);
     let dirs = d.join("dirs.csv");
-    std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
     let csv = d.join("eval.csv");
-    ok_with_umask(&[
-        "brdf",
-        "eval",
-        "--material",
-        r#"model = "lambert""#,
-        "--dirs",
-        s(&dirs),
-        "--out",
-        s(&csv),
-    ]);
+    ok_with_umask(&lambert_eval_args(&dirs, &csv));
     let plot = d.join("plot.png");
-    ok_with_umask(&[
-        "brdf",
-        "plot",
-        "--material",
-        r#"model = "lambert""#,
-        "--theta-i",
-        "10",
-        "--out",
-        s(&plot),
-    ]);
+    ok_with_umask(&lambert_plot_args(&plot));
     for p in [&png, &exr, &map, &csv, &plot] {
         assert_eq!(mode(p), 0o640, "{}: 0666 & !027 expected", p.display());
     }
@@ -792,7 +766,7 @@ fn messages_name_the_cause_once_and_in_plain_words() {
     std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
     for a in ["-0.2", "0", "1.5"] {
         let m = format!(r#"model = "ward", alpha_x = {a}"#);
-        let err = fails(&["brdf", "eval", "--material", &m, "--dirs", s(&dirs)]);
+        let err = fails(&eval_args(&m, s(&dirs), &[]));
         assert!(err.contains("[0.001, 1]"), "alpha_x = {a}: {err}");
     }
 
@@ -846,16 +820,11 @@ fn gpu_options_are_refused_or_warned_about_consistently() {
     // The same for brdf eval on the CPU.
     let dirs = d.join("dirs.csv");
     std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
-    let out = run(&[
-        "brdf",
-        "eval",
-        "--material",
+    let out = run(&eval_args(
         r#"model = "lambert""#,
-        "--dirs",
         s(&dirs),
-        "--device",
-        "llvmpipe",
-    ]);
+        &["--device", "llvmpipe"],
+    ));
     assert!(out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -960,8 +929,9 @@ fn stress_runs_every_group_within_a_small_budget_and_replays_cases() {
         e.contains("stress-replay.jsonl:1") && e.contains("not a failure record"),
         "{e}"
     );
-    let e = fails(&["stress", "--budget", "1", "--group", "nope"]);
-    assert!(e.contains("unknown group 'nope'"), "{e}");
-    let e = fails(&["stress", "--budget=-1"]);
-    assert!(e.contains("--budget"), "{e}");
+    fails_naming(
+        &["stress", "--budget", "1", "--group", "nope"],
+        "unknown group 'nope'",
+    );
+    fails_naming(&["stress", "--budget=-1"], "--budget");
 }

@@ -368,19 +368,13 @@ fn example_materials_and_scenes_load_without_warnings() {
         if body.contains("[camera]") {
             let p = tmp.path().join(format!("example-{scenes}.toml"));
             std::fs::write(&p, &body).unwrap();
-            let args = [
-                "render",
-                p.to_str().unwrap(),
-                "--backend",
-                "cpu",
-                "--res",
-                "8x8",
-                "--spp",
-                "1",
-                "--out",
-                tmp.path().join("example.png").to_str().unwrap(),
-            ]
-            .map(String::from);
+            let out = tmp.path().join("example.png");
+            let args: Vec<String> = ["render", p.to_str().unwrap()]
+                .into_iter()
+                .chain(common::QUICK_RENDER)
+                .chain(["--out", out.to_str().unwrap()])
+                .map(String::from)
+                .collect();
             run(&args, &common::repo());
             scenes += 1;
         } else {

@@ -7,23 +7,21 @@ use std::path::Path;
 use brdfwave::film;
 use brdfwave::imageio::{self, linear_to_srgb8, srgb_to_linear, Image, ImageError};
 use brdfwave::metrics::{self, MetricsError, VarianceModel, ZTestOptions};
+use brdfwave::stress::Rng;
 
-/// SplitMix64: a small seeded generator for the synthetic data (independent of `brdfwave::rng`).
-struct SplitMix(u64);
-
-impl SplitMix {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
+/// Draws for the synthetic data from the stress tests' SplitMix64 (independent of
+/// `brdfwave::rng`).
+trait Synthetic {
     /// Uniform in [0, 1).
+    fn uniform(&mut self) -> f64;
+    /// Standard normal (Box-Muller).
+    fn normal(&mut self) -> f64;
+}
+
+impl Synthetic for Rng {
     fn uniform(&mut self) -> f64 {
         (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
     }
-    /// Standard normal (Box-Muller).
     fn normal(&mut self) -> f64 {
         let u1 = 1.0 - self.uniform();
         let u2 = self.uniform();
@@ -279,7 +277,7 @@ fn read_errors_name_the_file() {
 #[test]
 fn mean_and_variance_from_sums_match_two_passes() {
     let n = 37u32;
-    let mut rng = SplitMix(7);
+    let mut rng = Rng::new(7);
     for pixel in 0..20 {
         let xs: Vec<[f32; 3]> = (0..n)
             .map(|_| [0, 1, 2].map(|c| (pixel as f64 + c as f64 + rng.normal()) as f32))
@@ -367,7 +365,7 @@ fn flip_is_zero_for_identical_images_and_grows_with_noise() {
         "uniform map for zero error"
     );
 
-    let mut rng = SplitMix(11);
+    let mut rng = Rng::new(11);
     let mut flips = Vec::new();
     for sigma in [0.01f32, 0.05, 0.2] {
         let noisy = base.map(|p| p.map(|v| v + sigma * rng.normal() as f32));
@@ -430,7 +428,7 @@ fn exponential_render(
     mu: impl Fn(u32, u32) -> f64,
     shift: impl Fn(u32, u32) -> f64,
 ) -> (Image, Image) {
-    let mut rng = SplitMix(seed);
+    let mut rng = Rng::new(seed);
     let mut sums = vec![[0.0f64; 6]; (w * h) as usize];
     for _ in 0..n {
         for y in 0..h {

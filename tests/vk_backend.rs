@@ -168,14 +168,20 @@ fn dispatch_with_include_define_and_override() {
     finish_clean(ctx);
 }
 
-/// Appends the indices i < count with i % modulus == 0 to a queue (atomic counter).
-const PUSH_COMP: &str = r#"#version 450
-layout(local_size_x = 64) in;
+/// The bindings and push constants that the three queue shaders below share.
+const QUEUE_GLSL: &str = r#"// queue test interface
 layout(std430, binding = 0) buffer Counter { uint counter; };
 layout(std430, binding = 1) buffer Queue { uint queue[]; };
 layout(std430, binding = 2) buffer Args { uint args[]; };
 layout(std430, binding = 3) buffer Out { uint outv[]; };
 layout(push_constant) uniform Push { uint count; uint modulus; uint mark; uint args_word; } pc;
+"#;
+
+/// Appends the indices i < count with i % modulus == 0 to a queue (atomic counter).
+const PUSH_COMP: &str = r#"#version 450
+#extension GL_GOOGLE_include_directive : require
+layout(local_size_x = 64) in;
+#include "t/queue.glsl"
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= pc.count || i % pc.modulus != 0u) return;
@@ -185,12 +191,9 @@ void main() {
 
 /// One thread: the counter becomes a VkDispatchIndirectCommand at args[args_word..].
 const PREPARE_COMP: &str = r#"#version 450
+#extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 1) in;
-layout(std430, binding = 0) buffer Counter { uint counter; };
-layout(std430, binding = 1) buffer Queue { uint queue[]; };
-layout(std430, binding = 2) buffer Args { uint args[]; };
-layout(std430, binding = 3) buffer Out { uint outv[]; };
-layout(push_constant) uniform Push { uint count; uint modulus; uint mark; uint args_word; } pc;
+#include "t/queue.glsl"
 void main() {
     args[pc.args_word + 0u] = (counter + 63u) / 64u;
     args[pc.args_word + 1u] = 1u;
@@ -200,12 +203,9 @@ void main() {
 
 /// Consumes the queue: out[queue[k]] += mark for k < counter.
 const CONSUME_COMP: &str = r#"#version 450
+#extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 64) in;
-layout(std430, binding = 0) buffer Counter { uint counter; };
-layout(std430, binding = 1) buffer Queue { uint queue[]; };
-layout(std430, binding = 2) buffer Args { uint args[]; };
-layout(std430, binding = 3) buffer Out { uint outv[]; };
-layout(push_constant) uniform Push { uint count; uint modulus; uint mark; uint args_word; } pc;
+#include "t/queue.glsl"
 void main() {
     uint k = gl_GlobalInvocationID.x;
     if (k >= counter) return;
@@ -226,6 +226,7 @@ struct QueuePush {
 fn indirect_dispatch_from_counter_in_one_command_buffer() {
     let ctx = context();
     let comp = compiler(&[
+        ("t/queue.glsl", QUEUE_GLSL),
         ("t/push.comp", PUSH_COMP),
         ("t/prepare.comp", PREPARE_COMP),
         ("t/consume.comp", CONSUME_COMP),

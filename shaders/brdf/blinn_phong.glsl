@@ -62,8 +62,7 @@ bool blinn_phong_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSa
         float sin_h = sqrt(max(-expm1_f(2.0 * l), 0.0));
         float phi = 2.0 * PI * u.y;
         vec3 h = vec3(sin_h * cos(phi), sin_h * sin(phi), cos_h);
-        if (dot(given, h) <= 0.0) return false;
-        wi = reflect_about(given, h);
+        if (!reflect_about(given, h, wi)) return false;
     } else {
         wi = sample_cosine_hemisphere(u);
     }

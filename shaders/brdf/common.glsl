@@ -37,7 +37,13 @@ bool same_hemisphere_up(vec3 a, vec3 b) { return a.z > 0.0 && b.z > 0.0; }
 
 vec3 reflect_z(vec3 w) { return vec3(-w.x, -w.y, w.z); }
 
-vec3 reflect_about(vec3 w, vec3 h) { return 2.0 * dot(w, h) * h - w; }
+// r = 2(w·h)h − w; false when w·h ≤ 0 (the sample is rejected), as reflect_about in common.rs.
+bool reflect_about(vec3 w, vec3 h, out vec3 r) {
+    float c = dot(w, h);
+    if (c <= 0.0) return false;
+    r = 2.0 * c * h - w;
+    return true;
+}
 
 // Orthonormal basis completing n (Duff et al. 2017); t x b = n.
 void orthonormal_basis(vec3 n, out vec3 t, out vec3 b) {

@@ -80,8 +80,7 @@ bool cook_torrance_sample(Material m, vec3 given, float u_lobe, vec2 u, out Brdf
             return true;
         }
         vec3 h = m.p[2].w < 0.5 ? sample_beckmann_h(u, m.p[0].w) : sample_ggx_h(u, m.p[0].w);
-        if (dot(given, h) <= 0.0) return false;
-        wi = reflect_about(given, h);
+        if (!reflect_about(given, h, wi)) return false;
     } else {
         wi = sample_cosine_hemisphere(u);
     }

@@ -260,8 +260,7 @@ bool he_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s) {
         return true;
     } else if (u_lobe < lp.x + lp.y) {
         vec3 h = sample_beckmann_h(u, lp.w);
-        if (dot(given, h) <= 0.0) return false;
-        wi = reflect_about(given, h);
+        if (!reflect_about(given, h, wi)) return false;
     } else {
         wi = sample_cosine_hemisphere(u);
     }

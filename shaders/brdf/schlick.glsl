@@ -193,8 +193,7 @@ bool schlick_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample
         vec3 h;
         if (u_lobe < pr.w + pr.x) h = schlick_sample_glossy_h(m.p[0].w, m.p[2].x, cs, sn, u);
         else h = schlick_sample_glossy_h(m.p[1].w, m.p[2].y, cs, sn, u);
-        if (dot(given, h) <= 0.0) return false;
-        wi = reflect_about(given, h);
+        if (!reflect_about(given, h, wi)) return false;
     } else if (int(m.p[2].z + 0.5) == 1) {
         wi = schlick_sample_uniform_hemisphere(u);
     } else {

@@ -115,8 +115,7 @@ bool ward_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s)
         float sx = sl * alpha.x * cos(t);
         float sy = sl * alpha.y * sin(t);
         vec3 h = vec3(sx, sy, 1.0) / sqrt(1.0 + sx * sx + sy * sy);
-        if (dot(g, h) <= 0.0) return false;
-        wi = reflect_about(g, h);
+        if (!reflect_about(g, h, wi)) return false;
     } else {
         wi = sample_cosine_hemisphere(u);
     }

@@ -192,10 +192,7 @@ pub fn sample(m: &BlinnPhong, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfS
         let sin_h = (-expm1_f(2.0 * l)).max(0.0).sqrt();
         let phi = 2.0 * PI * u.y;
         let h = Vec3::new(sin_h * phi.cos(), sin_h * phi.sin(), cos_h);
-        if given.dot(h) <= 0.0 {
-            return None;
-        }
-        reflect_about(given, h)
+        reflect_about(given, h)?
     } else {
         sample_cosine_hemisphere(u)
     };

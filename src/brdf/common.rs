@@ -82,10 +82,15 @@ pub fn reflect_z(w: Vec3) -> Vec3 {
     Vec3::new(-w.x, -w.y, w.z)
 }
 
-/// Reflect `w` about the unit vector `h`: 2(w·h)h − w.
+/// Reflect `w` about the unit vector `h`: 2(w·h)h − w; None when w·h ≤ 0, where `w` lies below
+/// the plane of `h` and the mirror image is no sample of the lobe (every sampler rejects it).
 #[inline]
-pub fn reflect_about(w: Vec3, h: Vec3) -> Vec3 {
-    2.0 * w.dot(h) * h - w
+pub fn reflect_about(w: Vec3, h: Vec3) -> Option<Vec3> {
+    let c = w.dot(h);
+    if c <= 0.0 {
+        return None;
+    }
+    Some(2.0 * c * h - w)
 }
 
 /// Orthonormal basis (t, b) completing the unit vector `n` (Duff et al. 2017, "Building an

@@ -346,10 +346,7 @@ pub fn sample(m: &CookTorrance, given: Vec3, u_lobe: f32, u: Vec2) -> Option<Brd
             Distribution::Beckmann => sample_beckmann_h(u, m.roughness),
             Distribution::Ggx => sample_ggx_h(u, m.roughness),
         };
-        if given.dot(h) <= 0.0 {
-            return None;
-        }
-        reflect_about(given, h)
+        reflect_about(given, h)?
     } else {
         sample_cosine_hemisphere(u)
     };

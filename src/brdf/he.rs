@@ -516,10 +516,7 @@ pub fn sample(m: &He, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
         });
     } else if u_lobe < pd + pb {
         let h = sample_beckmann_h(u, ms);
-        if given.dot(h) <= 0.0 {
-            return None;
-        }
-        reflect_about(given, h)
+        reflect_about(given, h)?
     } else {
         sample_cosine_hemisphere(u)
     };

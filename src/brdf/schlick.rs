@@ -415,10 +415,7 @@ pub fn sample(m: &Schlick, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSamp
         } else {
             sample_glossy_h(m.r2, m.p2, cs, sn, u)
         };
-        if given.dot(h) <= 0.0 {
-            return None;
-        }
-        reflect_about(given, h)
+        reflect_about(given, h)?
     } else if m.form == Form::Attenuated {
         sample_uniform_hemisphere(u)
     } else {

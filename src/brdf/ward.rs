@@ -281,10 +281,7 @@ pub fn sample(m: &Ward, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample>
         let t = 2.0 * PI * u.y;
         let (sx, sy) = (s * m.alpha_x * t.cos(), s * m.alpha_y * t.sin());
         let h = Vec3::new(sx, sy, 1.0) / (1.0 + sx * sx + sy * sy).sqrt();
-        if g.dot(h) <= 0.0 {
-            return None;
-        }
-        reflect_about(g, h)
+        reflect_about(g, h)?
     } else {
         sample_cosine_hemisphere(u)
     };

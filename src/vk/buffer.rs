@@ -253,72 +253,58 @@ impl Context {
     }
 
     /// Memory range covering an allocation, aligned to `nonCoherentAtomSize` for flush and
-    /// invalidate (WHOLE_SIZE from the aligned-down offset stays inside the mapping).
-    fn mapped_range(&self, alloc: &Allocation) -> vk::MappedMemoryRange<'static> {
-        let atom = self.limits.non_coherent_atom_size.max(1);
-        vk::MappedMemoryRange::default()
-            .memory(unsafe { alloc.memory() })
-            .offset(alloc.offset() / atom * atom)
-            .size(vk::WHOLE_SIZE)
-    }
-
-    fn write_mapped(&self, alloc: &Allocation, bytes: &[u8]) -> Result<()> {
-        let ptr = alloc
-            .mapped_ptr()
-            .ok_or_else(|| anyhow!("memory is not mapped"))?;
-        if bytes.len() as u64 > alloc.size() {
-            bail!(
-                "{} bytes exceed the allocation of {} bytes",
-                bytes.len(),
-                alloc.size()
-            );
-        }
-        // SAFETY: the mapping covers `alloc.size()` bytes; no GPU work uses it (caller contract).
-        unsafe {
-            std::ptr::copy_nonoverlapping(bytes.as_ptr(), ptr.as_ptr().cast::<u8>(), bytes.len())
-        };
-        if !alloc
+    /// invalidate (WHOLE_SIZE from the aligned-down offset stays inside the mapping); None for
+    /// host-coherent memory, which needs neither.
+    fn non_coherent_range(&self, alloc: &Allocation) -> Option<vk::MappedMemoryRange<'static>> {
+        if alloc
             .memory_properties()
             .contains(vk::MemoryPropertyFlags::HOST_COHERENT)
         {
-            unsafe {
-                self.device
-                    .flush_mapped_memory_ranges(&[self.mapped_range(alloc)])
-            }
-            .context("vkFlushMappedMemoryRanges")?;
+            return None;
+        }
+        let atom = self.limits.non_coherent_atom_size.max(1);
+        Some(
+            vk::MappedMemoryRange::default()
+                .memory(unsafe { alloc.memory() })
+                .offset(alloc.offset() / atom * atom)
+                .size(vk::WHOLE_SIZE),
+        )
+    }
+
+    /// The start of the mapping of `alloc`, checked to hold `len` bytes.
+    fn mapping(alloc: &Allocation, len: usize) -> Result<*mut u8> {
+        let ptr = alloc
+            .mapped_ptr()
+            .ok_or_else(|| anyhow!("memory is not mapped"))?;
+        if len as u64 > alloc.size() {
+            bail!(
+                "{} bytes exceed the allocation of {} bytes",
+                len,
+                alloc.size()
+            );
+        }
+        Ok(ptr.as_ptr().cast::<u8>())
+    }
+
+    fn write_mapped(&self, alloc: &Allocation, bytes: &[u8]) -> Result<()> {
+        let dst = Self::mapping(alloc, bytes.len())?;
+        // SAFETY: the mapping covers `alloc.size()` bytes; no GPU work uses it (caller contract).
+        unsafe { std::ptr::copy_nonoverlapping(bytes.as_ptr(), dst, bytes.len()) };
+        if let Some(range) = self.non_coherent_range(alloc) {
+            unsafe { self.device.flush_mapped_memory_ranges(&[range]) }
+                .context("vkFlushMappedMemoryRanges")?;
         }
         Ok(())
     }
 
     fn read_mapped(&self, alloc: &Allocation, bytes: &mut [u8]) -> Result<()> {
-        let ptr = alloc
-            .mapped_ptr()
-            .ok_or_else(|| anyhow!("memory is not mapped"))?;
-        if bytes.len() as u64 > alloc.size() {
-            bail!(
-                "{} bytes exceed the allocation of {} bytes",
-                bytes.len(),
-                alloc.size()
-            );
-        }
-        if !alloc
-            .memory_properties()
-            .contains(vk::MemoryPropertyFlags::HOST_COHERENT)
-        {
-            unsafe {
-                self.device
-                    .invalidate_mapped_memory_ranges(&[self.mapped_range(alloc)])
-            }
-            .context("vkInvalidateMappedMemoryRanges")?;
+        let src = Self::mapping(alloc, bytes.len())?;
+        if let Some(range) = self.non_coherent_range(alloc) {
+            unsafe { self.device.invalidate_mapped_memory_ranges(&[range]) }
+                .context("vkInvalidateMappedMemoryRanges")?;
         }
         // SAFETY: as in write_mapped; the GPU work writing it has completed (fence waited).
-        unsafe {
-            std::ptr::copy_nonoverlapping(
-                ptr.as_ptr().cast::<u8>(),
-                bytes.as_mut_ptr(),
-                bytes.len(),
-            )
-        };
+        unsafe { std::ptr::copy_nonoverlapping(src, bytes.as_mut_ptr(), bytes.len()) };
         Ok(())
     }
 }

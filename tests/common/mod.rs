@@ -15,6 +15,9 @@ pub fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
+/// The `render` options of a quick check of the command line: CPU, 8×8, one sample per pixel.
+pub const QUICK_RENDER: [&str; 6] = ["--backend", "cpu", "--res", "8x8", "--spp", "1"];
+
 /// Load a scene from `scenes/` and override size, spp, depth and seed.
 pub fn scene(name: &str, w: u32, h: u32, spp: u32, max_depth: u32, seed: u32) -> Scene {
     let mut s = scene::load(&repo().join("scenes").join(name)).expect("scene loads");
