@@ -826,48 +826,55 @@ pub const fn gamma(n: u32) -> f32 {
     nu / (1.0 - nu)
 }
 
-/// The point with barycentrics (b1, b2) of the triangle `v`, moved a little towards the
-/// triangle's centroid, and the absolute error bound of its distance from the triangle's plane,
-/// per coordinate.
+/// The barycentrics (b1, b2) of a hit on the triangle `v`, moved a little towards the centroid
+/// (1/3, 1/3), for the point a new ray leaves from.
 ///
-/// The point is computed as `v0 + (b1·(v1 − v0) + b2·(v2 − v0))`. Any b1, b2 give a point of the
-/// plane in exact arithmetic, so the barycentrics' own error moves the point within the plane
-/// only; what moves it off the plane is the rounding of the edges, the products and the two
-/// sums: `gamma(4)·(|b1·e1| + |b2·e2|) + gamma(2)·|p|` (Higham 2002, lemma 3.1; Pharr, Jakob &
-/// Humphreys 2016, sec. 3.9.4, which bounds the form Σ bᵢ·vᵢ by gamma(7)·Σ|bᵢ·vᵢ|).
+/// Within the plane, the error of a hit point (the intersection's barycentrics and the rounding
+/// of the coordinates, a few ulps) can put a point near an edge on, or just beyond, the plane of
+/// the neighbouring face. A ray leaving from there, offset only along this face's normal, starts
+/// on that plane and passes through the face unseen (a closed box seen from inside showed the
+/// environment through its corners). Moving the barycentrics a fraction t towards (1/3, 1/3)
+/// moves the point by t·(c − p), c − p = (1/3 − b1)·e1 + (1/3 − b2)·e2: by [`SHIFT_ULPS`] ulps
+/// of the coordinates' magnitude (estimated as |v0| + 3·|c − p|, max-norm; at most half way),
+/// so the point is a few roundings inside every edge, and no further: the move is a bias (30
+/// ulps darkened a Cornell box moved 1e6 away by 0.26 %). Sampled light points need no move
+/// (they are interior with probability 1, and a shadow ray ends before its target).
+pub fn pull_inside(v: &[Vec3; 3], b1: f32, b2: f32) -> (f32, f32) {
+    let (e1, e2) = (v[1] - v[0], v[2] - v[0]);
+    let third = 1.0 / 3.0;
+    let (d1, d2) = (third - b1, third - b2);
+    let dist = (e1 * d1 + e2 * d2).abs().max_element();
+    if !(dist > 0.0 && dist.is_finite()) {
+        return (b1, b2);
+    }
+    let delta = ulp(v[0].abs().max_element() + 3.0 * dist) * SHIFT_ULPS;
+    let t = (delta / dist).min(0.5);
+    (b1 + t * d1, b2 + t * d2)
+}
+
+/// The point with barycentrics (b1, b2) of the triangle `v`, computed as
+/// `v0 + (b1·(v1 − v0) + b2·(v2 − v0))`, and the absolute error bound of its distance from the
+/// triangle's plane, per coordinate: `gamma(4)·(|b1·e1| + |b2·e2|) + gamma(2)·|p|`.
 ///
-/// Within the plane, that error (the intersection's barycentrics and the rounding of the
-/// coordinates, a few ulps of the largest coordinate) can put a point near an edge on, or just
-/// beyond, the plane of the neighbouring face. A ray leaving from there, offset only along this
-/// face's normal, starts on that plane and passes through the face unseen (a closed box seen
-/// from inside showed the environment through its corners). So the point is moved towards the
-/// centroid by [`SHIFT_ULPS`] ulps of the largest vertex coordinate (at most half way): a point
-/// of the triangle, a few roundings inside every edge, and no further (the move is a bias: 16
-/// ulps darkened a Cornell box moved 1e6 away by 0.4 %). The move adds the centroid's own
-/// off-plane rounding (`gamma(4)·max|vᵢ|`, half of it at most) and that of the sum to the bound.
-/// Huge vertices (the sums overflow) keep the point unmoved.
+/// Any b1, b2 give a point of the plane in exact arithmetic, so the barycentrics' own error
+/// moves the point within the plane only (see [`pull_inside`] for what that needs); what moves
+/// it off the plane is the rounding of the edges, the products and the two sums (Higham 2002,
+/// lemma 3.1; Pharr, Jakob & Humphreys 2016, sec. 3.9.4, which bounds the form Σ bᵢ·vᵢ by
+/// gamma(7)·Σ|bᵢ·vᵢ|). For a scene far from the origin this is about 2 ulps of the
+/// coordinates, not 7.
 pub fn triangle_point(v: &[Vec3; 3], b1: f32, b2: f32) -> (Vec3, Vec3) {
     let e1 = (v[1] - v[0]) * b1;
     let e2 = (v[2] - v[0]) * b2;
     let p = v[0] + (e1 + e2);
     let err = (e1.abs() + e2.abs()) * gamma(4) + p.abs() * gamma(2);
-    let third = 1.0 / 3.0;
-    let to_centroid = (v[0] * third + v[1] * third + v[2] * third) - p;
-    let dist = to_centroid.length();
-    let vmax = v[0].abs().max(v[1].abs()).max(v[2].abs());
-    let delta = ulp(vmax.max_element()) * SHIFT_ULPS;
-    if !(dist > 0.0 && dist.is_finite()) {
-        return (p, err);
-    }
-    let q = p + to_centroid * (delta / dist).min(0.5);
-    (q, err * 1.5 + vmax * gamma(4) + q.abs() * gamma(2))
+    (p, err)
 }
 
-/// How far [`triangle_point`] moves a point towards the centroid, in ulps of the largest vertex
+/// How far [`pull_inside`] moves a hit point towards the centroid, in ulps of the largest vertex
 /// coordinate.
 pub const SHIFT_ULPS: f32 = 4.0;
 
-/// The spacing of the floats at `x` (finite, non-negative): 2^(exponent − 23), or the smallest
+/// The spacing of the floats at `x` (non-negative): 2^(exponent − 23), or the smallest
 /// subnormal below 2^-126.
 pub fn ulp(x: f32) -> f32 {
     let e = (x.to_bits() >> 23) & 0xff;

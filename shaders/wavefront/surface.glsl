@@ -31,23 +31,29 @@ float ulp(float x) {
     uint e = (floatBitsToUint(x) >> 23) & 0xffu;
     return e > 23u ? uintBitsToFloat((e - 23u) << 23) : uintBitsToFloat(1u);
 }
-// p = v0 + (b1 (v1 - v0) + b2 (v2 - v0)), moved towards the centroid by SHIFT_ULPS ulps of the
-// largest vertex coordinate (at most half way) so that a point near an edge is not on or beyond
-// the neighbouring face's plane; err bounds its distance from the plane per coordinate.
+// Rust: bvh::pull_inside. A hit's barycentrics moved a fraction t towards the centroid's
+// (1/3, 1/3), by SHIFT_ULPS ulps of the coordinates' magnitude (at most half way), so that a
+// point near an edge is not on or beyond the neighbouring face's plane.
+vec2 pull_inside(vec3 v0, vec3 v1, vec3 v2, float b1, float b2) {
+    precise vec3 e1 = v1 - v0;
+    precise vec3 e2 = v2 - v0;
+    const float third = 1.0 / 3.0;
+    precise float d1 = third - b1;
+    precise float d2 = third - b2;
+    precise vec3 to_c = abs(e1 * d1 + e2 * d2);
+    precise float dist = max(to_c.x, max(to_c.y, to_c.z));
+    if (!(dist > 0.0 && is_finite_f(dist))) return vec2(b1, b2);
+    vec3 a0 = abs(v0);
+    precise float delta = ulp(max(a0.x, max(a0.y, a0.z)) + 3.0 * dist) * SHIFT_ULPS;
+    precise float t = min(delta / dist, 0.5);
+    return vec2(b1 + t * d1, b2 + t * d2);
+}
+// p = v0 + (b1 (v1 - v0) + b2 (v2 - v0)); err bounds its distance from the plane per coordinate.
 void triangle_point(vec3 v0, vec3 v1, vec3 v2, float b1, float b2, out vec3 p, out vec3 err) {
     precise vec3 e1 = (v1 - v0) * b1;
     precise vec3 e2 = (v2 - v0) * b2;
     precise vec3 q = v0 + (e1 + e2);
     precise vec3 e = (abs(e1) + abs(e2)) * GAMMA4 + abs(q) * GAMMA2;
-    const float third = 1.0 / 3.0;
-    precise vec3 to_centroid = (v0 * third + v1 * third + v2 * third) - q;
-    precise float dist = sqrt(dot(to_centroid, to_centroid));
-    vec3 vmax = max(abs(v0), max(abs(v1), abs(v2)));
-    precise float delta = ulp(max(vmax.x, max(vmax.y, vmax.z))) * SHIFT_ULPS;
-    if (dist > 0.0 && is_finite_f(dist)) {
-        q = q + to_centroid * min(delta / dist, 0.5);
-        e = e * 1.5 + vmax * GAMMA4 + abs(q) * GAMMA2;
-    }
     p = q;
     err = e;
 }
@@ -120,7 +126,8 @@ Surface surface_triangle(uint prim, vec2 bary, vec3 d) {
     float b1 = bary.x;
     float b2 = bary.y;
     float b0 = 1.0 - b1 - b2;
-    triangle_point(a.xyz, b.xyz, c.xyz, b1, b2, s.p, s.p_err);
+    vec2 pb = pull_inside(a.xyz, b.xyz, c.xyz, b1, b2);
+    triangle_point(a.xyz, b.xyz, c.xyz, pb.x, pb.y, s.p, s.p_err);
     vec3 e1 = b.xyz - a.xyz;
     vec3 e2 = c.xyz - a.xyz;
     s.ng = triangle_normal(a.xyz, b.xyz, c.xyz);

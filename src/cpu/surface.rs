@@ -86,7 +86,8 @@ pub fn surface_at(scene: &Scene, hit: &Hit, o: Vec3, d: Vec3) -> Surface {
         let (b1, b2) = (hit.bary.x, hit.bary.y);
         let b0 = 1.0 - b1 - b2;
         let [v0, v1, v2] = tri.v;
-        let (p, p_err) = triangle_point(&tri.v, b1, b2);
+        let (pb1, pb2) = crate::bvh::pull_inside(&tri.v, b1, b2);
+        let (p, p_err) = triangle_point(&tri.v, pb1, pb2);
         let e1 = v1 - v0;
         let e2 = v2 - v0;
         let ng = crate::robust::triangle_normal(&tri.v);
