@@ -383,7 +383,7 @@ impl<'a> GpuRenderer<'a> {
         let (stages, shade) = build_kernels(
             ctx, scene, &mut owned, compiler, &mut setup, integrator, tiled,
         )?;
-        Ok(GpuRenderer {
+        let mut r = GpuRenderer {
             ctx,
             scene,
             owned,
@@ -396,7 +396,10 @@ impl<'a> GpuRenderer<'a> {
             film_samples: 0..0,
             stage_seconds: Vec::new(),
             setup,
-        })
+        };
+        // Device memory starts undefined: an empty film, so that `render_samples` may follow.
+        r.reset()?;
+        Ok(r)
     }
 
     /// Render `scene.integrator.spp` samples per pixel from an empty film; `progress` gets the
