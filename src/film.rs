@@ -483,7 +483,30 @@ pub fn read_part(path: &Path) -> Result<Part> {
     parse_part(&bytes).with_context(|| format!("{}", path.display()))
 }
 
-fn parse_part(bytes: &[u8]) -> Result<Part> {
+/// Reads only the header of a partial film (checked as [`read_part`] checks it, the length of
+/// the data included), not its sums.
+pub fn read_header(path: &Path) -> Result<PartHeader> {
+    use std::io::Read as _;
+    let at = || format!("{}", path.display());
+    let mut f = std::fs::File::open(path).with_context(|| format!("{}: cannot read", at()))?;
+    let len = f
+        .metadata()
+        .with_context(|| format!("{}: cannot read", at()))?
+        .len();
+    let mut head = vec![0u8; 16.min(len as usize)];
+    f.read_exact(&mut head).with_context(at)?;
+    if head.len() == 16 && &head[..8] == MAGIC {
+        let n = u32::from_le_bytes(head[12..16].try_into().expect("4 bytes")) as u64;
+        let mut rest = vec![0u8; n.min(len.saturating_sub(16)) as usize];
+        f.read_exact(&mut rest).with_context(at)?;
+        head.extend(rest);
+    }
+    Ok(parse_header(&head, len).with_context(at)?.0)
+}
+
+/// The header of a partial film from the file's first bytes (at least up to the end of the
+/// header) and its length; and where the data starts.
+fn parse_header(bytes: &[u8], file_len: u64) -> Result<(PartHeader, usize)> {
     if bytes.len() < 16 || &bytes[..8] != MAGIC {
         bail!("not a brdfwave partial film (it does not start with the BWFILM mark)");
     }
@@ -524,9 +547,8 @@ fn parse_part(bytes: &[u8]) -> Result<Part> {
         );
     }
     let start = (16 + n).div_ceil(8) * 8;
-    let pixels = h.tile.pixels();
-    let expected = h.blocks.len() as u64 * pixels as u64 * 48;
-    let found = bytes.len().saturating_sub(start) as u64;
+    let expected = h.blocks.len() as u64 * h.tile.pixels() as u64 * 48;
+    let found = file_len.saturating_sub(start as u64);
     if found != expected {
         bail!(
             "the data holds {found} bytes, but {} block(s) of a {}x{} tile need {expected}",
@@ -535,6 +557,13 @@ fn parse_part(bytes: &[u8]) -> Result<Part> {
             h.tile.height
         );
     }
+    Ok((header, start))
+}
+
+fn parse_part(bytes: &[u8]) -> Result<Part> {
+    let (header, start) = parse_header(bytes, bytes.len() as u64)?;
+    let h = &header;
+    let pixels = h.tile.pixels();
     let mut values = bytes[start..]
         .chunks_exact(8)
         .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")));
@@ -582,18 +611,22 @@ pub struct Merged {
 /// Merges the partial films `paths`: they must come from the same scene and code, and every
 /// pixel must lie in parts that cover the same sample range, each sample once (tiles may differ
 /// between sample ranges: e.g. samples 0..64 of the whole image and 64..128 in two halves).
+///
+/// The headers are read and checked first; then the parts' sums are read one part at a time,
+/// in sample order, and joined into the films of the cells the tiles cut the image into, so
+/// memory holds one part and a few blocks per cell (parts of aligned power-of-two ranges join
+/// as they arrive), not every part.
 pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
     if paths.is_empty() {
         bail!("no partial films to merge");
     }
-    let mut parts = Vec::with_capacity(paths.len());
-    for p in paths {
-        parts.push(read_part(p)?);
-    }
+    let headers = paths
+        .iter()
+        .map(|p| read_header(p))
+        .collect::<Result<Vec<_>>>()?;
     let name = |i: usize| paths[i].display().to_string();
-    let first = parts[0].header.clone();
-    for (i, p) in parts.iter().enumerate().skip(1) {
-        let h = &p.header;
+    let first = &headers[0];
+    for (i, h) in headers.iter().enumerate().skip(1) {
         let differs = |what: &str, a: &dyn std::fmt::Display, b: &dyn std::fmt::Display| {
             anyhow::anyhow!(
                 "{} and {} come from different {what} ({a} and {b}): parts of different renders cannot be merged",
@@ -624,6 +657,7 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
         }
     }
     let (width, height) = (first.width, first.height);
+    let samples_of = |i: usize| headers[i].samples[0]..headers[i].samples[1];
 
     // The grid the tiles' edges cut the image into: each cell lies in the same parts' tiles
     // throughout, which must cover the same samples, each sample once.
@@ -634,19 +668,18 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
         v
     };
     let xs = cuts(
-        &mut parts
+        &mut headers
             .iter()
-            .flat_map(|p| [p.film.tile.x, p.film.tile.x + p.film.tile.width]),
+            .flat_map(|h| [h.tile.x, h.tile.x + h.tile.width]),
         width,
     );
     let ys = cuts(
-        &mut parts
+        &mut headers
             .iter()
-            .flat_map(|p| [p.film.tile.y, p.film.tile.y + p.film.tile.height]),
+            .flat_map(|h| [h.tile.y, h.tile.y + h.tile.height]),
         height,
     );
-    let mut mean = Image::new(width, height);
-    let mut variance = Image::new(width, height);
+    let mut cells: Vec<(Film, Vec<usize>)> = Vec::new();
     let mut range: Option<(Range<u32>, Tile)> = None;
     for y in ys.windows(2) {
         for x in xs.windows(2) {
@@ -656,8 +689,8 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
                 width: x[1] - x[0],
                 height: y[1] - y[0],
             };
-            let mut members: Vec<usize> = (0..parts.len())
-                .filter(|&i| parts[i].film.tile.contains(cell.x, cell.y))
+            let mut members: Vec<usize> = (0..headers.len())
+                .filter(|&i| headers[i].tile.contains(cell.x, cell.y))
                 .collect();
             if members.is_empty() {
                 bail!(
@@ -666,13 +699,10 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
                     cell.y
                 );
             }
-            members.sort_by_key(|&i| {
-                let r = parts[i].film.samples();
-                (r.start, r.end)
-            });
+            members.sort_by_key(|&i| (samples_of(i).start, samples_of(i).end));
             let at = format!("pixel ({}, {})", cell.x, cell.y);
             for w in members.windows(2) {
-                let (a, b) = (parts[w[0]].film.samples(), parts[w[1]].film.samples());
+                let (a, b) = (samples_of(w[0]), samples_of(w[1]));
                 if b.start > a.end {
                     bail!(
                         "samples {}..{} of {at} are in no part (between {} with {}..{} and {} with {}..{}): a part is missing",
@@ -686,11 +716,8 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
                     );
                 }
             }
-            let r = parts[members[0]].film.samples().start
-                ..parts[*members.last().expect("not empty")]
-                    .film
-                    .samples()
-                    .end;
+            let r =
+                samples_of(members[0]).start..samples_of(*members.last().expect("not empty")).end;
             match &range {
                 None => range = Some((r.clone(), cell)),
                 Some((r0, c0)) if *r0 != r => bail!(
@@ -699,52 +726,68 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
                 ),
                 _ => {}
             }
-            // The cell's film from its parts' blocks, cut to the cell.
-            let mut film = Film::new(cell);
-            for &i in &members {
-                let t = parts[i].film.tile;
-                let blocks = parts[i]
-                    .film
-                    .blocks
-                    .iter()
-                    .map(|b| Block {
-                        samples: b.samples.clone(),
-                        sums: (cell.y..cell.y + cell.height)
-                            .flat_map(|py| {
-                                let row = ((py - t.y) * t.width + (cell.x - t.x)) as usize;
-                                b.sums[row..row + cell.width as usize].iter().copied()
-                            })
-                            .collect(),
-                    })
-                    .collect();
-                film.add_blocks(blocks);
-            }
-            let (m, v) = film.images();
-            for py in 0..cell.height {
-                for px in 0..cell.width {
-                    let src = (py * cell.width + px) as usize;
-                    mean.set(cell.x + px, cell.y + py, m.data[src]);
-                    variance.set(cell.x + px, cell.y + py, v.data[src]);
-                }
+            cells.push((Film::new(cell), members));
+        }
+    }
+
+    // The sums, one part at a time in sample order: each cell gets its parts' blocks, cut to
+    // the cell, in order.
+    let mut order: Vec<usize> = (0..headers.len()).collect();
+    order.sort_by_key(|&i| (samples_of(i).start, samples_of(i).end));
+    for i in order {
+        let part = read_part(&paths[i])?;
+        if part.header != headers[i] {
+            bail!("{} changed while it was being merged", name(i));
+        }
+        let t = part.film.tile;
+        for (film, _) in cells.iter_mut().filter(|(_, m)| m.contains(&i)) {
+            let cell = film.tile;
+            let blocks = part
+                .film
+                .blocks
+                .iter()
+                .map(|b| Block {
+                    samples: b.samples.clone(),
+                    sums: (cell.y..cell.y + cell.height)
+                        .flat_map(|py| {
+                            let row = ((py - t.y) * t.width + (cell.x - t.x)) as usize;
+                            b.sums[row..row + cell.width as usize].iter().copied()
+                        })
+                        .collect(),
+                })
+                .collect();
+            film.add_blocks(blocks);
+        }
+    }
+    let mut mean = Image::new(width, height);
+    let mut variance = Image::new(width, height);
+    for (film, _) in &cells {
+        let cell = film.tile;
+        let (m, v) = film.images();
+        for py in 0..cell.height {
+            for px in 0..cell.width {
+                let src = (py * cell.width + px) as usize;
+                mean.set(cell.x + px, cell.y + py, m.data[src]);
+                variance.set(cell.x + px, cell.y + py, v.data[src]);
             }
         }
     }
     let tiles = {
-        let mut t: Vec<Tile> = parts.iter().map(|p| p.film.tile).collect();
+        let mut t: Vec<Tile> = headers.iter().map(|h| h.tile).collect();
         t.sort_by_key(|t| (t.y, t.x, t.height, t.width));
         t.dedup();
         t.len()
     };
     let mut nonfinite_by_stage: Vec<(String, u64)> = Vec::new();
     let mut backends: Vec<String> = Vec::new();
-    for p in &parts {
-        for (stage, n) in &p.header.nonfinite_by_stage {
+    for h in &headers {
+        for (stage, n) in &h.nonfinite_by_stage {
             match nonfinite_by_stage.iter_mut().find(|(s, _)| s == stage) {
                 Some((_, t)) => *t += n,
                 None => nonfinite_by_stage.push((stage.clone(), *n)),
             }
         }
-        let b = format!("{} on {}", p.header.backend, p.header.device);
+        let b = format!("{} on {}", h.backend, h.device);
         if !backends.contains(&b) {
             backends.push(b);
         }
@@ -752,13 +795,13 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
     Ok(Merged {
         mean,
         variance,
-        samples: range.expect("at least one tile").0,
+        samples: range.expect("at least one cell").0,
         tiles,
-        extension_rays: parts.iter().map(|p| p.header.extension_rays).sum(),
-        shadow_rays: parts.iter().map(|p| p.header.shadow_rays).sum(),
+        extension_rays: headers.iter().map(|h| h.extension_rays).sum(),
+        shadow_rays: headers.iter().map(|h| h.shadow_rays).sum(),
         nonfinite_by_stage,
-        seconds_render: parts.iter().map(|p| p.header.seconds_render).sum(),
-        scene: first.scene,
+        seconds_render: headers.iter().map(|h| h.seconds_render).sum(),
+        scene: first.scene.clone(),
         backends,
     })
 }
