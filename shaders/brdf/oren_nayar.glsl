@@ -5,6 +5,18 @@
 #define BRDF_OREN_NAYAR_GLSL
 #include "brdf/common.glsl"
 
+// Rust: oren_nayar::forward_c2_over_cos. (sin(alpha) - (2 beta/pi)^3) / cos(beta) without the
+// cancellation near the horizon: with db = pi/2 - beta, da = pi/2 - alpha, x = 2 db/pi,
+// sin(alpha) - (2 beta/pi)^3 = x (3 - 3x + x^2) - 2 sin^2(da/2), and db/cos(beta) -> 1/sin(beta).
+float forward_c2_over_cos(float sin_alpha, float cos_alpha, float sin_beta, float cos_beta) {
+    float cb = max(cos_beta, 1e-30);
+    float d_beta = atan(cb, sin_beta);
+    float d_alpha = atan(max(cos_alpha, 0.0), sin_alpha);
+    float x = 2.0 * d_beta / PI;
+    float h = sin(0.5 * d_alpha);
+    return (2.0 / PI) * (d_beta / cb) * (3.0 - 3.0 * x + x * x) - 2.0 * h * h / cb;
+}
+
 vec3 oren_nayar_eval(Material m, vec3 wi, vec3 wo) {
     if (!same_hemisphere_up(wi, wo)) return vec3(0.0);
     vec3 albedo = m.p[0].xyz;
@@ -25,14 +37,14 @@ vec3 oren_nayar_eval(Material m, vec3 wi, vec3 wo) {
     float beta = min(theta_i, theta_o);
     float sin_alpha = max(sin_i, sin_o);
     float sin_beta = min(sin_i, sin_o);
-    float tan_beta = sin_beta / cos_beta;
     float tan_half = (sin_alpha + sin_beta) / max(wi.z + wo.z, 1e-6);  // tan((alpha+beta)/2)
     float two_beta_pi = 2.0 * beta / PI;
-    float c2 = cos_dphi >= 0.0 ? b * sin_alpha
-                               : b * (sin_alpha - two_beta_pi * two_beta_pi * two_beta_pi);
+    float c2_tan_beta = cos_dphi >= 0.0
+        ? b * sin_alpha * sin_beta / cos_beta
+        : b * sin_beta * forward_c2_over_cos(sin_alpha, min(wi.z, wo.z), sin_beta, max(wi.z, wo.z));
     float t = 4.0 * alpha * beta / (PI * PI);
     float c3 = 0.125 * s2 / (s2 + 0.09) * t * t;
-    float l1 = max(a + cos_dphi * c2 * tan_beta + (1.0 - abs(cos_dphi)) * c3 * tan_half, 0.0);
+    float l1 = max(a + cos_dphi * c2_tan_beta + (1.0 - abs(cos_dphi)) * c3 * tan_half, 0.0);
     float l2 = 0.17 * s2 / (s2 + 0.13) * (1.0 - cos_dphi * two_beta_pi * two_beta_pi);
     return (albedo * l1 + albedo * albedo * l2) * INV_PI;
 }
