@@ -7,8 +7,9 @@
 #   brdfwave merge DIR/part-*-of-PARTS.bwfilm --samples 0..SPP --out image.exr
 #
 # usage: scripts/render-part.sh INDEX PARTS SCENE SPP DIR [render options, e.g. --res 1024x1024]
-# The program is `brdfwave` on PATH, or $BRDFWAVE.
+# The program is $BRDFWAVE, else `brdfwave` on PATH, else this checkout's target/release/brdfwave.
 set -euo pipefail
+bin=${BRDFWAVE:-$(command -v brdfwave || echo "$(dirname "$0")/../target/release/brdfwave")}
 [ $# -ge 5 ] || { sed -n '2,10p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }  # the usage above
 index=$1 parts=$2 scene=$3 spp=$4 dir=$5
 shift 5
@@ -26,4 +27,4 @@ if [ -s "$part" ]; then
 fi
 mkdir -p "$dir"
 start=$((index * spp / parts)) end=$(((index + 1) * spp / parts))
-exec "${BRDFWAVE:-brdfwave}" render "$scene" --samples "$start..$end" --out "$part" "$@"
+exec "$bin" render "$scene" --samples "$start..$end" --out "$part" "$@"
