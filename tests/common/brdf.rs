@@ -78,6 +78,37 @@ pub fn lobe_sampler() -> SamplerCheck {
     }
 }
 
+/// The sampled albedo of a lobe model (Phong, Blinn–Phong), every form and exponent at every
+/// angle (φ = 0, no delta part): 100 000 samples, within 5 standard errors + 0.2 %.
+pub fn check_lobe_albedo(
+    forms: &[&str],
+    exponents: &[f32],
+    angles: &[f32],
+    material: impl Fn(&str, f32) -> Material,
+) {
+    const ALBEDO: AlbedoCheck = AlbedoCheck {
+        quadrature: (100, 100),
+        samples: 100_000,
+        seed: 3,
+        sigmas: 5.0,
+        rel: 2e-3,
+    };
+    for form in forms {
+        for &n in exponents {
+            let m = material(form, n);
+            for &t in angles {
+                check_sampled_albedo(
+                    &format!("{form} n={n}"),
+                    m.brdf.as_ref(),
+                    (t, 0.0),
+                    0.0,
+                    &ALBEDO,
+                );
+            }
+        }
+    }
+}
+
 /// χ² goodness of fit of each model's sampler against its pdf at each angle (all tests
 /// together at the 1 % level, Šidák-corrected), and the consistency of each sample's pdf and
 /// weight with `pdf` and `eval`. Returns the χ² results in order (models outer, angles inner).
