@@ -553,14 +553,13 @@ pub fn run(o: &BenchOptions) -> Result<String> {
                         ..GpuOptions::default()
                     },
                 )
-                .and_then(|mut r| {
-                    r.reset()?;
-                    Ok(Box::new(GpuRunner {
+                .map(|r| {
+                    Box::new(GpuRunner {
                         renderer: r,
                         device: ctx.device_name.clone(),
                         setup_seconds: t.elapsed().as_secs_f64(),
                         done: 0,
-                    }) as Box<dyn Runner>)
+                    }) as Box<dyn Runner>
                 })
             }
             (Config::Cpu, _) => {

@@ -643,6 +643,7 @@ fn render(a: RenderArgs) -> Result<()> {
         })?;
     }
     outfile::prepare(&planned)?;
+    let wants_film = outs.iter().any(|p| is_partial_film(p));
     let t_bvh = Instant::now();
     let bvh = bvh::build(&sc);
     let seconds_bvh = t_bvh.elapsed().as_secs_f64();
@@ -678,11 +679,11 @@ fn render(a: RenderArgs) -> Result<()> {
                 .progress_chars("=> "),
             );
             let t = Instant::now();
-            r.reset()?;
             r.render_samples(samples.clone(), &|n| pb.set_position((n * 1000.0) as u64))?;
             output = r.output()?;
-            film = r.film()?;
             seconds_render = t.elapsed().as_secs_f64();
+            // Downloaded again only for a partial film (output() keeps only the images).
+            film = wants_film.then(|| r.film()).transpose()?;
             pb.finish_and_clear();
             device = ctx.device_name.clone();
             gpu = Some(GpuSetup {
@@ -713,7 +714,7 @@ fn render(a: RenderArgs) -> Result<()> {
             r.render_samples(&mut f, samples.clone(), &|n| pb.set_position(n as u64));
             output = r.output(&f);
             seconds_render = t.elapsed().as_secs_f64();
-            film = f.film;
+            film = wants_film.then_some(f.film);
             pb.finish_and_clear();
             device = format!("CPU reference ({} threads)", rayon::current_num_threads());
             gpu = None;
@@ -723,20 +724,25 @@ fn render(a: RenderArgs) -> Result<()> {
         Backend::Gpu => "gpu",
         Backend::Cpu => "cpu",
     };
-    let part = film::Part::of_render(
-        &a.scene.display().to_string(),
-        &sc,
-        film,
-        &output,
-        backend,
-        &device,
-        seconds_render,
-    );
+    let part = film.map(|film| {
+        film::Part::of_render(
+            &a.scene.display().to_string(),
+            &sc,
+            film,
+            &output,
+            backend,
+            &device,
+            seconds_render,
+        )
+    });
     // Every output that can be written is, even when one fails; then the failures are reported.
     let paths: Vec<&Path> = planned.iter().map(|o| o.path).collect();
     outfile::write_each(&paths, |i, p| {
         if i < outs.len() && is_partial_film(p) {
-            film::write_part(p, &part)?;
+            film::write_part(
+                p,
+                part.as_ref().expect("a film is kept for .bwfilm outputs"),
+            )?;
         } else {
             let img = if i < outs.len() {
                 &output.mean

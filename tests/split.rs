@@ -57,7 +57,6 @@ fn gpu_part(
         ..GpuOptions::default()
     };
     let mut r = GpuRenderer::with_options(ctx, s, &b, &compiler, options).unwrap();
-    r.reset().unwrap();
     r.render_samples(samples, &|_| {}).unwrap();
     let out = r.output().unwrap();
     let f = r.film().unwrap();
