@@ -54,8 +54,8 @@ use super::common::{
     ggx_d, luminance, reflect_about, reflect_z, same_hemisphere_up, sample_beckmann_h,
     sample_cosine_hemisphere, sample_ggx_h, smith_g1_beckmann_walter, smith_g1_ggx,
 };
-use super::{Brdf, BrdfSample, ParamError, ParamReader, Params};
-use glam::{Vec2, Vec3};
+use super::{flag, Brdf, BrdfSample, ParamError, ParamReader, Params};
+use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;
 
@@ -355,25 +355,18 @@ pub fn sample(m: &CookTorrance, given: Vec3, u_lobe: f32, u: Vec2) -> Option<Brd
 
 impl_brdf!(CookTorrance {
     fn pack(&self) -> Params {
-        let mut p = Params::default();
-        p.set3(0, self.kd).set(3, self.roughness);
-        p.set3(4, self.ks).set(7, self.norm_factor());
-        let a = match self.fresnel {
-            Fresnel::Dielectric => Vec3::splat(self.ior),
-            Fresnel::Conductor => self.eta,
-            Fresnel::Schlick => self.f0,
+        let (fresnel, a) = match self.fresnel {
+            Fresnel::Dielectric => (0.0, Vec3::splat(self.ior)),
+            Fresnel::Conductor => (1.0, self.eta),
+            Fresnel::Schlick => (2.0, self.f0),
         };
-        p.set3(8, a)
-            .set(11, (self.distribution == Distribution::Ggx) as u32 as f32);
-        p.set3(12, self.k)
-            .set(15, (self.geometry == Geometry::Smith) as u32 as f32);
-        let f = match self.fresnel {
-            Fresnel::Dielectric => 0.0,
-            Fresnel::Conductor => 1.0,
-            Fresnel::Schlick => 2.0,
-        };
-        p.set(16, f);
-        p
+        Params::from_vec4s([
+            self.kd.extend(self.roughness),
+            self.ks.extend(self.norm_factor()),
+            a.extend(flag(self.distribution == Distribution::Ggx)),
+            self.k.extend(flag(self.geometry == Geometry::Smith)),
+            Vec4::new(fresnel, 0.0, 0.0, 0.0),
+        ])
     }
     fn scatters(&self) -> bool {
         self.kd != Vec3::ZERO || self.ks != Vec3::ZERO

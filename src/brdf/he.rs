@@ -74,8 +74,8 @@ use super::common::{
     beckmann_d, cosine_hemisphere_pdf, erfc, expm1_f, fresnel_conductor, luminance, reflect_about,
     reflect_z, same_hemisphere_up, sample_beckmann_h, sample_cosine_hemisphere,
 };
-use super::{Brdf, BrdfSample, ParamError, ParamReader, Params};
-use glam::{Vec2, Vec3};
+use super::{flag, Brdf, BrdfSample, ParamError, ParamReader, Params};
+use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, PI};
 use std::sync::Arc;
 
@@ -525,15 +525,13 @@ pub fn sample(m: &He, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
 
 impl_brdf!(He {
     fn pack(&self) -> Params {
-        let mut p = Params::default();
-        p.set(0, self.sigma0)
-            .set(1, self.tau)
-            .set(2, (self.sigma0 > 0.0) as u32 as f32);
-        p.set3(4, self.ior)
-            .set3(8, self.k)
-            .set3(12, self.wavelengths)
-            .set3(16, self.diffuse);
-        p
+        Params::from_vec4s([
+            Vec4::new(self.sigma0, self.tau, flag(self.sigma0 > 0.0), 0.0),
+            self.ior.extend(0.0),
+            self.k.extend(0.0),
+            self.wavelengths.extend(0.0),
+            self.diffuse.extend(0.0),
+        ])
     }
     fn defines(&self) -> Vec<&'static str> {
         if self.sigma0 > 0.0 {

@@ -44,9 +44,7 @@ pub fn sample(m: &Lambert, given: Vec3, _u_lobe: f32, u: Vec2) -> Option<BrdfSam
 
 impl_brdf!(Lambert {
     fn pack(&self) -> Params {
-        let mut p = Params::default();
-        p.set3(0, self.albedo);
-        p
+        Params::from_vec4s([self.albedo.extend(0.0)])
     }
     fn scatters(&self) -> bool {
         self.albedo != Vec3::ZERO

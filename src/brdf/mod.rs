@@ -55,7 +55,7 @@ pub mod schlick;
 pub mod validate;
 pub mod ward;
 
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 pub use params::{Origin, ParamError, ParamReader};
 use std::fmt::Debug;
 use std::sync::Arc;
@@ -111,13 +111,24 @@ pub const RECORD_PARAMS: usize = RECORD_WORDS - 4;
 pub struct Params(pub [f32; RECORD_PARAMS]);
 
 impl Params {
-    pub fn set(&mut self, offset: usize, v: f32) -> &mut Self {
-        self.0[offset] = v;
-        self
+    /// The record from its vec4s in GLSL order (`p[0]`, `p[1]`, …), so that a model's `pack`
+    /// reads like the layout its file documents; the vec4s not given are zero.
+    pub fn from_vec4s<const N: usize>(p: [Vec4; N]) -> Params {
+        const { assert!(4 * N <= RECORD_PARAMS, "a material record holds 7 vec4s") };
+        let mut record = Params::default();
+        for (slot, v) in record.0.chunks_exact_mut(4).zip(p) {
+            slot.copy_from_slice(&v.to_array());
+        }
+        record
     }
-    pub fn set3(&mut self, offset: usize, v: Vec3) -> &mut Self {
-        self.0[offset..offset + 3].copy_from_slice(&v.to_array());
-        self
+}
+
+/// A yes/no parameter as the GPU record stores it: 1 or 0.
+pub fn flag(yes: bool) -> f32 {
+    if yes {
+        1.0
+    } else {
+        0.0
     }
 }
 

@@ -42,8 +42,8 @@
 //! GPU record: `p[0].xyz` = albedo, `p[0].w` = σ, `p[1].x` = variant (0 full, 1 qualitative).
 
 use super::common::{diffuse_pdf, same_hemisphere_up, sample_diffuse};
-use super::{Brdf, BrdfSample, ParamError, ParamReader, Params};
-use glam::{Vec2, Vec3};
+use super::{flag, Brdf, BrdfSample, ParamError, ParamReader, Params};
+use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, PI};
 use std::sync::Arc;
 
@@ -161,17 +161,11 @@ pub fn sample(m: &OrenNayar, given: Vec3, _u_lobe: f32, u: Vec2) -> Option<BrdfS
 
 impl_brdf!(OrenNayar {
     fn pack(&self) -> Params {
-        let mut p = Params::default();
-        p.set3(0, self.albedo).set(3, self.sigma);
-        p.set(
-            4,
-            if self.variant == Variant::Qualitative {
-                1.0
-            } else {
-                0.0
-            },
-        );
-        p
+        let qualitative = flag(self.variant == Variant::Qualitative);
+        Params::from_vec4s([
+            self.albedo.extend(self.sigma),
+            Vec4::new(qualitative, 0.0, 0.0, 0.0),
+        ])
     }
     fn scatters(&self) -> bool {
         self.albedo != Vec3::ZERO

@@ -42,8 +42,8 @@ use super::common::{
     cosine_hemisphere_pdf, expm1_f, luminance, one_minus_dot, orthonormal_basis, pow_one_minus,
     reflect_z, same_hemisphere_up, sample_cosine_hemisphere,
 };
-use super::{Brdf, BrdfSample, ParamError, ParamReader, Params};
-use glam::{Vec2, Vec3};
+use super::{flag, Brdf, BrdfSample, ParamError, ParamReader, Params};
+use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, PI};
 use std::sync::Arc;
 
@@ -165,18 +165,12 @@ pub fn sample(m: &Phong, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample
 
 impl_brdf!(Phong {
     fn pack(&self) -> Params {
-        let mut p = Params::default();
-        p.set3(0, self.kd).set(3, self.exponent);
-        p.set3(4, self.ks).set(
-            7,
-            if self.form == Form::Normalized {
-                1.0
-            } else {
-                0.0
-            },
-        );
-        p.set(8, self.p_spec);
-        p
+        let normalized = flag(self.form == Form::Normalized);
+        Params::from_vec4s([
+            self.kd.extend(self.exponent),
+            self.ks.extend(normalized),
+            Vec4::new(self.p_spec, 0.0, 0.0, 0.0),
+        ])
     }
     fn scatters(&self) -> bool {
         self.kd != Vec3::ZERO || self.ks != Vec3::ZERO

@@ -74,8 +74,8 @@ use super::common::{
     cosine_hemisphere_pdf, luminance, reflect_about, reflect_z, same_hemisphere_up,
     sample_cosine_hemisphere,
 };
-use super::{Brdf, BrdfSample, ParamError, ParamReader, Params};
-use glam::{Vec2, Vec3};
+use super::{flag, Brdf, BrdfSample, ParamError, ParamReader, Params};
+use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, PI};
 use std::sync::Arc;
 
@@ -426,23 +426,18 @@ pub fn sample(m: &Schlick, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSamp
 
 impl_brdf!(Schlick {
     fn pack(&self) -> Params {
-        let mut p = Params::default();
         let (cs, sn) = self.rotation_cs();
-        p.set3(0, self.c)
-            .set(3, self.r)
-            .set3(4, self.c2)
-            .set(7, self.r2);
         let form = match self.form {
             Form::Basic => 0.0,
             Form::Attenuated => 1.0,
             Form::Continuum => 2.0,
         };
-        p.set(8, self.p)
-            .set(9, self.p2)
-            .set(10, form)
-            .set(11, self.layered as u32 as f32);
-        p.set(12, cs).set(13, sn);
-        p
+        Params::from_vec4s([
+            self.c.extend(self.r),
+            self.c2.extend(self.r2),
+            Vec4::new(self.p, self.p2, form, flag(self.layered)),
+            Vec4::new(cs, sn, 0.0, 0.0),
+        ])
     }
     fn defines(&self) -> Vec<&'static str> {
         let mut d = Vec::new();
