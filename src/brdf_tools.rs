@@ -381,6 +381,97 @@ pub fn report_row(label: &str, src: &str) -> Result<(ReportRow, Material)> {
     ))
 }
 
+/// How a number is written in the Markdown report; the CSV writes every number in full.
+#[derive(Clone, Copy)]
+enum Shown {
+    /// This many decimals.
+    Fixed(usize),
+    /// Scientific notation with this many decimals.
+    Sci(usize),
+    /// Three significant digits, as [`three_digits`].
+    ThreeDigits,
+}
+
+/// A report column after the label: CSV name, Markdown heading, the row's value (`None`: not
+/// measured) and its Markdown form.
+type Column = (
+    &'static str,
+    &'static str,
+    fn(&ReportRow) -> Option<f64>,
+    Shown,
+);
+
+/// The report's columns, described once for both renderings (Markdown and CSV).
+const COLUMNS: [Column; 12] = [
+    ("albedo_0", "ρ(0°)", |r| Some(r.albedo[0]), Shown::Fixed(4)),
+    (
+        "albedo_30",
+        "ρ(30°)",
+        |r| Some(r.albedo[1]),
+        Shown::Fixed(4),
+    ),
+    (
+        "albedo_60",
+        "ρ(60°)",
+        |r| Some(r.albedo[2]),
+        Shown::Fixed(4),
+    ),
+    (
+        "albedo_80",
+        "ρ(80°)",
+        |r| Some(r.albedo[3]),
+        Shown::Fixed(4),
+    ),
+    (
+        "albedo_89",
+        "ρ(89°)",
+        |r| Some(r.albedo[4]),
+        Shown::Fixed(4),
+    ),
+    (
+        "albedo_max",
+        "max ρ",
+        |r| Some(r.albedo_max),
+        Shown::Fixed(4),
+    ),
+    (
+        "albedo_max_angle",
+        "at θ (°)",
+        |r| Some(r.albedo_max_angle),
+        Shown::Fixed(0),
+    ),
+    (
+        "reciprocity_error",
+        "reciprocity err",
+        |r| Some(r.reciprocity_error),
+        Shown::Sci(2),
+    ),
+    (
+        "chi2_p_value",
+        "χ² p",
+        |r| Some(r.chi2_p_value),
+        Shown::Fixed(3),
+    ),
+    (
+        "ns_per_eval_cpu",
+        "ns/eval CPU",
+        |r| Some(r.ns_per_eval_cpu),
+        Shown::Fixed(1),
+    ),
+    (
+        "ns_per_eval_gpu",
+        "ns/eval GPU",
+        |r| r.ns_per_eval_gpu,
+        Shown::ThreeDigits,
+    ),
+    (
+        "sampled_albedo_variance",
+        "var(ρ̂)",
+        |r| Some(r.sampled_albedo_variance),
+        Shown::Sci(3),
+    ),
+];
+
 pub fn report_markdown(rows: &[ReportRow], gpu_device: Option<&str>) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# brdfwave model report\n");
@@ -391,50 +482,33 @@ pub fn report_markdown(rows: &[ReportRow], gpu_device: Option<&str>) -> String {
          (200,000 samples each); cost = nanoseconds per evaluation of f (CPU: one thread, wall clock; GPU: {}, kernel time by timestamps over the evaluations of the whole device, 64 per invocation, so it is a throughput, not a latency); variance = of one sample of the sampled-albedo estimator at 30°.\n",
         gpu_device.unwrap_or("not measured")
     );
-    let _ = writeln!(s, "| model | ρ(0°) | ρ(30°) | ρ(60°) | ρ(80°) | ρ(89°) | max ρ (at) | reciprocity err | χ² p | ns/eval CPU | ns/eval GPU | var(ρ̂) |");
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let headings: Vec<&str> = COLUMNS.iter().map(|c| c.1).collect();
+    let _ = writeln!(s, "| model | {} |", headings.join(" | "));
+    let _ = writeln!(s, "|---{}|", "|---".repeat(COLUMNS.len()));
     for r in rows {
-        let _ = writeln!(
-            s,
-            "| {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} ({}°) | {:.2e} | {:.3} | {:.1} | {} | {:.3e} |",
-            r.label,
-            r.albedo[0],
-            r.albedo[1],
-            r.albedo[2],
-            r.albedo[3],
-            r.albedo[4],
-            r.albedo_max,
-            r.albedo_max_angle,
-            r.reciprocity_error,
-            r.chi2_p_value,
-            r.ns_per_eval_cpu,
-            r.ns_per_eval_gpu.map(three_digits).unwrap_or_else(|| "-".into()),
-            r.sampled_albedo_variance
-        );
+        let cells: Vec<String> = COLUMNS
+            .iter()
+            .map(|&(_, _, value, shown)| match (value(r), shown) {
+                (None, _) => "-".into(),
+                (Some(v), Shown::Fixed(d)) => format!("{v:.d$}"),
+                (Some(v), Shown::Sci(d)) => format!("{v:.d$e}"),
+                (Some(v), Shown::ThreeDigits) => three_digits(v),
+            })
+            .collect();
+        let _ = writeln!(s, "| {} | {} |", r.label, cells.join(" | "));
     }
     s
 }
 
 pub fn report_csv(rows: &[ReportRow]) -> String {
-    let mut s = String::from("label,albedo_0,albedo_30,albedo_60,albedo_80,albedo_89,albedo_max,albedo_max_angle,reciprocity_error,chi2_p_value,ns_per_eval_cpu,ns_per_eval_gpu,sampled_albedo_variance\n");
+    let names: Vec<&str> = COLUMNS.iter().map(|c| c.0).collect();
+    let mut s = format!("label,{}\n", names.join(","));
     for r in rows {
-        let _ = writeln!(
-            s,
-            "\"{}\",{},{},{},{},{},{},{},{},{},{},{},{}",
-            r.label,
-            r.albedo[0],
-            r.albedo[1],
-            r.albedo[2],
-            r.albedo[3],
-            r.albedo[4],
-            r.albedo_max,
-            r.albedo_max_angle,
-            r.reciprocity_error,
-            r.chi2_p_value,
-            r.ns_per_eval_cpu,
-            r.ns_per_eval_gpu.map(|v| v.to_string()).unwrap_or_default(),
-            r.sampled_albedo_variance
-        );
+        let cells: Vec<String> = COLUMNS
+            .iter()
+            .map(|c| c.2(r).map(|v| v.to_string()).unwrap_or_default())
+            .collect();
+        let _ = writeln!(s, "\"{}\",{}", r.label, cells.join(","));
     }
     s
 }
@@ -452,7 +526,7 @@ pub fn slug(label: &str) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::three_digits;
+    use super::{report_csv, report_markdown, three_digits, ReportRow};
 
     #[test]
     fn costs_keep_three_significant_digits() {
@@ -460,5 +534,44 @@ mod tests {
         assert_eq!(three_digits(4.281), "4.28");
         assert_eq!(three_digits(0.004312), "0.00431");
         assert_eq!(three_digits(0.0), "0");
+    }
+
+    #[test]
+    fn both_reports_have_a_cell_under_every_heading() {
+        let row = |label: &str, gpu| ReportRow {
+            label: label.into(),
+            material: String::new(),
+            albedo: vec![0.91, 0.9, 0.85, 0.7, 0.5],
+            albedo_max: 0.91,
+            albedo_max_angle: 0.0,
+            reciprocity_error: 1.5e-7,
+            chi2_p_value: 0.42,
+            ns_per_eval_cpu: 12.34,
+            ns_per_eval_gpu: gpu,
+            sampled_albedo_variance: 2.5e-3,
+        };
+        let rows = [row("a", Some(0.004312)), row("b", None)];
+        let md = report_markdown(&rows, None);
+        let table: Vec<&str> = md.lines().filter(|l| l.starts_with('|')).collect();
+        assert_eq!(table.len(), 4, "{md}");
+        let cells = |l: &str| l.matches('|').count();
+        assert!(table.iter().all(|l| cells(l) == cells(table[0])), "{md}");
+        assert!(table[2].starts_with("| a | 0.9100 | 0.9000 |"), "{md}");
+        assert!(
+            table[2].contains("| 1.50e-7 | 0.420 | 12.3 | 0.00431 | 2.500e-3 |"),
+            "{md}"
+        );
+        assert!(table[3].contains("| 12.3 | - |"), "{md}");
+        let csv_text = report_csv(&rows);
+        let csv: Vec<&str> = csv_text.lines().collect();
+        assert_eq!(csv.len(), 3);
+        let commas = |l: &str| l.matches(',').count();
+        assert!(csv.iter().all(|l| commas(l) == commas(csv[0])), "{csv:?}");
+        assert!(csv[0].starts_with("label,albedo_0,"));
+        assert_eq!(
+            csv[1],
+            "\"a\",0.91,0.9,0.85,0.7,0.5,0.91,0,0.00000015,0.42,12.34,0.004312,0.0025"
+        );
+        assert!(csv[2].ends_with(",12.34,,0.0025"));
     }
 }
