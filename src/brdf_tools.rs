@@ -402,74 +402,20 @@ type Column = (
 );
 
 /// The report's columns, described once for both renderings (Markdown and CSV).
+#[rustfmt::skip]
 const COLUMNS: [Column; 12] = [
     ("albedo_0", "ρ(0°)", |r| Some(r.albedo[0]), Shown::Fixed(4)),
-    (
-        "albedo_30",
-        "ρ(30°)",
-        |r| Some(r.albedo[1]),
-        Shown::Fixed(4),
-    ),
-    (
-        "albedo_60",
-        "ρ(60°)",
-        |r| Some(r.albedo[2]),
-        Shown::Fixed(4),
-    ),
-    (
-        "albedo_80",
-        "ρ(80°)",
-        |r| Some(r.albedo[3]),
-        Shown::Fixed(4),
-    ),
-    (
-        "albedo_89",
-        "ρ(89°)",
-        |r| Some(r.albedo[4]),
-        Shown::Fixed(4),
-    ),
-    (
-        "albedo_max",
-        "max ρ",
-        |r| Some(r.albedo_max),
-        Shown::Fixed(4),
-    ),
-    (
-        "albedo_max_angle",
-        "at θ (°)",
-        |r| Some(r.albedo_max_angle),
-        Shown::Fixed(0),
-    ),
-    (
-        "reciprocity_error",
-        "reciprocity err",
-        |r| Some(r.reciprocity_error),
-        Shown::Sci(2),
-    ),
-    (
-        "chi2_p_value",
-        "χ² p",
-        |r| Some(r.chi2_p_value),
-        Shown::Fixed(3),
-    ),
-    (
-        "ns_per_eval_cpu",
-        "ns/eval CPU",
-        |r| Some(r.ns_per_eval_cpu),
-        Shown::Fixed(1),
-    ),
-    (
-        "ns_per_eval_gpu",
-        "ns/eval GPU",
-        |r| r.ns_per_eval_gpu,
-        Shown::ThreeDigits,
-    ),
-    (
-        "sampled_albedo_variance",
-        "var(ρ̂)",
-        |r| Some(r.sampled_albedo_variance),
-        Shown::Sci(3),
-    ),
+    ("albedo_30", "ρ(30°)", |r| Some(r.albedo[1]), Shown::Fixed(4)),
+    ("albedo_60", "ρ(60°)", |r| Some(r.albedo[2]), Shown::Fixed(4)),
+    ("albedo_80", "ρ(80°)", |r| Some(r.albedo[3]), Shown::Fixed(4)),
+    ("albedo_89", "ρ(89°)", |r| Some(r.albedo[4]), Shown::Fixed(4)),
+    ("albedo_max", "max ρ", |r| Some(r.albedo_max), Shown::Fixed(4)),
+    ("albedo_max_angle", "at θ (°)", |r| Some(r.albedo_max_angle), Shown::Fixed(0)),
+    ("reciprocity_error", "reciprocity err", |r| Some(r.reciprocity_error), Shown::Sci(2)),
+    ("chi2_p_value", "χ² p", |r| Some(r.chi2_p_value), Shown::Fixed(3)),
+    ("ns_per_eval_cpu", "ns/eval CPU", |r| Some(r.ns_per_eval_cpu), Shown::Fixed(1)),
+    ("ns_per_eval_gpu", "ns/eval GPU", |r| r.ns_per_eval_gpu, Shown::ThreeDigits),
+    ("sampled_albedo_variance", "var(ρ̂)", |r| Some(r.sampled_albedo_variance), Shown::Sci(3)),
 ];
 
 pub fn report_markdown(rows: &[ReportRow], gpu_device: Option<&str>) -> String {
