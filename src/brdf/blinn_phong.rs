@@ -41,7 +41,7 @@
 //! the host.
 
 use super::common::{
-    cosine_hemisphere_pdf, expm1_f, luminance, pow_one_minus, reflect_about, same_hemisphere_up,
+    diffuse_specular_pdf, expm1_f, luminance, pow_one_minus, reflect_about, same_hemisphere_up,
     sample_cosine_hemisphere,
 };
 use super::{flag, Brdf, BrdfSample, ParamError, ParamReader, Params};
@@ -168,7 +168,6 @@ pub fn pdf(m: &BlinnPhong, given: Vec3, sampled: Vec3) -> f32 {
     if !same_hemisphere_up(given, sampled) {
         return 0.0;
     }
-    let pd = cosine_hemisphere_pdf(sampled.z);
     let ps = match half_vector(given, sampled) {
         None => 0.0,
         Some((h, x)) => {
@@ -178,7 +177,7 @@ pub fn pdf(m: &BlinnPhong, given: Vec3, sampled: Vec3) -> f32 {
             pdf_h / (4.0 * given.dot(h).max(1e-10))
         }
     };
-    (1.0 - m.p_spec) * pd + m.p_spec * ps
+    diffuse_specular_pdf(m.p_spec, ps, sampled)
 }
 
 pub fn sample(m: &BlinnPhong, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {

@@ -48,6 +48,28 @@ pub fn diffuse_pdf(given: Vec3, sampled: Vec3) -> f32 {
     cosine_hemisphere_pdf(sampled.z)
 }
 
+/// The pdf of the models with one specular lobe beside a Lambertian one (Phong, Blinn–Phong,
+/// Ward): the specular lobe, of density `ps` at `sampled`, is chosen with probability `p_spec`
+/// (`u_lobe < p_spec` in their samplers), the cosine-weighted diffuse lobe otherwise. For
+/// directions both above the surface (the caller checks). GLSL: `diffuse_specular_pdf`.
+pub fn diffuse_specular_pdf(p_spec: f32, ps: f32, sampled: Vec3) -> f32 {
+    (1.0 - p_spec) * cosine_hemisphere_pdf(sampled.z) + p_spec * ps
+}
+
+/// The solid-angle density at `sampled` of a lobe that samples a half vector h and reflects
+/// `given` about it: pdf_h(h) / (4 given·h), with `pdf_h` the half vector's density (cosθh
+/// included) and 4 given·h the Jacobian of the reflection (Walter et al. 2007); h =
+/// normalize(given + sampled). 0 when given·h ≤ 0, where [`reflect_about`] rejects the sample.
+/// Cook–Torrance, He and Schlick use it. GLSL: the `RETURN_REFLECTED_PDF` macro.
+pub fn reflected_pdf(given: Vec3, sampled: Vec3, pdf_h: impl FnOnce(Vec3) -> f32) -> f32 {
+    let h = (given + sampled).normalize();
+    let c = given.dot(h);
+    if c <= 0.0 {
+        return 0.0;
+    }
+    pdf_h(h) / (4.0 * c)
+}
+
 /// The sample of the diffuse models (Lambert, Oren–Nayar): a cosine-weighted direction wi with
 /// the weight `weight(wi)` = f·cosθ/pdf, which each model writes out (no 0/0 at the horizon).
 /// None when `given` is not above the surface or the pdf of wi is 0.

@@ -51,7 +51,7 @@
 
 use super::common::{
     beckmann_d, cosine_hemisphere_pdf, fresnel_conductor, fresnel_dielectric, fresnel_schlick,
-    ggx_d, luminance, reflect_about, reflect_z, same_hemisphere_up, sample_beckmann_h,
+    ggx_d, luminance, reflect_about, reflected_pdf, same_hemisphere_up, sample_beckmann_h,
     sample_cosine_hemisphere, sample_ggx_h, smith_g1_beckmann_walter, smith_g1_ggx,
 };
 use super::{flag, Brdf, BrdfSample, ParamError, ParamReader, Params};
@@ -306,12 +306,7 @@ pub fn specular_probability(m: &CookTorrance, cos_given: f32) -> f32 {
 
 /// Solid-angle density of the half-vector sampler mapped to `sampled`: D(h) cosθh/(4 given·h).
 fn specular_pdf(m: &CookTorrance, given: Vec3, sampled: Vec3) -> f32 {
-    let h = (given + sampled).normalize();
-    let c = given.dot(h);
-    if c <= 0.0 {
-        return 0.0;
-    }
-    ndf(m, h) * h.z / (4.0 * c)
+    reflected_pdf(given, sampled, |h| ndf(m, h) * h.z)
 }
 
 pub fn pdf(m: &CookTorrance, given: Vec3, sampled: Vec3) -> f32 {
@@ -333,14 +328,8 @@ pub fn sample(m: &CookTorrance, given: Vec3, u_lobe: f32, u: Vec2) -> Option<Brd
     let ps = specular_probability(m, given.z);
     let wi = if u_lobe < ps {
         if m.is_mirror() {
-            let wi = reflect_z(given);
             let weight = m.ks * fresnel(m, given.z) * (m.norm_factor() / ps);
-            return Some(BrdfSample {
-                wi,
-                weight,
-                pdf: 0.0,
-                delta: true,
-            });
+            return Some(BrdfSample::mirror(given, weight));
         }
         let h = match m.distribution {
             Distribution::Beckmann => sample_beckmann_h(u, m.roughness),
@@ -376,6 +365,7 @@ impl_brdf!(CookTorrance {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::brdf::common::reflect_z;
     use crate::brdf::validate::dir_from_theta_deg as dir;
 
     fn variants() -> Vec<CookTorrance> {

@@ -72,7 +72,7 @@
 
 use super::common::{
     beckmann_d, cosine_hemisphere_pdf, erfc, expm1_f, fresnel_conductor, luminance, reflect_about,
-    reflect_z, same_hemisphere_up, sample_beckmann_h, sample_cosine_hemisphere,
+    reflected_pdf, same_hemisphere_up, sample_beckmann_h, sample_cosine_hemisphere,
 };
 use super::{flag, Brdf, BrdfSample, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
@@ -267,6 +267,23 @@ pub const HE_WINDOW_DROP: f32 = 40.0;
 /// Bisection steps for each of the mode and the two window ends (enough for 2^40 > any m).
 pub const HE_BISECTION_STEPS: u32 = 40;
 
+/// [`HE_BISECTION_STEPS`] halvings of the integer bracket [a, b]: the midpoint replaces `b` where
+/// `to_b` holds there, `a` otherwise; returns the last bracket (GLSL: the `HE_BISECT` macro).
+fn bisect(mut a: f32, mut b: f32, to_b: impl Fn(f32) -> bool) -> (f32, f32) {
+    for _ in 0..HE_BISECTION_STEPS {
+        if b - a <= 1.0 {
+            break;
+        }
+        let mid = (0.5 * (a + b)).floor();
+        if to_b(mid) {
+            b = mid;
+        } else {
+            a = mid;
+        }
+    }
+    (a, b)
+}
+
 /// The summation window [lo, hi] of [`series`] and its mode m̂ (largest term).
 ///
 /// **Why it is enough** (proof). The ratio of consecutive terms is
@@ -298,19 +315,7 @@ pub fn series_window(g: f32, c: f32) -> (f32, f32, f32) {
     let mode = if series_log_ratio(g, c, 1.0) < 0.0 {
         1.0
     } else {
-        let (mut a, mut b) = (1.0f32, m_up);
-        for _ in 0..HE_BISECTION_STEPS {
-            if b - a <= 1.0 {
-                break;
-            }
-            let mid = (0.5 * (a + b)).floor();
-            if series_log_ratio(g, c, mid) < 0.0 {
-                b = mid;
-            } else {
-                a = mid;
-            }
-        }
-        b
+        bisect(1.0, m_up, |m| series_log_ratio(g, c, m) < 0.0).1
     };
     let peak = series_log_term(g, c, mode) - HE_WINDOW_DROP;
     // Upper end: smallest m in [mode, h_up] with ln ρ(m) < 0 and
@@ -320,22 +325,11 @@ pub fn series_window(g: f32, c: f32) -> (f32, f32, f32) {
         let lr = series_log_ratio(g, c, m);
         lr < 0.0 && series_log_term(g, c, m) - expm1_f(-lr).ln() <= peak
     };
-    let (mut a, mut b) = (mode, h_up);
-    if up_ok(a) {
-        b = a;
-    }
-    for _ in 0..HE_BISECTION_STEPS {
-        if b - a <= 1.0 {
-            break;
-        }
-        let mid = (0.5 * (a + b)).floor();
-        if up_ok(mid) {
-            b = mid;
-        } else {
-            a = mid;
-        }
-    }
-    let hi = b;
+    let hi = if up_ok(mode) {
+        mode
+    } else {
+        bisect(mode, h_up, up_ok).1
+    };
     // Lower end: largest m in [1, mode] with both conditions, or 1.
     let lo_ok = |m: f32| {
         if m <= 1.0 {
@@ -344,22 +338,12 @@ pub fn series_window(g: f32, c: f32) -> (f32, f32, f32) {
         let lr = series_log_ratio(g, c, m - 1.0);
         lr > 0.0 && series_log_term(g, c, m) - expm1_f(lr).ln() <= peak
     };
-    let (mut a, mut b) = (1.0f32, mode);
-    if lo_ok(b) {
-        a = b;
-    }
-    for _ in 0..HE_BISECTION_STEPS {
-        if b - a <= 1.0 {
-            break;
-        }
-        let mid = (0.5 * (a + b)).floor();
-        if lo_ok(mid) {
-            a = mid;
-        } else {
-            b = mid;
-        }
-    }
-    (a, mode, hi)
+    let lo = if lo_ok(mode) {
+        mode
+    } else {
+        bisect(1.0, mode, |m| !lo_ok(m)).0
+    };
+    (lo, mode, hi)
 }
 
 /// Σ_{m≥1} gᵐ e^(−g)/(m!·m) · e^(−c/m), in log space over the window of [`series_window`]
@@ -480,12 +464,7 @@ pub fn lobe_probabilities(m: &He, given: Vec3) -> (f32, f32, f32, f32) {
 }
 
 fn beckmann_lobe_pdf(ms: f32, given: Vec3, sampled: Vec3) -> f32 {
-    let h = (given + sampled).normalize();
-    let c = given.dot(h);
-    if c <= 0.0 {
-        return 0.0;
-    }
-    beckmann_d(h, ms) * h.z / (4.0 * c)
+    reflected_pdf(given, sampled, |h| beckmann_d(h, ms) * h.z)
 }
 
 pub fn pdf(m: &He, given: Vec3, sampled: Vec3) -> f32 {
@@ -506,14 +485,8 @@ pub fn sample(m: &He, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
     }
     let (pd, pb, _, ms) = lobe_probabilities(m, given);
     let wi = if u_lobe < pd {
-        let wi = reflect_z(given);
         let weight = specular_reflectance(m, given) / pd;
-        return Some(BrdfSample {
-            wi,
-            weight,
-            pdf: 0.0,
-            delta: true,
-        });
+        return Some(BrdfSample::mirror(given, weight));
     } else if u_lobe < pd + pb {
         let h = sample_beckmann_h(u, ms);
         reflect_about(given, h)?

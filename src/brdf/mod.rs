@@ -75,6 +75,18 @@ pub struct BrdfSample {
 }
 
 impl BrdfSample {
+    /// A sample of a delta mirror lobe (Cook–Torrance below its mirror roughness, He's specular
+    /// lobe, Schlick's mirror): wi = reflect_z(given), no pdf, and `weight` the lobe's
+    /// reflectance divided by the probability of choosing it. GLSL: `sample_mirror`.
+    pub fn mirror(given: Vec3, weight: Vec3) -> BrdfSample {
+        BrdfSample {
+            wi: common::reflect_z(given),
+            weight,
+            pdf: 0.0,
+            delta: true,
+        }
+    }
+
     /// The common end of sampling a non-delta lobe, as every model's `sample` ends: refuse a
     /// direction below the horizon or with zero density, otherwise weight = f·cosθ / pdf with the
     /// pdf of the whole mixture (`pdf`) and the BRDF (`f`) evaluated at `wi`. The GLSL side ends

@@ -39,7 +39,7 @@
 //! (0 survey, 1 normalized), `p[2].x` = P_s (lobe-selection probability, computed on the host).
 
 use super::common::{
-    cosine_hemisphere_pdf, expm1_f, luminance, one_minus_dot, orthonormal_basis, pow_one_minus,
+    diffuse_specular_pdf, expm1_f, luminance, one_minus_dot, orthonormal_basis, pow_one_minus,
     reflect_z, same_hemisphere_up, sample_cosine_hemisphere,
 };
 use super::{flag, Brdf, BrdfSample, ParamError, ParamReader, Params};
@@ -139,9 +139,8 @@ pub fn pdf(m: &Phong, given: Vec3, sampled: Vec3) -> f32 {
     if !same_hemisphere_up(given, sampled) {
         return 0.0;
     }
-    let pd = cosine_hemisphere_pdf(sampled.z);
     let ps = (m.exponent + 1.0) * (0.5 * FRAC_1_PI) * lobe(m.exponent, given, sampled);
-    (1.0 - m.p_spec) * pd + m.p_spec * ps
+    diffuse_specular_pdf(m.p_spec, ps, sampled)
 }
 
 pub fn sample(m: &Phong, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {

@@ -71,7 +71,7 @@
 //! (p < 1 or p2 < 1; without it A ≡ 1, exact for isotropic materials).
 
 use super::common::{
-    cosine_hemisphere_pdf, luminance, reflect_about, reflect_z, same_hemisphere_up,
+    cosine_hemisphere_pdf, luminance, reflect_about, reflected_pdf, same_hemisphere_up,
     sample_cosine_hemisphere,
 };
 use super::{flag, Brdf, BrdfSample, ParamError, ParamReader, Params};
@@ -355,12 +355,9 @@ pub fn sample_glossy_h(r: f32, p: f32, cs: f32, sn: f32, u: Vec2) -> Vec3 {
 
 /// Solid-angle density of `sampled` under one glossy sampler: Z t A²/π/(4 given·h).
 pub fn glossy_pdf(r: f32, p: f32, cs: f32, sn: f32, given: Vec3, sampled: Vec3) -> f32 {
-    let h = (given + sampled).normalize();
-    let c = given.dot(h);
-    if c <= 0.0 {
-        return 0.0;
-    }
-    zenith(r, h) * h.z * azimuth2(p, cs, sn, h) * FRAC_1_PI / (4.0 * c)
+    reflected_pdf(given, sampled, |h| {
+        zenith(r, h) * h.z * azimuth2(p, cs, sn, h) * FRAC_1_PI
+    })
 }
 
 /// Uniform hemisphere direction, pdf 1/(2π) (for the attenuated form's re-emission).
@@ -403,12 +400,7 @@ pub fn sample(m: &Schlick, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSamp
     let pr = lobe_probabilities(m, given);
     let wi = if u_lobe < pr[3] {
         let weight = mirror_reflectance(m, given) / pr[3];
-        return Some(BrdfSample {
-            wi: reflect_z(given),
-            weight,
-            pdf: 0.0,
-            delta: true,
-        });
+        return Some(BrdfSample::mirror(given, weight));
     } else if u_lobe < pr[3] + pr[0] + pr[1] {
         let h = if u_lobe < pr[3] + pr[0] {
             sample_glossy_h(m.r, m.p, cs, sn, u)
@@ -457,6 +449,7 @@ impl_brdf!(Schlick {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::brdf::common::reflect_z;
     use crate::brdf::validate::{assert_finite_on_sample_grid, dir_from_theta_deg as dir};
 
     #[test]
