@@ -475,19 +475,8 @@ mod tests {
                 });
             }
         }
-        let dirs = [
-            Vec3::Z,
-            dir(1e-3, 0.0),
-            dir(45.0, 0.0),
-            dir(45.0, 180.0),
-            dir(45.0, 90.0),
-            dir(89.9, 0.0),
-            dir(89.99, 180.0),
-            Vec3::new(1.0, 0.0, 1e-7).normalize(),
-            Vec3::new(0.0, -1.0, 1e-7).normalize(),
-        ];
         for m in &ms {
-            assert_finite_on_sample_grid(m, &dirs, &[0.0, 0.3, 0.6, 0.99], &format!("{m:?}"));
+            assert_finite_on_sample_grid(m, &[0.0, 0.3, 0.6, 0.99], &format!("{m:?}"));
         }
     }
 

@@ -575,24 +575,43 @@ pub(crate) fn assert_finite_at_mirror_and_grazing(m: &dyn Brdf, extra: &[Vec3], 
     }
 }
 
-/// For the models' unit tests of models with a delta lobe: `eval` and `pdf` between every two
-/// of `dirs` are finite and non-negative, and every sample drawn from each (u on an 8 × 8 grid,
-/// each lobe choice of `u_lobes`) has a finite weight and pdf.
+/// For the unit tests of the models with a delta lobe (Cook–Torrance, He, Schlick): at the
+/// normal, near it, at 30° and 45° in and across the plane of incidence, at grazing and at the
+/// horizon (z = 1e-7), `eval` and `pdf` between every two directions are finite and
+/// non-negative, and every sample drawn from each (u on an 8 × 8 grid, each lobe choice of
+/// `u_lobes`) has a finite weight and pdf and a unit direction above the surface.
 #[cfg(test)]
-pub(crate) fn assert_finite_on_sample_grid(
-    m: &dyn Brdf,
-    dirs: &[Vec3],
-    u_lobes: &[f32],
-    label: &str,
-) {
-    assert_eval_pdf_finite(m, dirs, label);
-    for &a in dirs {
+pub(crate) fn assert_finite_on_sample_grid(m: &dyn Brdf, u_lobes: &[f32], label: &str) {
+    let d = dir_from_theta_deg;
+    let dirs = [
+        Vec3::Z,
+        d(1e-3, 0.0),
+        d(1e-3, 10.0),
+        d(30.0, 0.0),
+        d(30.0, 180.0),
+        d(45.0, 0.0),
+        d(45.0, 90.0),
+        d(45.0, 180.0),
+        d(89.9, 0.0),
+        d(89.9, 180.0),
+        d(89.99, 180.0),
+        d(89.999, 90.0),
+        Vec3::new(1.0, 0.0, 1e-7).normalize(),
+        Vec3::new(-1.0, 0.0, 1e-7).normalize(),
+        Vec3::new(0.0, -1.0, 1e-7).normalize(),
+    ];
+    assert_eval_pdf_finite(m, &dirs, label);
+    for a in dirs {
         for i in 0..64 {
             let u = Vec2::new((i % 8) as f32 / 8.0, (i / 8) as f32 / 8.0);
             for &ul in u_lobes {
                 if let Some(s) = m.sample(a, ul, u) {
                     assert!(
                         s.weight.is_finite() && s.pdf.is_finite(),
+                        "{label} {a}: {s:?}"
+                    );
+                    assert!(
+                        s.wi.z > 0.0 && (s.wi.length() - 1.0).abs() < 1e-4,
                         "{label} {a}: {s:?}"
                     );
                 }
