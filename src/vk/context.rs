@@ -196,14 +196,8 @@ unsafe extern "system" fn debug_callback(
     }
     let sink = &*(user as *const MessageSink);
     let data = &*data;
-    let id = data
-        .message_id_name_as_c_str()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let text = data
-        .message_as_c_str()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
+    let id = lossy(data.message_id_name_as_c_str());
+    let text = lossy(data.message_as_c_str());
     if is_harmless_loader_message(types, &id, &text) {
         return vk::FALSE;
     }
@@ -438,22 +432,13 @@ fn candidates(instance: &ash::Instance) -> Result<Vec<Candidate>> {
     let mut out = Vec::new();
     for pd in pds {
         let props = unsafe { instance.get_physical_device_properties(pd) };
-        let name = props
-            .device_name_as_c_str()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
+        let name = lossy(props.device_name_as_c_str().ok());
         let (driver_id, driver_name) = if props.api_version >= vk::API_VERSION_1_2 {
             let mut driver = vk::PhysicalDeviceDriverProperties::default();
             let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
             unsafe { instance.get_physical_device_properties2(pd, &mut p2) };
-            let n = driver
-                .driver_name_as_c_str()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_default();
-            let i = driver
-                .driver_info_as_c_str()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_default();
+            let n = lossy(driver.driver_name_as_c_str().ok());
+            let i = lossy(driver.driver_info_as_c_str().ok());
             (driver.driver_id, format!("{n} {i}").trim().to_string())
         } else {
             (vk::DriverId::default(), String::from("?"))
@@ -836,4 +821,11 @@ mod tests {
             "something else"
         ));
     }
+}
+
+/// A string the driver or the loader gave, as text: invalid UTF-8 replaced, empty when absent
+/// or not terminated.
+fn lossy(s: Option<&CStr>) -> String {
+    s.map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default()
 }
