@@ -223,6 +223,21 @@ vec3 sample_ggx_h(vec2 u, float alpha) {
     return half_vector_from_tan2(tan2, u.y);
 }
 
+// The solid-angle density at SAMPLED of a lobe that samples a half vector and reflects GIVEN
+// about it: PDF_H / (4 GIVEN·H), with PDF_H the half vector's density (cosθh included), an
+// expression in H = normalize(GIVEN + SAMPLED); 4 GIVEN·H is the Jacobian of the reflection
+// (Walter et al. 2007). 0 when GIVEN·H <= 0, where reflect_about rejects the sample. A macro,
+// as RETURN_SCATTERED, because GLSL has no closures: H names the half vector for PDF_H. Returns
+// from the function; every model whose lobe samples h and reflects (Cook–Torrance, He, Schlick)
+// uses it.
+#define RETURN_REFLECTED_PDF(GIVEN, SAMPLED, H, PDF_H) \
+    { \
+        vec3 H = normalize((GIVEN) + (SAMPLED)); \
+        float c_reflected = dot(GIVEN, H); \
+        if (c_reflected <= 0.0) return 0.0; \
+        return (PDF_H) / (4.0 * c_reflected); \
+    }
+
 // ---------------------------------------------------------------------------------------------
 // The start and the end of every <model>_sample
 // ---------------------------------------------------------------------------------------------

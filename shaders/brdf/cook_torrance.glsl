@@ -54,10 +54,7 @@ float ct_specular_probability(Material m, float cos_given) {
 }
 
 float ct_specular_pdf(Material m, vec3 given, vec3 sampled) {
-    vec3 h = normalize(given + sampled);
-    float c = dot(given, h);
-    if (c <= 0.0) return 0.0;
-    return ct_ndf(m, h) * h.z / (4.0 * c);
+    RETURN_REFLECTED_PDF(given, sampled, h, ct_ndf(m, h) * h.z);
 }
 
 float cook_torrance_pdf(Material m, vec3 given, vec3 sampled) {

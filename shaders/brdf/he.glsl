@@ -235,10 +235,7 @@ vec4 he_lobe_probabilities(Material m, vec3 given) {
 }
 
 float he_beckmann_lobe_pdf(float ms, vec3 given, vec3 sampled) {
-    vec3 h = normalize(given + sampled);
-    float c = dot(given, h);
-    if (c <= 0.0) return 0.0;
-    return beckmann_d(h, ms) * h.z / (4.0 * c);
+    RETURN_REFLECTED_PDF(given, sampled, h, beckmann_d(h, ms) * h.z);
 }
 
 float he_pdf(Material m, vec3 given, vec3 sampled) {

@@ -150,10 +150,8 @@ vec3 schlick_sample_glossy_h(float r, float p, float cs, float sn, vec2 u) {
 }
 
 float schlick_glossy_pdf(float r, float p, float cs, float sn, vec3 given, vec3 sampled) {
-    vec3 h = normalize(given + sampled);
-    float c = dot(given, h);
-    if (c <= 0.0) return 0.0;
-    return schlick_zenith(r, h) * h.z * schlick_azimuth2(p, cs, sn, h) * INV_PI / (4.0 * c);
+    RETURN_REFLECTED_PDF(given, sampled, h,
+                         schlick_zenith(r, h) * h.z * schlick_azimuth2(p, cs, sn, h) * INV_PI);
 }
 
 vec3 schlick_sample_uniform_hemisphere(vec2 u) {
