@@ -270,6 +270,18 @@ bool sample_diffuse(vec3 given, vec2 u, out BrdfSample s) {
     return !(s.pdf <= 0.0);
 }
 
+// The sample of a delta mirror lobe (Cook–Torrance below its mirror roughness, He's specular
+// lobe, Schlick's mirror): wi = reflect_z(given), no pdf, and `weight` the lobe's reflectance
+// divided by the probability of choosing it. Returns true: a sampler ends with
+// `return sample_mirror(given, weight, s);`.
+bool sample_mirror(vec3 given, vec3 weight, out BrdfSample s) {
+    s.wi = reflect_z(given);
+    s.weight = weight;
+    s.pdf = 0.0;
+    s.delta = true;
+    return true;
+}
+
 // The end of sampling a non-delta lobe, as Rust's BrdfSample::scattered ends it: refuse a
 // direction WI below the horizon or with zero density, otherwise weight = f·cosθ/pdf with PDF
 // the density of the whole mixture at WI and F the BRDF there. A macro, because GLSL has no

@@ -71,10 +71,7 @@ bool cook_torrance_sample(Material m, vec3 given, float u_lobe, vec2 u, out Brdf
     vec3 wi;
     if (u_lobe < ps) {
         if (m.p[0].w < CT_MIRROR_ROUGHNESS) {
-            s.wi = reflect_z(given);
-            s.weight = m.p[1].xyz * ct_fresnel(m, given.z) * (m.p[1].w / ps);
-            s.delta = true;
-            return true;
+            return sample_mirror(given, m.p[1].xyz * ct_fresnel(m, given.z) * (m.p[1].w / ps), s);
         }
         vec3 h = m.p[2].w < 0.5 ? sample_beckmann_h(u, m.p[0].w) : sample_ggx_h(u, m.p[0].w);
         if (!reflect_about(given, h, wi)) return false;

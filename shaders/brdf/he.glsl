@@ -251,10 +251,7 @@ bool he_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s) {
     vec4 lp = he_lobe_probabilities(m, given);
     vec3 wi;
     if (u_lobe < lp.x) {
-        s.wi = reflect_z(given);
-        s.weight = he_specular_reflectance(m, given) / lp.x;
-        s.delta = true;
-        return true;
+        return sample_mirror(given, he_specular_reflectance(m, given) / lp.x, s);
     } else if (u_lobe < lp.x + lp.y) {
         vec3 h = sample_beckmann_h(u, lp.w);
         if (!reflect_about(given, h, wi)) return false;

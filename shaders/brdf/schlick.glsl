@@ -183,10 +183,7 @@ bool schlick_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample
     vec4 pr = schlick_lobe_probabilities(m, given);
     vec3 wi;
     if (u_lobe < pr.w) {
-        s.wi = reflect_z(given);
-        s.weight = schlick_mirror_reflectance(m, given) / pr.w;
-        s.delta = true;
-        return true;
+        return sample_mirror(given, schlick_mirror_reflectance(m, given) / pr.w, s);
     } else if (u_lobe < pr.w + pr.x + pr.y) {
         vec3 h;
         if (u_lobe < pr.w + pr.x) h = schlick_sample_glossy_h(m.p[0].w, m.p[2].x, cs, sn, u);
