@@ -244,7 +244,7 @@ vec3 sample_ggx_h(vec2 u, float alpha) {
 
 // Clears `s` to "no sample" (an out parameter is written on every path) and says whether
 // sampling may go on: not for a `given` direction below the horizon. Every <model>_sample
-// starts with `if (!sample_begin(given, s)) return false;`.
+// (Ward's in ward_sample_local) starts with `if (!sample_begin(given, s)) return false;`.
 bool sample_begin(vec3 given, out BrdfSample s) {
     s.wi = vec3(0.0, 0.0, 1.0);
     s.weight = vec3(0.0);
