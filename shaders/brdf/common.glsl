@@ -260,6 +260,14 @@ float diffuse_pdf(vec3 given, vec3 sampled) {
     return cosine_hemisphere_pdf(sampled.z);
 }
 
+// The pdf of the models with one specular lobe beside a Lambertian one (Phong, Blinn–Phong,
+// Ward): the specular lobe, of density `ps` at `sampled`, is sampled with probability p_spec
+// (u_lobe < p_spec in their samplers), the cosine-weighted diffuse lobe otherwise. For
+// directions both above the surface (the caller checks).
+float diffuse_specular_pdf(float p_spec, float ps, vec3 sampled) {
+    return (1.0 - p_spec) * cosine_hemisphere_pdf(sampled.z) + p_spec * ps;
+}
+
 // The sample of the diffuse models (Lambert, Oren–Nayar): a cosine-weighted direction s.wi and
 // its pdf; false when `given` is not above the surface or the pdf is 0. The model then sets
 // s.weight = f·cosθ/pdf, written out (no 0/0 at the horizon).

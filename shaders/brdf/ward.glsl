@@ -79,8 +79,6 @@ vec3 ward_eval_local(Material m, vec3 wi, vec3 wo) {
 
 float ward_pdf_local(Material m, vec3 given, vec3 sampled) {
     if (!same_hemisphere_up(given, sampled)) return 0.0;
-    float p_spec = m.p[1].w;
-    float pd = cosine_hemisphere_pdf(sampled.z);
     float ps = 0.0;
     vec3 h;
     float len2;
@@ -88,11 +86,12 @@ float ward_pdf_local(Material m, vec3 given, vec3 sampled) {
         vec2 alpha = ward_alpha(m);
         float e = ward_exponent(alpha, h);
         if (e < WARD_MAX_EXPONENT) {
+            // D_B(h) cosθh / (4 given·h) = E/(4π αx αy (given·h) hz³).
             float hz3 = h.z * h.z * h.z;
             ps = exp(-e) / (4.0 * PI * alpha.x * alpha.y * max(dot(given, h), 1e-10) * hz3);
         }
     }
-    return (1.0 - p_spec) * pd + p_spec * ps;
+    return diffuse_specular_pdf(m.p[1].w, ps, sampled);
 }
 
 vec3 ward_eval(Material m, vec3 wi, vec3 wo) {
