@@ -36,6 +36,20 @@ uint bvh_prim(uint i) { return texelFetch(bvh_prims, int(i)).x; }
 vec4 tri_texel(uint i) { return uintBitsToFloat(texelFetch(tri_data, int(i))); }
 vec4 sphere_texel(uint i) { return uintBitsToFloat(texelFetch(sphere_data, int(i))); }
 
+// Triangle i's three texels: the vertices v0, v1, v2 in .xyz, the material and emitter bits in
+// v0.w and v1.w (layout above).
+void triangle_texels(uint i, out vec4 v0, out vec4 v1, out vec4 v2) {
+    v0 = tri_texel(3u * i);
+    v1 = tri_texel(3u * i + 1u);
+    v2 = tri_texel(3u * i + 2u);
+}
+
+// Sphere i's two texels: (center, radius) and (material, emitter, inward, 0) as bits.
+void sphere_texels(uint i, out vec4 center_radius, out uvec4 info) {
+    center_radius = sphere_texel(2u * i);
+    info = floatBitsToUint(sphere_texel(2u * i + 1u));
+}
+
 struct Hit {
     float t;
     uint prim;   // primitive reference

@@ -39,8 +39,6 @@ vec3 blinn_phong_eval(Material m, vec3 wi, vec3 wo) {
 
 float blinn_phong_pdf(Material m, vec3 given, vec3 sampled) {
     if (!same_hemisphere_up(given, sampled)) return 0.0;
-    float p_spec = m.p[2].x;
-    float pd = cosine_hemisphere_pdf(sampled.z);
     float ps = 0.0;
     vec3 h;
     float x;
@@ -49,7 +47,7 @@ float blinn_phong_pdf(Material m, vec3 given, vec3 sampled) {
         float pdf_h = (e + 1.0) * (0.5 * INV_PI) * pow_one_minus(x, e);
         ps = pdf_h / (4.0 * max(dot(given, h), 1e-10));
     }
-    return (1.0 - p_spec) * pd + p_spec * ps;
+    return diffuse_specular_pdf(m.p[2].x, ps, sampled);
 }
 
 bool blinn_phong_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s) {

@@ -223,13 +223,28 @@ vec3 sample_ggx_h(vec2 u, float alpha) {
     return half_vector_from_tan2(tan2, u.y);
 }
 
+// The solid-angle density at SAMPLED of a lobe that samples a half vector and reflects GIVEN
+// about it: PDF_H / (4 GIVEN·H), with PDF_H the half vector's density (cosθh included), an
+// expression in H = normalize(GIVEN + SAMPLED); 4 GIVEN·H is the Jacobian of the reflection
+// (Walter et al. 2007). 0 when GIVEN·H <= 0, where reflect_about rejects the sample. A macro,
+// as RETURN_SCATTERED, because GLSL has no closures: H names the half vector for PDF_H. Returns
+// from the function; every model whose lobe samples h and reflects (Cook–Torrance, He, Schlick)
+// uses it.
+#define RETURN_REFLECTED_PDF(GIVEN, SAMPLED, H, PDF_H) \
+    { \
+        vec3 H = normalize((GIVEN) + (SAMPLED)); \
+        float c_reflected = dot(GIVEN, H); \
+        if (c_reflected <= 0.0) return 0.0; \
+        return (PDF_H) / (4.0 * c_reflected); \
+    }
+
 // ---------------------------------------------------------------------------------------------
 // The start and the end of every <model>_sample
 // ---------------------------------------------------------------------------------------------
 
 // Clears `s` to "no sample" (an out parameter is written on every path) and says whether
 // sampling may go on: not for a `given` direction below the horizon. Every <model>_sample
-// starts with `if (!sample_begin(given, s)) return false;`.
+// (Ward's in ward_sample_local) starts with `if (!sample_begin(given, s)) return false;`.
 bool sample_begin(vec3 given, out BrdfSample s) {
     s.wi = vec3(0.0, 0.0, 1.0);
     s.weight = vec3(0.0);
@@ -245,6 +260,14 @@ float diffuse_pdf(vec3 given, vec3 sampled) {
     return cosine_hemisphere_pdf(sampled.z);
 }
 
+// The pdf of the models with one specular lobe beside a Lambertian one (Phong, Blinn–Phong,
+// Ward): the specular lobe, of density `ps` at `sampled`, is sampled with probability p_spec
+// (u_lobe < p_spec in their samplers), the cosine-weighted diffuse lobe otherwise. For
+// directions both above the surface (the caller checks).
+float diffuse_specular_pdf(float p_spec, float ps, vec3 sampled) {
+    return (1.0 - p_spec) * cosine_hemisphere_pdf(sampled.z) + p_spec * ps;
+}
+
 // The sample of the diffuse models (Lambert, Oren–Nayar): a cosine-weighted direction s.wi and
 // its pdf; false when `given` is not above the surface or the pdf is 0. The model then sets
 // s.weight = f·cosθ/pdf, written out (no 0/0 at the horizon).
@@ -253,6 +276,18 @@ bool sample_diffuse(vec3 given, vec2 u, out BrdfSample s) {
     s.wi = sample_cosine_hemisphere(u);
     s.pdf = cosine_hemisphere_pdf(s.wi.z);
     return !(s.pdf <= 0.0);
+}
+
+// The sample of a delta mirror lobe (Cook–Torrance below its mirror roughness, He's specular
+// lobe, Schlick's mirror): wi = reflect_z(given), no pdf, and `weight` the lobe's reflectance
+// divided by the probability of choosing it. Returns true: a sampler ends with
+// `return sample_mirror(given, weight, s);`.
+bool sample_mirror(vec3 given, vec3 weight, out BrdfSample s) {
+    s.wi = reflect_z(given);
+    s.weight = weight;
+    s.pdf = 0.0;
+    s.delta = true;
+    return true;
 }
 
 // The end of sampling a non-delta lobe, as Rust's BrdfSample::scattered ends it: refuse a

@@ -54,10 +54,7 @@ float ct_specular_probability(Material m, float cos_given) {
 }
 
 float ct_specular_pdf(Material m, vec3 given, vec3 sampled) {
-    vec3 h = normalize(given + sampled);
-    float c = dot(given, h);
-    if (c <= 0.0) return 0.0;
-    return ct_ndf(m, h) * h.z / (4.0 * c);
+    RETURN_REFLECTED_PDF(given, sampled, h, ct_ndf(m, h) * h.z);
 }
 
 float cook_torrance_pdf(Material m, vec3 given, vec3 sampled) {
@@ -74,10 +71,7 @@ bool cook_torrance_sample(Material m, vec3 given, float u_lobe, vec2 u, out Brdf
     vec3 wi;
     if (u_lobe < ps) {
         if (m.p[0].w < CT_MIRROR_ROUGHNESS) {
-            s.wi = reflect_z(given);
-            s.weight = m.p[1].xyz * ct_fresnel(m, given.z) * (m.p[1].w / ps);
-            s.delta = true;
-            return true;
+            return sample_mirror(given, m.p[1].xyz * ct_fresnel(m, given.z) * (m.p[1].w / ps), s);
         }
         vec3 h = m.p[2].w < 0.5 ? sample_beckmann_h(u, m.p[0].w) : sample_ggx_h(u, m.p[0].w);
         if (!reflect_about(given, h, wi)) return false;

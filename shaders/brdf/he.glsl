@@ -96,6 +96,17 @@ float he_log_ratio(float g, float c, float m) {
 #define HE_WINDOW_DROP 40.0
 #define HE_BISECTION_STEPS 40
 
+// Bisection of an integer bracket [A, B] (float variables) until B - A <= 1, at most
+// HE_BISECTION_STEPS halvings: the midpoint MID replaces B where TO_B (an expression in MID)
+// holds, A otherwise. A macro because GLSL has no closures; the three searches of
+// he_series (the Rust series_window's three loops) use it.
+#define HE_BISECT(A, B, MID, TO_B) \
+    for (int i_bisect = 0; i_bisect < HE_BISECTION_STEPS; ++i_bisect) { \
+        if (B - A <= 1.0) break; \
+        float MID = floor(0.5 * (A + B)); \
+        if (TO_B) B = MID; else A = MID; \
+    }
+
 bool he_up_ok(float g, float c, float m, float peak) {
     float lr = he_log_ratio(g, c, m);
     return lr < 0.0 && he_log_term(g, c, m) - log(expm1_f(-lr)) <= peak;
@@ -116,31 +127,19 @@ float he_series(float g, float c) {
     if (!(he_log_ratio(g, c, 1.0) < 0.0)) {
         float a = 1.0;
         float b = ceil(max(2.0 * g, start)) + 1.0;
-        for (int i = 0; i < HE_BISECTION_STEPS; ++i) {
-            if (b - a <= 1.0) break;
-            float mid = floor(0.5 * (a + b));
-            if (he_log_ratio(g, c, mid) < 0.0) b = mid; else a = mid;
-        }
+        HE_BISECT(a, b, mid, he_log_ratio(g, c, mid) < 0.0)  // smallest m with ln ρ(m) < 0
         mode = b;
     }
     float peak = he_log_term(g, c, mode) - HE_WINDOW_DROP;
     float a = mode;
     float b = ceil(max(4.0 * g, start)) + 60.0;
     if (he_up_ok(g, c, a, peak)) b = a;
-    for (int i = 0; i < HE_BISECTION_STEPS; ++i) {
-        if (b - a <= 1.0) break;
-        float mid = floor(0.5 * (a + b));
-        if (he_up_ok(g, c, mid, peak)) b = mid; else a = mid;
-    }
+    HE_BISECT(a, b, mid, he_up_ok(g, c, mid, peak))  // smallest m >= mode with he_up_ok
     float hi = b;
     a = 1.0;
     b = mode;
     if (he_lo_ok(g, c, b, peak)) a = b;
-    for (int i = 0; i < HE_BISECTION_STEPS; ++i) {
-        if (b - a <= 1.0) break;
-        float mid = floor(0.5 * (a + b));
-        if (he_lo_ok(g, c, mid, peak)) a = mid; else b = mid;
-    }
+    HE_BISECT(a, b, mid, !he_lo_ok(g, c, mid, peak))  // largest m <= mode with he_lo_ok
     float lo = a;
     float count = hi - lo + 1.0;
     float stride = max(ceil(count / float(HE_MAX_TERMS)), 1.0);
@@ -235,10 +234,7 @@ vec4 he_lobe_probabilities(Material m, vec3 given) {
 }
 
 float he_beckmann_lobe_pdf(float ms, vec3 given, vec3 sampled) {
-    vec3 h = normalize(given + sampled);
-    float c = dot(given, h);
-    if (c <= 0.0) return 0.0;
-    return beckmann_d(h, ms) * h.z / (4.0 * c);
+    RETURN_REFLECTED_PDF(given, sampled, h, beckmann_d(h, ms) * h.z);
 }
 
 float he_pdf(Material m, vec3 given, vec3 sampled) {
@@ -254,10 +250,7 @@ bool he_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s) {
     vec4 lp = he_lobe_probabilities(m, given);
     vec3 wi;
     if (u_lobe < lp.x) {
-        s.wi = reflect_z(given);
-        s.weight = he_specular_reflectance(m, given) / lp.x;
-        s.delta = true;
-        return true;
+        return sample_mirror(given, he_specular_reflectance(m, given) / lp.x, s);
     } else if (u_lobe < lp.x + lp.y) {
         vec3 h = sample_beckmann_h(u, lp.w);
         if (!reflect_about(given, h, wi)) return false;

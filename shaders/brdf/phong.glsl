@@ -25,10 +25,8 @@ vec3 phong_eval(Material m, vec3 wi, vec3 wo) {
 float phong_pdf(Material m, vec3 given, vec3 sampled) {
     if (!same_hemisphere_up(given, sampled)) return 0.0;
     float n = m.p[0].w;
-    float p_spec = m.p[2].x;
-    float pd = cosine_hemisphere_pdf(sampled.z);
     float ps = (n + 1.0) * (0.5 * INV_PI) * phong_lobe(n, given, sampled);
-    return (1.0 - p_spec) * pd + p_spec * ps;
+    return diffuse_specular_pdf(m.p[2].x, ps, sampled);
 }
 
 bool phong_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s) {

@@ -150,10 +150,8 @@ vec3 schlick_sample_glossy_h(float r, float p, float cs, float sn, vec2 u) {
 }
 
 float schlick_glossy_pdf(float r, float p, float cs, float sn, vec3 given, vec3 sampled) {
-    vec3 h = normalize(given + sampled);
-    float c = dot(given, h);
-    if (c <= 0.0) return 0.0;
-    return schlick_zenith(r, h) * h.z * schlick_azimuth2(p, cs, sn, h) * INV_PI / (4.0 * c);
+    RETURN_REFLECTED_PDF(given, sampled, h,
+                         schlick_zenith(r, h) * h.z * schlick_azimuth2(p, cs, sn, h) * INV_PI);
 }
 
 vec3 schlick_sample_uniform_hemisphere(vec2 u) {
@@ -185,10 +183,7 @@ bool schlick_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample
     vec4 pr = schlick_lobe_probabilities(m, given);
     vec3 wi;
     if (u_lobe < pr.w) {
-        s.wi = reflect_z(given);
-        s.weight = schlick_mirror_reflectance(m, given) / pr.w;
-        s.delta = true;
-        return true;
+        return sample_mirror(given, schlick_mirror_reflectance(m, given) / pr.w, s);
     } else if (u_lobe < pr.w + pr.x + pr.y) {
         vec3 h;
         if (u_lobe < pr.w + pr.x) h = schlick_sample_glossy_h(m.p[0].w, m.p[2].x, cs, sn, u);

@@ -79,8 +79,6 @@ vec3 ward_eval_local(Material m, vec3 wi, vec3 wo) {
 
 float ward_pdf_local(Material m, vec3 given, vec3 sampled) {
     if (!same_hemisphere_up(given, sampled)) return 0.0;
-    float p_spec = m.p[1].w;
-    float pd = cosine_hemisphere_pdf(sampled.z);
     float ps = 0.0;
     vec3 h;
     float len2;
@@ -88,11 +86,12 @@ float ward_pdf_local(Material m, vec3 given, vec3 sampled) {
         vec2 alpha = ward_alpha(m);
         float e = ward_exponent(alpha, h);
         if (e < WARD_MAX_EXPONENT) {
+            // D_B(h) cosθh / (4 given·h) = E/(4π αx αy (given·h) hz³).
             float hz3 = h.z * h.z * h.z;
             ps = exp(-e) / (4.0 * PI * alpha.x * alpha.y * max(dot(given, h), 1e-10) * hz3);
         }
     }
-    return (1.0 - p_spec) * pd + p_spec * ps;
+    return diffuse_specular_pdf(m.p[1].w, ps, sampled);
 }
 
 vec3 ward_eval(Material m, vec3 wi, vec3 wo) {
@@ -103,9 +102,11 @@ float ward_pdf(Material m, vec3 given, vec3 sampled) {
     return ward_pdf_local(m, ward_rotate_in(m, given), ward_rotate_in(m, sampled));
 }
 
-bool ward_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s) {
-    if (!sample_begin(given, s)) return false;
-    vec3 g = ward_rotate_in(m, given);
+// Sampling in the rotated frame, g the given direction there (rotations about z keep g.z =
+// given.z); ward_sample rotates the sampled direction back, as the Rust sample does after
+// BrdfSample::scattered.
+bool ward_sample_local(Material m, vec3 g, float u_lobe, vec2 u, out BrdfSample s) {
+    if (!sample_begin(g, s)) return false;
     vec3 wi;
     if (u_lobe < m.p[1].w) {
         // Anisotropic Beckmann slopes (Walter 2005 with the quadrant fix, trig-free).
@@ -119,12 +120,12 @@ bool ward_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s)
     } else {
         wi = sample_cosine_hemisphere(u);
     }
-    if (wi.z <= 0.0) return false;
-    float p = ward_pdf_local(m, g, wi);
-    if (p <= 0.0) return false;
-    s.wi = ward_rotate_out(m, wi);
-    s.pdf = p;
-    s.weight = ward_eval_local(m, wi, g) * (wi.z / p);
+    RETURN_SCATTERED(wi, ward_pdf_local(m, g, wi), ward_eval_local(m, wi, g));
+}
+
+bool ward_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s) {
+    if (!ward_sample_local(m, ward_rotate_in(m, given), u_lobe, u, s)) return false;
+    s.wi = ward_rotate_out(m, s.wi);
     return true;
 }
 

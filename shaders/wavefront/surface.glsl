@@ -104,8 +104,9 @@ struct Surface {
 
 Surface surface_sphere(uint i, float t, vec3 o, vec3 d) {
     Surface s;
-    vec4 cr = sphere_texel(2u * i);
-    uvec4 info = floatBitsToUint(sphere_texel(2u * i + 1u));
+    vec4 cr;
+    uvec4 info;
+    sphere_texels(i, cr, info);
     vec3 outward = normalize(o + d * t - cr.xyz);
     sphere_point(cr.xyz, outward, cr.w, s.p, s.p_err);
     s.ng = info.z != 0u ? -outward : outward;
@@ -120,9 +121,8 @@ Surface surface_sphere(uint i, float t, vec3 o, vec3 d) {
 // of the scene has them (defines SCENE_SHADING_NORMALS, SCENE_UVS).
 Surface surface_triangle(uint prim, vec2 bary, vec3 d) {
     Surface s;
-    vec4 a = tri_texel(3u * prim);
-    vec4 b = tri_texel(3u * prim + 1u);
-    vec4 c = tri_texel(3u * prim + 2u);
+    vec4 a, b, c;
+    triangle_texels(prim, a, b, c);
     float b1 = bary.x;
     float b2 = bary.y;
     float b0 = 1.0 - b1 - b2;
@@ -194,8 +194,9 @@ struct LightSample { vec3 p; vec3 p_err; vec3 n; vec3 radiance; float density; }
 
 LightSample sample_sphere_light(uint i, float u1, float u2) {
     LightSample ls;
-    vec4 cr = sphere_texel(2u * i);
-    uvec4 info = floatBitsToUint(sphere_texel(2u * i + 1u));
+    vec4 cr;
+    uvec4 info;
+    sphere_texels(i, cr, info);
     float z = 1.0 - 2.0 * u1;
     float r = sqrt(max(1.0 - z * z, 0.0));
     float phi = 2.0 * PI * u2;
@@ -209,9 +210,8 @@ LightSample sample_sphere_light(uint i, float u1, float u2) {
 
 LightSample sample_triangle_light(uint prim, float u1, float u2) {
     LightSample ls;
-    vec4 a = tri_texel(3u * prim);
-    vec4 b = tri_texel(3u * prim + 1u);
-    vec4 c = tri_texel(3u * prim + 2u);
+    vec4 a, b, c;
+    triangle_texels(prim, a, b, c);
     float su = sqrt(u1);
     float b0 = 1.0 - su;
     float b1 = u2 * su;
