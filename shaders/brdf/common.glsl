@@ -229,7 +229,7 @@ vec3 sample_ggx_h(vec2 u, float alpha) {
 // (Walter et al. 2007). 0 when GIVEN·H <= 0, where reflect_about rejects the sample. A macro,
 // as RETURN_SCATTERED, because GLSL has no closures: H names the half vector for PDF_H. Returns
 // from the function; every model whose lobe samples h and reflects (Cook–Torrance, He, Schlick)
-// uses it.
+// uses it. Rust: reflected_pdf.
 #define RETURN_REFLECTED_PDF(GIVEN, SAMPLED, H, PDF_H) \
     { \
         vec3 H = normalize((GIVEN) + (SAMPLED)); \
@@ -263,7 +263,7 @@ float diffuse_pdf(vec3 given, vec3 sampled) {
 // The pdf of the models with one specular lobe beside a Lambertian one (Phong, Blinn–Phong,
 // Ward): the specular lobe, of density `ps` at `sampled`, is sampled with probability p_spec
 // (u_lobe < p_spec in their samplers), the cosine-weighted diffuse lobe otherwise. For
-// directions both above the surface (the caller checks).
+// directions both above the surface (the caller checks). Rust: diffuse_specular_pdf.
 float diffuse_specular_pdf(float p_spec, float ps, vec3 sampled) {
     return (1.0 - p_spec) * cosine_hemisphere_pdf(sampled.z) + p_spec * ps;
 }
@@ -281,7 +281,7 @@ bool sample_diffuse(vec3 given, vec2 u, out BrdfSample s) {
 // The sample of a delta mirror lobe (Cook–Torrance below its mirror roughness, He's specular
 // lobe, Schlick's mirror): wi = reflect_z(given), no pdf, and `weight` the lobe's reflectance
 // divided by the probability of choosing it. Returns true: a sampler ends with
-// `return sample_mirror(given, weight, s);`.
+// `return sample_mirror(given, weight, s);`. Rust: BrdfSample::mirror.
 bool sample_mirror(vec3 given, vec3 weight, out BrdfSample s) {
     s.wi = reflect_z(given);
     s.weight = weight;

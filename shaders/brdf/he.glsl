@@ -99,7 +99,7 @@ float he_log_ratio(float g, float c, float m) {
 // Bisection of an integer bracket [A, B] (float variables) until B - A <= 1, at most
 // HE_BISECTION_STEPS halvings: the midpoint MID replaces B where TO_B (an expression in MID)
 // holds, A otherwise. A macro because GLSL has no closures; the three searches of
-// he_series (the Rust series_window's three loops) use it.
+// he_series use it, as the Rust series_window uses bisect.
 #define HE_BISECT(A, B, MID, TO_B) \
     for (int i_bisect = 0; i_bisect < HE_BISECTION_STEPS; ++i_bisect) { \
         if (B - A <= 1.0) break; \
