@@ -6,18 +6,13 @@ use brdfwave::brdf::validate::{
     albedo_quadrature, albedo_sampled, chi2_test, dir_from_theta_deg, reciprocity_error,
 };
 use brdfwave::brdf::{Brdf, Material};
-use common::brdf::{check_sampler, material, materials, rejects, Chi2Config, SamplerCheck, Seeds};
+use common::brdf::{
+    check_sampler, materials, model, rejects_each, Chi2Config, SamplerCheck, Seeds, ANGLES,
+};
 
-fn lambert(rho: [f32; 3]) -> Material {
-    material(&format!(
-        "model = \"lambert\"\nalbedo = [{}, {}, {}]\n",
-        rho[0], rho[1], rho[2]
-    ))
-    .unwrap()
-    .0
+fn lambert([r, g, b]: [f32; 3]) -> Material {
+    model("lambert", &format!("albedo = [{r}, {g}, {b}]"))
 }
-
-const ANGLES: [f32; 5] = [0.0, 30.0, 60.0, 80.0, 89.0];
 
 #[test]
 fn albedo_is_rho_at_every_angle() {
@@ -102,15 +97,16 @@ fn reciprocal() {
 
 #[test]
 fn bad_parameters_are_rejected() {
-    for (src, needles) in [
-        (
-            "albedo = [0.5, 1.5, 0.5]",
-            &["test.toml:2", "albedo", "out of range"][..],
-        ),
-        ("albedo = [0.5, 0.5]", &["albedo", "array of 2"]),
-        ("albdo = 0.5", &["albdo", "unknown field"]),
-        ("albedo = \"grey\"", &["expected a number"]),
-    ] {
-        rejects(&format!("model = \"lambert\"\n{src}\n"), needles);
-    }
+    rejects_each(
+        "lambert",
+        &[
+            (
+                "albedo = [0.5, 1.5, 0.5]",
+                &["test.toml:2", "albedo", "out of range"][..],
+            ),
+            ("albedo = [0.5, 0.5]", &["albedo", "array of 2"]),
+            ("albdo = 0.5", &["albdo", "unknown field"]),
+            ("albedo = \"grey\"", &["expected a number"]),
+        ],
+    );
 }
