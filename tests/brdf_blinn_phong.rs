@@ -4,38 +4,27 @@
 mod common;
 use brdfwave::brdf::validate::{albedo_quadrature, albedo_quadrature_light, dir_from_theta_deg};
 use brdfwave::brdf::Material;
-use common::brdf::{
-    check_albedos, check_lobe_reciprocity, check_sampler, default_evaluates_as, grid,
-    lobe_albedo_table, lobe_sampler, materials, model, rejects_each, warns_once, ANGLES,
-    LOBE_ALBEDO,
-};
+use common::brdf::{rejects_each, warns_once, Lobe};
 use std::f64::consts::PI;
 
-fn bp(kd: f32, ks: f32, n: f32, form: &str) -> Material {
-    model(
-        "blinn_phong",
-        &format!("kd = {kd}\nks = {ks}\nexponent = {n}\nform = \"{form}\""),
-    )
-}
+/// Blinn–Phong's forms; the checks it shares with Phong are `Lobe`'s.
+const BLINN_PHONG: Lobe = Lobe {
+    model: "blinn_phong",
+    forms: ["classic", "normalized"],
+};
 
-const FORMS: [&str; 2] = ["classic", "normalized"];
+fn bp(kd: f32, ks: f32, n: f32, form: &str) -> Material {
+    BLINN_PHONG.material(kd, ks, n, form)
+}
 
 #[test]
 fn default_is_the_classic_form() {
-    default_evaluates_as(
-        "blinn_phong",
-        &bp(0.5, 0.3, 80.0, "classic"),
-        dir_from_theta_deg(50.0, 0.0),
-        dir_from_theta_deg(45.0, 170.0),
-    );
+    BLINN_PHONG.check_default(80.0);
 }
 
 #[test]
 fn sampler_matches_pdf() {
-    let models = grid(&FORMS, &[1.0, 40.0, 1000.0], "n=", |form, n| {
-        bp(0.4, 0.6, n, form)
-    });
-    check_sampler(&materials(&models), &lobe_sampler());
+    BLINN_PHONG.check_sampler(&[1.0, 40.0, 1000.0]);
 }
 
 /// Analytic values at normal incidence (k_s = 1, k_d = 0), derived with c = cos(θ/2):
@@ -64,16 +53,13 @@ fn white_furnace_against_reference_values() {
         eprintln!("normalized n={n}: 0° {a:.5} (analytic 1)");
         assert!((a - 1.0).abs() < 2e-3, "{n}: {a}");
     }
-    let rows = lobe_albedo_table(
-        &[
-            ("classic", 1.0),
-            ("classic", 80.0),
-            ("normalized", 1.0),
-            ("normalized", 80.0),
-            ("normalized", 2000.0),
-        ],
-        |form, n| bp(0.0, 1.0, n, form),
-    );
+    let rows = BLINN_PHONG.albedo_table(&[
+        ("classic", 1.0),
+        ("classic", 80.0),
+        ("normalized", 1.0),
+        ("normalized", 80.0),
+        ("normalized", 2000.0),
+    ]);
     assert!(
         rows[0].iter().all(|a| *a > 2.0),
         "classic n=1 reflects > 2× what it receives: {:?}",
@@ -83,16 +69,12 @@ fn white_furnace_against_reference_values() {
 
 #[test]
 fn sampled_albedo_agrees_with_quadrature() {
-    let models = grid(&FORMS, &[3.0, 300.0], "n=", |form, n| bp(0.3, 0.6, n, form));
-    check_albedos(&materials(&models), &ANGLES, 0.0, &LOBE_ALBEDO);
+    BLINN_PHONG.check_sampled_albedo(&[3.0, 300.0]);
 }
 
 #[test]
 fn reciprocity() {
-    check_lobe_reciprocity(
-        &bp(0.3, 0.6, 10.0, "normalized"),
-        ("classic", &bp(0.0, 1.0, 10.0, "classic")),
-    );
+    BLINN_PHONG.check_reciprocity();
 }
 
 #[test]

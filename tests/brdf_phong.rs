@@ -3,37 +3,26 @@
 mod common;
 use brdfwave::brdf::validate::{albedo_quadrature, albedo_quadrature_light, dir_from_theta_deg};
 use brdfwave::brdf::Material;
-use common::brdf::{
-    check_albedos, check_lobe_reciprocity, check_sampler, default_evaluates_as, grid,
-    lobe_albedo_table, lobe_sampler, materials, model, rejects_each, warns_once, ANGLES,
-    LOBE_ALBEDO,
+use common::brdf::{rejects_each, warns_once, Lobe};
+
+/// Phong's forms; the checks it shares with Blinn–Phong are `Lobe`'s.
+const PHONG: Lobe = Lobe {
+    model: "phong",
+    forms: ["survey", "normalized"],
 };
 
 fn phong(kd: f32, ks: f32, n: f32, form: &str) -> Material {
-    model(
-        "phong",
-        &format!("kd = {kd}\nks = {ks}\nexponent = {n}\nform = \"{form}\""),
-    )
+    PHONG.material(kd, ks, n, form)
 }
-
-const FORMS: [&str; 2] = ["survey", "normalized"];
 
 #[test]
 fn default_is_the_survey_form() {
-    default_evaluates_as(
-        "phong",
-        &phong(0.5, 0.3, 20.0, "survey"),
-        dir_from_theta_deg(50.0, 0.0),
-        dir_from_theta_deg(45.0, 170.0),
-    );
+    PHONG.check_default(20.0);
 }
 
 #[test]
 fn sampler_matches_pdf() {
-    let models = grid(&FORMS, &[1.0, 30.0, 500.0], "n=", |form, n| {
-        phong(0.4, 0.6, n, form)
-    });
-    check_sampler(&materials(&models), &lobe_sampler());
+    PHONG.check_sampler(&[1.0, 30.0, 500.0]);
 }
 
 /// k_s = 1, light direction fixed: survey albedo (Phong 1975) 2π/3 ≈ 2.09 at 0° and 8.725 at
@@ -71,34 +60,25 @@ fn white_furnace_against_reference_values() {
     assert!((a60 - 0.5).abs() < 2e-3, "{a60}");
 
     // Tables for the report; the normalized form never exceeds k_d + k_s = 1.
-    let rows = lobe_albedo_table(
-        &[
-            ("survey", 1.0),
-            ("survey", 20.0),
-            ("normalized", 1.0),
-            ("normalized", 20.0),
-            ("normalized", 1000.0),
-        ],
-        |form, n| phong(0.0, 1.0, n, form),
-    );
+    let rows = PHONG.albedo_table(&[
+        ("survey", 1.0),
+        ("survey", 20.0),
+        ("normalized", 1.0),
+        ("normalized", 20.0),
+        ("normalized", 1000.0),
+    ]);
     // The survey form at n = 1 breaks conservation on both sides (here at 30°).
     assert!(rows[0][1] > 2.0, "survey n=1: {:?}", rows[0]);
 }
 
 #[test]
 fn sampled_albedo_agrees_with_quadrature() {
-    let models = grid(&FORMS, &[3.0, 200.0], "n=", |form, n| {
-        phong(0.3, 0.6, n, form)
-    });
-    check_albedos(&materials(&models), &ANGLES, 0.0, &LOBE_ALBEDO);
+    PHONG.check_sampled_albedo(&[3.0, 200.0]);
 }
 
 #[test]
 fn reciprocity() {
-    check_lobe_reciprocity(
-        &phong(0.3, 0.6, 10.0, "normalized"),
-        ("survey", &phong(0.0, 1.0, 10.0, "survey")),
-    );
+    PHONG.check_reciprocity();
 }
 
 #[test]

@@ -159,57 +159,106 @@ pub fn albedo_row(m: &dyn Brdf, angles: &[f32], n: usize) -> Vec<f64> {
         .collect()
 }
 
-/// The white-furnace table of a lobe model with k_s = 1 for the report: for each (form,
-/// exponent), the albedo at each of [`ANGLES`] with the viewer fixed and with the light fixed
-/// (quadrature 100). The normalized form never exceeds 1 (+ 2·10⁻³) and is the same both ways
-/// (to 2·10⁻³). Returns the viewer-fixed rows in the order of `cases`.
-pub fn lobe_albedo_table(
-    cases: &[(&str, f32)],
-    material: impl Fn(&str, f32) -> Material,
-) -> Vec<Vec<f64>> {
-    let mut rows = Vec::new();
-    for &(form, n) in cases {
-        let m = material(form, n);
-        let row = albedo_row(m.brdf.as_ref(), &ANGLES, 100);
-        let light: Vec<f64> = ANGLES
-            .iter()
-            .map(|&t| albedo_quadrature_light(m.brdf.as_ref(), dir_from_theta_deg(t, 0.0), 100))
-            .collect();
-        eprintln!(
-            "{form:10} n={n:6}: viewer fixed {row:.4?}\n{:20}light fixed  {light:.4?}",
-            ""
-        );
-        if form == "normalized" {
-            for (a, b) in row.iter().zip(&light) {
-                assert!(
-                    *a <= 1.0 + 2e-3 && (a - b).abs() < 2e-3,
-                    "{form} n={n}: {row:?} {light:?}"
-                );
-            }
-        }
-        rows.push(row);
-    }
-    rows
+/// A lobe model with the parameters kd, ks, exponent and form (Phong, Blinn–Phong): its name and
+/// its two forms, the unnormalized one (the default) first, then "normalized". The checks that
+/// both models run are written here once; each model's file gives the exponents as data.
+pub struct Lobe {
+    pub model: &'static str,
+    pub forms: [&'static str; 2],
 }
 
-/// A lobe model's normalized form is reciprocal (to 10⁻⁵; 20 000 pairs, seed 9); its
-/// unnormalized form (`name`, k_d = 0) is not (error > 0.5), but only by the cosine of the
-/// viewer: f(a, b)/f(b, a) = cosθ_b/cosθ_a to 10⁻⁵.
-pub fn check_lobe_reciprocity(normalized: &Material, (name, unnormalized): (&str, &Material)) {
-    let e = reciprocity_error(normalized.brdf.as_ref(), 20_000, 9);
-    assert!(e < 1e-5, "normalized: {e}");
-    let m = unnormalized.brdf.as_ref();
-    let e = reciprocity_error(m, 20_000, 9);
-    assert!(e > 0.5, "{name} claims no reciprocity: {e}");
-    for (ta, tb) in [(20.0, 50.0), (60.0, 10.0), (80.0, 75.0)] {
-        let a = dir_from_theta_deg(ta, 0.0);
-        let b = dir_from_theta_deg(tb, 170.0);
-        let ratio = m.eval(a, b).x / m.eval(b, a).x;
-        let expect = b.z / a.z;
-        assert!(
-            (ratio / expect - 1.0).abs() < 1e-5,
-            "{name} {ta} {tb}: {ratio} vs {expect}"
+impl Lobe {
+    pub fn material(&self, kd: f32, ks: f32, n: f32, form: &str) -> Material {
+        model(
+            self.model,
+            &format!("kd = {kd}\nks = {ks}\nexponent = {n}\nform = \"{form}\""),
+        )
+    }
+
+    /// `model = "…"` alone is the unnormalized form with k_d = 0.5, k_s = 0.3 and exponent `n`.
+    pub fn check_default(&self, n: f32) {
+        default_evaluates_as(
+            self.model,
+            &self.material(0.5, 0.3, n, self.forms[0]),
+            dir_from_theta_deg(50.0, 0.0),
+            dir_from_theta_deg(45.0, 170.0),
         );
+    }
+
+    /// Both forms at each exponent with the given k_d and k_s, named "form n=…".
+    fn forms_at(&self, exponents: &[f32], kd: f32, ks: f32) -> Vec<(String, Material)> {
+        grid(&self.forms, exponents, "n=", |form, n| {
+            self.material(kd, ks, n, form)
+        })
+    }
+
+    /// The [`lobe_sampler`] check of both forms at each exponent (k_d = 0.4, k_s = 0.6).
+    pub fn check_sampler(&self, exponents: &[f32]) {
+        check_sampler(
+            &materials(&self.forms_at(exponents, 0.4, 0.6)),
+            &lobe_sampler(),
+        );
+    }
+
+    /// The [`LOBE_ALBEDO`] check of both forms at each exponent (k_d = 0.3, k_s = 0.6) at each
+    /// of [`ANGLES`] (φ = 0).
+    pub fn check_sampled_albedo(&self, exponents: &[f32]) {
+        let models = self.forms_at(exponents, 0.3, 0.6);
+        check_albedos(&materials(&models), &ANGLES, 0.0, &LOBE_ALBEDO);
+    }
+
+    /// The white-furnace table (k_d = 0, k_s = 1) for the report: for each (form, exponent),
+    /// the albedo at each of [`ANGLES`] with the viewer fixed and with the light fixed
+    /// (quadrature 100). The normalized form never exceeds 1 (+ 2·10⁻³) and is the same both
+    /// ways (to 2·10⁻³). Returns the viewer-fixed rows in the order of `cases`.
+    pub fn albedo_table(&self, cases: &[(&str, f32)]) -> Vec<Vec<f64>> {
+        let mut rows = Vec::new();
+        for &(form, n) in cases {
+            let m = self.material(0.0, 1.0, n, form);
+            let row = albedo_row(m.brdf.as_ref(), &ANGLES, 100);
+            let light: Vec<f64> = ANGLES
+                .iter()
+                .map(|&t| albedo_quadrature_light(m.brdf.as_ref(), dir_from_theta_deg(t, 0.0), 100))
+                .collect();
+            eprintln!(
+                "{form:10} n={n:6}: viewer fixed {row:.4?}\n{:20}light fixed  {light:.4?}",
+                ""
+            );
+            if form == "normalized" {
+                for (a, b) in row.iter().zip(&light) {
+                    assert!(
+                        *a <= 1.0 + 2e-3 && (a - b).abs() < 2e-3,
+                        "{form} n={n}: {row:?} {light:?}"
+                    );
+                }
+            }
+            rows.push(row);
+        }
+        rows
+    }
+
+    /// The normalized form (k_d = 0.3, k_s = 0.6, n = 10) is reciprocal (to 10⁻⁵; 20 000
+    /// pairs, seed 9); the unnormalized form (k_d = 0, k_s = 1, n = 10) is not (error > 0.5),
+    /// but only by the cosine of the viewer: f(a, b)/f(b, a) = cosθ_b/cosθ_a to 10⁻⁵.
+    pub fn check_reciprocity(&self) {
+        let normalized = self.material(0.3, 0.6, 10.0, "normalized");
+        let e = reciprocity_error(normalized.brdf.as_ref(), 20_000, 9);
+        assert!(e < 1e-5, "{} normalized: {e}", self.model);
+        let name = self.forms[0];
+        let unnormalized = self.material(0.0, 1.0, 10.0, name);
+        let m = unnormalized.brdf.as_ref();
+        let e = reciprocity_error(m, 20_000, 9);
+        assert!(e > 0.5, "{name} claims no reciprocity: {e}");
+        for (ta, tb) in [(20.0, 50.0), (60.0, 10.0), (80.0, 75.0)] {
+            let a = dir_from_theta_deg(ta, 0.0);
+            let b = dir_from_theta_deg(tb, 170.0);
+            let ratio = m.eval(a, b).x / m.eval(b, a).x;
+            let expect = b.z / a.z;
+            assert!(
+                (ratio / expect - 1.0).abs() < 1e-5,
+                "{name} {ta} {tb}: {ratio} vs {expect}"
+            );
+        }
     }
 }
 
