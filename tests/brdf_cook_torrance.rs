@@ -16,8 +16,8 @@ use brdfwave::brdf::validate::{
 };
 use brdfwave::brdf::Brdf;
 use common::brdf::{
-    check_reciprocal, check_sampled_albedo, check_sampler, grey, material, mixture_sampler, models,
-    rejects_each, AlbedoCheck, SamplerCheck, ANGLES,
+    check_reciprocal, check_sampled_albedo, check_sampler, grey, material, mixture_albedo,
+    mixture_sampler, models, rejects_each, SamplerCheck, ANGLES,
 };
 use glam::{Vec2, Vec3};
 
@@ -283,14 +283,7 @@ fn sampler_matches_pdf() {
 
 #[test]
 fn sampled_albedo_matches_quadrature_including_the_delta_mirror() {
-    // The quadrature needs a fine grid for a narrow lobe at grazing incidence.
-    let check = AlbedoCheck {
-        quadrature: (60, 120),
-        samples: 100_000,
-        seed: 17,
-        sigmas: 4.0,
-        rel: 3e-3,
-    };
+    let check = mixture_albedo(17);
     for (name, m) in chi2_variants() {
         for th in ANGLES {
             // The delta lobe's reflectance, seen only by the sampler.

@@ -8,8 +8,8 @@ use brdfwave::brdf::he::{self, He};
 mod common;
 use brdfwave::brdf::validate::dir_from_theta_deg;
 use common::brdf::{
-    check_reciprocal, check_sampled_albedo, check_sampler, grey, material, mixture_sampler, models,
-    rejects_each, AlbedoCheck, SamplerCheck, ANGLES,
+    check_reciprocal, check_sampled_albedo, check_sampler, grey, material, mixture_albedo,
+    mixture_sampler, models, rejects_each, AlbedoCheck, SamplerCheck, ANGLES,
 };
 use glam::Vec3;
 
@@ -193,9 +193,8 @@ fn sampled_albedo_matches_quadrature_plus_delta() {
     let check = AlbedoCheck {
         quadrature: (40, 80),
         samples: 20_000,
-        seed: 21,
-        sigmas: 4.0,
         rel: 5e-3,
+        ..mixture_albedo(21)
     };
     for (name, m) in variants() {
         for th in ANGLES {

@@ -9,8 +9,8 @@ mod common;
 use brdfwave::brdf::validate::{albedo_quadrature, dir_from_theta_deg};
 use brdfwave::brdf::{Brdf, BrdfSample, Params};
 use common::brdf::{
-    check_reciprocal, check_sampled_albedo, check_sampler, grey, material, mixture_sampler, models,
-    rejects_each, AlbedoCheck, ANGLES,
+    check_reciprocal, check_sampled_albedo, check_sampler, grey, material, mixture_albedo,
+    mixture_sampler, models, rejects_each, ANGLES,
 };
 use glam::{Vec2, Vec3};
 
@@ -248,13 +248,7 @@ fn sampler_matches_pdf() {
 
 #[test]
 fn sampled_albedo_matches_quadrature_plus_delta() {
-    let check = AlbedoCheck {
-        quadrature: (60, 120),
-        samples: 100_000,
-        seed: 31,
-        sigmas: 4.0,
-        rel: 3e-3,
-    };
+    let check = mixture_albedo(31);
     for (name, m) in variants() {
         // The survey forms' albedo diverges at grazing: compare them up to 80°.
         let angles = if m.form == Form::Continuum {
