@@ -139,23 +139,17 @@ fn white_furnace_against_reference_values() {
 #[test]
 fn anisotropic_albedo_and_rotation() {
     // The rotation turns the lobe but not its albedo at normal incidence, and a rotation by 90°
-    // swaps the axes.
-    let z = dir_from_theta_deg(0.0, 0.0);
-    let a = ward(0.0, 1.0, 0.05, 0.2, "duer2006", 0.0);
-    let b = ward(0.0, 1.0, 0.05, 0.2, "duer2006", 37.0);
-    let (ra, rb) = (
-        albedo_quadrature(a.brdf.as_ref(), z, 60),
-        albedo_quadrature(b.brdf.as_ref(), z, 60),
-    );
+    // swaps the axes. The albedo of Dür 2006 with k_s = 1 at the direction (θ, φ) in degrees:
+    let albedo = |ax, ay, rot, (t, p)| {
+        let m = ward(0.0, 1.0, ax, ay, "duer2006", rot);
+        albedo_quadrature(m.brdf.as_ref(), dir_from_theta_deg(t, p), 60)
+    };
+    let z = (0.0, 0.0);
+    let (ra, rb) = (albedo(0.05, 0.2, 0.0, z), albedo(0.05, 0.2, 37.0, z));
     eprintln!("duer2006 αx=0.05 αy=0.2, 0°: {ra:.4} (rotated 37°: {rb:.4})");
     assert!((ra - rb).abs() < 2e-3 && ra < 1.0 && ra > 0.9, "{ra} {rb}");
-    let w = dir_from_theta_deg(60.0, 90.0);
-    let c = ward(0.0, 1.0, 0.2, 0.05, "duer2006", 90.0);
-    let d = ward(0.0, 1.0, 0.05, 0.2, "duer2006", 0.0);
-    let (rc, rd) = (
-        albedo_quadrature(c.brdf.as_ref(), w, 60),
-        albedo_quadrature(d.brdf.as_ref(), w, 60),
-    );
+    let w = (60.0, 90.0);
+    let (rc, rd) = (albedo(0.2, 0.05, 90.0, w), albedo(0.05, 0.2, 0.0, w));
     assert!((rc - rd).abs() < 2e-3, "{rc} {rd}");
 }
 
