@@ -7,9 +7,10 @@ use brdfwave::brdf::validate::{
     albedo_quadrature, albedo_quadrature_light, albedo_sampled, chi2_test_with, dir_from_theta_deg,
     material_from_toml, reciprocity_error, sample_consistency, sidak, Chi2Result,
 };
-use brdfwave::brdf::{Brdf, Material};
-use glam::Vec3;
+use brdfwave::brdf::{Brdf, BrdfSample, Material, Params};
+use glam::{Vec2, Vec3};
 use std::fmt::Display;
+use std::sync::Arc;
 
 /// A material from the fields of one `[materials.x]` table, named `test.toml` in messages.
 pub fn material(src: &str) -> Result<(Material, Vec<String>), String> {
@@ -273,6 +274,42 @@ impl Lobe {
                 "{name} {ta} {tb}: {ratio} vs {expect}"
             );
         }
+    }
+}
+
+/// A model that is `inner` with its pdf or its samples tampered with, to show that a check or a
+/// counter catches the fault. Everything not replaced is `inner`'s.
+#[derive(Debug)]
+pub struct Tampered {
+    pub inner: Arc<dyn Brdf>,
+    /// Replaces the pdf of (given, sampled).
+    pub pdf: Option<fn(Vec3, Vec3) -> f32>,
+    /// Changes each sample, given the random numbers `u` that drew it.
+    pub sample: Option<fn(&mut BrdfSample, Vec2)>,
+}
+
+impl Brdf for Tampered {
+    fn eval(&self, wi: Vec3, wo: Vec3) -> Vec3 {
+        self.inner.eval(wi, wo)
+    }
+    fn pdf(&self, given: Vec3, sampled: Vec3) -> f32 {
+        match self.pdf {
+            Some(pdf) => pdf(given, sampled),
+            None => self.inner.pdf(given, sampled),
+        }
+    }
+    fn sample(&self, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
+        let mut s = self.inner.sample(given, u_lobe, u)?;
+        if let Some(tamper) = self.sample {
+            tamper(&mut s, u);
+        }
+        Some(s)
+    }
+    fn pack(&self) -> Params {
+        self.inner.pack()
+    }
+    fn scatters(&self) -> bool {
+        self.inner.scatters()
     }
 }
 
