@@ -2,45 +2,29 @@
 //! through the validation harness.
 
 mod common;
-use brdfwave::brdf::validate::{
-    albedo_quadrature, albedo_quadrature_light, dir_from_theta_deg, reciprocity_error,
-};
+use brdfwave::brdf::validate::{albedo_quadrature, albedo_quadrature_light, dir_from_theta_deg};
 use brdfwave::brdf::Material;
-use common::brdf::{
-    check_lobe_albedo, check_sampler, default_evaluates_as, lobe_sampler, material, materials,
-    rejects, warns_once,
-};
+use common::brdf::{rejects_each, warns_once, Lobe};
 use std::f64::consts::PI;
 
-fn bp(kd: f32, ks: f32, n: f32, form: &str) -> Material {
-    let src = format!(
-        "model = \"blinn_phong\"\nkd = {kd}\nks = {ks}\nexponent = {n}\nform = \"{form}\"\n"
-    );
-    material(&src).unwrap().0
-}
+/// Blinn–Phong's forms; the checks it shares with Phong are `Lobe`'s.
+const BLINN_PHONG: Lobe = Lobe {
+    model: "blinn_phong",
+    forms: ["classic", "normalized"],
+};
 
-const FORMS: [&str; 2] = ["classic", "normalized"];
-const ANGLES: [f32; 5] = [0.0, 30.0, 60.0, 80.0, 89.0];
+fn bp(kd: f32, ks: f32, n: f32, form: &str) -> Material {
+    BLINN_PHONG.material(kd, ks, n, form)
+}
 
 #[test]
 fn default_is_the_classic_form() {
-    default_evaluates_as(
-        "blinn_phong",
-        &bp(0.5, 0.3, 80.0, "classic"),
-        dir_from_theta_deg(50.0, 0.0),
-        dir_from_theta_deg(45.0, 170.0),
-    );
+    BLINN_PHONG.check_default(80.0);
 }
 
 #[test]
 fn sampler_matches_pdf() {
-    let mut models = Vec::new();
-    for form in FORMS {
-        for n in [1.0, 40.0, 1000.0] {
-            models.push((format!("{form} n={n}"), bp(0.4, 0.6, n, form)));
-        }
-    }
-    check_sampler(&materials(&models), &lobe_sampler());
+    BLINN_PHONG.check_sampler(&[1.0, 40.0, 1000.0]);
 }
 
 /// Analytic values at normal incidence (k_s = 1, k_d = 0), derived with c = cos(θ/2):
@@ -69,79 +53,43 @@ fn white_furnace_against_reference_values() {
         eprintln!("normalized n={n}: 0° {a:.5} (analytic 1)");
         assert!((a - 1.0).abs() < 2e-3, "{n}: {a}");
     }
-    for (form, n) in [
+    let rows = BLINN_PHONG.albedo_table(&[
         ("classic", 1.0),
         ("classic", 80.0),
         ("normalized", 1.0),
         ("normalized", 80.0),
         ("normalized", 2000.0),
-    ] {
-        let m = bp(0.0, 1.0, n, form);
-        let row: Vec<f64> = ANGLES
-            .iter()
-            .map(|&t| albedo_quadrature(m.brdf.as_ref(), dir_from_theta_deg(t, 0.0), 100))
-            .collect();
-        let light: Vec<f64> = ANGLES
-            .iter()
-            .map(|&t| albedo_quadrature_light(m.brdf.as_ref(), dir_from_theta_deg(t, 0.0), 100))
-            .collect();
-        eprintln!(
-            "{form:10} n={n:6}: viewer fixed {row:.4?}\n{:20}light fixed  {light:.4?}",
-            ""
-        );
-        if form == "normalized" {
-            for (a, b) in row.iter().zip(&light) {
-                assert!(
-                    *a <= 1.0 + 2e-3 && (a - b).abs() < 2e-3,
-                    "{n}: {row:?} {light:?}"
-                );
-            }
-        } else if n == 1.0 {
-            assert!(
-                row.iter().all(|a| *a > 2.0),
-                "classic n=1 reflects > 2× what it receives: {row:?}"
-            );
-        }
-    }
+    ]);
+    assert!(
+        rows[0].iter().all(|a| *a > 2.0),
+        "classic n=1 reflects > 2× what it receives: {:?}",
+        rows[0]
+    );
 }
 
 #[test]
 fn sampled_albedo_agrees_with_quadrature() {
-    check_lobe_albedo(&FORMS, &[3.0, 300.0], &ANGLES, |form, n| {
-        bp(0.3, 0.6, n, form)
-    });
+    BLINN_PHONG.check_sampled_albedo(&[3.0, 300.0]);
 }
 
 #[test]
 fn reciprocity() {
-    let e = reciprocity_error(bp(0.3, 0.6, 10.0, "normalized").brdf.as_ref(), 20_000, 9);
-    assert!(e < 1e-5, "normalized: {e}");
-    let m = bp(0.0, 1.0, 10.0, "classic");
-    assert!(reciprocity_error(m.brdf.as_ref(), 20_000, 9) > 0.5);
-    for (ta, tb) in [(20.0, 50.0), (60.0, 10.0), (80.0, 75.0)] {
-        let a = dir_from_theta_deg(ta, 0.0);
-        let b = dir_from_theta_deg(tb, 170.0);
-        let ratio = m.brdf.eval(a, b).x / m.brdf.eval(b, a).x;
-        let expect = b.z / a.z;
-        assert!(
-            (ratio / expect - 1.0).abs() < 1e-5,
-            "{ta} {tb}: {ratio} vs {expect}"
-        );
-    }
+    BLINN_PHONG.check_reciprocity();
 }
 
 #[test]
 fn bad_parameters() {
-    for (src, needles) in [
-        (
-            "exponent = 2e6",
-            &["test.toml:2", "exponent", "out of range"][..],
-        ),
-        ("form = \"survey\"", &["form", "classic, normalized"]),
-        ("kd = [0.1, 0.2, -0.3]", &["kd", "-0.3"]),
-    ] {
-        rejects(&format!("model = \"blinn_phong\"\n{src}\n"), needles);
-    }
+    rejects_each(
+        "blinn_phong",
+        &[
+            (
+                "exponent = 2e6",
+                &["test.toml:2", "exponent", "out of range"][..],
+            ),
+            ("form = \"survey\"", &["form", "classic, normalized"]),
+            ("kd = [0.1, 0.2, -0.3]", &["kd", "-0.3"]),
+        ],
+    );
     warns_once(
         "model = \"blinn_phong\"\nform = \"normalized\"\nkd = 0.6\nks = 0.6\n",
         &["kd + ks = 1.200"],

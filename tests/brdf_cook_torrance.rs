@@ -12,10 +12,13 @@ use brdfwave::brdf::cook_torrance::{
 };
 mod common;
 use brdfwave::brdf::validate::{
-    albedo_quadrature, albedo_quadrature_rgb, albedo_sampled, dir_from_theta_deg, reciprocity_error,
+    albedo_quadrature, albedo_quadrature_rgb, dir_from_theta_deg, reciprocity_error,
 };
 use brdfwave::brdf::Brdf;
-use common::brdf::{check_sampler, material, models, Chi2Config, SamplerCheck, Seeds};
+use common::brdf::{
+    check_reciprocal, check_sampled_albedo, check_sampler, grey, material, mixture_albedo,
+    mixture_sampler, models, rejects_each, SamplerCheck, ANGLES,
+};
 use glam::{Vec2, Vec3};
 
 /// F ≡ 1 (Schlick with f0 = 1), no diffuse: the setting of the §7 table.
@@ -272,50 +275,32 @@ fn sampler_matches_pdf() {
         &models(&vs),
         &SamplerCheck {
             angles: &[10.0, 45.0, 80.0],
-            phi: 30.0,
-            chi2_samples: 100_000,
-            seeds: Seeds::Same(3),
-            grid: Chi2Config::default(),
             integral: Some(0.01),
-            consistency_samples: 5000,
-            consistency_seed: 8,
-            pdf_rel: 1e-4,
-            weight_rel: 1e-3,
+            ..mixture_sampler(30.0, 3)
         },
     );
 }
 
 #[test]
 fn sampled_albedo_matches_quadrature_including_the_delta_mirror() {
+    let check = mixture_albedo(17);
     for (name, m) in chi2_variants() {
-        for th in [0.0, 30.0, 60.0, 80.0, 89.0] {
-            let wo = dir_from_theta_deg(th, 10.0);
-            // The quadrature needs a fine grid for a narrow lobe at grazing incidence.
-            let q = albedo_quadrature(&m, wo, if th >= 80.0 { 120 } else { 60 });
+        for th in ANGLES {
+            // The delta lobe's reflectance, seen only by the sampler.
             let delta = if m.is_mirror() {
-                // The delta lobe's reflectance, seen only by the sampler.
-                let f = m.ks * cook_torrance::fresnel(&m, wo.z) * m.norm_factor();
-                ((f.x + f.y + f.z) / 3.0) as f64
+                let cos = dir_from_theta_deg(th, 10.0).z;
+                grey(m.ks * cook_torrance::fresnel(&m, cos) * m.norm_factor())
             } else {
                 0.0
             };
-            let n = 100_000;
-            let (s, var) = albedo_sampled(&m, wo, n, 17);
-            let tol = 4.0 * (var / n as f64).sqrt() + 3e-3 * (q + delta);
-            assert!(
-                (s - (q + delta)).abs() < tol,
-                "{name} θ={th}: sampled {s} vs quadrature {q} + delta {delta} (tol {tol})"
-            );
+            check_sampled_albedo(&name, &m, (th, 10.0), delta, &check);
         }
     }
 }
 
 #[test]
 fn reciprocal() {
-    for (name, m) in chi2_variants() {
-        let e = reciprocity_error(&m, 20_000, 5);
-        assert!(e < 1e-4, "{name}: {e}");
-    }
+    check_reciprocal(&models(&chi2_variants()), 20_000, 5, 1e-4);
     for geometry in [Geometry::VCavity, Geometry::Smith] {
         let m = CookTorrance {
             geometry,
@@ -479,14 +464,11 @@ fn bad_parameters_are_rejected() {
         ("ior = 0.5", "ior", "out of range"),
         ("kd = [0.1, 0.2]", "kd", "array of 2"),
     ];
-    for (body, field, msg) in cases {
-        let src = format!("model = \"cook_torrance\"\n{body}\n");
-        let e = material(&src).unwrap_err();
-        assert!(
-            e.contains("test.toml:") && e.contains(field) && e.contains(msg),
-            "{body}: {e}"
-        );
-    }
+    // Some cases take two lines: the error names test.toml, at whichever line.
+    rejects_each(
+        "cook_torrance",
+        &cases.map(|(body, field, msg)| (body, ["test.toml:", field, msg])),
+    );
 }
 
 #[test]

@@ -6,9 +6,10 @@
 use brdfwave::brdf::common::erfc;
 use brdfwave::brdf::he::{self, He};
 mod common;
-use brdfwave::brdf::validate::{albedo_quadrature, albedo_sampled, dir_from_theta_deg};
+use brdfwave::brdf::validate::dir_from_theta_deg;
 use common::brdf::{
-    check_reciprocal, check_sampler, material, models, Chi2Config, SamplerCheck, Seeds,
+    check_reciprocal, check_sampled_albedo, check_sampler, grey, material, mixture_albedo,
+    mixture_sampler, models, rejects_each, AlbedoCheck, SamplerCheck, ANGLES,
 };
 use glam::Vec3;
 
@@ -180,46 +181,29 @@ fn sampler_matches_pdf() {
     check_sampler(
         &models(&vs),
         &SamplerCheck {
-            angles: &[10.0, 45.0, 75.0],
-            phi: 20.0,
             chi2_samples: 40_000,
-            seeds: Seeds::Same(4),
-            grid: Chi2Config::default(),
-            integral: None,
             consistency_samples: 3000,
-            consistency_seed: 8,
-            pdf_rel: 1e-4,
-            weight_rel: 1e-3,
+            ..mixture_sampler(20.0, 4)
         },
     );
 }
 
 #[test]
 fn sampled_albedo_matches_quadrature_plus_delta() {
-    eprintln!("variant θ: quadrature(dd+ud) + delta = total | sampled ± σ");
+    let check = AlbedoCheck {
+        quadrature: (40, 80),
+        samples: 20_000,
+        rel: 5e-3,
+        ..mixture_albedo(21)
+    };
     for (name, m) in variants() {
-        for th in [0.0, 30.0, 60.0, 80.0, 89.0] {
-            let wo = dir_from_theta_deg(th, 0.0);
-            let q = albedo_quadrature(&m, wo, if th >= 80.0 { 80 } else { 40 });
-            let d = he::specular_reflectance(&m, wo);
-            let delta = ((d.x + d.y + d.z) / 3.0) as f64;
-            let n = 20_000;
-            let (s, var) = albedo_sampled(&m, wo, n, 21);
-            let sd = (var / n as f64).sqrt();
-            eprintln!(
-                "{name} {th}: {q:.4} + {delta:.4} = {:.4} | {s:.4} ± {sd:.4}",
-                q + delta
-            );
-            let tol = 4.0 * sd + 5e-3 * (q + delta);
-            assert!(
-                (s - (q + delta)).abs() < tol,
-                "{name} θ={th}: {s} vs {} (tol {tol})",
-                q + delta
-            );
+        for th in ANGLES {
+            let delta = grey(he::specular_reflectance(&m, dir_from_theta_deg(th, 0.0)));
+            let (q, _, _) = check_sampled_albedo(name, &m, (th, 0.0), delta, &check);
             // The first-surface terms (dd + specular) stay below 1; the uniform-diffuse a(λ)
             // is a free constant not coupled to them (survey §2.3), so the total can exceed 1:
             // the smooth dielectric with diffuse 0.3 reflects 1.20 at 89° (F = 0.90 + 0.30).
-            let ud = ((m.diffuse.x + m.diffuse.y + m.diffuse.z) / 3.0) as f64;
+            let ud = grey(m.diffuse);
             assert!(q - ud + delta < 1.0, "{name} θ={th}: {}", q - ud + delta);
             if name.starts_with("smooth") && th == 89.0 {
                 assert!(q + delta > 1.15, "{name}: {}", q + delta);
@@ -257,11 +241,8 @@ fn parameters_and_defines() {
         ("diffuse = 1.2", "diffuse", "out of range"),
         ("roughness = 0.2", "roughness", "unknown field"),
     ];
-    for (body, field, msg) in cases {
-        let e = material(&format!("model = \"he\"\n{body}\n")).unwrap_err();
-        assert!(
-            e.contains("test.toml:2") && e.contains(field) && e.contains(msg),
-            "{body}: {e}"
-        );
-    }
+    rejects_each(
+        "he",
+        &cases.map(|(body, field, msg)| (body, ["test.toml:2", field, msg])),
+    );
 }

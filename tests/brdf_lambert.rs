@@ -5,19 +5,15 @@ mod common;
 use brdfwave::brdf::validate::{
     albedo_quadrature, albedo_sampled, chi2_test, dir_from_theta_deg, reciprocity_error,
 };
-use brdfwave::brdf::{Brdf, Material};
-use common::brdf::{check_sampler, material, materials, rejects, Chi2Config, SamplerCheck, Seeds};
+use brdfwave::brdf::Material;
+use common::brdf::{
+    check_sampler, materials, model, rejects_each, Chi2Config, SamplerCheck, Seeds, Tampered,
+    ANGLES,
+};
 
-fn lambert(rho: [f32; 3]) -> Material {
-    material(&format!(
-        "model = \"lambert\"\nalbedo = [{}, {}, {}]\n",
-        rho[0], rho[1], rho[2]
-    ))
-    .unwrap()
-    .0
+fn lambert([r, g, b]: [f32; 3]) -> Material {
+    model("lambert", &format!("albedo = [{r}, {g}, {b}]"))
 }
-
-const ANGLES: [f32; 5] = [0.0, 30.0, 60.0, 80.0, 89.0];
 
 #[test]
 fn albedo_is_rho_at_every_angle() {
@@ -64,32 +60,17 @@ fn sampler_matches_pdf() {
 /// reports a uniform-hemisphere pdf is rejected.
 #[test]
 fn chi2_rejects_a_wrong_pdf() {
-    #[derive(Debug)]
-    struct WrongPdf(Material);
-    impl Brdf for WrongPdf {
-        fn eval(&self, wi: glam::Vec3, wo: glam::Vec3) -> glam::Vec3 {
-            self.0.brdf.eval(wi, wo)
-        }
-        fn pdf(&self, _given: glam::Vec3, sampled: glam::Vec3) -> f32 {
+    let w = Tampered {
+        inner: lambert([0.5; 3]).brdf,
+        pdf: Some(|_given, sampled| {
             if sampled.z > 0.0 {
                 0.5 * std::f32::consts::FRAC_1_PI
             } else {
                 0.0
             }
-        }
-        fn sample(
-            &self,
-            given: glam::Vec3,
-            u_lobe: f32,
-            u: glam::Vec2,
-        ) -> Option<brdfwave::brdf::BrdfSample> {
-            self.0.brdf.sample(given, u_lobe, u)
-        }
-        fn pack(&self) -> brdfwave::brdf::Params {
-            self.0.brdf.pack()
-        }
-    }
-    let w = WrongPdf(lambert([0.5; 3]));
+        }),
+        sample: None,
+    };
     let r = chi2_test(&w, dir_from_theta_deg(30.0, 0.0), 50_000, 5);
     assert!(r.p_value < 1e-6, "{r:?}");
 }
@@ -102,15 +83,16 @@ fn reciprocal() {
 
 #[test]
 fn bad_parameters_are_rejected() {
-    for (src, needles) in [
-        (
-            "albedo = [0.5, 1.5, 0.5]",
-            &["test.toml:2", "albedo", "out of range"][..],
-        ),
-        ("albedo = [0.5, 0.5]", &["albedo", "array of 2"]),
-        ("albdo = 0.5", &["albdo", "unknown field"]),
-        ("albedo = \"grey\"", &["expected a number"]),
-    ] {
-        rejects(&format!("model = \"lambert\"\n{src}\n"), needles);
-    }
+    rejects_each(
+        "lambert",
+        &[
+            (
+                "albedo = [0.5, 1.5, 0.5]",
+                &["test.toml:2", "albedo", "out of range"][..],
+            ),
+            ("albedo = [0.5, 0.5]", &["albedo", "array of 2"]),
+            ("albdo = 0.5", &["albdo", "unknown field"]),
+            ("albedo = \"grey\"", &["expected a number"]),
+        ],
+    );
 }

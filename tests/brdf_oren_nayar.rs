@@ -5,19 +5,18 @@ mod common;
 use brdfwave::brdf::validate::{albedo_quadrature, dir_from_theta_deg};
 use brdfwave::brdf::Material;
 use common::brdf::{
-    check_reciprocal, check_sampled_albedo, check_sampler, default_evaluates_as, lobe_sampler,
-    material, materials, rejects, warns_once, AlbedoCheck, SamplerCheck,
+    albedo_row, check_albedos, check_reciprocal, check_sampler, default_evaluates_as, grid,
+    lobe_sampler, materials, model, rejects_each, warns_once, SamplerCheck, ANGLES, LOBE_ALBEDO,
 };
 
 fn on(albedo: f32, sigma: f32, variant: &str) -> Material {
-    let src = format!(
-        "model = \"oren_nayar\"\nalbedo = {albedo}\nsigma = {sigma}\nvariant = \"{variant}\"\n"
-    );
-    material(&src).unwrap().0
+    model(
+        "oren_nayar",
+        &format!("albedo = {albedo}\nsigma = {sigma}\nvariant = \"{variant}\""),
+    )
 }
 
 const VARIANTS: [&str; 2] = ["full", "qualitative"];
-const ANGLES: [f32; 5] = [0.0, 30.0, 60.0, 80.0, 89.0];
 
 #[test]
 fn default_is_the_full_model() {
@@ -34,10 +33,7 @@ fn default_is_the_full_model() {
 
 #[test]
 fn sampler_matches_pdf() {
-    let models: Vec<_> = VARIANTS
-        .iter()
-        .map(|v| (v.to_string(), on(0.8, 0.5, v)))
-        .collect();
+    let models = grid(&VARIANTS, &[0.5], "σ ", |v, sigma| on(0.8, sigma, v));
     check_sampler(
         &materials(&models),
         &SamplerCheck {
@@ -70,10 +66,7 @@ fn white_furnace_against_reference_values() {
     for v in VARIANTS {
         for sigma in [0.0f32, 0.25, 0.5, 1.0] {
             let m = on(1.0, sigma, v);
-            let row: Vec<f64> = ANGLES
-                .iter()
-                .map(|&t| albedo_quadrature(m.brdf.as_ref(), dir_from_theta_deg(t, 0.0), 100))
-                .collect();
+            let row = albedo_row(m.brdf.as_ref(), &ANGLES, 100);
             eprintln!("{v:12} σ={sigma:4}: {row:.4?}");
             for (t, a) in ANGLES.iter().zip(&row) {
                 assert!(a.is_finite() && *a > 0.5, "{v} σ {sigma} {t}°: {a}");
@@ -89,42 +82,29 @@ fn white_furnace_against_reference_values() {
 
 #[test]
 fn sampled_albedo_agrees_with_quadrature() {
-    let check = AlbedoCheck {
-        quadrature: (100, 100),
-        samples: 100_000,
-        seed: 3,
-        sigmas: 5.0,
-        rel: 2e-3,
-    };
-    for v in VARIANTS {
-        let m = on(0.9, 0.7, v);
-        for t in ANGLES {
-            check_sampled_albedo(v, m.brdf.as_ref(), (t, 0.0), 0.0, &check);
-        }
-    }
+    let models = grid(&VARIANTS, &[0.7], "σ ", |v, sigma| on(0.9, sigma, v));
+    check_albedos(&materials(&models), &ANGLES, 0.0, &LOBE_ALBEDO);
 }
 
 #[test]
 fn reciprocal() {
-    let mut models = Vec::new();
-    for v in VARIANTS {
-        for sigma in [0.2, 0.8, 1.5] {
-            models.push((format!("{v} σ {sigma}"), on(0.7, sigma, v)));
-        }
-    }
+    let models = grid(&VARIANTS, &[0.2, 0.8, 1.5], "σ ", |v, sigma| {
+        on(0.7, sigma, v)
+    });
     check_reciprocal(&materials(&models), 20_000, 9, 1e-5);
 }
 
 #[test]
 fn bad_parameters() {
-    for (src, needles) in [
-        ("sigma = 20", &["test.toml:2", "sigma", "radians"][..]),
-        ("sigma = -0.1", &["sigma", "out of range"]),
-        ("variant = \"fast\"", &["variant", "full, qualitative"]),
-        ("roughness = 0.3", &["roughness", "unknown field"]),
-    ] {
-        rejects(&format!("model = \"oren_nayar\"\n{src}\n"), needles);
-    }
+    rejects_each(
+        "oren_nayar",
+        &[
+            ("sigma = 20", &["test.toml:2", "sigma", "radians"][..]),
+            ("sigma = -0.1", &["sigma", "out of range"]),
+            ("variant = \"fast\"", &["variant", "full, qualitative"]),
+            ("roughness = 0.3", &["roughness", "unknown field"]),
+        ],
+    );
     warns_once(
         "model = \"oren_nayar\"\nalbedo = 0.99\n",
         &["albedo", "0.97"],

@@ -6,10 +6,11 @@
 
 use brdfwave::brdf::schlick::{self, Form, Schlick};
 mod common;
-use brdfwave::brdf::validate::{albedo_quadrature, albedo_sampled, dir_from_theta_deg};
+use brdfwave::brdf::validate::{albedo_quadrature, dir_from_theta_deg};
 use brdfwave::brdf::{Brdf, BrdfSample, Params};
 use common::brdf::{
-    check_reciprocal, check_sampler, material, models, Chi2Config, SamplerCheck, Seeds,
+    check_reciprocal, check_sampled_albedo, check_sampler, grey, material, mixture_albedo,
+    mixture_sampler, models, rejects_each, ANGLES,
 };
 use glam::{Vec2, Vec3};
 
@@ -242,50 +243,25 @@ fn variants() -> Vec<(&'static str, Schlick)> {
 #[test]
 fn sampler_matches_pdf() {
     let vs = variants();
-    check_sampler(
-        &models(&vs),
-        &SamplerCheck {
-            angles: &[10.0, 45.0, 75.0],
-            phi: 70.0,
-            chi2_samples: 100_000,
-            seeds: Seeds::Same(6),
-            grid: Chi2Config::default(),
-            integral: None,
-            consistency_samples: 5000,
-            consistency_seed: 8,
-            pdf_rel: 1e-4,
-            weight_rel: 1e-3,
-        },
-    );
+    check_sampler(&models(&vs), &mixture_sampler(70.0, 6));
 }
 
 #[test]
 fn sampled_albedo_matches_quadrature_plus_delta() {
+    let check = mixture_albedo(31);
     for (name, m) in variants() {
         // The survey forms' albedo diverges at grazing: compare them up to 80°.
-        let angles: &[f32] = if m.form == Form::Continuum {
-            &[0.0, 30.0, 60.0, 80.0, 89.0]
+        let angles = if m.form == Form::Continuum {
+            &ANGLES[..]
         } else {
-            &[0.0, 30.0, 60.0, 80.0]
+            &ANGLES[..4]
         };
         for &th in angles {
-            let wo = dir_from_theta_deg(th, 20.0);
-            let q = albedo_quadrature(&m, wo, if th >= 80.0 { 120 } else { 60 });
-            let d = schlick::mirror_reflectance(&m, wo);
-            let delta = ((d.x + d.y + d.z) / 3.0) as f64;
-            let n = 100_000;
-            let (s, var) = albedo_sampled(&m, wo, n, 31);
-            let sd = (var / n as f64).sqrt();
-            eprintln!(
-                "{name} {th}: {q:.4} + {delta:.4} = {:.4} | sampled {s:.4} ± {sd:.4}",
-                q + delta
-            );
-            let tol = 4.0 * sd + 3e-3 * (q + delta);
-            assert!(
-                (s - (q + delta)).abs() < tol,
-                "{name} θ={th}: {s} vs {}",
-                q + delta
-            );
+            let delta = grey(schlick::mirror_reflectance(
+                &m,
+                dir_from_theta_deg(th, 20.0),
+            ));
+            check_sampled_albedo(name, &m, (th, 20.0), delta, &check);
         }
     }
 }
@@ -321,11 +297,8 @@ fn parameters_defines_and_errors() {
         ("rotation = 400", "rotation", "out of range"),
         ("roughness = 0.5", "roughness", "unknown field"),
     ];
-    for (body, field, msg) in cases {
-        let e = material(&format!("model = \"schlick\"\n{body}\n")).unwrap_err();
-        assert!(
-            e.contains("test.toml:2") && e.contains(field) && e.contains(msg),
-            "{body}: {e}"
-        );
-    }
+    rejects_each(
+        "schlick",
+        &cases.map(|(body, field, msg)| (body, ["test.toml:2", field, msg])),
+    );
 }

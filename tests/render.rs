@@ -340,36 +340,12 @@ quads = [[[-0.5, 0.001, -0.5], [0.5, 0.001, -0.5], [0.5, 0.001, 0.5], [-0.5, 0.0
 }
 
 /// A model that returns a NaN sample weight (for u.x > 0.5) on both sides: the GPU from a copy
-/// of the shaders with `lambert_sample` changed, the CPU from Lambert wrapped to do the same.
-/// The NaN is counted at `shade_lambert` on both backends, the paths end there, and the image
-/// stays finite.
-#[derive(Debug)]
-struct NanWeight(std::sync::Arc<dyn brdfwave::brdf::Brdf>);
-
-impl brdfwave::brdf::Brdf for NanWeight {
-    fn eval(&self, wi: glam::Vec3, wo: glam::Vec3) -> glam::Vec3 {
-        self.0.eval(wi, wo)
-    }
-    fn pdf(&self, given: glam::Vec3, sampled: glam::Vec3) -> f32 {
-        self.0.pdf(given, sampled)
-    }
-    fn sample(
-        &self,
-        given: glam::Vec3,
-        u_lobe: f32,
-        u: glam::Vec2,
-    ) -> Option<brdfwave::brdf::BrdfSample> {
-        let mut s = self.0.sample(given, u_lobe, u)?;
-        if u.x > 0.5 {
-            s.weight = glam::Vec3::NAN;
-        }
-        Some(s)
-    }
-    fn pack(&self) -> brdfwave::brdf::Params {
-        self.0.pack()
-    }
-    fn scatters(&self) -> bool {
-        self.0.scatters()
+/// of the shaders with `lambert_sample` changed, the CPU from Lambert with its samples changed
+/// by this function to do the same. The NaN is counted at `shade_lambert` on both backends, the
+/// paths end there, and the image stays finite.
+fn nan_weight(s: &mut brdfwave::brdf::BrdfSample, u: glam::Vec2) {
+    if u.x > 0.5 {
+        s.weight = glam::Vec3::NAN;
     }
 }
 
@@ -378,7 +354,11 @@ fn a_nan_from_a_model_is_counted_at_its_shade_stage_on_both_backends() {
     let mut s = scene("cornell-box.toml", 24, 24, 4, 5, 2);
     for m in &mut s.materials {
         if m.model_name() == "lambert" && m.brdf.scatters() {
-            m.brdf = std::sync::Arc::new(NanWeight(m.brdf.clone()));
+            m.brdf = std::sync::Arc::new(common::brdf::Tampered {
+                inner: m.brdf.clone(),
+                pdf: None,
+                sample: Some(nan_weight),
+            });
         }
     }
     // The GPU side: the same change in a copy of the shaders.
