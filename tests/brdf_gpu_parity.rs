@@ -9,6 +9,7 @@
 //! 1e-3), weight and pdf (same rule), except at the few random numbers that sit on a branch tie.
 
 mod common;
+use brdfwave::brdf::validate::dir_from_theta_deg as dir;
 use brdfwave::brdf::{inline::parse_inline, MODELS};
 use brdfwave::gpu::brdf_probe;
 use brdfwave::vk::ShaderCompiler;
@@ -35,11 +36,6 @@ const MATERIALS: &[&str] = &[
     r#"model = "schlick", c = 0.8, r = 0.7, p = 0.2, rotation = 45"#,
     r#"model = "schlick", c = 0.3, r = 0.3, p = 1.0, c2 = 0.9, r2 = 0.6, p2 = 0.5, form = "attenuated""#,
 ];
-
-fn dir(theta_deg: f32, phi_deg: f32) -> Vec3 {
-    let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
-    Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
-}
 
 fn grid() -> Vec<Vec3> {
     let mut v = Vec::new();

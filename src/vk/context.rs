@@ -792,6 +792,13 @@ impl Drop for Context {
     }
 }
 
+/// A string the driver or the loader gave, as text: invalid UTF-8 replaced, empty when absent
+/// or not terminated.
+fn lossy(s: Option<&CStr>) -> String {
+    s.map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -821,11 +828,4 @@ mod tests {
             "something else"
         ));
     }
-}
-
-/// A string the driver or the loader gave, as text: invalid UTF-8 replaced, empty when absent
-/// or not terminated.
-fn lossy(s: Option<&CStr>) -> String {
-    s.map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default()
 }
