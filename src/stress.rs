@@ -349,22 +349,7 @@ fn check_vec(what: &str, v: Vec3) -> Option<String> {
 /// Parse an inline material (`key = value, key = value`) without printing its warnings (the
 /// random parameters often draw them: energy gain of the survey forms, clamped isotropy).
 pub fn quiet_material(src: &str) -> Result<Material> {
-    let mut fields: Vec<String> = Vec::new();
-    for piece in src.split(", ") {
-        let is_key = piece
-            .split_once(" = ")
-            .is_some_and(|(k, _)| k.chars().all(|c| c.is_ascii_alphanumeric() || c == '_'));
-        match fields.last_mut() {
-            Some(last) if !is_key => {
-                last.push_str(", ");
-                last.push_str(piece);
-            }
-            _ => fields.push(piece.to_string()),
-        }
-    }
-    crate::brdf::validate::material_from_toml("stress", &fields.join("\n"))
-        .map(|(m, _warnings)| m)
-        .map_err(|e| anyhow::anyhow!(e))
+    crate::brdf::inline::parse_inline_from("stress", src).map(|(m, _warnings)| m)
 }
 
 /// One random material and 64 direction pairs and samples, CPU checks then GPU parity.
@@ -520,10 +505,6 @@ fn case_models(env: &mut Env, seed: u64) -> Result<CaseResult> {
 }
 
 // --- limits ----------------------------------------------------------------------------------
-
-fn material(src: &str) -> Result<Material> {
-    quiet_material(src)
-}
 
 /// Directional albedo by the model's own sampling: the mean and its standard error (the
 /// harness returns the variance of one sample's weight).
@@ -770,11 +751,11 @@ fn case_limits(_env: &mut Env, seed: u64) -> Result<CaseResult> {
         0 => {
             // Oren–Nayar at σ = 0 is Lambert, exactly up to rounding.
             let a = r.range(0.0, 0.97);
-            let on = material(&format!(
+            let on = quiet_material(&format!(
                 r#"model = "oren_nayar", albedo = {a:e}, sigma = 0, variant = "{}""#,
                 r.pick(&["full", "qualitative"])
             ))?;
-            let la = material(&format!(r#"model = "lambert", albedo = {a:e}"#))?;
+            let la = quiet_material(&format!(r#"model = "lambert", albedo = {a:e}"#))?;
             let mut worst = 0.0f64;
             for _ in 0..32 {
                 let wo = random_direction(&mut r);
@@ -802,7 +783,7 @@ fn case_limits(_env: &mut Env, seed: u64) -> Result<CaseResult> {
             let s = r.next_u64();
             let mut albedos = Vec::new();
             for (i, src) in ap.materials.iter().enumerate() {
-                let m = material(src)?;
+                let m = quiet_material(src)?;
                 let (a, se) = albedo_se(m.brdf.as_ref(), given, n, s.wrapping_add(i as u64));
                 if !(a.is_finite() && se.is_finite()) {
                     return Ok(CaseResult::fail(
@@ -1925,25 +1906,6 @@ pub fn cli(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// The quiet parser reads the generated materials as `--material` does.
-    #[test]
-    fn quiet_material_parses_as_the_inline_parser() {
-        let mut r = Rng::new(5);
-        for _ in 0..300 {
-            let src = random_material(&mut r);
-            let a = quiet_material(&src);
-            let b = crate::brdf::inline::parse_inline(&src);
-            match (a, b) {
-                (Ok(a), Ok(b)) => {
-                    assert_eq!(a.model, b.model, "{src}");
-                    assert_eq!(a.brdf.pack(), b.brdf.pack(), "{src}");
-                }
-                (Err(_), Err(_)) => {}
-                (a, b) => panic!("{src}: {:?} vs {:?}", a.is_ok(), b.is_ok()),
-            }
-        }
-    }
 
     #[test]
     fn two_sided_z_matches_the_normal_table() {

@@ -14,6 +14,16 @@ struct Wrapped {
 
 /// Parse an inline material into a material; warnings go to stderr.
 pub fn parse_inline(src: &str) -> Result<Material> {
+    let (m, warnings) = parse_inline_from("--material", src)?;
+    for w in warnings {
+        eprintln!("{w}");
+    }
+    Ok(m)
+}
+
+/// [`parse_inline`] for fields that come from `from` (named in messages), returning the
+/// material's warnings instead of printing them.
+pub fn parse_inline_from(from: &str, src: &str) -> Result<(Material, Vec<String>)> {
     // Comma-separated fields are the inside of an inline table; newline-separated fields are a
     // table body. Try the first, then the second.
     let wrapped = format!("material = {{ {} }}", src.trim());
@@ -21,20 +31,16 @@ pub fn parse_inline(src: &str) -> Result<Material> {
         Ok(w) => (wrapped.clone(), w.material),
         Err(first) => match toml::from_str::<BTreeMap<String, Spanned<Value>>>(src) {
             Ok(f) => (src.to_string(), f),
-            Err(_) => return Err(anyhow!("--material: not a TOML table of fields: {first}")),
+            Err(_) => return Err(anyhow!("{from}: not a TOML table of fields: {first}")),
         },
     };
     let origin = Origin {
-        file: "--material",
+        file: from,
         source: &source,
         material: "inline",
         span: 0..source.len(),
     };
-    let (m, warnings) = parse_material(origin, fields)?;
-    for w in warnings {
-        eprintln!("{w}");
-    }
-    Ok(m)
+    Ok(parse_material(origin, fields)?)
 }
 
 #[cfg(test)]
