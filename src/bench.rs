@@ -426,7 +426,7 @@ fn reference(o: &BenchOptions, sc: &Scene, bvh: &Bvh) -> Result<Image> {
         }
         return Ok(img);
     }
-    let mut key = vk::cache::Fnv64::new();
+    let mut key = crate::hash::Fnv64::new();
     key.bytes(&std::fs::read(&o.scene).with_context(|| format!("reading {}", o.scene.display()))?);
     for v in [
         sc.width,

@@ -370,24 +370,12 @@ pub fn code_version() -> String {
     }
 }
 
-/// FNV-1a (64-bit) over whatever is written to it.
-struct Fnv(u64);
-
-impl std::fmt::Write for Fnv {
-    fn write_str(&mut self, s: &str) -> std::fmt::Result {
-        for b in s.bytes() {
-            self.0 = (self.0 ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3);
-        }
-        Ok(())
-    }
-}
-
 /// A hash of everything in the scene that the image depends on: camera, image size, integrator
 /// settings but the sample count, materials, emitters, geometry and environment; not the file's
 /// path or names, so the same scene loaded on two machines hashes the same.
 pub fn scene_hash(s: &crate::scene::Scene) -> String {
     use std::fmt::Write as _;
-    let mut h = Fnv(0xcbf2_9ce4_8422_2325);
+    let mut h = crate::hash::Fnv64::new();
     let it = &s.integrator;
     let _ = write!(
         h,
@@ -405,7 +393,7 @@ pub fn scene_hash(s: &crate::scene::Scene) -> String {
         s.spheres,
         s.environment
     );
-    format!("{:016x}", h.0)
+    format!("{:016x}", h.finish())
 }
 
 /// A partial film read from or written to a file.

@@ -15,6 +15,7 @@
 //! * `brdf_tools` — `brdfwave brdf eval | plot | report`;
 //! * `imageio`, `metrics` — image files and image comparison;
 //! * `outfile` — the atomic writer of every file, and the up-front checks of output paths;
+//! * `hash` — the stable hash (FNV-1a) of cache keys and of the scene hash of partial films;
 //! * `errors` — how errors read on the command line;
 //! * `bench`, `plot` — `brdfwave bench`: run time against error, and its log-log chart.
 
@@ -27,6 +28,7 @@ pub mod cpu;
 pub mod errors;
 pub mod film;
 pub mod gpu;
+pub mod hash;
 pub mod imageio;
 pub mod lights;
 pub mod metrics;

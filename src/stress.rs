@@ -947,16 +947,6 @@ fn render_cpu(s: &Scene) -> crate::output::RenderOutput {
     crate::cpu::CpuRenderer::new(s, &b).render(&|_| {})
 }
 
-fn channel_means(o: &crate::output::RenderOutput) -> [f64; 3] {
-    let mut m = [0f64; 3];
-    for p in &o.mean.data {
-        for c in 0..3 {
-            m[c] += p[c] as f64;
-        }
-    }
-    m.map(|v| v / o.mean.data.len().max(1) as f64)
-}
-
 fn small(mut s: Scene, w: u32, spp: u32, seed: u32) -> Scene {
     s.width = w;
     s.height = w;
@@ -1085,7 +1075,7 @@ fn geometry_scaled(env: &mut Env, r: &mut Rng, seed: u64) -> Result<CaseResult> 
     let t = t * (limit / t.abs().max_element().max(1e-30)).min(1.0);
     let s = transform_scene(&base, scale, t);
     let (a, b) = (render_on(env, &base, gpu)?, render_on(env, &s, gpu)?);
-    let (ma, mb) = (channel_means(&a), channel_means(&b));
+    let (ma, mb) = (a.mean.mean(), b.mean.mean());
     let d = (0..3)
         .map(|c| (ma[c] - mb[c]).abs() / ma[c].max(1e-30))
         .fold(0.0, f64::max);
@@ -1585,7 +1575,7 @@ fn case_radiance(env: &mut Env, seed: u64) -> Result<CaseResult> {
     } else {
         (render_cpu(&base), render_cpu(&scaled))
     };
-    let (ma, mb) = (channel_means(&a), channel_means(&b));
+    let (ma, mb) = (a.mean.mean(), b.mean.mean());
     let mut worst = 0.0f64;
     for c in 0..3 {
         if ma[c] <= 0.0 {
@@ -1927,7 +1917,7 @@ mod tests {
         assert!(z < zcrit, "independent renders: |z| {z} at {at}");
         // Swap the top-left block (the ceiling corner) with one in the middle of the image:
         // the channel means stay the same.
-        let before = channel_means(&b);
+        let before = b.mean.mean();
         for y in 0..16 {
             for x in 0..16 {
                 let (i, j) = ((y * 64 + x) as usize, ((y + 32) * 64 + x + 32) as usize);
@@ -1935,7 +1925,7 @@ mod tests {
                 b.variance.data.swap(i, j);
             }
         }
-        let after = channel_means(&b);
+        let after = b.mean.mean();
         assert!(
             (0..3).all(|c| (before[c] - after[c]).abs() < 1e-9 * before[c]),
             "{before:?} {after:?}"

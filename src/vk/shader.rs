@@ -13,7 +13,8 @@
 //! compiled. Entries are written atomically and checked on read (magic, key, length, checksum),
 //! so a damaged entry is recompiled, not used.
 
-use super::cache::{default_cache_dir, fnv1a64, write_atomic, Fnv64};
+use super::cache::{default_cache_dir, write_atomic};
+use crate::hash::{fnv1a64, Fnv64};
 use anyhow::{anyhow, bail, Context as _, Result};
 use std::collections::HashSet;
 use std::path::PathBuf;
