@@ -1585,7 +1585,7 @@ fn case_radiance(env: &mut Env, seed: u64) -> Result<CaseResult> {
         let e = (mb[c] - want).abs() / want;
         worst = worst.max(e);
     }
-    let backend = if gpu { "GPU" } else { "CPU" };
+    let backend = backend_name(gpu);
     // The light-selection density and the f32 products round differently at each scale;
     // subnormal products below 1e-38 lose digits (radiance 1e-30 times small throughputs).
     let tol = if k < 1e-20 { 1e-2 } else { 1e-4 };

@@ -8,19 +8,9 @@ use brdfwave::stress::transform_scene;
 use common::*;
 use glam::Vec3;
 
-fn channel_means(o: &RenderOutput) -> [f64; 3] {
-    let mut m = [0f64; 3];
-    for p in &o.mean.data {
-        for c in 0..3 {
-            m[c] += p[c] as f64;
-        }
-    }
-    m.map(|v| v / o.mean.data.len() as f64)
-}
-
 /// Largest relative difference of the per-channel means.
 fn mean_rel_diff(a: &RenderOutput, b: &RenderOutput) -> f64 {
-    let (ma, mb) = (channel_means(a), channel_means(b));
+    let (ma, mb) = (a.mean.mean(), b.mean.mean());
     (0..3)
         .map(|c| (ma[c] - mb[c]).abs() / mb[c].abs().max(1e-30))
         .fold(0.0, f64::max)
