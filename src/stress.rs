@@ -1564,17 +1564,7 @@ fn case_radiance(env: &mut Env, seed: u64) -> Result<CaseResult> {
         e.radiance *= k;
     }
     scaled.environment *= k;
-    let (a, b) = if gpu {
-        let (ctx, compiler) = env.gpu()?;
-        let run = |s: &Scene| -> Result<crate::output::RenderOutput> {
-            let bvh = crate::bvh::build(s);
-            let mut g = crate::gpu::GpuRenderer::new(ctx, s, &bvh, compiler)?;
-            g.render(&|_| {})
-        };
-        (run(&base)?, run(&scaled)?)
-    } else {
-        (render_cpu(&base), render_cpu(&scaled))
-    };
+    let (a, b) = (render_on(env, &base, gpu)?, render_on(env, &scaled, gpu)?);
     let (ma, mb) = (a.mean.mean(), b.mean.mean());
     let mut worst = 0.0f64;
     for c in 0..3 {
