@@ -1,18 +1,25 @@
 """Mitsuba 3 as a peer configuration of `brdfwave bench`.
 
-Usage: python3 mitsuba_peer.py VARIANT SCENE.json OUTDIR
+Usage: python3 mitsuba_peer.py VARIANT SAMPLER SCENE.json OUTDIR
 
-SCENE.json is written by `brdfwave bench` from the scene it benchmarks: triangle meshes with an
-RGB Lambert albedo and an optional one-sided RGB emitter each, a pinhole camera (vertical field
-of view), the image size and the maximum depth. The scene is rendered with Mitsuba's `path`
+SCENE.json is written by `brdfwave bench` from the scene it benchmarks: triangle meshes, each
+with its Mitsuba BSDF (`diffuse` with an RGB albedo, or `roughconductor` with a distribution,
+alpha and RGB eta/k) and an optional one-sided RGB emitter, a pinhole camera (vertical field of
+view), the image size and the maximum depth. The scene is rendered with Mitsuba's `path`
 integrator (max_depth = brdfwave's max_depth: both count path segments, the camera segment
-first; Russian roulette off), the `independent` sampler and a box pixel filter one pixel wide.
+first; Russian roulette off), the sampler plugin SAMPLER (`independent`, `stratified`,
+`multijitter`, `orthogonal` or `ldsampler`) and a box pixel filter one pixel wide.
 
-Protocol, one line each way (so that the benchmark can interleave this process's passes with
-its own configurations): brdfwave writes `pass N` (render N more samples per pixel) and this
-script answers `done SECONDS PATH` once it has written the running mean of every pass so far to
-PATH (linear RGB, EXR); `quit` ends it. The first line it writes is `ready SECONDS` after the
-warm-up render (Dr.Jit compiles its kernels there), or `error MESSAGE`.
+Protocol, one line each way (so that the benchmark can interleave this process's renders with
+its own configurations). The first line this script writes is
+`ready COMPILE_SECONDS PLAIN_SPP PLAIN_SECONDS`, or `error MESSAGE`: it renders once to compile
+Dr.Jit's kernels (COMPILE_SECONDS is how much longer that render took than the same one warm),
+then times one plain warm render of PLAIN_SPP samples per pixel, the figure a user sees. Then
+brdfwave writes `render N` and this script renders a fresh image of N samples per pixel (a
+stratified sampler loses its stratification when independent passes are averaged, so every
+point of the curve is one render), timed alone, and answers `done SECONDS SPP PATH` with the
+samples per pixel the sampler actually took (stratified samplers round N up to a square,
+`ldsampler` to a power of two) and the image (linear RGB, EXR); `quit` ends it.
 """
 import json
 import os
@@ -20,7 +27,26 @@ import sys
 import time
 
 
-def load_scene(mi, desc, folder):
+PLAIN_SPP = 64
+
+
+def bsdf(b):
+    rgb = lambda v: {"type": "rgb", "value": v}
+    if b["type"] == "diffuse":
+        return {"type": "diffuse", "reflectance": rgb(b["albedo"])}
+    if b["type"] == "roughconductor":
+        return {
+            "type": "roughconductor",
+            "distribution": b["distribution"],
+            "alpha": b["alpha"],
+            "eta": rgb(b["eta"]),
+            "k": rgb(b["k"]),
+            "sample_visible": True,
+        }
+    raise ValueError(f"unknown BSDF {b['type']}")
+
+
+def load_scene(mi, desc, folder, sampler):
     shapes = {}
     for i, m in enumerate(desc["meshes"]):
         path = os.path.join(folder, f"mesh{i}.obj")
@@ -33,7 +59,7 @@ def load_scene(mi, desc, folder):
             "type": "obj",
             "filename": path,
             "face_normals": True,
-            "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": m["albedo"]}},
+            "bsdf": bsdf(m["bsdf"]),
         }
         if m.get("radiance") is not None:
             shape["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": m["radiance"]}}
@@ -56,7 +82,7 @@ def load_scene(mi, desc, folder):
                 "rfilter": {"type": "box"},
                 "pixel_format": "rgb",
             },
-            "sampler": {"type": "independent", "sample_count": 1},
+            "sampler": {"type": sampler, "sample_count": 1},
         },
     }
     env = desc.get("environment")
@@ -67,38 +93,44 @@ def load_scene(mi, desc, folder):
 
 
 def main():
-    variant, scene_path, out = sys.argv[1], sys.argv[2], sys.argv[3]
+    variant, sampler, scene_path, out = sys.argv[1:5]
     try:
         import mitsuba as mi
         import numpy as np
 
         mi.set_variant(variant)
+        # Mitsuba logs to stdout, which carries the protocol: warnings (e.g. a sample count
+        # rounded up to a square) would break it.
+        mi.set_log_level(mi.LogLevel.Error)
         with open(scene_path) as f:
             desc = json.load(f)
-        scene = load_scene(mi, desc, out)
-        t = time.perf_counter()
-        np.array(mi.render(scene, spp=1, seed=2**31 - 1))
-        print(f"ready {time.perf_counter() - t:.6f}", flush=True)
+        scene = load_scene(mi, desc, out, sampler)
+
+        def render(spp, seed):
+            t = time.perf_counter()
+            img = np.array(mi.render(scene, spp=spp, seed=seed), dtype=np.float64)
+            return img, time.perf_counter() - t
+
+        # Kernel compilation: the first render of a scene against the same render warm.
+        _, cold = render(1, 2**31 - 1)
+        _, warm = render(1, 2**31 - 2)
+        _, plain = render(PLAIN_SPP, 2**31 - 3)
+        print(f"ready {max(cold - warm, 0.0):.6f} {PLAIN_SPP} {plain:.6f}", flush=True)
     except Exception as e:  # reported to brdfwave, which skips this configuration
         print(f"error {type(e).__name__}: {e}".replace("\n", " "), flush=True)
         return
-    total = None
-    spp_done = 0
     seed = 0
     for line in sys.stdin:
         words = line.split()
         if not words or words[0] == "quit":
             break
         n = int(words[1])
-        t = time.perf_counter()
-        img = np.array(mi.render(scene, spp=n, seed=seed), dtype=np.float64)
-        dt = time.perf_counter() - t
+        img, dt = render(n, seed)
         seed += 1
-        total = img * n if total is None else total + img * n
-        spp_done += n
-        path = os.path.join(out, f"pass{seed}.exr")
-        mi.Bitmap((total / spp_done).astype(np.float32)).write(path)
-        print(f"done {dt:.6f} {path}", flush=True)
+        spp = scene.sensors()[0].sampler().sample_count()
+        path = os.path.join(out, f"render{seed}.exr")
+        mi.Bitmap(img.astype(np.float32)).write(path)
+        print(f"done {dt:.6f} {spp} {path}", flush=True)
 
 
 if __name__ == "__main__":

@@ -1,5 +1,7 @@
-// Counter-based random numbers keyed on (seed, pixel, sample, depth, dimension).
-// Rust twin: src/rng.rs (bit-identical; dimension numbers listed there in `dim`).
+// Counter-based random numbers keyed on (seed, pixel, sample, depth, dimension): the
+// integrator's two samplers. Rust twin: src/rng.rs (bit-identical, same function names; the
+// design, its references and the dimension table are documented there). The DIM_* numbers and
+// the SAMPLER_* choice are defines generated from src/rng.rs (`rng::defines`).
 #ifndef RNG_GLSL
 #define RNG_GLSL
 
@@ -9,6 +11,11 @@ uint pcg_hash(uint v) {
     return (word >> 22u) ^ word;
 }
 
+float to_unit_f32(uint x) {
+    return float(x >> 8u) * (1.0 / 16777216.0);
+}
+
+// The `independent` sampler.
 uint random_u32(uint seed, uint pixel, uint sample_index, uint depth, uint dim) {
     uint h = pcg_hash(seed ^ 0x9E3779B9u);
     h = pcg_hash(h ^ pixel);
@@ -18,17 +25,48 @@ uint random_u32(uint seed, uint pixel, uint sample_index, uint depth, uint dim) 
 }
 
 float random_f32(uint seed, uint pixel, uint sample_index, uint depth, uint dim) {
-    return float(random_u32(seed, pixel, sample_index, depth, dim) >> 8u) * (1.0 / 16777216.0);
+    return to_unit_f32(random_u32(seed, pixel, sample_index, depth, dim));
 }
 
-#define DIM_PIXEL_X 0u
-#define DIM_PIXEL_Y 1u
-#define DIM_LIGHT_SELECT 0u
-#define DIM_LIGHT_U 1u
-#define DIM_LIGHT_V 2u
-#define DIM_BSDF_LOBE 3u
-#define DIM_BSDF_U 4u
-#define DIM_BSDF_V 5u
-#define DIM_RR 6u
+// Nested uniform scramble of x's bits from the least significant one (Burley 2020's
+// Laine–Karras-style hash).
+uint lk_permute(uint x, uint seed) {
+    x ^= x * 0x3d20adeau;
+    x += seed;
+    x *= (seed >> 16u) | 1u;
+    x ^= x * 0x05526c56u;
+    x ^= x * 0x53a22864u;
+    return x;
+}
+
+// The second Sobol' dimension, bit-reversed: a superset sum over the bit positions (Pascal's
+// triangle mod 2), five steps instead of a loop.
+uint sobol1_reversed(uint i) {
+    uint z = i;
+    z ^= (z >> 1u) & 0x55555555u;
+    z ^= (z >> 2u) & 0x33333333u;
+    z ^= (z >> 4u) & 0x0f0f0f0fu;
+    z ^= (z >> 8u) & 0x00ff00ffu;
+    z ^= (z >> 16u) & 0x0000ffffu;
+    return z;
+}
+
+uint sobol_pair_key(uint seed, uint pixel, uint depth, uint pair_index) {
+    uint h = pcg_hash(seed ^ 0x2545f491u);
+    h = pcg_hash(h ^ pixel);
+    return pcg_hash(h ^ (depth * 64u + pair_index));
+}
+
+// The `sobol` sampler: component (dim & 1) of pair (dim >> 1), padded by an index shuffle.
+uint sobol_u32(uint seed, uint pixel, uint sample_index, uint depth, uint dim) {
+    uint key = sobol_pair_key(seed, pixel, depth, dim >> 1u);
+    uint index = bitfieldReverse(lk_permute(bitfieldReverse(sample_index), key));
+    uint reversed = (dim & 1u) == 0u ? index : sobol1_reversed(index);
+    return bitfieldReverse(lk_permute(reversed, pcg_hash(key ^ (1u + (dim & 1u)))));
+}
+
+float sobol_f32(uint seed, uint pixel, uint sample_index, uint depth, uint dim) {
+    return to_unit_f32(sobol_u32(seed, pixel, sample_index, depth, dim));
+}
 
 #endif

@@ -10,9 +10,20 @@
 //!
 //! Configurations: `wavefront` and `megakernel` on the Vulkan device (lavapipe by default),
 //! each also with `-t1` / `-t2` (`LP_NUM_THREADS`, read by lavapipe when a Vulkan instance is
-//! made), `cpu` (the CPU reference), and, when the Python module `mitsuba` is installed,
-//! `mitsuba-scalar`, `mitsuba-llvm` and `mitsuba-cuda` rendering the same scene (Lambert
-//! triangle scenes only) through `scripts/mitsuba_peer.py`, embedded here.
+//! made), `cpu` (the CPU reference), each with brdfwave's default sampler (`sobol`) or another
+//! named last (`wavefront-independent`, `cpu-independent`); and, when the Python module
+//! `mitsuba` is installed, `mitsuba-scalar`, `mitsuba-llvm` and `mitsuba-cuda` rendering the
+//! same scene (triangle scenes of Lambert and rough-conductor materials) through
+//! `scripts/mitsuba_peer.py`, embedded here, with Mitsuba's `independent` sampler or another
+//! named last (`mitsuba-llvm-multijitter`, `-ldsampler`, `-stratified`, `-orthogonal`).
+//!
+//! Each system is measured at its best: brdfwave's passes continue one sample sequence, so
+//! the running image after 2^k samples is exactly a 2^k-sample render (its stratification
+//! included), and its time is the sum of the passes; Mitsuba's stratified samplers lose their
+//! stratification when independent passes are averaged, so each Mitsuba point is a fresh,
+//! warm render of all the samples so far, timed alone (its kernels are compiled by a warm-up
+//! render before any timing and reported apart), and the script also times one plain warm
+//! render at a fixed sample count, reported beside the bench's figure.
 
 use crate::bvh::{self, Bvh};
 use crate::cpu::{CpuFilm, CpuRenderer};
@@ -20,6 +31,7 @@ use crate::gpu::{GpuOptions, GpuRenderer, Integrator};
 use crate::imageio::{self, Image};
 use crate::metrics;
 use crate::plot::{self, Series};
+use crate::rng::Sampler;
 use crate::scene::{self, Scene, Triangle};
 use crate::vk::{self, Context, ContextOptions, ShaderCompiler};
 use anyhow::{anyhow, bail, Context as _, Result};
@@ -46,32 +58,93 @@ pub enum Config {
     Gpu {
         integrator: Integrator,
         threads: Option<u32>,
+        sampler: Sampler,
     },
     /// The CPU reference renderer (all cores, rayon).
-    Cpu,
-    /// Mitsuba 3 with this variant (`scalar_rgb`, `llvm_ad_rgb`, `cuda_ad_rgb`).
-    Mitsuba(String),
+    Cpu { sampler: Sampler },
+    /// Mitsuba 3 with this variant (`scalar_rgb`, `llvm_ad_rgb`, `cuda_ad_rgb`) and sampler
+    /// plugin (one of [`MITSUBA_SAMPLERS`]).
+    Mitsuba { variant: String, sampler: String },
 }
+
+/// Mitsuba 3's sampler plugins that a Mitsuba configuration may name; `independent` is the
+/// default (and is not written in the configuration's name).
+pub const MITSUBA_SAMPLERS: [&str; 5] = [
+    "independent",
+    "stratified",
+    "multijitter",
+    "orthogonal",
+    "ldsampler",
+];
 
 impl Config {
     pub fn name(&self) -> String {
+        let ours = |base: String, s: &Sampler| match s {
+            Sampler::Sobol => base,
+            s => format!("{base}-{s}"),
+        };
         match self {
             Config::Gpu {
                 integrator,
                 threads,
-            } => match threads {
-                Some(t) => format!("{}-t{t}", integrator.name()),
-                None => integrator.name().to_string(),
-            },
-            Config::Cpu => "cpu".into(),
-            Config::Mitsuba(v) => format!(
-                "mitsuba-{}",
-                v.trim_end_matches("_ad_rgb").trim_end_matches("_rgb")
+                sampler,
+            } => ours(
+                match threads {
+                    Some(t) => format!("{}-t{t}", integrator.name()),
+                    None => integrator.name().to_string(),
+                },
+                sampler,
             ),
+            Config::Cpu { sampler } => ours("cpu".into(), sampler),
+            Config::Mitsuba { variant, sampler } => {
+                let v = variant.trim_end_matches("_ad_rgb").trim_end_matches("_rgb");
+                match sampler.as_str() {
+                    "independent" => format!("mitsuba-{v}"),
+                    s => format!("mitsuba-{v}-{s}"),
+                }
+            }
+        }
+    }
+
+    /// The sampler this configuration uses, as its system names it.
+    pub fn sampler_name(&self) -> String {
+        match self {
+            Config::Gpu { sampler, .. } | Config::Cpu { sampler } => sampler.name().into(),
+            Config::Mitsuba { sampler, .. } => sampler.clone(),
         }
     }
 
     pub fn parse(name: &str) -> Result<Config> {
+        if let Some(rest) = name.strip_prefix("mitsuba-") {
+            let (v, sampler) = match rest.split_once('-') {
+                Some((v, s)) => (v, s),
+                None => (rest, "independent"),
+            };
+            if !MITSUBA_SAMPLERS.contains(&sampler) {
+                bail!(
+                    "configuration '{name}': unknown Mitsuba sampler '{sampler}' (use one of {})",
+                    MITSUBA_SAMPLERS.join(", ")
+                );
+            }
+            let variant = match v {
+                "scalar" => "scalar_rgb",
+                "llvm" => "llvm_ad_rgb",
+                "cuda" => "cuda_ad_rgb",
+                _ => bail!("configuration '{name}': unknown Mitsuba variant '{v}' (use scalar, llvm or cuda)"),
+            };
+            return Ok(Config::Mitsuba {
+                variant: variant.into(),
+                sampler: sampler.into(),
+            });
+        }
+        // Ours: BASE[-tN][-SAMPLER].
+        let (name, sampler) = match Sampler::ALL
+            .iter()
+            .find_map(|s| name.strip_suffix(&format!("-{s}")).map(|n| (n, *s)))
+        {
+            Some((n, s)) => (n, s),
+            None => (name, Sampler::default()),
+        };
         let gpu = |integrator, rest: &str| -> Result<Config> {
             let threads = match rest {
                 "" => None,
@@ -85,30 +158,28 @@ impl Config {
             Ok(Config::Gpu {
                 integrator,
                 threads,
+                sampler,
             })
         };
-        match name {
-            "cpu" => Ok(Config::Cpu),
-            "mitsuba-scalar" => Ok(Config::Mitsuba("scalar_rgb".into())),
-            "mitsuba-llvm" => Ok(Config::Mitsuba("llvm_ad_rgb".into())),
-            "mitsuba-cuda" => Ok(Config::Mitsuba("cuda_ad_rgb".into())),
-            _ => {
-                if let Some(rest) = name.strip_prefix("wavefront") {
-                    gpu(Integrator::Wavefront, rest)
-                } else if let Some(rest) = name.strip_prefix("megakernel") {
-                    gpu(Integrator::Megakernel, rest)
-                } else {
-                    bail!("unknown configuration '{name}': use wavefront, megakernel (each optionally -t1, -t2, …), cpu, mitsuba-scalar, mitsuba-llvm or mitsuba-cuda")
-                }
-            }
+        if name == "cpu" {
+            Ok(Config::Cpu { sampler })
+        } else if let Some(rest) = name.strip_prefix("wavefront") {
+            gpu(Integrator::Wavefront, rest)
+        } else if let Some(rest) = name.strip_prefix("megakernel") {
+            gpu(Integrator::Megakernel, rest)
+        } else {
+            bail!(
+                "unknown configuration '{name}': use wavefront, megakernel (each optionally -t1, -t2, …), cpu, each optionally -{} last; or mitsuba-scalar, mitsuba-llvm, mitsuba-cuda, each optionally -SAMPLER last ({})",
+                Sampler::ALL.map(|s| s.name()).join(" or -"),
+                MITSUBA_SAMPLERS.join(", ")
+            )
         }
     }
 }
 
 /// The default configurations: everything that runs here (Mitsuba's are skipped with a note
 /// when the module is missing).
-pub const DEFAULT_CONFIGS: &str =
-    "wavefront,megakernel,cpu,wavefront-t1,wavefront-t2,mitsuba-scalar,mitsuba-llvm";
+pub const DEFAULT_CONFIGS: &str = "wavefront,wavefront-independent,megakernel,cpu,cpu-independent,wavefront-t1,wavefront-t2,mitsuba-scalar,mitsuba-llvm,mitsuba-llvm-multijitter,mitsuba-llvm-ldsampler";
 
 pub struct BenchOptions {
     pub scene: PathBuf,
@@ -121,6 +192,9 @@ pub struct BenchOptions {
     pub max_depth: Option<u32>,
     /// Samples per pixel of a rendered reference.
     pub reference_spp: u32,
+    /// Every configuration renders at least this many samples per pixel, whatever the
+    /// budget (for the equal-spp table).
+    pub min_spp: u32,
     pub device: Option<String>,
     /// Also measure set-up and speed against scene size (a generated mesh of this many
     /// triangles, and the lineup scene).
@@ -152,11 +226,19 @@ struct Details {
     stage_seconds: Vec<(String, f64)>,
     pipelines_compile: f64,
     pipelines_create: f64,
+    /// Mitsuba: the seconds its first (warm-up) render took beyond a warm one: kernel
+    /// compilation, kept out of every timed render.
+    peer_compile: Option<f64>,
+    /// Mitsuba: one plain warm render, timed alone: (spp, seconds).
+    peer_plain: Option<(u32, f64)>,
+    /// The sampler, as its system names it.
+    sampler: String,
 }
 
 trait Runner {
-    /// Renders `n` more samples per pixel; returns the seconds it took.
-    fn pass(&mut self, n: u32) -> Result<f64>;
+    /// Renders `n` more samples per pixel; returns the samples per pixel of the image now (a
+    /// sampler may round a count up) and the render seconds that image took.
+    fn pass(&mut self, n: u32) -> Result<(u32, f64)>;
     /// The running mean of all passes so far.
     fn image(&mut self) -> Result<Image>;
     fn details(&mut self) -> Details;
@@ -167,15 +249,17 @@ struct GpuRunner<'a> {
     device: String,
     setup_seconds: f64,
     done: u32,
+    seconds: f64,
 }
 
 impl Runner for GpuRunner<'_> {
-    fn pass(&mut self, n: u32) -> Result<f64> {
+    fn pass(&mut self, n: u32) -> Result<(u32, f64)> {
         let t = Instant::now();
         self.renderer
             .render_samples(self.done..self.done + n, &|_| {})?;
         self.done += n;
-        Ok(t.elapsed().as_secs_f64())
+        self.seconds += t.elapsed().as_secs_f64();
+        Ok((self.done, self.seconds))
     }
     fn image(&mut self) -> Result<Image> {
         Ok(self.renderer.output()?.mean)
@@ -196,6 +280,7 @@ impl Runner for GpuRunner<'_> {
             stage_seconds: out.map(|o| o.stage_seconds).unwrap_or_default(),
             pipelines_compile: self.renderer.setup.seconds_shader_compile,
             pipelines_create: self.renderer.setup.seconds_pipeline_create,
+            ..Default::default()
         }
     }
 }
@@ -203,15 +288,17 @@ impl Runner for GpuRunner<'_> {
 struct CpuRunner<'a> {
     renderer: CpuRenderer<'a>,
     film: CpuFilm,
+    seconds: f64,
 }
 
 impl Runner for CpuRunner<'_> {
-    fn pass(&mut self, n: u32) -> Result<f64> {
+    fn pass(&mut self, n: u32) -> Result<(u32, f64)> {
         let t = Instant::now();
         let start = self.film.spp();
         self.renderer
             .render_samples(&mut self.film, start..start + n, &|_| {});
-        Ok(t.elapsed().as_secs_f64())
+        self.seconds += t.elapsed().as_secs_f64();
+        Ok((self.film.spp(), self.seconds))
     }
     fn image(&mut self) -> Result<Image> {
         Ok(self.renderer.output(&self.film).mean)
@@ -233,17 +320,22 @@ struct MitsubaRunner {
     stdout: BufReader<ChildStdout>,
     last: Option<PathBuf>,
     variant: String,
+    sampler: String,
     setup_seconds: f64,
+    compile_seconds: f64,
+    plain: (u32, f64),
+    spp: u32,
 }
 
 impl MitsubaRunner {
-    fn start(variant: &str, scene_json: &Path, dir: &Path) -> Result<MitsubaRunner> {
+    fn start(variant: &str, sampler: &str, scene_json: &Path, dir: &Path) -> Result<MitsubaRunner> {
         let script = dir.join("mitsuba_peer.py");
         std::fs::write(&script, MITSUBA_SCRIPT)
             .with_context(|| format!("writing {}", script.display()))?;
         let mut cmd = Command::new("python3");
         cmd.arg(&script)
             .arg(variant)
+            .arg(sampler)
             .arg(scene_json)
             .arg(dir)
             .stdin(Stdio::piped())
@@ -259,43 +351,61 @@ impl MitsubaRunner {
         let mut child = cmd.spawn().context("starting python3")?;
         let stdin = child.stdin.take().expect("piped");
         let mut stdout = BufReader::new(child.stdout.take().expect("piped"));
-        let mut line = String::new();
-        stdout.read_line(&mut line)?;
+        let line = protocol_line(&mut stdout)?;
         let line = line.trim();
         if let Some(msg) = line.strip_prefix("error ") {
             let _ = child.kill();
             let _ = child.wait();
             bail!("{msg}");
         }
-        if !line.starts_with("ready") {
+        // `ready COMPILE_SECONDS PLAIN_SPP PLAIN_SECONDS`.
+        let w: Vec<&str> = line.split_whitespace().collect();
+        let ready = match w[..] {
+            ["ready", c, n, s] => c
+                .parse::<f64>()
+                .ok()
+                .zip(n.parse::<u32>().ok().zip(s.parse::<f64>().ok())),
+            _ => None,
+        };
+        let Some((compile_seconds, plain)) = ready else {
             let _ = child.kill();
             let _ = child.wait();
             bail!("the Mitsuba script ended without a word (is python3 with mitsuba installed?)");
-        }
+        };
         Ok(MitsubaRunner {
             child,
             stdin,
             stdout,
             last: None,
             variant: variant.to_string(),
+            sampler: sampler.to_string(),
             setup_seconds: t.elapsed().as_secs_f64(),
+            compile_seconds,
+            plain,
+            spp: 0,
         })
     }
 }
 
 impl Runner for MitsubaRunner {
-    fn pass(&mut self, n: u32) -> Result<f64> {
-        writeln!(self.stdin, "pass {n}")?;
+    fn pass(&mut self, n: u32) -> Result<(u32, f64)> {
+        // A fresh render of all the samples so far (see the module docs).
+        writeln!(self.stdin, "render {}", self.spp + n)?;
         self.stdin.flush()?;
-        let mut line = String::new();
-        self.stdout.read_line(&mut line)?;
+        let line = protocol_line(&mut self.stdout)?;
         let mut w = line.split_whitespace();
-        match (w.next(), w.next(), w.next()) {
-            (Some("done"), Some(secs), Some(path)) => {
+        match (w.next(), w.next(), w.next(), w.next()) {
+            (Some("done"), Some(secs), Some(spp), Some(path)) => {
                 self.last = Some(PathBuf::from(path));
-                Ok(secs.parse()?)
+                self.spp = spp.parse()?;
+                Ok((self.spp, secs.parse()?))
             }
-            _ => bail!("Mitsuba ({}) answered '{}'", self.variant, line.trim()),
+            _ => bail!(
+                "Mitsuba ({}, {}) answered '{}'",
+                self.variant,
+                self.sampler,
+                line.trim()
+            ),
         }
     }
     fn image(&mut self) -> Result<Image> {
@@ -306,6 +416,8 @@ impl Runner for MitsubaRunner {
         Details {
             device: format!("Mitsuba 3 {}", self.variant),
             setup_seconds: self.setup_seconds,
+            peer_compile: Some(self.compile_seconds),
+            peer_plain: Some(self.plain),
             ..Default::default()
         }
     }
@@ -319,6 +431,24 @@ impl Drop for MitsubaRunner {
     }
 }
 
+/// The next line of the Mitsuba script's protocol (`ready`, `done` or `error`), skipping any
+/// other output (a log line the script did not silence); "" at the end of its output.
+fn protocol_line(r: &mut impl BufRead) -> Result<String> {
+    for _ in 0..10_000 {
+        let mut line = String::new();
+        if r.read_line(&mut line)? == 0 {
+            return Ok(line);
+        }
+        if ["ready", "done", "error"]
+            .iter()
+            .any(|w| line.split_whitespace().next() == Some(*w))
+        {
+            return Ok(line);
+        }
+    }
+    bail!("the Mitsuba script wrote 10000 lines that are not its protocol")
+}
+
 /// The newest libLLVM of version 16 or later on the system, for Dr.Jit.
 fn newest_libllvm() -> Option<PathBuf> {
     let dir = Path::new("/usr/lib/x86_64-linux-gnu");
@@ -329,22 +459,60 @@ fn newest_libllvm() -> Option<PathBuf> {
         .find(|p| p.exists())
 }
 
-/// The scene as `mitsuba_peer.py` reads it, or why it cannot be: meshes of Lambert triangles
-/// grouped by (material, emitter), the camera, the image size, the depth.
+/// A material as a Mitsuba 3 BSDF (`mitsuba_peer.py` builds the plugin), or why it has none:
+/// Lambert is `diffuse`; Cook–Torrance with Walter et al.'s normalisation, a Beckmann or GGX
+/// distribution, Smith shadowing, conductor Fresnel, no diffuse part and a white specular
+/// scale is `roughconductor` (Mitsuba's Smith G1 for Beckmann is exact where ours is Walter et
+/// al. 2007's rational approximation, within 0.35 %). Anything else has no Mitsuba twin.
+fn mitsuba_bsdf(m: &crate::brdf::Material) -> Result<serde_json::Value> {
+    use crate::brdf::cook_torrance::{
+        CookTorrance, Distribution, Fresnel, Geometry, Normalization,
+    };
+    use crate::brdf::lambert::Lambert;
+    let any = m.brdf.as_any();
+    if let Some(l) = any.downcast_ref::<Lambert>() {
+        return Ok(serde_json::json!({"type": "diffuse", "albedo": l.albedo.to_array()}));
+    }
+    if let Some(c) = any.downcast_ref::<CookTorrance>() {
+        if c.kd == Vec3::ZERO
+            && c.ks == Vec3::ONE
+            && c.normalization == Normalization::Walter
+            && c.geometry == Geometry::Smith
+            && c.fresnel == Fresnel::Conductor
+            && c.roughness > 0.0
+        {
+            let distribution = match c.distribution {
+                Distribution::Beckmann => "beckmann",
+                Distribution::Ggx => "ggx",
+            };
+            return Ok(serde_json::json!({
+                "type": "roughconductor",
+                "distribution": distribution,
+                "alpha": c.roughness,
+                "eta": c.eta.to_array(),
+                "k": c.k.to_array(),
+            }));
+        }
+        bail!("the Mitsuba configurations take Cook–Torrance only as a rough conductor (Walter normalisation, Smith G, conductor Fresnel, kd = 0, ks = 1)");
+    }
+    bail!(
+        "the Mitsuba configurations take Lambert and rough-conductor materials only (this scene has {})",
+        m.model_name()
+    )
+}
+
+/// The scene as `mitsuba_peer.py` reads it, or why it cannot be: meshes of triangles grouped
+/// by (material, emitter), each with its BSDF ([`mitsuba_bsdf`]), the camera, the image size,
+/// the depth.
 fn mitsuba_scene_json(s: &Scene) -> Result<String> {
-    let lambert = crate::brdf::MODELS
-        .iter()
-        .position(|m| m.name == "lambert")
-        .expect("lambert model");
     if !s.spheres.is_empty() {
         bail!("the Mitsuba configurations take triangle scenes only (this one has spheres)");
     }
-    if let Some(m) = s.materials.iter().find(|m| m.model != lambert) {
-        bail!(
-            "the Mitsuba configurations take Lambert scenes only (this one has {})",
-            crate::brdf::MODELS[m.model].name
-        );
-    }
+    let bsdfs = s
+        .materials
+        .iter()
+        .map(mitsuba_bsdf)
+        .collect::<Result<Vec<_>>>()?;
     // (material, emitter) and the triangles that have them.
     type Group<'t> = ((u32, Option<u32>), Vec<&'t Triangle>);
     let mut groups: Vec<Group> = Vec::new();
@@ -358,9 +526,8 @@ fn mitsuba_scene_json(s: &Scene) -> Result<String> {
     let meshes: Vec<serde_json::Value> = groups
         .iter()
         .map(|((mat, em), tris)| {
-            let albedo = s.materials[*mat as usize].brdf.pack().0;
             serde_json::json!({
-                "albedo": [albedo[0], albedo[1], albedo[2]],
+                "bsdf": bsdfs[*mat as usize],
                 "radiance": em.map(|e| s.emitters[e as usize].radiance.to_array()),
                 "vertices": tris.iter().flat_map(|t| t.v.iter().map(|v| v.to_array())).collect::<Vec<_>>(),
             })
@@ -527,7 +694,7 @@ pub fn run(o: &BenchOptions) -> Result<String> {
     }
     let compiler = ShaderCompiler::new()?;
     let mitsuba_json = o.out.join("mitsuba_scene.json");
-    let mitsuba_ok = match o.configs.iter().any(|c| matches!(c, Config::Mitsuba(_))) {
+    let mitsuba_ok = match o.configs.iter().any(|c| matches!(c, Config::Mitsuba { .. })) {
         false => Ok(()),
         true if !mitsuba_installed() => Err(anyhow!(
             "python3 cannot import mitsuba (pip install mitsuba numpy; the llvm variant also needs libLLVM 16 or newer, e.g. Debian's libllvm19)"
@@ -537,15 +704,27 @@ pub fn run(o: &BenchOptions) -> Result<String> {
                 .with_context(|| format!("writing {}", mitsuba_json.display()))
         }),
     };
+    // The scene as each of our configurations renders it: with its sampler.
+    let scenes: Vec<Scene> = o
+        .configs
+        .iter()
+        .map(|c| {
+            let mut s = sc.clone();
+            if let Config::Gpu { sampler, .. } | Config::Cpu { sampler } = c {
+                s.integrator.sampler = *sampler;
+            }
+            s
+        })
+        .collect();
     let mut runners: Vec<(String, Box<dyn Runner + '_>)> = Vec::new();
-    for (c, ctx) in o.configs.iter().zip(&contexts) {
+    for ((c, ctx), sc) in o.configs.iter().zip(&contexts).zip(&scenes) {
         let name = c.name();
         let runner: Result<Box<dyn Runner + '_>> = match (c, ctx) {
             (Config::Gpu { integrator, .. }, Some(ctx)) => {
                 let t = Instant::now();
                 GpuRenderer::with_options(
                     ctx,
-                    &sc,
+                    sc,
                     &bvh,
                     &compiler,
                     GpuOptions {
@@ -559,16 +738,21 @@ pub fn run(o: &BenchOptions) -> Result<String> {
                         device: ctx.device_name.clone(),
                         setup_seconds: t.elapsed().as_secs_f64(),
                         done: 0,
+                        seconds: 0.0,
                     }) as Box<dyn Runner>
                 })
             }
-            (Config::Cpu, _) => {
-                let r = CpuRenderer::new(&sc, &bvh);
+            (Config::Cpu { .. }, _) => {
+                let r = CpuRenderer::new(sc, &bvh);
                 let film = r.film();
-                Ok(Box::new(CpuRunner { renderer: r, film }))
+                Ok(Box::new(CpuRunner {
+                    renderer: r,
+                    film,
+                    seconds: 0.0,
+                }))
             }
-            (Config::Mitsuba(v), _) => match &mitsuba_ok {
-                Ok(()) => MitsubaRunner::start(v, &mitsuba_json, &o.out)
+            (Config::Mitsuba { variant, sampler }, _) => match &mitsuba_ok {
+                Ok(()) => MitsubaRunner::start(variant, sampler, &mitsuba_json, &o.out)
                     .map(|r| Box::new(r) as Box<dyn Runner>),
                 Err(e) => Err(anyhow!("{e}")),
             },
@@ -576,7 +760,7 @@ pub fn run(o: &BenchOptions) -> Result<String> {
         };
         match runner {
             Ok(r) => runners.push((name, r)),
-            Err(e) if matches!(c, Config::Mitsuba(_)) => {
+            Err(e) if matches!(c, Config::Mitsuba { .. }) => {
                 notes.push(format!("{name}: skipped: {e:#}"));
                 eprintln!("{name}: skipped: {e:#}");
             }
@@ -602,9 +786,14 @@ pub fn run(o: &BenchOptions) -> Result<String> {
                 continue;
             }
             // Double the samples so far, or as many as the rest of the share allows; a last
-            // pass of under a quarter of that is not worth its overhead.
+            // pass of under a quarter of that is not worth its overhead. Up to `min_spp`,
+            // always double, whatever the budget.
             let n = if spp == 0 {
                 1
+            } else if spp < o.min_spp {
+                // The next power of two: the equal-spp table reads 16, 64, 256 (a sampler
+                // that rounded a count up, e.g. to a square, gets back on the powers).
+                (spp + 1).next_power_of_two() - spp
             } else {
                 let per_spp = secs / spp as f64;
                 let fit = ((share - secs) / per_spp.max(1e-9)).floor();
@@ -618,12 +807,11 @@ pub fn run(o: &BenchOptions) -> Result<String> {
             if tty {
                 eprint!("\r{name}: pass {pass}, {} spp          ", spp + n);
             }
-            let dt = r
+            let (spp, secs) = r
                 .pass(n)
                 .with_context(|| format!("configuration {name}, pass {pass}"))?;
             let img = r.image()?;
             let d = metrics::diff(&img, &reference)?;
-            let (spp, secs) = (spp + n, secs + dt);
             records.push(PassRecord {
                 config: name.clone(),
                 pass,
@@ -638,7 +826,7 @@ pub fn run(o: &BenchOptions) -> Result<String> {
             state[i] = (
                 spp,
                 secs,
-                (secs >= share && passes[i] >= MIN_PASSES) || spp >= 1 << 24,
+                (secs >= share && passes[i] >= MIN_PASSES && spp >= o.min_spp) || spp >= 1 << 24,
             );
         }
     }
@@ -648,7 +836,16 @@ pub fn run(o: &BenchOptions) -> Result<String> {
 
     let details: Vec<(String, Details)> = runners
         .iter_mut()
-        .map(|(n, r)| (n.clone(), r.details()))
+        .map(|(n, r)| {
+            let mut d = r.details();
+            d.sampler = o
+                .configs
+                .iter()
+                .find(|c| &c.name() == n)
+                .map(|c| c.sampler_name())
+                .unwrap_or_default();
+            (n.clone(), d)
+        })
         .collect();
     // The runners (and Mitsuba's processes) and the devices go before anything else is timed.
     drop(runners);
@@ -697,6 +894,64 @@ pub fn run(o: &BenchOptions) -> Result<String> {
     Ok(md)
 }
 
+/// The sample counts of the equal-spp table.
+pub const TABLE_SPP: [u32; 3] = [16, 64, 256];
+
+/// The equal-spp table (relMSE of every configuration at 16, 64 and 256 spp) and the
+/// equal-time table: relMSE × render seconds at those counts (lower is better; the product
+/// is constant in the spp for an estimator whose error falls as 1/N) and its ratio to the
+/// best Mitsuba configuration's.
+fn equal_spp_tables(md: &mut String, records: &[PassRecord], details: &[(String, Details)]) {
+    let at = |name: &str, spp: u32| records.iter().find(|r| r.config == name && r.spp == spp);
+    let names: Vec<&str> = details
+        .iter()
+        .map(|(n, _)| n.as_str())
+        .filter(|n| TABLE_SPP.iter().any(|&s| at(n, s).is_some()))
+        .collect();
+    if names.is_empty() {
+        return;
+    }
+    let head: Vec<String> = TABLE_SPP.iter().map(|s| format!("{s} spp")).collect();
+    let _ = writeln!(md, "relMSE at equal samples per pixel:\n");
+    let _ = writeln!(md, "| config | {} |", head.join(" | "));
+    let _ = writeln!(md, "|---|{}", "---|".repeat(TABLE_SPP.len()));
+    for n in &names {
+        let cells: Vec<String> = TABLE_SPP
+            .iter()
+            .map(|&s| at(n, s).map_or("–".into(), |r| format!("{:.3e}", r.relmse)))
+            .collect();
+        let _ = writeln!(md, "| {n} | {} |", cells.join(" | "));
+    }
+    let eff = |name: &str, spp: u32| at(name, spp).map(|r| r.relmse * r.seconds);
+    let best_peer = |spp: u32| {
+        names
+            .iter()
+            .filter(|n| n.starts_with("mitsuba-"))
+            .filter_map(|n| eff(n, spp).map(|e| (*n, e)))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+    };
+    let _ = writeln!(
+        md,
+        "\nEqual-time error, relMSE × render seconds (lower is better), and its ratio to the best Mitsuba configuration at the same spp:\n"
+    );
+    let _ = writeln!(md, "| config | {} |", head.join(" | "));
+    let _ = writeln!(md, "|---|{}", "---|".repeat(TABLE_SPP.len()));
+    for n in &names {
+        let cells: Vec<String> = TABLE_SPP
+            .iter()
+            .map(|&s| match (eff(n, s), best_peer(s)) {
+                (Some(e), Some((p, pe))) if !n.starts_with("mitsuba-") => {
+                    format!("{e:.3e} ({:.2}x {p})", e / pe)
+                }
+                (Some(e), _) => format!("{e:.3e}"),
+                _ => "–".into(),
+            })
+            .collect();
+        let _ = writeln!(md, "| {n} | {} |", cells.join(" | "));
+    }
+    let _ = writeln!(md);
+}
+
 /// relMSE of `config` at `t` seconds, interpolated log-log between its passes (None before its
 /// first pass or after its last).
 fn relmse_at(records: &[PassRecord], config: &str, t: f64) -> Option<f64> {
@@ -727,6 +982,7 @@ fn summary(
     notes: &[String],
 ) -> String {
     let mut md = String::new();
+    let pixels = sc.width as f64 * sc.height as f64;
     let _ = writeln!(
         md,
         "Scene `{}`, {}x{}, max depth {}, Russian roulette {}; budget {:.0} s shared by {} configurations, taking turns pass by pass; BVH build {:.3} s.\n",
@@ -746,10 +1002,10 @@ fn summary(
         .fold(f64::INFINITY, f64::min);
     let _ = writeln!(
         md,
-        "| config | device | set-up s | spp | render s | paths/s | rays/s | relMSE | relMSE at {:.2} s | FLIP |",
+        "| config | device | sampler | set-up s | spp | render s | paths/s | rays/s | relMSE | relMSE at {:.2} s | FLIP |",
         t_eq
     );
-    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|");
     for (name, d) in details {
         let Some(last) = records.iter().rfind(|r| &r.config == name) else {
             continue;
@@ -763,8 +1019,9 @@ fn summary(
             .unwrap_or_else(|| "–".into());
         let _ = writeln!(
             md,
-            "| {name} | {} | {:.3} | {} | {:.2} | {:.3} M | {rays} | {:.3e} | {eq} | {:.4} |",
+            "| {name} | {} | {} | {:.3} | {} | {:.2} | {:.3} M | {rays} | {:.3e} | {eq} | {:.4} |",
             d.device,
+            d.sampler,
             d.setup_seconds,
             last.spp,
             last.seconds,
@@ -774,6 +1031,19 @@ fn summary(
         );
     }
     let _ = writeln!(md);
+    equal_spp_tables(&mut md, records, details);
+    for (name, d) in details {
+        if let (Some(c), Some((spp, s))) = (d.peer_compile, d.peer_plain) {
+            let last = records.iter().rfind(|r| &r.config == name);
+            let _ = writeln!(
+                md,
+                "- `{name}`: kernel compile {c:.2} s (kept out of every timed render); a plain warm render of {spp} spp took {s:.2} s, {:.3} M paths/s{}",
+                pixels * spp as f64 / s.max(1e-9) / 1e6,
+                last.map(|r| format!(" (the bench's own figure: {:.3} M)", r.paths_per_second / 1e6))
+                    .unwrap_or_default()
+            );
+        }
+    }
     for (name, d) in details {
         if d.stage_seconds.is_empty() {
             continue;

@@ -379,7 +379,7 @@ pub fn scene_hash(s: &crate::scene::Scene) -> String {
     let it = &s.integrator;
     let _ = write!(
         h,
-        "{:?}|{}x{}|{} {} {} {}|{:?}|{:?}|{:?}|{:?}|{:?}",
+        "{:?}|{}x{}|{} {} {} {} {}|{:?}|{:?}|{:?}|{:?}|{:?}",
         s.camera,
         s.width,
         s.height,
@@ -387,6 +387,7 @@ pub fn scene_hash(s: &crate::scene::Scene) -> String {
         it.seed,
         it.russian_roulette,
         it.rr_start_depth,
+        it.sampler,
         s.materials,
         s.emitters,
         s.triangles,

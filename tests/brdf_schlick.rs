@@ -53,6 +53,9 @@ impl Brdf for GlossyOnly {
     fn pack(&self) -> Params {
         Params::default()
     }
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
 }
 
 #[test]

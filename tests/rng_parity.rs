@@ -1,5 +1,6 @@
-//! The counter-based random numbers are bit-identical in GLSL (`shaders/rng.glsl`) and Rust
-//! (`src/rng.rs`): the premise of the same-seed GPU-vs-CPU image comparison.
+//! The counter-based random numbers of both samplers (`independent` and `sobol`) are
+//! bit-identical in GLSL (`shaders/rng.glsl`) and Rust (`src/rng.rs`): the premise of the
+//! same-seed GPU-vs-CPU image comparison.
 
 mod common;
 use ash::vk;
@@ -12,7 +13,7 @@ const KERNEL: &str = r#"#version 460
 #include "rng.glsl"
 layout(local_size_x = 64) in;
 layout(std430, set = 0, binding = 0) readonly buffer Keys { uvec4 keys[]; };   // seed, pixel, sample, bounce*64+dim packed below
-layout(std430, set = 0, binding = 1) writeonly buffer Out { uvec2 outs[]; };
+layout(std430, set = 0, binding = 1) writeonly buffer Out { uvec4 outs[]; };
 layout(push_constant) uniform Push { uint count; } pc;
 void main() {
     uint i = gl_GlobalInvocationID.x;
@@ -20,7 +21,8 @@ void main() {
     uvec4 k = keys[i];
     uint bounce = k.w >> 8u;
     uint dim = k.w & 255u;
-    outs[i] = uvec2(random_u32(k.x, k.y, k.z, bounce, dim), floatBitsToUint(random_f32(k.x, k.y, k.z, bounce, dim)));
+    outs[i] = uvec4(random_u32(k.x, k.y, k.z, bounce, dim), floatBitsToUint(random_f32(k.x, k.y, k.z, bounce, dim)),
+                    sobol_u32(k.x, k.y, k.z, bounce, dim), floatBitsToUint(sobol_f32(k.x, k.y, k.z, bounce, dim)));
 }
 "#;
 
@@ -38,7 +40,13 @@ fn random_numbers_are_bit_identical_on_gpu_and_cpu() {
     let keys: Vec<[u32; 4]> = (0..20_000u32)
         .map(|i| {
             let h = rng::pcg_hash(i);
-            [h % 7, h.rotate_left(7), i % 1031, ((i % 17) << 8) | (i % 7)]
+            // Small sample indices, and every 5th one anywhere in 32 bits.
+            let sample = if i % 5 == 0 {
+                h.rotate_left(13)
+            } else {
+                i % 1031
+            };
+            [h % 7, h.rotate_left(7), sample, ((i % 17) << 8) | (i % 7)]
         })
         .collect();
     let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
@@ -46,7 +54,7 @@ fn random_numbers_are_bit_identical_on_gpu_and_cpu() {
     let ob = ctx
         .create_buffer(
             "outs",
-            keys.len() as u64 * 8,
+            keys.len() as u64 * 16,
             storage,
             MemoryLocation::GpuToCpu,
         )
@@ -57,7 +65,7 @@ fn random_numbers_are_bit_identical_on_gpu_and_cpu() {
     rec.push_constants(&pipeline, &(keys.len() as u32));
     rec.dispatch((keys.len() as u32).div_ceil(64), 1, 1);
     ctx.submit_and_wait(rec).unwrap();
-    let outs: Vec<[u32; 2]> = ctx.download(&ob).unwrap();
+    let outs: Vec<[u32; 4]> = ctx.download(&ob).unwrap();
     for (k, o) in keys.iter().zip(&outs) {
         let (b, d) = (k[3] >> 8, k[3] & 255);
         assert_eq!(o[0], rng::random_u32(k[0], k[1], k[2], b, d), "key {k:?}");
@@ -65,6 +73,16 @@ fn random_numbers_are_bit_identical_on_gpu_and_cpu() {
             o[1],
             rng::random_f32(k[0], k[1], k[2], b, d).to_bits(),
             "key {k:?}"
+        );
+        assert_eq!(
+            o[2],
+            rng::sobol_u32(k[0], k[1], k[2], b, d),
+            "sobol, key {k:?}"
+        );
+        assert_eq!(
+            o[3],
+            rng::sobol_f32(k[0], k[1], k[2], b, d).to_bits(),
+            "sobol, key {k:?}"
         );
     }
     ctx.destroy_buffer(kb);

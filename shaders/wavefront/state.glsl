@@ -179,8 +179,15 @@ void count_rays(uint total, uint segment, bool traced) {
 #endif
 }
 
+// The path's random number for one (depth, dimension) key (dimension table: src/rng.rs).
 float rand(uint path, uint depth, uint dim) {
+#if defined(SAMPLER_INDEPENDENT)
     return random_f32(g.seed, path_pixel(path), path_sample(path), depth, dim);
+#elif defined(SAMPLER_SOBOL)
+    return sobol_f32(g.seed, path_pixel(path), path_sample(path), depth, dim);
+#else
+#error "no sampler defined (rng::defines)"
+#endif
 }
 
 #endif

@@ -37,6 +37,9 @@ macro_rules! impl_brdf {
             ) -> Option<$crate::brdf::BrdfSample> {
                 sample(self, given, u_lobe, u)
             }
+            fn as_any(&self) -> &dyn std::any::Any {
+                self
+            }
             $($methods)*
         }
     };
@@ -155,6 +158,9 @@ pub trait Brdf: Debug + Send + Sync {
     fn sample(&self, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample>;
     /// The GPU parameter block.
     fn pack(&self) -> Params;
+    /// The model's own type, for tools that translate a material to another renderer (the
+    /// bench's Mitsuba peer).
+    fn as_any(&self) -> &dyn std::any::Any;
     /// `#define`s this material needs in its model's shade pipeline (features the scene does
     /// not use are compiled out). The union over a model's materials is compiled.
     fn defines(&self) -> Vec<&'static str> {

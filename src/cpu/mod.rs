@@ -151,6 +151,7 @@ impl<'a> CpuRenderer<'a> {
                         let mut acc = PairwiseSum::default();
                         for sample in range.clone() {
                             let rng = PathRng {
+                                sampler: s.integrator.sampler,
                                 seed: s.integrator.seed,
                                 pixel,
                                 sample,

@@ -744,9 +744,11 @@ fn build_kernels(
     tiled: bool,
 ) -> Result<(Stages, Vec<ShadeKernel>)> {
     let models = &scene.shaded_models()[..];
-    // Defines added to every stage: the layout's numbers, and subgroup-aggregated queue pushes
+    // Defines added to every stage: the layout's numbers, the sampler and its dimension
+    // table, and subgroup-aggregated queue pushes
     // where the device has subgroup ballots (see `queue_push` in state.glsl).
     let mut common = layout::defines();
+    common.extend(crate::rng::defines(scene.integrator.sampler));
     common.push(("NO_QUEUE".into(), format!("{}u", scene_buffers::NO_QUEUE)));
     if ctx.features.subgroup_ballot {
         common.push(("SUBGROUP_QUEUES".into(), "1".into()));

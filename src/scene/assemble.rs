@@ -140,6 +140,16 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
             "integrator.rr_start_depth",
             d.rr_start_depth,
         )?;
+        if let Some(name) = &i.sampler {
+            integrator.sampler = crate::rng::Sampler::parse(&name.value).ok_or_else(|| {
+                let msg = format!(
+                    "unknown sampler {:?}: expected one of {}",
+                    name.value,
+                    crate::rng::Sampler::names()
+                );
+                cx.err(name.span(), "integrator.sampler", &msg)
+            })?;
+        }
     }
 
     let environment = match raw.environment.as_ref().and_then(|e| e.radiance.as_ref()) {

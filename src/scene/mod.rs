@@ -34,6 +34,8 @@ pub struct Integrator {
     /// Russian roulette from `rr_start_depth` on (off by default: unbiased but noisier).
     pub russian_roulette: bool,
     pub rr_start_depth: u32,
+    /// Where the random numbers come from ([`crate::rng::Sampler`]).
+    pub sampler: crate::rng::Sampler,
 }
 
 impl Default for Integrator {
@@ -44,6 +46,7 @@ impl Default for Integrator {
             seed: 0,
             russian_roulette: false,
             rr_start_depth: 3,
+            sampler: crate::rng::Sampler::default(),
         }
     }
 }

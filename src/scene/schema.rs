@@ -52,6 +52,7 @@ pub(super) struct RawIntegrator {
     pub(super) seed: Option<u32>,
     pub(super) russian_roulette: Option<bool>,
     pub(super) rr_start_depth: Option<Sp<u32>>,
+    pub(super) sampler: Option<Sp<String>>,
 }
 
 #[derive(Deserialize)]

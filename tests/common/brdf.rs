@@ -308,6 +308,9 @@ impl Brdf for Tampered {
     fn pack(&self) -> Params {
         self.inner.pack()
     }
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
     fn scatters(&self) -> bool {
         self.inner.scatters()
     }
