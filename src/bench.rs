@@ -575,9 +575,24 @@ fn load_scene(o: &BenchOptions) -> Result<Scene> {
     Ok(sc)
 }
 
+/// The reference's own expected relMSE, from its per-sample variance: the mean over
+/// pixel-channels of var / (N (r + 0.01)²), the expected relMSE of an N-sample mean of
+/// independent samples (an upper bound for a `sobol` reference, whose mean varies less).
+fn reference_error(mean: &Image, variance: &Image, n: u32) -> f64 {
+    let mut sum = 0.0;
+    for (m, v) in mean.data.iter().zip(&variance.data) {
+        for c in 0..3 {
+            let r = m[c] as f64 + 0.01;
+            sum += v[c] as f64 / n as f64 / (r * r);
+        }
+    }
+    sum / (3 * mean.data.len()).max(1) as f64
+}
+
 /// The reference image: the given file, or one rendered by the CPU reference at
-/// `reference_spp` with a seed of its own and cached.
-fn reference(o: &BenchOptions, sc: &Scene, bvh: &Bvh) -> Result<Image> {
+/// `reference_spp` with a seed of its own and cached; and, for a rendered one, its own
+/// expected relMSE ([`reference_error`]).
+fn reference(o: &BenchOptions, sc: &Scene, bvh: &Bvh) -> Result<(Image, Option<f64>)> {
     if let Some(p) = &o.reference {
         let img =
             imageio::read(p).with_context(|| format!("reading --reference {}", p.display()))?;
@@ -591,7 +606,7 @@ fn reference(o: &BenchOptions, sc: &Scene, bvh: &Bvh) -> Result<Image> {
                 sc.height
             );
         }
-        return Ok(img);
+        return Ok((img, None));
     }
     let mut key = crate::hash::Fnv64::new();
     key.bytes(&std::fs::read(&o.scene).with_context(|| format!("reading {}", o.scene.display()))?);
@@ -605,6 +620,7 @@ fn reference(o: &BenchOptions, sc: &Scene, bvh: &Bvh) -> Result<Image> {
         key.u64(v as u64);
     }
     key.u64(sc.integrator.russian_roulette as u64);
+    key.bytes(sc.integrator.sampler.name().as_bytes());
     if let Ok(exe) = std::env::current_exe().and_then(std::fs::read) {
         key.bytes(&exe);
     }
@@ -612,10 +628,15 @@ fn reference(o: &BenchOptions, sc: &Scene, bvh: &Bvh) -> Result<Image> {
         d.join("reference")
             .join(format!("{:016x}.exr", key.finish()))
     });
+    let error_file = cache.as_ref().map(|p| p.with_extension("relmse"));
     if let Some(p) = cache.as_ref().filter(|p| p.exists()) {
         if let Ok(img) = imageio::read(p) {
             eprintln!("reference: {} (cached)", p.display());
-            return Ok(img);
+            let err = error_file
+                .as_ref()
+                .and_then(|f| std::fs::read_to_string(f).ok())
+                .and_then(|s| s.trim().parse().ok());
+            return Ok((img, err));
         }
     }
     let mut rs = sc.clone();
@@ -626,7 +647,9 @@ fn reference(o: &BenchOptions, sc: &Scene, bvh: &Bvh) -> Result<Image> {
         o.reference_spp
     );
     let t = Instant::now();
-    let img = CpuRenderer::new(&rs, bvh).render(&|_| {}).mean;
+    let out = CpuRenderer::new(&rs, bvh).render(&|_| {});
+    let err = reference_error(&out.mean, &out.variance, o.reference_spp);
+    let img = out.mean;
     eprintln!("reference: {:.1} s", t.elapsed().as_secs_f64());
     if let Some(p) = &cache {
         if let Some(dir) = p.parent() {
@@ -637,9 +660,11 @@ fn reference(o: &BenchOptions, sc: &Scene, bvh: &Bvh) -> Result<Image> {
                 "warning: could not cache the reference at {}: {e}",
                 p.display()
             );
+        } else if let Some(f) = &error_file {
+            let _ = crate::outfile::write(f, format!("{err:e}\n").as_bytes());
         }
     }
-    Ok(img)
+    Ok((img, Some(err)))
 }
 
 /// Runs the benchmark; writes `bench.csv`, `bench.png` and `bench.md` under `o.out` and
@@ -662,7 +687,7 @@ pub fn run(o: &BenchOptions) -> Result<String> {
     let t = Instant::now();
     let bvh = bvh::build(&sc);
     let seconds_bvh = t.elapsed().as_secs_f64();
-    let reference = reference(o, &sc, &bvh)?;
+    let (reference, reference_err) = reference(o, &sc, &bvh)?;
     let pixels = sc.width as f64 * sc.height as f64;
 
     // Vulkan contexts first (one per GPU configuration: lavapipe reads LP_NUM_THREADS when an
@@ -885,6 +910,15 @@ pub fn run(o: &BenchOptions) -> Result<String> {
     img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
     crate::outfile::write(&o.out.join("bench.png"), &png)?;
 
+    let reference_note = match (&o.reference, reference_err) {
+        (Some(p), _) => format!("the reference is {}", p.display()),
+        (None, Some(e)) => format!(
+            "the reference: {} spp of the CPU reference ({} sampler, its own seed); its own expected relMSE is at most {e:.2e}",
+            o.reference_spp, sc.integrator.sampler
+        ),
+        (None, None) => format!("the reference: {} spp of the CPU reference", o.reference_spp),
+    };
+    notes.push(reference_note);
     let md = summary(o, &sc, seconds_bvh, &records, &details, &notes);
     let md = match o.scaling {
         Some(n) => format!("{md}\n{}", scaling(o, n)?),
