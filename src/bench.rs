@@ -1239,14 +1239,33 @@ mod tests {
 
     #[test]
     fn config_names_round_trip() {
-        for n in DEFAULT_CONFIGS
-            .split(',')
-            .chain(["megakernel-t1", "mitsuba-cuda"])
-        {
+        for n in DEFAULT_CONFIGS.split(',').chain([
+            "megakernel-t1",
+            "mitsuba-cuda",
+            "megakernel-t2-independent",
+            "mitsuba-scalar-orthogonal",
+        ]) {
             assert_eq!(Config::parse(n).unwrap().name(), n);
         }
+        // The default sampler is not written in the name.
+        assert_eq!(Config::parse("cpu-sobol").unwrap().name(), "cpu");
+        assert_eq!(
+            Config::parse("wavefront-t1-independent").unwrap(),
+            Config::Gpu {
+                integrator: Integrator::Wavefront,
+                threads: Some(1),
+                sampler: Sampler::Independent
+            }
+        );
+        assert_eq!(
+            Config::parse("mitsuba-llvm").unwrap().sampler_name(),
+            "independent"
+        );
         assert!(Config::parse("wavefront-t0").is_err());
         assert!(Config::parse("pbrt").is_err());
+        assert!(Config::parse("mitsuba-llvm-halton").is_err());
+        assert!(Config::parse("mitsuba-vulkan").is_err());
+        assert!(Config::parse("cpu-t2").is_err());
     }
 
     #[test]

@@ -370,7 +370,9 @@ fn bench_writes_its_csv_plot_and_summary() {
             "--reference-spp",
             "32",
             "--configs",
-            "wavefront,megakernel,cpu,wavefront-t1",
+            "wavefront,megakernel,cpu,wavefront-t1,cpu-independent",
+            "--min-spp",
+            "16",
             "--out",
             s(&out),
         ])
@@ -383,7 +385,13 @@ fn bench_writes_its_csv_plot_and_summary() {
     let mut lines = csv.lines();
     assert_eq!(lines.next(), Some(brdfwave::bench::CSV_COLUMNS));
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    for config in ["wavefront", "megakernel", "cpu", "wavefront-t1"] {
+    for config in [
+        "wavefront",
+        "megakernel",
+        "cpu",
+        "wavefront-t1",
+        "cpu-independent",
+    ] {
         let mine: Vec<&Vec<&str>> = rows.iter().filter(|r| r[0] == config).collect();
         assert!(mine.len() >= 2, "{config}: {} passes", mine.len());
         let spp: Vec<u32> = mine.iter().map(|r| r[2].parse().unwrap()).collect();
@@ -405,11 +413,40 @@ fn bench_writes_its_csv_plot_and_summary() {
         md.contains("| megakernel |") && md.contains("GPU time by stage"),
         "{md}"
     );
-    // The reference was cached.
+    // --min-spp 16: every configuration reached 16 spp, whatever the budget, so the
+    // equal-spp table has that column filled; the sampler is named per configuration.
+    for row in ["| cpu | ", "| cpu-independent | "] {
+        let line = md
+            .lines()
+            .filter(|l| l.starts_with(row))
+            .nth(1)
+            .unwrap_or_else(|| panic!("no equal-spp row {row} in {md}"));
+        assert!(
+            line.split('|')
+                .nth(2)
+                .unwrap()
+                .trim()
+                .parse::<f64>()
+                .is_ok(),
+            "{line}"
+        );
+    }
+    let main_row = |config: &str| {
+        md.lines()
+            .find(|l| l.starts_with(&format!("| {config} | ")))
+            .unwrap_or_else(|| panic!("no row for {config} in {md}"))
+            .to_string()
+    };
+    assert!(main_row("cpu-independent").contains(" | independent | "));
+    assert!(main_row("cpu").contains(" | sobol | "));
+    assert!(md.contains("its own expected relMSE is at most"), "{md}");
+    // The reference was cached, with its own error beside it.
     let cached: Vec<_> = std::fs::read_dir(reference.join("reference"))
         .unwrap()
+        .map(|e| e.unwrap().path())
         .collect();
-    assert_eq!(cached.len(), 1);
+    assert_eq!(cached.len(), 2, "{cached:?}");
+    assert!(cached.iter().any(|p| p.extension().unwrap() == "relmse"));
     fails_naming(
         &[
             "bench",
