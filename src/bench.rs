@@ -23,7 +23,9 @@
 //! stratification when independent passes are averaged, so each Mitsuba point is a fresh,
 //! warm render of all the samples so far, timed alone (its kernels are compiled by a warm-up
 //! render before any timing and reported apart), and the script also times one plain warm
-//! render at a fixed sample count, reported beside the bench's figure.
+//! render at a fixed sample count, reported beside the bench's figure. (A Mitsuba
+//! configuration's wall time is thus about twice the time of its last render, which is what
+//! its budget share counts.)
 
 use crate::bvh::{self, Bvh};
 use crate::cpu::{CpuFilm, CpuRenderer};
