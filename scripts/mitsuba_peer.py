@@ -12,14 +12,17 @@ first; Russian roulette off), the sampler plugin SAMPLER (`independent`, `strati
 
 Protocol, one line each way (so that the benchmark can interleave this process's renders with
 its own configurations). The first line this script writes is
-`ready COMPILE_SECONDS PLAIN_SPP PLAIN_SECONDS`, or `error MESSAGE`: it renders once to compile
-Dr.Jit's kernels (COMPILE_SECONDS is how much longer that render took than the same one warm),
-then times one plain warm render of PLAIN_SPP samples per pixel, the figure a user sees. Then
-brdfwave writes `render N` and this script renders a fresh image of N samples per pixel (a
-stratified sampler loses its stratification when independent passes are averaged, so every
-point of the curve is one render), timed alone, and answers `done SECONDS SPP PATH` with the
-samples per pixel the sampler actually took (stratified samplers round N up to a square,
-`ldsampler` to a power of two) and the image (linear RGB, EXR); `quit` ends it.
+`ready COMPILE_SECONDS PLAIN_SPP PLAIN_SECONDS`, or `error MESSAGE`: one plain warm render of
+PLAIN_SPP samples per pixel, the figure a user sees, after a first render of the same size
+that compiles Dr.Jit's kernels (COMPILE_SECONDS: how much longer that one took). Then brdfwave
+writes `render N` and this script renders a fresh image of N samples per pixel (a stratified
+sampler loses its stratification when independent passes are averaged, so every point of the
+curve is one render), timed alone, and answers `done SECONDS SPP COMPILE_SECONDS PATH` with
+the samples per pixel the sampler actually took (stratified samplers round N up to a square,
+`ldsampler` to a power of two), the compile time kept out of the timing and the image (linear
+RGB, EXR); `quit` ends it. The kernels of the samplers other than `independent` depend on the
+sample count (Dr.Jit compiles a new kernel for each one), so the first render of each count
+is a warm-up, untimed, and COMPILE_SECONDS is how much longer it took than the timed one.
 """
 import json
 import os
@@ -111,26 +114,31 @@ def main():
             img = np.array(mi.render(scene, spp=spp, seed=seed), dtype=np.float64)
             return img, time.perf_counter() - t
 
-        # Kernel compilation: the first render of a scene against the same render warm.
-        _, cold = render(1, 2**31 - 1)
-        _, warm = render(1, 2**31 - 2)
-        _, plain = render(PLAIN_SPP, 2**31 - 3)
-        print(f"ready {max(cold - warm, 0.0):.6f} {PLAIN_SPP} {plain:.6f}", flush=True)
+        # Kernel compilation: the first render of a size against the same render warm.
+        _, cold = render(PLAIN_SPP, 2**31 - 1)
+        _, plain = render(PLAIN_SPP, 2**31 - 2)
+        print(f"ready {max(cold - plain, 0.0):.6f} {PLAIN_SPP} {plain:.6f}", flush=True)
     except Exception as e:  # reported to brdfwave, which skips this configuration
         print(f"error {type(e).__name__}: {e}".replace("\n", " "), flush=True)
         return
     seed = 0
+    warm = {PLAIN_SPP}
     for line in sys.stdin:
         words = line.split()
         if not words or words[0] == "quit":
             break
         n = int(words[1])
+        cold = None
+        if n not in warm:
+            _, cold = render(n, 2**30 + seed)
+            warm.add(n)
         img, dt = render(n, seed)
+        compile_seconds = 0.0 if cold is None else max(cold - dt, 0.0)
         seed += 1
         spp = scene.sensors()[0].sampler().sample_count()
         path = os.path.join(out, f"render{seed}.exr")
         mi.Bitmap(img.astype(np.float32)).write(path)
-        print(f"done {dt:.6f} {spp} {path}", flush=True)
+        print(f"done {dt:.6f} {spp} {compile_seconds:.6f} {path}", flush=True)
 
 
 if __name__ == "__main__":

@@ -21,11 +21,11 @@
 //! the running image after 2^k samples is exactly a 2^k-sample render (its stratification
 //! included), and its time is the sum of the passes; Mitsuba's stratified samplers lose their
 //! stratification when independent passes are averaged, so each Mitsuba point is a fresh,
-//! warm render of all the samples so far, timed alone (its kernels are compiled by a warm-up
-//! render before any timing and reported apart), and the script also times one plain warm
-//! render at a fixed sample count, reported beside the bench's figure. (A Mitsuba
-//! configuration's wall time is thus about twice the time of its last render, which is what
-//! its budget share counts.)
+//! warm render of all the samples so far, timed alone (its kernels, which for most of its
+//! samplers depend on the sample count, are compiled by an untimed warm-up render of the same
+//! count, reported apart), and the script also times one plain warm render at a fixed sample
+//! count, reported beside the bench's figure. (A Mitsuba configuration's wall time is thus
+//! about four times the time of its last render; its budget share counts the last render.)
 
 use crate::bvh::{self, Bvh};
 use crate::cpu::{CpuFilm, CpuRenderer};
@@ -228,8 +228,8 @@ struct Details {
     stage_seconds: Vec<(String, f64)>,
     pipelines_compile: f64,
     pipelines_create: f64,
-    /// Mitsuba: the seconds its first (warm-up) render took beyond a warm one: kernel
-    /// compilation, kept out of every timed render.
+    /// Mitsuba: the seconds its warm-up renders took beyond the warm ones (kernel
+    /// compilation, one per sample count for most samplers), kept out of every timed render.
     peer_compile: Option<f64>,
     /// Mitsuba: one plain warm render, timed alone: (spp, seconds).
     peer_plain: Option<(u32, f64)>,
@@ -396,10 +396,11 @@ impl Runner for MitsubaRunner {
         self.stdin.flush()?;
         let line = protocol_line(&mut self.stdout)?;
         let mut w = line.split_whitespace();
-        match (w.next(), w.next(), w.next(), w.next()) {
-            (Some("done"), Some(secs), Some(spp), Some(path)) => {
+        match (w.next(), w.next(), w.next(), w.next(), w.next()) {
+            (Some("done"), Some(secs), Some(spp), Some(compile), Some(path)) => {
                 self.last = Some(PathBuf::from(path));
                 self.spp = spp.parse()?;
+                self.compile_seconds += compile.parse::<f64>()?;
                 Ok((self.spp, secs.parse()?))
             }
             _ => bail!(
@@ -1073,7 +1074,7 @@ fn summary(
             let last = records.iter().rfind(|r| &r.config == name);
             let _ = writeln!(
                 md,
-                "- `{name}`: kernel compile {c:.2} s (kept out of every timed render); a plain warm render of {spp} spp took {s:.2} s, {:.3} M paths/s{}",
+                "- `{name}`: kernel compile {c:.2} s in all (kept out of every timed render); a plain warm render of {spp} spp took {s:.2} s, {:.3} M paths/s{}",
                 pixels * spp as f64 / s.max(1e-9) / 1e6,
                 last.map(|r| format!(" (the bench's own figure: {:.3} M)", r.paths_per_second / 1e6))
                     .unwrap_or_default()
