@@ -51,22 +51,40 @@ uint sobol1_reversed(uint i) {
     return z;
 }
 
-uint sobol_pair_key(uint seed, uint pixel, uint depth, uint pair_index) {
-    uint h = pcg_hash(seed ^ 0x2545f491u);
-    h = pcg_hash(h ^ pixel);
-    return pcg_hash(h ^ (depth * 64u + pair_index));
+uint sobol_pixel_key(uint seed, uint pixel) {
+    return pcg_hash(pcg_hash(seed ^ 0x2545f491u) ^ pixel);
+}
+
+uint sobol_pair_key(uint pixel_key, uint depth, uint pair_index) {
+    return pcg_hash(pixel_key ^ (depth * 64u + pair_index));
+}
+
+// The padding: an Owen scramble of the sample index's reversed bits.
+uint sobol_shuffled_index(uint sample_index, uint pair_key) {
+    return bitfieldReverse(lk_permute(bitfieldReverse(sample_index), pair_key));
+}
+
+// Component c of a pair at its shuffled index, Owen-scrambled with its own key.
+uint sobol_component(uint index, uint pair_key, uint c) {
+    uint reversed = c == 0u ? index : sobol1_reversed(index);
+    return bitfieldReverse(lk_permute(reversed, pcg_hash(pair_key ^ (1u + c))));
 }
 
 // The `sobol` sampler: component (dim & 1) of pair (dim >> 1), padded by an index shuffle.
 uint sobol_u32(uint seed, uint pixel, uint sample_index, uint depth, uint dim) {
-    uint key = sobol_pair_key(seed, pixel, depth, dim >> 1u);
-    uint index = bitfieldReverse(lk_permute(bitfieldReverse(sample_index), key));
-    uint reversed = (dim & 1u) == 0u ? index : sobol1_reversed(index);
-    return bitfieldReverse(lk_permute(reversed, pcg_hash(key ^ (1u + (dim & 1u)))));
+    uint key = sobol_pair_key(sobol_pixel_key(seed, pixel), depth, dim >> 1u);
+    return sobol_component(sobol_shuffled_index(sample_index, key), key, dim & 1u);
 }
 
 float sobol_f32(uint seed, uint pixel, uint sample_index, uint depth, uint dim) {
     return to_unit_f32(sobol_u32(seed, pixel, sample_index, depth, dim));
+}
+
+// Both numbers of the pair that starts at dimension dim (even): one key, one shuffled index.
+vec2 sobol_pair_f32(uint seed, uint pixel, uint sample_index, uint depth, uint dim) {
+    uint key = sobol_pair_key(sobol_pixel_key(seed, pixel), depth, dim >> 1u);
+    uint index = sobol_shuffled_index(sample_index, key);
+    return vec2(to_unit_f32(sobol_component(index, key, 0u)), to_unit_f32(sobol_component(index, key, 1u)));
 }
 
 #endif

@@ -148,31 +148,46 @@ pub fn sobol1_reversed(i: u32) -> u32 {
     z
 }
 
+/// The part of a `sobol` key that depends on (seed, pixel) only: the same for all of a path's
+/// numbers, so a path computes it once ([`PathRng`]).
+#[inline]
+pub fn sobol_pixel_key(seed: u32, pixel: u32) -> u32 {
+    pcg_hash(pcg_hash(seed ^ 0x2545_f491) ^ pixel)
+}
+
 /// The hash of (seed, pixel, depth, pair) that keys a dimension pair's index shuffle; each
 /// component's scramble key is derived from it.
 #[inline]
-pub fn sobol_pair_key(seed: u32, pixel: u32, depth: u32, pair: u32) -> u32 {
-    let mut h = pcg_hash(seed ^ 0x2545_f491);
-    h = pcg_hash(h ^ pixel);
-    pcg_hash(h ^ depth.wrapping_mul(64).wrapping_add(pair))
+pub fn sobol_pair_key(pixel_key: u32, depth: u32, pair: u32) -> u32 {
+    pcg_hash(pixel_key ^ depth.wrapping_mul(64).wrapping_add(pair))
+}
+
+/// The shuffled sample index of a pair (the padding): an Owen scramble of the index's
+/// reversed bits, a permutation of every aligned block of 2^m indices.
+#[inline]
+pub fn sobol_shuffled_index(sample: u32, pair_key: u32) -> u32 {
+    lk_permute(sample.reverse_bits(), pair_key).reverse_bits()
+}
+
+/// Component `c` (0 or 1) of a pair at its shuffled index: the reversed Sobol' value (for
+/// dimension 0, the van der Corput radical inverse, whose reversal is the index itself),
+/// Owen-scrambled with the component's own key.
+#[inline]
+pub fn sobol_component(index: u32, pair_key: u32, c: u32) -> u32 {
+    let reversed = if c == 0 {
+        index
+    } else {
+        sobol1_reversed(index)
+    };
+    lk_permute(reversed, pcg_hash(pair_key ^ (1 + c))).reverse_bits()
 }
 
 /// The `sobol` sampler's 32-bit value for one key: dimension `dim` is component `dim & 1` of
 /// pair `dim >> 1` (see [`dim`]).
 #[inline]
 pub fn sobol_u32(seed: u32, pixel: u32, sample: u32, depth: u32, dim: u32) -> u32 {
-    let key = sobol_pair_key(seed, pixel, depth, dim >> 1);
-    // The padding: an Owen scramble of the index's reversed bits (a permutation of every
-    // aligned block of 2^m indices).
-    let index = lk_permute(sample.reverse_bits(), key).reverse_bits();
-    // Reversed Sobol' value: dimension 0 is the van der Corput radical inverse, whose reversal
-    // is the index itself.
-    let reversed = if dim & 1 == 0 {
-        index
-    } else {
-        sobol1_reversed(index)
-    };
-    lk_permute(reversed, pcg_hash(key ^ (1 + (dim & 1)))).reverse_bits()
+    let key = sobol_pair_key(sobol_pixel_key(seed, pixel), depth, dim >> 1);
+    sobol_component(sobol_shuffled_index(sample, key), key, dim & 1)
 }
 
 /// The `sobol` sampler's float in [0, 1), with 24 bits.
@@ -234,20 +249,64 @@ pub fn defines(sampler: Sampler) -> Vec<(String, String)> {
     d
 }
 
-/// Random numbers for one (pixel, sample) path; a convenience over [`Sampler::get`].
+/// Random numbers for one (pixel, sample) path: the numbers of [`Sampler::get`], with the
+/// hashes that depend on the path alone computed once, and a pair's two numbers drawn
+/// together ([`PathRng::get2`]: one pair key and one shuffled index for both).
 #[derive(Clone, Copy, Debug)]
 pub struct PathRng {
-    pub sampler: Sampler,
-    pub seed: u32,
-    pub pixel: u32,
-    pub sample: u32,
+    sampler: Sampler,
+    seed: u32,
+    pixel: u32,
+    sample: u32,
+    /// [`sobol_pixel_key`] of (seed, pixel).
+    pixel_key: u32,
 }
 
 impl PathRng {
+    pub fn new(sampler: Sampler, seed: u32, pixel: u32, sample: u32) -> PathRng {
+        PathRng {
+            sampler,
+            seed,
+            pixel,
+            sample,
+            pixel_key: sobol_pixel_key(seed, pixel),
+        }
+    }
+
+    /// The number of dimension `dim` at `depth`.
     #[inline]
     pub fn get(&self, depth: u32, dim: u32) -> f32 {
-        self.sampler
-            .get(self.seed, self.pixel, self.sample, depth, dim)
+        match self.sampler {
+            Sampler::Sobol => {
+                let key = sobol_pair_key(self.pixel_key, depth, dim >> 1);
+                to_unit_f32(sobol_component(
+                    sobol_shuffled_index(self.sample, key),
+                    key,
+                    dim & 1,
+                ))
+            }
+            Sampler::Independent => random_f32(self.seed, self.pixel, self.sample, depth, dim),
+        }
+    }
+
+    /// The numbers of dimensions `dim` and `dim + 1` (one pair; `dim` even) at `depth`.
+    #[inline]
+    pub fn get2(&self, depth: u32, dim: u32) -> glam::Vec2 {
+        debug_assert!(dim & 1 == 0, "a pair starts at an even dimension");
+        match self.sampler {
+            Sampler::Sobol => {
+                let key = sobol_pair_key(self.pixel_key, depth, dim >> 1);
+                let index = sobol_shuffled_index(self.sample, key);
+                glam::Vec2::new(
+                    to_unit_f32(sobol_component(index, key, 0)),
+                    to_unit_f32(sobol_component(index, key, 1)),
+                )
+            }
+            Sampler::Independent => glam::Vec2::new(
+                random_f32(self.seed, self.pixel, self.sample, depth, dim),
+                random_f32(self.seed, self.pixel, self.sample, depth, dim + 1),
+            ),
+        }
     }
 }
 
@@ -454,6 +513,26 @@ mod tests {
             let var = means.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (pixels - 1) as f64;
             let se = (var / pixels as f64).sqrt();
             assert!((m - 0.5).abs() < 4.0 * se, "n {n}: mean {m} (se {se})");
+        }
+    }
+
+    /// A path's draws, one at a time and in pairs, are the sampler's numbers for their keys.
+    #[test]
+    fn path_draws_are_the_samplers_numbers() {
+        for sampler in Sampler::ALL {
+            for (pixel, sample) in [(0u32, 0u32), (77, 5), (123_456, 1 << 20)] {
+                let r = PathRng::new(sampler, 9, pixel, sample);
+                for depth in 0..4 {
+                    for d in 0..7 {
+                        assert_eq!(r.get(depth, d), sampler.get(9, pixel, sample, depth, d));
+                    }
+                    for d in [0, 2, 4] {
+                        let v = r.get2(depth, d);
+                        assert_eq!(v.x, sampler.get(9, pixel, sample, depth, d));
+                        assert_eq!(v.y, sampler.get(9, pixel, sample, depth, d + 1));
+                    }
+                }
+            }
         }
     }
 

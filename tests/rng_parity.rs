@@ -13,7 +13,7 @@ const KERNEL: &str = r#"#version 460
 #include "rng.glsl"
 layout(local_size_x = 64) in;
 layout(std430, set = 0, binding = 0) readonly buffer Keys { uvec4 keys[]; };   // seed, pixel, sample, bounce*64+dim packed below
-layout(std430, set = 0, binding = 1) writeonly buffer Out { uvec4 outs[]; };
+layout(std430, set = 0, binding = 1) writeonly buffer Out { uint outs[]; };
 layout(push_constant) uniform Push { uint count; } pc;
 void main() {
     uint i = gl_GlobalInvocationID.x;
@@ -21,8 +21,13 @@ void main() {
     uvec4 k = keys[i];
     uint bounce = k.w >> 8u;
     uint dim = k.w & 255u;
-    outs[i] = uvec4(random_u32(k.x, k.y, k.z, bounce, dim), floatBitsToUint(random_f32(k.x, k.y, k.z, bounce, dim)),
-                    sobol_u32(k.x, k.y, k.z, bounce, dim), floatBitsToUint(sobol_f32(k.x, k.y, k.z, bounce, dim)));
+    outs[6u * i] = random_u32(k.x, k.y, k.z, bounce, dim);
+    outs[6u * i + 1u] = floatBitsToUint(random_f32(k.x, k.y, k.z, bounce, dim));
+    outs[6u * i + 2u] = sobol_u32(k.x, k.y, k.z, bounce, dim);
+    outs[6u * i + 3u] = floatBitsToUint(sobol_f32(k.x, k.y, k.z, bounce, dim));
+    vec2 pair = sobol_pair_f32(k.x, k.y, k.z, bounce, dim & ~1u);
+    outs[6u * i + 4u] = floatBitsToUint(pair.x);
+    outs[6u * i + 5u] = floatBitsToUint(pair.y);
 }
 "#;
 
@@ -54,7 +59,7 @@ fn random_numbers_are_bit_identical_on_gpu_and_cpu() {
     let ob = ctx
         .create_buffer(
             "outs",
-            keys.len() as u64 * 16,
+            keys.len() as u64 * 24,
             storage,
             MemoryLocation::GpuToCpu,
         )
@@ -65,7 +70,7 @@ fn random_numbers_are_bit_identical_on_gpu_and_cpu() {
     rec.push_constants(&pipeline, &(keys.len() as u32));
     rec.dispatch((keys.len() as u32).div_ceil(64), 1, 1);
     ctx.submit_and_wait(rec).unwrap();
-    let outs: Vec<[u32; 4]> = ctx.download(&ob).unwrap();
+    let outs: Vec<[u32; 6]> = ctx.download(&ob).unwrap();
     for (k, o) in keys.iter().zip(&outs) {
         let (b, d) = (k[3] >> 8, k[3] & 255);
         assert_eq!(o[0], rng::random_u32(k[0], k[1], k[2], b, d), "key {k:?}");
@@ -83,6 +88,13 @@ fn random_numbers_are_bit_identical_on_gpu_and_cpu() {
             o[3],
             rng::sobol_f32(k[0], k[1], k[2], b, d).to_bits(),
             "sobol, key {k:?}"
+        );
+        // A pair drawn together (rand2 / PathRng::get2) is the same two numbers.
+        let pair = rng::PathRng::new(rng::Sampler::Sobol, k[0], k[1], k[2]).get2(b, d & !1);
+        assert_eq!(
+            [o[4], o[5]],
+            [pair.x.to_bits(), pair.y.to_bits()],
+            "pair, key {k:?}"
         );
     }
     ctx.destroy_buffer(kb);

@@ -13,8 +13,9 @@ void camera_ray(uint path, out vec3 o, out vec3 d) {
     uint pixel = path_pixel(path);
     uint x = pixel % g.width;
     uint y = pixel / g.width;
-    float fx = float(x) + rand(path, 0u, DIM_PIXEL_X);
-    float fy = float(y) + rand(path, 0u, DIM_PIXEL_Y);
+    vec2 sub_pixel = rand2(path, 0u, DIM_PIXEL_X);
+    float fx = float(x) + sub_pixel.x;
+    float fy = float(y) + sub_pixel.y;
     float sx = 2.0 * fx / float(g.width) - 1.0;
     float sy = 1.0 - 2.0 * fy / float(g.height);
     o = g.cam_origin;

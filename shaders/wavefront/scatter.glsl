@@ -43,8 +43,8 @@ Scatter shade_vertex(uint path, uint depth, Surface s, vec3 d, vec3 b, uint c) {
 
     // Next-event estimation.
     if (g.num_lights > 0u) {
-        LightSample ls = sample_light(rand(path, depth, DIM_LIGHT_SELECT), rand(path, depth, DIM_LIGHT_U),
-                                      rand(path, depth, DIM_LIGHT_V));
+        vec2 u_light = rand2(path, depth, DIM_LIGHT_U);
+        LightSample ls = sample_light(rand(path, depth, DIM_LIGHT_SELECT), u_light.x, u_light.y);
         vec3 target = offset_ray_origin(ls.p, ls.p_err, ls.n);
         vec3 to_light = target - origin;
         float dist2 = dot(to_light, to_light);
@@ -75,7 +75,7 @@ Scatter shade_vertex(uint path, uint depth, Surface s, vec3 d, vec3 b, uint c) {
 
     // BRDF sampling for the next segment.
     BrdfSample bs;
-    vec2 u = vec2(rand(path, depth, DIM_BSDF_U), rand(path, depth, DIM_BSDF_V));
+    vec2 u = rand2(path, depth, DIM_BSDF_U);
     if (!BRDF_SAMPLE(m, wo, rand(path, depth, DIM_BSDF_LOBE), u, bs)) return r;
     vec3 wi = to_world(s.frame, bs.wi);
     if (dot(wi, s.ng) <= 0.0) return r;

@@ -190,4 +190,14 @@ float rand(uint path, uint depth, uint dim) {
 #endif
 }
 
+// The path's two numbers of the pair that starts at dimension dim (even): PathRng::get2.
+vec2 rand2(uint path, uint depth, uint dim) {
+#if defined(SAMPLER_INDEPENDENT)
+    uint pixel = path_pixel(path), s = path_sample(path);
+    return vec2(random_f32(g.seed, pixel, s, depth, dim), random_f32(g.seed, pixel, s, depth, dim + 1u));
+#else
+    return sobol_pair_f32(g.seed, path_pixel(path), path_sample(path), depth, dim);
+#endif
+}
+
 #endif

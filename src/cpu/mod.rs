@@ -22,7 +22,7 @@ use crate::lights::LightTable;
 use crate::output::{nonfinite_stages, RenderOutput, SEGMENTS_COUNTED};
 use crate::rng::{dim, PathRng};
 use crate::scene::Scene;
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use surface::{light_pdf, power_heuristic, sample_light, surface_at};
@@ -150,12 +150,12 @@ impl<'a> CpuRenderer<'a> {
                     for (b, range) in blocks.iter().enumerate() {
                         let mut acc = PairwiseSum::default();
                         for sample in range.clone() {
-                            let rng = PathRng {
-                                sampler: s.integrator.sampler,
-                                seed: s.integrator.seed,
+                            let rng = PathRng::new(
+                                s.integrator.sampler,
+                                s.integrator.seed,
                                 pixel,
                                 sample,
-                            };
+                            );
                             let l = self.trace_path(x, y, &rng, &mut stats);
                             // Sums in f64: no finite f32 sample overflows them, or its
                             // square (the GPU film scales its f32 sums instead). A
@@ -222,8 +222,9 @@ impl<'a> CpuRenderer<'a> {
     fn trace_path(&self, x: u32, y: u32, rng: &PathRng, stats: &mut PathStats) -> Vec3 {
         let s = self.scene;
         let max_depth = s.integrator.max_depth;
-        let fx = x as f32 + rng.get(0, dim::PIXEL_X);
-        let fy = y as f32 + rng.get(0, dim::PIXEL_Y);
+        let sub_pixel = rng.get2(0, dim::PIXEL_X);
+        let fx = x as f32 + sub_pixel.x;
+        let fy = y as f32 + sub_pixel.y;
         let mut o = self.camera.origin;
         let mut d = self.camera.ray_direction(fx, fy, s.width, s.height);
         let mut beta = Vec3::ONE;
@@ -286,12 +287,13 @@ impl<'a> CpuRenderer<'a> {
 
             // Next-event estimation.
             if !self.lights.is_empty() {
+                let u_light = rng.get2(depth, dim::LIGHT_U);
                 let ls = sample_light(
                     s,
                     &self.lights,
                     rng.get(depth, dim::LIGHT_SELECT),
-                    rng.get(depth, dim::LIGHT_U),
-                    rng.get(depth, dim::LIGHT_V),
+                    u_light.x,
+                    u_light.y,
                 );
                 let target = bvh::offset_ray_origin(ls.p, ls.p_err, ls.n);
                 let to_light = target - origin;
@@ -324,7 +326,7 @@ impl<'a> CpuRenderer<'a> {
             }
 
             // BSDF sampling for the next segment.
-            let u = Vec2::new(rng.get(depth, dim::BSDF_U), rng.get(depth, dim::BSDF_V));
+            let u = rng.get2(depth, dim::BSDF_U);
             let Some(bs) = brdf.sample(wo, rng.get(depth, dim::BSDF_LOBE), u) else {
                 break;
             };
