@@ -40,11 +40,13 @@ Scatter shade_vertex(uint path, uint depth, Surface s, vec3 d, vec3 b, uint c) {
     vec3 wo = to_local(s.frame, -d);
     if (wo.z <= 0.0) return r;
     vec3 origin = offset_ray_origin(s.p, s.p_err, s.ng);
+    // The light choice and the lobe choice are one pair (DIM_LIGHT_SELECT, DIM_BSDF_LOBE).
+    vec2 u_choice = rand2(path, depth, DIM_LIGHT_SELECT);
 
     // Next-event estimation.
     if (g.num_lights > 0u) {
         vec2 u_light = rand2(path, depth, DIM_LIGHT_U);
-        LightSample ls = sample_light(rand(path, depth, DIM_LIGHT_SELECT), u_light.x, u_light.y);
+        LightSample ls = sample_light(u_choice.x, u_light.x, u_light.y);
         vec3 target = offset_ray_origin(ls.p, ls.p_err, ls.n);
         vec3 to_light = target - origin;
         float dist2 = dot(to_light, to_light);
@@ -76,7 +78,7 @@ Scatter shade_vertex(uint path, uint depth, Surface s, vec3 d, vec3 b, uint c) {
     // BRDF sampling for the next segment.
     BrdfSample bs;
     vec2 u = rand2(path, depth, DIM_BSDF_U);
-    if (!BRDF_SAMPLE(m, wo, rand(path, depth, DIM_BSDF_LOBE), u, bs)) return r;
+    if (!BRDF_SAMPLE(m, wo, u_choice.y, u, bs)) return r;
     vec3 wi = to_world(s.frame, bs.wi);
     if (dot(wi, s.ng) <= 0.0) return r;
     b *= bs.weight;

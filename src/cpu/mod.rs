@@ -284,17 +284,13 @@ impl<'a> CpuRenderer<'a> {
                 break;
             }
             let origin = bvh::offset_ray_origin(si.p, si.p_err, si.ng);
+            // The light choice and the lobe choice are one pair (LIGHT_SELECT, BSDF_LOBE).
+            let u_choice = rng.get2(depth, dim::LIGHT_SELECT);
 
             // Next-event estimation.
             if !self.lights.is_empty() {
                 let u_light = rng.get2(depth, dim::LIGHT_U);
-                let ls = sample_light(
-                    s,
-                    &self.lights,
-                    rng.get(depth, dim::LIGHT_SELECT),
-                    u_light.x,
-                    u_light.y,
-                );
+                let ls = sample_light(s, &self.lights, u_choice.x, u_light.x, u_light.y);
                 let target = bvh::offset_ray_origin(ls.p, ls.p_err, ls.n);
                 let to_light = target - origin;
                 let dist2 = to_light.length_squared();
@@ -327,7 +323,7 @@ impl<'a> CpuRenderer<'a> {
 
             // BSDF sampling for the next segment.
             let u = rng.get2(depth, dim::BSDF_U);
-            let Some(bs) = brdf.sample(wo, rng.get(depth, dim::BSDF_LOBE), u) else {
+            let Some(bs) = brdf.sample(wo, u_choice.y, u) else {
                 break;
             };
             let wi = si.frame.to_world(bs.wi);
