@@ -446,9 +446,21 @@ fn reference(o: &BenchOptions, sc: &Scene, bvh: &Bvh) -> Result<Image> {
             .join(format!("{:016x}.exr", key.finish()))
     });
     if let Some(p) = cache.as_ref().filter(|p| p.exists()) {
-        if let Ok(img) = imageio::read(p) {
-            eprintln!("reference: {} (cached)", p.display());
-            return Ok(img);
+        // A cache entry that does not read back as a finite image of the right size is
+        // discarded and rendered again, never fatal.
+        match imageio::read(p) {
+            Ok(img) if img.width == sc.width && img.height == sc.height && img.count_nonfinite() == 0 => {
+                eprintln!("reference: {} (cached)", p.display());
+                return Ok(img);
+            }
+            Ok(img) => eprintln!(
+                "warning: discarding the cached reference {} ({}x{}, {} non-finite values); rendering it again",
+                p.display(),
+                img.width,
+                img.height,
+                img.count_nonfinite()
+            ),
+            Err(e) => eprintln!("warning: discarding the cached reference: {e}; rendering it again"),
         }
     }
     let mut rs = sc.clone();

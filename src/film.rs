@@ -510,6 +510,14 @@ fn parse_header(bytes: &[u8], file_len: u64) -> Result<(PartHeader, usize)> {
     let header: PartHeader =
         serde_json::from_slice(json).context("the header is not a valid partial-film header")?;
     let h = &header;
+    let max = crate::scene::load::MAX_FILM_SIZE;
+    if h.width == 0 || h.height == 0 || h.width > max || h.height > max {
+        bail!(
+            "header fields 'width' and 'height': {}x{} is not an image size (1 to {max} per side)",
+            h.width,
+            h.height
+        );
+    }
     h.tile
         .check_within(h.width, h.height)
         .map_err(anyhow::Error::msg)

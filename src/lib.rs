@@ -19,6 +19,22 @@
 //! * `errors` — how errors read on the command line;
 //! * `bench`, `plot` — `brdfwave bench`: run time against error, and its log-log chart.
 
+/// `eprintln!` and `eprint!` that never panic: a message that cannot be written (stderr full or
+/// closed) is dropped and the work goes on. They shadow the std macros in every module below
+/// (std's panic on a failed write, which stopped a render when stderr was `/dev/full`).
+macro_rules! eprintln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+macro_rules! eprint {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stderr(), $($arg)*);
+    }};
+}
+
 pub mod bench;
 pub mod brdf;
 pub mod brdf_tools;

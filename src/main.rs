@@ -18,6 +18,35 @@ use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+/// `eprintln!` that never panics: a warning that cannot be written (stderr full or closed) is
+/// dropped and the work goes on (std's version panics). `out!` and `outln!` write the
+/// command's data to stdout and return an error naming it when that fails: a full disk is an
+/// error exit, never a panic, and never a silent success.
+macro_rules! eprintln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+macro_rules! out {
+    ($($arg:tt)*) => {
+        write_stdout(format_args!($($arg)*))
+    };
+}
+macro_rules! outln {
+    ($($arg:tt)*) => {
+        write_stdout(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
+fn write_stdout(args: std::fmt::Arguments<'_>) -> Result<()> {
+    use std::io::Write as _;
+    let mut o = std::io::stdout().lock();
+    o.write_fmt(args)
+        .and_then(|_| o.flush())
+        .context("cannot write to standard output")
+}
+
 #[derive(Parser)]
 #[command(
     name = "brdfwave",
@@ -298,11 +327,11 @@ fn main() {
                 device,
                 scaling,
             })?;
-            print!("{md}");
-            println!(
+            out!("{md}")?;
+            outln!(
                 "wrote {0}/bench.csv, {0}/bench.png, {0}/bench.md",
                 out.display()
-            );
+            )?;
             Ok(())
         })(),
         Command::Stress {
@@ -313,10 +342,11 @@ fn main() {
             groups,
             device,
         } => brdfwave::stress::cli(budget, seed, replay, failures, groups, device),
-        Command::Devices => vk::Context::list_devices().map(|d| {
+        Command::Devices => vk::Context::list_devices().and_then(|d| {
             for name in d {
-                println!("{name}");
+                outln!("{name}")?;
             }
+            Ok(())
         }),
     };
     if let Err(e) = result {
@@ -796,9 +826,9 @@ fn render(a: RenderArgs) -> Result<()> {
         variance_output: a.variance_out.as_ref().map(|v| v.display().to_string()),
     };
     if a.json {
-        println!("{}", serde_json::to_string(&summary)?);
+        outln!("{}", serde_json::to_string(&summary)?)?;
     } else {
-        print!("{summary}");
+        out!("{summary}")?;
     }
     if output.nonfinite_samples > 0 {
         eprintln!(
@@ -929,9 +959,9 @@ fn merge(
         variance_output: variance_out.map(|v| v.display().to_string()),
     };
     if json {
-        println!("{}", serde_json::to_string(&summary)?);
+        outln!("{}", serde_json::to_string(&summary)?)?;
     } else {
-        print!("{summary}");
+        out!("{summary}")?;
     }
     if nonfinite_samples > 0 {
         eprintln!("warning: the parts dropped {nonfinite_samples} non-finite values");
@@ -976,9 +1006,9 @@ fn diff(test: &Path, reference: &Path, error_map: Option<&Path>, json_out: bool)
             "nonfinite_test": report.nonfinite_test,
             "nonfinite_reference": report.nonfinite_reference,
         });
-        println!("{j}");
+        outln!("{j}")?;
     } else {
-        print!("{report}");
+        out!("{report}")?;
     }
     Ok(())
 }
@@ -1019,7 +1049,7 @@ fn brdf_command(cmd: BrdfCommand) -> Result<()> {
             let csv = tools::format_eval_csv(&pairs, &values);
             match out {
                 Some(p) => outfile::write(&p, csv.as_bytes())?,
-                None => print!("{csv}"),
+                None => out!("{csv}")?,
             }
         }
         BrdfCommand::Plot {
@@ -1037,7 +1067,7 @@ fn brdf_command(cmd: BrdfCommand) -> Result<()> {
             }])?;
             let m = parse_inline(&material)?;
             tools::write_plot(&out, &tools::plot_lobe(m.brdf.as_ref(), theta_i))?;
-            println!("wrote {}", out.display());
+            outln!("wrote {}", out.display())?;
         }
         BrdfCommand::Report {
             out,
@@ -1076,11 +1106,11 @@ fn brdf_command(cmd: BrdfCommand) -> Result<()> {
             let md = tools::report_markdown(&rows, device_name.as_deref());
             outfile::write(&out.join("report.md"), md.as_bytes())?;
             outfile::write(&out.join("report.csv"), tools::report_csv(&rows).as_bytes())?;
-            print!("{md}");
-            println!(
+            out!("{md}")?;
+            outln!(
                 "\nwrote {}/report.md, report.csv and lobe_*.png",
                 out.display()
-            );
+            )?;
         }
     }
     Ok(())
