@@ -53,7 +53,7 @@ impl Cx<'_> {
     }
 
     pub(super) fn v3(&self, v: &V3, field: &str) -> Result<Vec3, SceneError> {
-        self.vec3(v.span(), field, v.value)
+        self.vec3(v.span(), field, v.value.0)
     }
 
     /// A non-negative RGB radiance.
@@ -402,7 +402,7 @@ pub(super) fn shape_primitives(
             let fq = format!("{f}.quads[{k}]");
             let mut p = [Vec3::ZERO; 4];
             for (j, v) in q.value.iter().enumerate() {
-                p[j] = cx.vec3(q.span(), &fq, *v)?;
+                p[j] = cx.vec3(q.span(), &fq, v.0)?;
             }
             for (half, idx) in [[0, 1, 2], [0, 2, 3]].iter().enumerate() {
                 let t = [p[idx[0]], p[idx[1]], p[idx[2]]];
@@ -433,7 +433,7 @@ pub(super) fn shape_primitives(
             let ft = format!("{f}.triangles[{k}]");
             let mut t = [Vec3::ZERO; 3];
             for (j, v) in q.value.iter().enumerate() {
-                t[j] = cx.vec3(q.span(), &ft, *v)?;
+                t[j] = cx.vec3(q.span(), &ft, v.0)?;
             }
             if let Some(msg) = edge_overflow(&t) {
                 return Err(cx.err(q.span(), &ft, format!("{label}, triangle {k}: {msg}")));
