@@ -414,6 +414,13 @@ fn reference(o: &BenchOptions, sc: &Scene, bvh: &Bvh) -> Result<Image> {
     if let Some(p) = &o.reference {
         let img =
             imageio::read(p).with_context(|| format!("reading --reference {}", p.display()))?;
+        if img.count_nonfinite() > 0 {
+            bail!(
+                "--reference {} holds {} non-finite values: a reference must be finite (relMSE would leave them out)",
+                p.display(),
+                img.count_nonfinite()
+            );
+        }
         if img.width != sc.width || img.height != sc.height {
             bail!(
                 "--reference {} is {}x{}, the benchmark renders {}x{}",

@@ -672,6 +672,7 @@ fn render(a: RenderArgs) -> Result<()> {
             }
         })?;
     }
+    outfile::refuse_inputs(&planned, &[("scene file", &a.scene)])?;
     outfile::prepare(&planned)?;
     let wants_film = outs.iter().any(|p| is_partial_film(p));
     let t_bvh = Instant::now();
@@ -1010,6 +1011,17 @@ fn diff(test: &Path, reference: &Path, error_map: Option<&Path>, json_out: bool)
     } else {
         out!("{report}")?;
     }
+    // The metrics leave non-finite values out (two all-NaN images scored RMSE 0, FLIP 0): such
+    // images do not compare, whatever the numbers above say.
+    if report.nonfinite_test + report.nonfinite_reference > 0 {
+        bail!(
+            "the images hold non-finite values ({} in {}, {} in {}), which the metrics leave out: they do not compare",
+            report.nonfinite_test,
+            test.display(),
+            report.nonfinite_reference,
+            reference.display()
+        );
+    }
     Ok(())
 }
 
@@ -1028,10 +1040,12 @@ fn brdf_command(cmd: BrdfCommand) -> Result<()> {
                 warn_gpu_only(&[("--device", device.is_some())]);
             }
             if let Some(p) = &out {
-                outfile::prepare(&[Output {
+                let o = [Output {
                     option: "--out",
                     path: p,
-                }])?;
+                }];
+                outfile::refuse_inputs(&o, &[("--dirs file", &dirs)])?;
+                outfile::prepare(&o)?;
             }
             let m = parse_inline(&material)?;
             let pairs = tools::read_direction_csv(&dirs)?;

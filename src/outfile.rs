@@ -192,6 +192,24 @@ pub fn prepare(outputs: &[Output]) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Refuses an output that is one of the command's inputs (`(what, path)`, e.g. the scene
+/// file): the write would replace the input (`brdf eval --dirs x.csv --out x.csv`, a scene
+/// named `.exr` given as its own `--out`). Paths are compared as [`resolve`] sees them.
+pub fn refuse_inputs(outputs: &[Output], inputs: &[(&str, &Path)]) -> anyhow::Result<()> {
+    for o in outputs {
+        for (what, input) in inputs {
+            if resolve(o.path) == resolve(input) {
+                anyhow::bail!(
+                    "{} {} is also the {what}: writing it would replace the input; give the output another path",
+                    o.option,
+                    o.path.display()
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
 fn check_one(o: &Output) -> anyhow::Result<()> {
     let shown = o.path.display();
     if o.path.file_name().is_none() {

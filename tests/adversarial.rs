@@ -333,3 +333,68 @@ fn stress_refuses_a_bad_failure_file_or_device_up_front() {
         "refused before the 30-second budget was spent"
     );
 }
+
+/// An output that is one of the command's inputs is refused before anything is written, as
+/// `merge` and `diff` already did: `brdf eval --dirs x.csv --out x.csv` replaced its input, and
+/// a TOML scene named `.exr` given as its own `--out` was overwritten by the image.
+#[test]
+fn an_output_that_is_an_input_is_refused() {
+    let dirs = tmp("same-dirs.csv");
+    let text = "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n";
+    std::fs::write(&dirs, text).unwrap();
+    fails_with(
+        &[
+            "brdf",
+            "eval",
+            "--material",
+            "model = \"lambert\"",
+            "--backend",
+            "cpu",
+            "--dirs",
+            s(&dirs),
+            "--out",
+            s(&dirs),
+        ],
+        &["--out", "--dirs file", "replace the input"],
+    );
+    assert_eq!(std::fs::read_to_string(&dirs).unwrap(), text);
+    let scene = tmp("scene-named.exr");
+    let toml = std::fs::read_to_string(common::repo().join("scenes/cornell-box.toml")).unwrap();
+    std::fs::write(&scene, &toml).unwrap();
+    let mut args = vec!["render", s(&scene)];
+    args.extend(common::QUICK_RENDER);
+    args.extend(["--out", s(&scene)]);
+    fails_with(&args, &["--out", "scene file", "replace the input"]);
+    assert_eq!(std::fs::read_to_string(&scene).unwrap(), toml);
+}
+
+/// Non-finite pixels fail a comparison (two all-NaN images scored RMSE 0 and FLIP 0), and a
+/// non-finite benchmark reference is refused (it gave relMSE 0).
+#[test]
+fn non_finite_images_do_not_compare() {
+    let nan = tmp("allnan.exr");
+    brdfwave::imageio::write(&nan, &brdfwave::imageio::Image::filled(4, 4, [f32::NAN; 3])).unwrap();
+    let good = tmp("finite.exr");
+    brdfwave::imageio::write(&good, &brdfwave::imageio::Image::filled(4, 4, [0.5; 3])).unwrap();
+    for (a, b) in [(&nan, &nan), (&good, &nan), (&nan, &good)] {
+        fails_with(&["diff", s(a), s(b)], &["non-finite", "do not compare"]);
+    }
+    let o = check(
+        bin().args(["diff", s(&good), s(&good)]).output().unwrap(),
+        "diff",
+    );
+    assert!(o.status.success());
+    fails_with(
+        &[
+            "bench",
+            "scenes/cornell-box.toml",
+            "--res",
+            "4x4",
+            "--configs",
+            "cpu",
+            "--reference",
+            s(&nan),
+        ],
+        &["--reference", "non-finite"],
+    );
+}

@@ -1021,3 +1021,30 @@ fn obj_points_and_lines_are_ignored_and_counted() {
         s.warnings
     );
 }
+
+/// The scene's max_depth is held to the renderers' limit, as `--max-depth` is (2^20 + 1 loaded
+/// and failed only on the GPU, without a line).
+#[test]
+fn max_depth_over_the_limit_is_an_error() {
+    let src = with(
+        "[materials.m]",
+        "[integrator]\nmax_depth = 1048577\n\n[materials.m]",
+    );
+    expect_error(
+        &src,
+        "max_depth = 1048577",
+        "integrator.max_depth",
+        "must be in [1, 1048576]",
+    );
+    let ok = with(
+        "[materials.m]",
+        "[integrator]\nmax_depth = 1048576\n\n[materials.m]",
+    );
+    assert_eq!(
+        load_str(&ok, Path::new("d.toml"))
+            .unwrap()
+            .integrator
+            .max_depth,
+        1 << 20
+    );
+}

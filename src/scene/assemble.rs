@@ -146,6 +146,18 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
         Some(r) => cx.radiance(r, "environment.radiance")?,
         None => Vec3::ZERO,
     };
+    // The depth limit of the renderers (`--max-depth` is held to the same): the random-number
+    // key of a deeper segment would reuse another depth's numbers.
+    if let Some(d) = raw.integrator.as_ref().and_then(|i| i.max_depth.as_ref()) {
+        if d.value > crate::gpu::MAX_DEPTH {
+            let msg = format!(
+                "{} is out of range: must be in [1, {}]",
+                d.value,
+                crate::gpu::MAX_DEPTH
+            );
+            return Err(cx.err(d.span(), "integrator.max_depth", msg));
+        }
+    }
 
     // Materials, in file order (the map is sorted by name; the spans give the order).
     let mut defs: Vec<(String, Option<Range<usize>>, MaterialTable)> = Vec::new();
