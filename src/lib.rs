@@ -14,6 +14,7 @@
 //! * `film` — per-pixel sample sums, partial films of split renders, and their exact merge;
 //! * `brdf_tools` — `brdfwave brdf eval | plot | report`;
 //! * `imageio`, `metrics` — image files and image comparison;
+//! * `memory` — the memory left for a large allocation, asked before making it;
 //! * `outfile` — the atomic writer of every file, and the up-front checks of output paths;
 //! * `hash` — the stable hash (FNV-1a) of cache keys and of the scene hash of partial films;
 //! * `errors` — how errors read on the command line;
@@ -47,6 +48,7 @@ pub mod gpu;
 pub mod hash;
 pub mod imageio;
 pub mod lights;
+pub mod memory;
 pub mod metrics;
 pub mod outfile;
 pub mod output;

@@ -737,6 +737,16 @@ fn render(a: RenderArgs) -> Result<()> {
             }
         }
         Backend::Cpu => {
+            // The film (6 f64 sums per pixel and block), the mean and variance images, and the
+            // encoded output (a partial film is the sums again): an allocation that fails
+            // aborts, so ask first.
+            let blocks = film::dyadic_blocks(samples.clone()).len() as u64;
+            let per_pixel = 48 * blocks + 24 + if wants_film { 48 * blocks } else { 12 };
+            brdfwave::memory::check(
+                tile.pixels() as u64 * per_pixel,
+                &format!("a CPU render of {}x{} pixels", tile.width, tile.height),
+                "render a smaller image or split it into tiles (--tile)",
+            )?;
             seconds_setup = t0.elapsed().as_secs_f64();
             let r = CpuRenderer::new(&sc, &bvh);
             let pb = progress_bar(tile.height as u64, "rows");

@@ -398,3 +398,30 @@ fn non_finite_images_do_not_compare() {
         &["--reference", "non-finite"],
     );
 }
+
+/// A CPU render whose film cannot fit is refused up front with the figure and the tile advice
+/// (under a 4 GB address-space limit, 16384x16384 aborted: `memory allocation of … failed`).
+#[test]
+fn a_cpu_render_too_large_for_memory_is_refused_up_front() {
+    let bin = env!("CARGO_BIN_EXE_brdfwave");
+    for out in ["big.png", "big.bwfilm"] {
+        let o = Command::new("sh")
+            .arg("-c")
+            .arg(format!(
+                "ulimit -v 4000000 && exec '{bin}' render scenes/cornell-box.toml --backend cpu \
+                 --res 16384x16384 --spp 1 --out '{}'",
+                s(&tmp(out))
+            ))
+            .current_dir(common::repo())
+            .output()
+            .unwrap();
+        let o = check(o, "render 16384x16384");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert!(
+            err.contains("16384x16384") && err.contains("MiB") && err.contains("--tile"),
+            "{err}"
+        );
+        assert!(!tmp(out).exists());
+    }
+}
