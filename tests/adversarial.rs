@@ -201,26 +201,34 @@ fn a_corrupt_bench_reference_is_refused_or_rebuilt() {
     );
 }
 
-/// A partial film whose header declares a 1,000,000 x 100,000 image around a small tile: the
-/// data length matches the tile, and `merge` allocated the whole image.
-#[test]
-fn a_bwfilm_header_bomb_is_refused() {
-    let part = tmp("part.bwfilm");
+/// Renders samples `samples` of the Cornell box at 8x8 on the CPU into a partial film.
+fn part(name: &str, samples: &str) -> PathBuf {
+    let p = tmp(name);
     let o = bin()
-        .args(["render", "scenes/cornell-box.toml"])
-        .args(common::QUICK_RENDER)
-        .args(["--out", s(&part)])
+        .args([
+            "render",
+            "scenes/cornell-box.toml",
+            "--backend",
+            "cpu",
+            "--res",
+            "8x8",
+        ])
+        .args(["--samples", samples, "--out", s(&p)])
         .output()
         .unwrap();
     assert!(
         check(o, "render").status.success(),
         "render of a partial film"
     );
-    let bytes = std::fs::read(&part).unwrap();
+    p
+}
+
+/// Rewrites the JSON header of the partial film `from` with `edit` into `to`.
+fn patch_header(from: &Path, to: &Path, edit: impl FnOnce(&mut serde_json::Value)) {
+    let bytes = std::fs::read(from).unwrap();
     let n = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
     let mut header: serde_json::Value = serde_json::from_slice(&bytes[16..16 + n]).unwrap();
-    header["width"] = 1_000_000.into();
-    header["height"] = 100_000.into();
+    edit(&mut header);
     let json = serde_json::to_vec(&header).unwrap();
     let mut out = bytes[..12].to_vec();
     out.extend_from_slice(&(json.len() as u32).to_le_bytes());
@@ -229,11 +237,55 @@ fn a_bwfilm_header_bomb_is_refused() {
         out.push(0);
     }
     out.extend_from_slice(&bytes[(16 + n).div_ceil(8) * 8..]);
+    std::fs::write(to, out).unwrap();
+}
+
+/// A partial film whose header declares a 1,000,000 x 100,000 image around a small tile: the
+/// data length matches the tile, and `merge` allocated the whole image (an abort).
+#[test]
+fn a_bwfilm_header_bomb_is_refused() {
+    let good = part("part.bwfilm", "0..2");
     let bomb = tmp("bomb.bwfilm");
-    std::fs::write(&bomb, out).unwrap();
+    patch_header(&good, &bomb, |h| {
+        h["width"] = 1_000_000.into();
+        h["height"] = 100_000.into();
+    });
     fails_with(
         &["merge", s(&bomb), "--out", s(&tmp("merged.exr"))],
         &[s(&bomb), "1000000x100000", "16384"],
+    );
+}
+
+/// Counters of parts that add up to more than 2^64 are refused (they wrapped), and a flipped
+/// bit in a film's body is caught by its block's checksum (it changed a pixel silently).
+#[test]
+fn merge_refuses_overflowing_counts_and_damaged_bodies() {
+    let (a, b) = (part("a.bwfilm", "0..1"), part("b.bwfilm", "1..2"));
+    let merged = tmp("ab.exr");
+    let o = check(
+        bin()
+            .args(["merge", s(&a), s(&b), "--out", s(&merged)])
+            .output()
+            .unwrap(),
+        "merge",
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (a2, b2) = (tmp("a-max.bwfilm"), tmp("b-max.bwfilm"));
+    for (from, to) in [(&a, &a2), (&b, &b2)] {
+        patch_header(from, to, |h| h["extension_rays"] = u64::MAX.into());
+    }
+    fails_with(
+        &["merge", s(&a2), s(&b2), "--out", s(&merged)],
+        &["extension-ray counts", "2^64"],
+    );
+    let mut bytes = std::fs::read(&a).unwrap();
+    let at = bytes.len() - 8 * 6 * 10 + 3;
+    bytes[at] ^= 0x10;
+    let damaged = tmp("a-damaged.bwfilm");
+    std::fs::write(&damaged, bytes).unwrap();
+    fails_with(
+        &["merge", s(&damaged), s(&b), "--out", s(&merged)],
+        &[s(&damaged), "checksum"],
     );
 }
 
