@@ -276,6 +276,7 @@ fn main() {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
+    outfile::remove_temporaries_on_signal();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => render(args),

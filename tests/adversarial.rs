@@ -477,3 +477,81 @@ fn a_cpu_render_too_large_for_memory_is_refused_up_front() {
         assert!(!tmp(out).exists());
     }
 }
+
+/// An output name longer than a file name may be is refused before the render (the up-front
+/// probe used a shortened name, so it passed, and the write failed after the render).
+#[test]
+fn an_over_long_output_name_is_refused_up_front() {
+    let long = tmp(&format!("{}.png", "n".repeat(300)));
+    let mut args = vec!["render", "scenes/cornell-box.toml"];
+    args.extend(common::QUICK_RENDER);
+    args.extend(["--out", s(&long)]);
+    fails_with(&args, &["--out", "304 bytes long", "255"]);
+}
+
+/// A signal during a write keeps the old output and leaves no temporary file (`.NAME.*.tmp`
+/// stayed behind). The process is stopped the moment its temporary file appears, sent SIGTERM
+/// and continued, so the signal lands mid-write every time.
+#[test]
+#[cfg(unix)]
+fn a_signal_during_a_write_leaves_the_old_output_and_no_temporary() {
+    let dir = tmp("signal");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("big.pfm");
+    std::fs::write(&out, b"old").unwrap();
+    let mut child = bin()
+        .args(["render", "scenes/cornell-box.toml", "--backend", "cpu"])
+        .args(["--res", "1024x1024", "--spp", "1", "--max-depth", "1"])
+        .args(["--out", s(&out)])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let pid = child.id().to_string();
+    let kill = |sig: &str| {
+        Command::new("kill")
+            .args([sig, &pid])
+            .status()
+            .unwrap()
+            .success()
+    };
+    let temporaries = || {
+        std::fs::read_dir(&dir)
+            .unwrap()
+            .filter(|e| {
+                let n = e
+                    .as_ref()
+                    .unwrap()
+                    .file_name()
+                    .to_string_lossy()
+                    .into_owned();
+                n.starts_with(".big.pfm.") && n.ends_with(".tmp")
+            })
+            .count()
+    };
+    let t = std::time::Instant::now();
+    let mut caught = false;
+    while t.elapsed().as_secs() < 60 {
+        if temporaries() > 0 {
+            caught = kill("-STOP");
+            break;
+        }
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_micros(200));
+    }
+    if caught {
+        assert!(kill("-TERM") && kill("-CONT"));
+    }
+    let status = child.wait().unwrap();
+    assert!(caught, "never saw the temporary file ({status})");
+    assert!(!status.success(), "the signal ended the render");
+    assert_eq!(
+        std::fs::read(&out).unwrap(),
+        b"old",
+        "the old output is kept"
+    );
+    assert_eq!(temporaries(), 0, "no temporary file left");
+}
