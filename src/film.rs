@@ -532,6 +532,19 @@ fn parse_header(bytes: &[u8], file_len: u64) -> Result<(PartHeader, usize)> {
     let header: PartHeader =
         serde_json::from_slice(json).context("the header is not a valid partial-film header")?;
     let h = &header;
+    // Header text is printed to the terminal (merge's summary and messages): no control
+    // characters, which could move the cursor or recolour it.
+    for (field, text) in [
+        ("scene", &h.scene),
+        ("scene_hash", &h.scene_hash),
+        ("code_version", &h.code_version),
+        ("backend", &h.backend),
+        ("device", &h.device),
+    ] {
+        if text.chars().any(|c| c.is_control()) {
+            bail!("header field '{field}': {text:?} holds control characters");
+        }
+    }
     let max = crate::scene::load::MAX_FILM_SIZE;
     if h.width == 0 || h.height == 0 || h.width > max || h.height > max {
         bail!(

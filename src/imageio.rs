@@ -50,6 +50,13 @@ pub enum ImageError {
         #[source]
         source: exr::error::Error,
     },
+    /// Writing: the reading hint of [`ImageError::Exr`] does not apply.
+    #[error("{path}: cannot write the OpenEXR file: {source}")]
+    ExrWrite {
+        path: PathBuf,
+        #[source]
+        source: exr::error::Error,
+    },
     #[error("{path}: PNG error: {source}")]
     Png {
         path: PathBuf,
@@ -400,7 +407,7 @@ fn write_exr(file: &mut File, path: &Path, img: &Image) -> Result<(), ImageError
     )
     .write()
     .to_buffered(BufWriter::new(file))
-    .map_err(|source| ImageError::Exr {
+    .map_err(|source| ImageError::ExrWrite {
         path: path.to_path_buf(),
         source,
     })

@@ -555,3 +555,45 @@ fn a_signal_during_a_write_leaves_the_old_output_and_no_temporary() {
     );
     assert_eq!(temporaries(), 0, "no temporary file left");
 }
+
+/// Messages of issue 22 item 15: a part header's text with escape codes is refused, not
+/// printed raw; a byte-order mark before a CSV header is accepted; He's tau gives its true
+/// range.
+#[test]
+fn messages_say_what_is_wrong() {
+    let good = part("msg.bwfilm", "0..2");
+    let escaped = tmp("escaped.bwfilm");
+    patch_header(&good, &escaped, |h| h["scene"] = "x\n\u{1b}[31mred".into());
+    fails_with(
+        &["merge", s(&escaped), "--out", s(&tmp("esc.exr"))],
+        &["header field 'scene'", "control characters"],
+    );
+    let dirs = tmp("bom.csv");
+    std::fs::write(
+        &dirs,
+        "\u{feff}wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n",
+    )
+    .unwrap();
+    let o = check(
+        bin()
+            .args(["brdf", "eval", "--material", "model = \"lambert\""])
+            .args(["--backend", "cpu", "--dirs", s(&dirs)])
+            .output()
+            .unwrap(),
+        "brdf eval",
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    fails_with(
+        &[
+            "brdf",
+            "eval",
+            "--material",
+            "model = \"he\"\ntau = -1",
+            "--backend",
+            "cpu",
+            "--dirs",
+            s(&dirs),
+        ],
+        &["tau", "> 0 and at most 1000"],
+    );
+}
