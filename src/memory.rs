@@ -38,7 +38,10 @@ pub fn available_bytes() -> Option<u64> {
             let used = read("/proc/self/status")
                 .and_then(|t| kib_field(&t, "VmSize:"))
                 .unwrap_or(0);
-            take((lim.rlim_cur as u64).saturating_sub(used));
+            // rlim_t is u64 here, narrower or signed elsewhere.
+            #[allow(clippy::unnecessary_cast)]
+            let limit = lim.rlim_cur as u64;
+            take(limit.saturating_sub(used));
         }
     }
     least
