@@ -277,7 +277,16 @@ fn main() {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     outfile::remove_temporaries_on_signal();
-    let cli = Cli::parse();
+    // A negative number is a value, never an option: `--spp -1` gave clap's tip to write
+    // `-- -1`, which does not work; now it is refused as an invalid value of --spp.
+    let cli = {
+        use clap::{CommandFactory, FromArgMatches};
+        let cmd = Cli::command().mut_subcommands(|c| {
+            c.allow_negative_numbers(true)
+                .mut_subcommands(|c| c.allow_negative_numbers(true))
+        });
+        Cli::from_arg_matches(&cmd.get_matches()).unwrap_or_else(|e| e.exit())
+    };
     let result = match cli.command {
         Command::Render(args) => render(args),
         Command::Merge {

@@ -597,3 +597,22 @@ fn messages_say_what_is_wrong() {
         &["tau", "> 0 and at most 1000"],
     );
 }
+
+/// A negative number for a count is an invalid value of its option (clap's tip to write
+/// `-- -1` did not work).
+#[test]
+fn a_negative_count_is_an_invalid_value() {
+    for args in [
+        ["render", "scenes/cornell-box.toml", "--spp", "-1"],
+        ["render", "scenes/cornell-box.toml", "--max-depth", "-3"],
+    ] {
+        let o = check(bin().args(args).output().unwrap(), "render");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(
+            err.contains(&format!("invalid value '{}' for '{}", args[3], args[2])),
+            "{err}"
+        );
+        assert!(!err.contains("-- -"), "{err}");
+    }
+}
