@@ -1069,6 +1069,19 @@ fn brdf_command(cmd: BrdfCommand) -> Result<()> {
             }
             let m = parse_inline(&material)?;
             let pairs = tools::read_direction_csv(&dirs)?;
+            // Below the horizon every model is 0 by definition: say so rather than print zeros
+            // without a word.
+            let below = pairs
+                .iter()
+                .filter(|(wi, wo)| wi.z <= 0.0 || wo.z <= 0.0)
+                .count();
+            if below > 0 {
+                eprintln!(
+                    "warning: {}: {below} of {} direction pairs have wi or wo at or below the horizon (z <= 0), where f and pdf are 0",
+                    dirs.display(),
+                    pairs.len()
+                );
+            }
             let values = match backend {
                 Backend::Cpu => tools::eval_cpu(&m, &pairs),
                 Backend::Gpu => {

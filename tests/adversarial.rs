@@ -616,3 +616,28 @@ fn a_negative_count_is_an_invalid_value() {
         assert!(!err.contains("-- -"), "{err}");
     }
 }
+
+/// Directions below the horizon give 0 with a warning that counts them (they gave 0 silently).
+#[test]
+fn brdf_eval_warns_below_the_horizon() {
+    let dirs = tmp("below.csv");
+    std::fs::write(
+        &dirs,
+        "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n0,0,-1,0,0,1\n0,0,1,0.6,0,-0.8\n",
+    )
+    .unwrap();
+    let o = check(
+        bin()
+            .args(["brdf", "eval", "--material", "model = \"lambert\""])
+            .args(["--backend", "cpu", "--dirs", s(&dirs)])
+            .output()
+            .unwrap(),
+        "brdf eval",
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("2 of 3 direction pairs") && err.contains("below the horizon"),
+        "{err}"
+    );
+}
