@@ -599,6 +599,13 @@ fn reference(o: &BenchOptions, sc: &Scene, bvh: &Bvh) -> Result<(Image, Option<f
     if let Some(p) = &o.reference {
         let img =
             imageio::read(p).with_context(|| format!("reading --reference {}", p.display()))?;
+        if img.count_nonfinite() > 0 {
+            bail!(
+                "--reference {} holds {} non-finite values: a reference must be finite (relMSE would leave them out)",
+                p.display(),
+                img.count_nonfinite()
+            );
+        }
         if img.width != sc.width || img.height != sc.height {
             bail!(
                 "--reference {} is {}x{}, the benchmark renders {}x{}",
@@ -633,13 +640,25 @@ fn reference(o: &BenchOptions, sc: &Scene, bvh: &Bvh) -> Result<(Image, Option<f
     });
     let error_file = cache.as_ref().map(|p| p.with_extension("relmse"));
     if let Some(p) = cache.as_ref().filter(|p| p.exists()) {
-        if let Ok(img) = imageio::read(p) {
-            eprintln!("reference: {} (cached)", p.display());
-            let err = error_file
-                .as_ref()
-                .and_then(|f| std::fs::read_to_string(f).ok())
-                .and_then(|s| s.trim().parse().ok());
-            return Ok((img, err));
+        // A cache entry that does not read back as a finite image of the right size is
+        // discarded and rendered again, never fatal.
+        match imageio::read(p) {
+            Ok(img) if img.width == sc.width && img.height == sc.height && img.count_nonfinite() == 0 => {
+                eprintln!("reference: {} (cached)", p.display());
+                let err = error_file
+                    .as_ref()
+                    .and_then(|f| std::fs::read_to_string(f).ok())
+                    .and_then(|s| s.trim().parse().ok());
+                return Ok((img, err));
+            }
+            Ok(img) => eprintln!(
+                "warning: discarding the cached reference {} ({}x{}, {} non-finite values); rendering it again",
+                p.display(),
+                img.width,
+                img.height,
+                img.count_nonfinite()
+            ),
+            Err(e) => eprintln!("warning: discarding the cached reference: {e}; rendering it again"),
         }
     }
     let mut rs = sc.clone();

@@ -21,6 +21,9 @@ pub fn read_direction_csv(path: &Path) -> Result<Vec<(Vec3, Vec3)>> {
     let (_, header) = lines
         .next()
         .ok_or_else(|| anyhow!("{}: empty file, expected a header line", path.display()))?;
+    // A byte-order mark (spreadsheets write one) is not part of the first column's name: it
+    // gave a mismatch that printed like the expected header.
+    let header = header.strip_prefix('\u{feff}').unwrap_or(header);
     let cols: Vec<&str> = header.split(',').map(|c| c.trim()).collect();
     if cols != expected {
         bail!(

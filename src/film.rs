@@ -27,9 +27,10 @@
 //! `brdfwave render --samples A..B --tile X,Y,W,H --out part.bwfilm` writes a film to a file and
 //! `brdfwave merge` reads them back (`src/film.rs` [`write_part`], [`read_part`], [`merge`]).
 //! The format, all integers little-endian:
-//! * 8 bytes `BWFILM\0\n`, then a `u32` format version (1) and a `u32` header length `n`;
+//! * 8 bytes `BWFILM\0\n`, then a `u32` format version (2) and a `u32` header length `n`;
 //! * `n` bytes of JSON, the [`PartHeader`]: scene and code identity, image size, tile, sample
-//!   range, the blocks in order, and the render's counts;
+//!   range, the blocks in order, the render's counts, and a checksum (FNV-1a 64) of each
+//!   block's data, checked on reading;
 //! * zero bytes up to a multiple of 8 from the file start;
 //! * for each block in order, for each pixel of the tile in rows from the top, six `f64`: the
 //!   sums of r, g, b and of r², g², b².
@@ -329,7 +330,8 @@ pub fn mean_and_variance(sum: [f64; 3], sum2: [f64; 3], n: u32) -> ([f32; 3], [f
 // Partial-film files.
 
 const MAGIC: &[u8; 8] = b"BWFILM\0\n";
-const VERSION: u32 = 1;
+/// Version 2 added `block_checksums`.
+const VERSION: u32 = 2;
 
 /// The JSON header of a partial film (see the module documentation).
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
@@ -356,6 +358,10 @@ pub struct PartHeader {
     /// Non-finite values dropped, by stage (as in a render's summary).
     pub nonfinite_by_stage: Vec<(String, u64)>,
     pub seconds_render: f64,
+    /// FNV-1a 64 of each data block's bytes, in hex (set by [`write_part`], checked on reading):
+    /// a flipped bit in the body changed a pixel silently.
+    #[serde(default)]
+    pub block_checksums: Vec<String>,
 }
 
 /// The program's version for partial films: parts from different versions are not merged. The
@@ -436,6 +442,7 @@ impl Part {
                 shadow_rays: out.shadow_rays,
                 nonfinite_by_stage: out.nonfinite_by_stage.clone(),
                 seconds_render,
+                block_checksums: Vec::new(),
             },
             film,
         }
@@ -444,7 +451,21 @@ impl Part {
 
 /// Writes `part` to `path` atomically.
 pub fn write_part(path: &Path, part: &Part) -> Result<()> {
-    let json = serde_json::to_vec(&part.header)?;
+    let block_bytes: Vec<Vec<u8>> = part
+        .film
+        .blocks
+        .iter()
+        .map(|b| {
+            b.sums
+                .iter()
+                .flatten()
+                .flat_map(|v| v.to_le_bytes())
+                .collect()
+        })
+        .collect();
+    let mut header = part.header.clone();
+    header.block_checksums = block_bytes.iter().map(|b| checksum(b)).collect();
+    let json = serde_json::to_vec(&header)?;
     let mut bytes = Vec::with_capacity(
         16 + json.len() + 8 + part.film.blocks.len() * part.film.tile.pixels() * 48,
     );
@@ -455,15 +476,16 @@ pub fn write_part(path: &Path, part: &Part) -> Result<()> {
     while bytes.len() % 8 != 0 {
         bytes.push(0);
     }
-    for b in &part.film.blocks {
-        for s in &b.sums {
-            for v in s {
-                bytes.extend_from_slice(&v.to_le_bytes());
-            }
-        }
+    for b in &block_bytes {
+        bytes.extend_from_slice(b);
     }
     crate::outfile::write(path, &bytes)?;
     Ok(())
+}
+
+/// The checksum of a data block's bytes in a partial film.
+fn checksum(bytes: &[u8]) -> String {
+    format!("{:016x}", crate::hash::Fnv64::new().bytes(bytes).finish())
 }
 
 /// Reads a partial film, checking that it is one and that its parts agree with each other.
@@ -511,6 +533,27 @@ fn parse_header(bytes: &[u8], file_len: u64) -> Result<(PartHeader, usize)> {
     let header: PartHeader =
         serde_json::from_slice(json).context("the header is not a valid partial-film header")?;
     let h = &header;
+    // Header text is printed to the terminal (merge's summary and messages): no control
+    // characters, which could move the cursor or recolour it.
+    for (field, text) in [
+        ("scene", &h.scene),
+        ("scene_hash", &h.scene_hash),
+        ("code_version", &h.code_version),
+        ("backend", &h.backend),
+        ("device", &h.device),
+    ] {
+        if text.chars().any(|c| c.is_control()) {
+            bail!("header field '{field}': {text:?} holds control characters");
+        }
+    }
+    let max = crate::scene::load::MAX_FILM_SIZE;
+    if h.width == 0 || h.height == 0 || h.width > max || h.height > max {
+        bail!(
+            "header fields 'width' and 'height': {}x{} is not an image size (1 to {max} per side)",
+            h.width,
+            h.height
+        );
+    }
     h.tile
         .check_within(h.width, h.height)
         .map_err(anyhow::Error::msg)
@@ -533,6 +576,13 @@ fn parse_header(bytes: &[u8], file_len: u64) -> Result<(PartHeader, usize)> {
     if next != s1 {
         bail!(
             "header field 'blocks': the blocks end at {next}, not at the end of 'samples' ({s1})"
+        );
+    }
+    if h.block_checksums.len() != h.blocks.len() {
+        bail!(
+            "header field 'block_checksums': {} checksum(s) for {} block(s)",
+            h.block_checksums.len(),
+            h.blocks.len()
         );
     }
     let start = (16 + n).div_ceil(8) * 8;
@@ -558,6 +608,11 @@ fn parse_part(bytes: &[u8]) -> Result<Part> {
         .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")));
     let mut blocks = Vec::with_capacity(h.blocks.len());
     for (i, b) in h.blocks.iter().enumerate() {
+        // n samples of finite f32 radiance add up to at most n·f32::MAX, their squares to
+        // n·f32::MAX²: a larger sum (1e300 passed as "finite") made an infinite pixel.
+        let n = (b[1] - b[0]) as f64;
+        let max = f32::MAX as f64;
+        let bounds = [n * max, n * max * max];
         let mut sums = Vec::with_capacity(pixels);
         for p in 0..pixels {
             let s: Sums = std::array::from_fn(|_| values.next().expect("length checked"));
@@ -566,7 +621,17 @@ fn parse_part(bytes: &[u8]) -> Result<Part> {
                     "block {i}, pixel {p} of the tile: sums {s:?} are not finite and non-negative"
                 );
             }
+            if (0..6).any(|c| s[c] > bounds[c / 3]) {
+                bail!(
+                    "block {i}, pixel {p} of the tile: sums {s:?} are larger than {} samples of finite radiance can add up to",
+                    b[1] - b[0]
+                );
+            }
             sums.push(s);
+        }
+        let from = start + i * pixels * 48;
+        if checksum(&bytes[from..from + pixels * 48]) != h.block_checksums[i] {
+            bail!("block {i}: its data does not match its checksum: the file is damaged");
         }
         blocks.push(Block {
             samples: b[0]..b[1],
@@ -769,10 +834,15 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
     };
     let mut nonfinite_by_stage: Vec<(String, u64)> = Vec::new();
     let mut backends: Vec<String> = Vec::new();
+    let overflow = |what: &str| anyhow::anyhow!("the parts' {what} add up to more than 2^64");
     for h in &headers {
         for (stage, n) in &h.nonfinite_by_stage {
             match nonfinite_by_stage.iter_mut().find(|(s, _)| s == stage) {
-                Some((_, t)) => *t += n,
+                Some((_, t)) => {
+                    *t = t
+                        .checked_add(*n)
+                        .ok_or_else(|| overflow("non-finite counts"))?
+                }
                 None => nonfinite_by_stage.push((stage.clone(), *n)),
             }
         }
@@ -786,8 +856,14 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
         variance,
         samples: range.expect("at least one cell").0,
         tiles,
-        extension_rays: headers.iter().map(|h| h.extension_rays).sum(),
-        shadow_rays: headers.iter().map(|h| h.shadow_rays).sum(),
+        extension_rays: headers
+            .iter()
+            .try_fold(0u64, |t, h| t.checked_add(h.extension_rays))
+            .ok_or_else(|| overflow("extension-ray counts"))?,
+        shadow_rays: headers
+            .iter()
+            .try_fold(0u64, |t, h| t.checked_add(h.shadow_rays))
+            .ok_or_else(|| overflow("shadow-ray counts"))?,
         nonfinite_by_stage,
         seconds_render: headers.iter().map(|h| h.seconds_render).sum(),
         scene: first.scene.clone(),
@@ -925,6 +1001,7 @@ mod tests {
             shadow_rays: 3,
             nonfinite_by_stage: vec![("extend".into(), 0)],
             seconds_render: 0.5,
+            block_checksums: Vec::new(),
         };
         let film = Film {
             tile: header.tile,
@@ -935,7 +1012,7 @@ mod tests {
                 },
                 Block {
                     samples: 4..5,
-                    sums: (0..4).map(|i| [i as f64 * 1e300; 6]).collect(),
+                    sums: (0..4).map(|i| [i as f64 * 1e38; 6]).collect(),
                 },
             ],
         };
@@ -951,6 +1028,7 @@ mod tests {
         .unwrap();
         let back = read_part(&path).unwrap();
         assert_eq!(back.film, film);
+        assert_eq!(back.header.block_checksums.len(), 2);
         let bytes = std::fs::read(&path).unwrap();
         let err = |b: &[u8]| format!("{:#}", parse_part(b).err().expect("refused"));
         assert!(err(&bytes[..bytes.len() - 8]).contains("data holds"));
@@ -960,5 +1038,12 @@ mod tests {
         let last = bad.len() - 8;
         bad[last..].copy_from_slice(&f64::NAN.to_le_bytes());
         assert!(err(&bad).contains("not finite"));
+        // A sum no finite f32 samples can make (one sample: at most f32::MAX).
+        bad[last..].copy_from_slice(&1e300f64.to_le_bytes());
+        assert!(err(&bad).contains("larger than 1 samples"), "{}", err(&bad));
+        // One flipped bit of a plausible value: only the checksum sees it.
+        let mut flipped = bytes.clone();
+        flipped[last] ^= 1;
+        assert!(err(&flipped).contains("checksum"), "{}", err(&flipped));
     }
 }

@@ -50,6 +50,13 @@ pub enum ImageError {
         #[source]
         source: exr::error::Error,
     },
+    /// Writing: the reading hint of [`ImageError::Exr`] does not apply.
+    #[error("{path}: cannot write the OpenEXR file: {source}")]
+    ExrWrite {
+        path: PathBuf,
+        #[source]
+        source: exr::error::Error,
+    },
     #[error("{path}: PNG error: {source}")]
     Png {
         path: PathBuf,
@@ -400,7 +407,7 @@ fn write_exr(file: &mut File, path: &Path, img: &Image) -> Result<(), ImageError
     )
     .write()
     .to_buffered(BufWriter::new(file))
-    .map_err(|source| ImageError::Exr {
+    .map_err(|source| ImageError::ExrWrite {
         path: path.to_path_buf(),
         source,
     })
@@ -473,9 +480,35 @@ fn open(path: &Path) -> Result<File, ImageError> {
     })
 }
 
+/// Refuses an image of `width` × `height` read from `path` when either side is over the film
+/// limit ([`crate::scene::load::MAX_FILM_SIZE`]), before anything of that size is allocated: a
+/// file of a few bytes can declare 10^10 pixels.
+fn check_size(path: &Path, width: u64, height: u64) -> Result<(), ImageError> {
+    let max = crate::scene::load::MAX_FILM_SIZE as u64;
+    if width > max || height > max {
+        return Err(ImageError::InvalidImage {
+            path: path.to_path_buf(),
+            reason: format!(
+                "its header declares {width}x{height} pixels, over the limit of {max} per side"
+            ),
+        });
+    }
+    Ok(())
+}
+
 fn read_exr(path: &Path) -> Result<Image, ImageError> {
     use exr::prelude::ReadChannels;
     use exr::prelude::ReadLayers;
+    // The headers first: the reader below allocates the image from the data window.
+    let meta = exr::meta::MetaData::read_from_buffered(BufReader::new(open(path)?), false)
+        .map_err(|source| ImageError::Exr {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    for header in &meta.headers {
+        let size = header.layer_size;
+        check_size(path, size.width() as u64, size.height() as u64)?;
+    }
     let file = open(path)?;
     let exr_img = exr::prelude::read()
         .no_deep_data()
@@ -498,13 +531,19 @@ fn read_exr(path: &Path) -> Result<Image, ImageError> {
 }
 
 fn read_png(path: &Path) -> Result<Image, ImageError> {
+    use image::ImageDecoder;
     let file = open(path)?;
-    let decoded = image::ImageReader::with_format(BufReader::new(file), image::ImageFormat::Png)
-        .decode()
-        .map_err(|source| ImageError::Png {
-            path: path.to_path_buf(),
-            source,
-        })?;
+    let png_error = |source| ImageError::Png {
+        path: path.to_path_buf(),
+        source,
+    };
+    // The size from the header first: a small file of a flat colour can expand to gigabytes.
+    let decoder =
+        image::codecs::png::PngDecoder::with_limits(BufReader::new(file), image::Limits::default())
+            .map_err(png_error)?;
+    let (w, h) = decoder.dimensions();
+    check_size(path, w as u64, h as u64)?;
+    let decoded = image::DynamicImage::from_decoder(decoder).map_err(png_error)?;
     let rgb = decoded.into_rgb32f();
     let (width, height) = rgb.dimensions();
     let data = rgb
@@ -571,6 +610,7 @@ fn read_pfm(path: &Path) -> Result<Image, ImageError> {
     };
     let width = parse_dim(&tokens[1], "width")?;
     let height = parse_dim(&tokens[2], "height")?;
+    check_size(path, width as u64, height as u64)?;
     let scale: f32 = tokens[3]
         .parse()
         .ok()

@@ -14,10 +14,27 @@
 //! * `film` — per-pixel sample sums, partial films of split renders, and their exact merge;
 //! * `brdf_tools` — `brdfwave brdf eval | plot | report`;
 //! * `imageio`, `metrics` — image files and image comparison;
+//! * `memory` — the memory left for a large allocation, asked before making it;
 //! * `outfile` — the atomic writer of every file, and the up-front checks of output paths;
 //! * `hash` — the stable hash (FNV-1a) of cache keys and of the scene hash of partial films;
 //! * `errors` — how errors read on the command line;
 //! * `bench`, `plot` — `brdfwave bench`: run time against error, and its log-log chart.
+
+/// `eprintln!` and `eprint!` that never panic: a message that cannot be written (stderr full or
+/// closed) is dropped and the work goes on. They shadow the std macros in every module below
+/// (std's panic on a failed write, which stopped a render when stderr was `/dev/full`).
+macro_rules! eprintln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+macro_rules! eprint {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stderr(), $($arg)*);
+    }};
+}
 
 pub mod bench;
 pub mod brdf;
@@ -31,6 +48,7 @@ pub mod gpu;
 pub mod hash;
 pub mod imageio;
 pub mod lights;
+pub mod memory;
 pub mod metrics;
 pub mod outfile;
 pub mod output;

@@ -18,6 +18,35 @@ use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+/// `eprintln!` that never panics: a warning that cannot be written (stderr full or closed) is
+/// dropped and the work goes on (std's version panics). `out!` and `outln!` write the
+/// command's data to stdout and return an error naming it when that fails: a full disk is an
+/// error exit, never a panic, and never a silent success.
+macro_rules! eprintln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+macro_rules! out {
+    ($($arg:tt)*) => {
+        write_stdout(format_args!($($arg)*))
+    };
+}
+macro_rules! outln {
+    ($($arg:tt)*) => {
+        write_stdout(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
+fn write_stdout(args: std::fmt::Arguments<'_>) -> Result<()> {
+    use std::io::Write as _;
+    let mut o = std::io::stdout().lock();
+    o.write_fmt(args)
+        .and_then(|_| o.flush())
+        .context("cannot write to standard output")
+}
+
 #[derive(Parser)]
 #[command(
     name = "brdfwave",
@@ -262,7 +291,17 @@ fn main() {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
-    let cli = Cli::parse();
+    outfile::remove_temporaries_on_signal();
+    // A negative number is a value, never an option: `--spp -1` gave clap's tip to write
+    // `-- -1`, which does not work; now it is refused as an invalid value of --spp.
+    let cli = {
+        use clap::{CommandFactory, FromArgMatches};
+        let cmd = Cli::command().mut_subcommands(|c| {
+            c.allow_negative_numbers(true)
+                .mut_subcommands(|c| c.allow_negative_numbers(true))
+        });
+        Cli::from_arg_matches(&cmd.get_matches()).unwrap_or_else(|e| e.exit())
+    };
     let result = match cli.command {
         Command::Render(args) => render(args),
         Command::Merge {
@@ -315,11 +354,11 @@ fn main() {
                 device,
                 scaling,
             })?;
-            print!("{md}");
-            println!(
+            out!("{md}")?;
+            outln!(
                 "wrote {0}/bench.csv, {0}/bench.png, {0}/bench.md",
                 out.display()
-            );
+            )?;
             Ok(())
         })(),
         Command::Stress {
@@ -330,10 +369,11 @@ fn main() {
             groups,
             device,
         } => brdfwave::stress::cli(budget, seed, replay, failures, groups, device),
-        Command::Devices => vk::Context::list_devices().map(|d| {
+        Command::Devices => vk::Context::list_devices().and_then(|d| {
             for name in d {
-                println!("{name}");
+                outln!("{name}")?;
             }
+            Ok(())
         }),
     };
     if let Err(e) = result {
@@ -667,6 +707,7 @@ fn render(a: RenderArgs) -> Result<()> {
             }
         })?;
     }
+    outfile::refuse_inputs(&planned, &[("scene file", &a.scene)])?;
     outfile::prepare(&planned)?;
     let wants_film = outs.iter().any(|p| is_partial_film(p));
     let t_bvh = Instant::now();
@@ -731,6 +772,16 @@ fn render(a: RenderArgs) -> Result<()> {
             }
         }
         Backend::Cpu => {
+            // The film (6 f64 sums per pixel and block), the mean and variance images, and the
+            // encoded output (a partial film is the sums again): an allocation that fails
+            // aborts, so ask first.
+            let blocks = film::dyadic_blocks(samples.clone()).len() as u64;
+            let per_pixel = 48 * blocks + 24 + if wants_film { 48 * blocks } else { 12 };
+            brdfwave::memory::check(
+                tile.pixels() as u64 * per_pixel,
+                &format!("a CPU render of {}x{} pixels", tile.width, tile.height),
+                "render a smaller image or split it into tiles (--tile)",
+            )?;
             seconds_setup = t0.elapsed().as_secs_f64();
             let r = CpuRenderer::new(&sc, &bvh);
             let pb = progress_bar(tile.height as u64, "rows");
@@ -822,9 +873,9 @@ fn render(a: RenderArgs) -> Result<()> {
         variance_output: a.variance_out.as_ref().map(|v| v.display().to_string()),
     };
     if a.json {
-        println!("{}", serde_json::to_string(&summary)?);
+        outln!("{}", serde_json::to_string(&summary)?)?;
     } else {
-        print!("{summary}");
+        out!("{summary}")?;
     }
     if output.nonfinite_samples > 0 {
         eprintln!(
@@ -955,9 +1006,9 @@ fn merge(
         variance_output: variance_out.map(|v| v.display().to_string()),
     };
     if json {
-        println!("{}", serde_json::to_string(&summary)?);
+        outln!("{}", serde_json::to_string(&summary)?)?;
     } else {
-        print!("{summary}");
+        out!("{summary}")?;
     }
     if nonfinite_samples > 0 {
         eprintln!("warning: the parts dropped {nonfinite_samples} non-finite values");
@@ -1002,9 +1053,20 @@ fn diff(test: &Path, reference: &Path, error_map: Option<&Path>, json_out: bool)
             "nonfinite_test": report.nonfinite_test,
             "nonfinite_reference": report.nonfinite_reference,
         });
-        println!("{j}");
+        outln!("{j}")?;
     } else {
-        print!("{report}");
+        out!("{report}")?;
+    }
+    // The metrics leave non-finite values out (two all-NaN images scored RMSE 0, FLIP 0): such
+    // images do not compare, whatever the numbers above say.
+    if report.nonfinite_test + report.nonfinite_reference > 0 {
+        bail!(
+            "the images hold non-finite values ({} in {}, {} in {}), which the metrics leave out: they do not compare",
+            report.nonfinite_test,
+            test.display(),
+            report.nonfinite_reference,
+            reference.display()
+        );
     }
     Ok(())
 }
@@ -1024,13 +1086,28 @@ fn brdf_command(cmd: BrdfCommand) -> Result<()> {
                 warn_gpu_only(&[("--device", device.is_some())]);
             }
             if let Some(p) = &out {
-                outfile::prepare(&[Output {
+                let o = [Output {
                     option: "--out",
                     path: p,
-                }])?;
+                }];
+                outfile::refuse_inputs(&o, &[("--dirs file", &dirs)])?;
+                outfile::prepare(&o)?;
             }
             let m = parse_inline(&material)?;
             let pairs = tools::read_direction_csv(&dirs)?;
+            // Below the horizon every model is 0 by definition: say so rather than print zeros
+            // without a word.
+            let below = pairs
+                .iter()
+                .filter(|(wi, wo)| wi.z <= 0.0 || wo.z <= 0.0)
+                .count();
+            if below > 0 {
+                eprintln!(
+                    "warning: {}: {below} of {} direction pairs have wi or wo at or below the horizon (z <= 0), where f and pdf are 0",
+                    dirs.display(),
+                    pairs.len()
+                );
+            }
             let values = match backend {
                 Backend::Cpu => tools::eval_cpu(&m, &pairs),
                 Backend::Gpu => {
@@ -1045,7 +1122,7 @@ fn brdf_command(cmd: BrdfCommand) -> Result<()> {
             let csv = tools::format_eval_csv(&pairs, &values);
             match out {
                 Some(p) => outfile::write(&p, csv.as_bytes())?,
-                None => print!("{csv}"),
+                None => out!("{csv}")?,
             }
         }
         BrdfCommand::Plot {
@@ -1063,7 +1140,7 @@ fn brdf_command(cmd: BrdfCommand) -> Result<()> {
             }])?;
             let m = parse_inline(&material)?;
             tools::write_plot(&out, &tools::plot_lobe(m.brdf.as_ref(), theta_i))?;
-            println!("wrote {}", out.display());
+            outln!("wrote {}", out.display())?;
         }
         BrdfCommand::Report {
             out,
@@ -1102,11 +1179,11 @@ fn brdf_command(cmd: BrdfCommand) -> Result<()> {
             let md = tools::report_markdown(&rows, device_name.as_deref());
             outfile::write(&out.join("report.md"), md.as_bytes())?;
             outfile::write(&out.join("report.csv"), tools::report_csv(&rows).as_bytes())?;
-            print!("{md}");
-            println!(
+            out!("{md}")?;
+            outln!(
                 "\nwrote {}/report.md, report.csv and lobe_*.png",
                 out.display()
-            );
+            )?;
         }
     }
     Ok(())

@@ -75,6 +75,7 @@ pub fn write_with<E: From<WriteError>>(
     let dir = parent_dir(path);
     let mut tmp =
         temp_file(path, dir).map_err(err("cannot create a temporary file in its directory"))?;
+    let _live = on_signal::Live::new(tmp.path());
     if let Ok(meta) = std::fs::metadata(path) {
         if meta.is_file() {
             tmp.as_file()
@@ -90,6 +91,104 @@ pub fn write_with<E: From<WriteError>>(
     tmp.persist(path)
         .map_err(|e| err("cannot rename the temporary file over the destination")(e.error))?;
     Ok(())
+}
+
+/// Removes the temporary files of the writes in progress when the process is interrupted
+/// (SIGINT, SIGTERM, SIGHUP), then dies of the signal as it would have: an interrupted write
+/// keeps the old output and leaves no `.NAME.XXXXXX.tmp` behind. Call once, early in `main`;
+/// without it (the library in tests) nothing changes.
+pub fn remove_temporaries_on_signal() {
+    on_signal::install();
+}
+
+#[cfg(unix)]
+mod on_signal {
+    use std::ffi::CString;
+    use std::path::Path;
+    use std::sync::atomic::{AtomicBool, AtomicPtr, Ordering};
+
+    /// The temporary files being written (a C string each, or null): the handler may only read
+    /// them, without locks or allocation.
+    const SLOTS: usize = 64;
+    static LIVE: [AtomicPtr<libc::c_char>; SLOTS] =
+        [const { AtomicPtr::new(std::ptr::null_mut()) }; SLOTS];
+    static INSTALLED: AtomicBool = AtomicBool::new(false);
+
+    pub(super) fn install() {
+        let handler: extern "C" fn(libc::c_int) = handler;
+        for sig in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP] {
+            // SAFETY: the handler only calls async-signal-safe functions (unlink, signal, raise).
+            unsafe {
+                libc::signal(sig, handler as libc::sighandler_t);
+            }
+        }
+        INSTALLED.store(true, Ordering::SeqCst);
+    }
+
+    extern "C" fn handler(sig: libc::c_int) {
+        for slot in &LIVE {
+            let p = slot.load(Ordering::SeqCst);
+            if !p.is_null() {
+                // SAFETY: a registered path is a valid C string that is never freed.
+                unsafe {
+                    libc::unlink(p);
+                }
+            }
+        }
+        // SAFETY: restores the default action and delivers the signal again.
+        unsafe {
+            libc::signal(sig, libc::SIG_DFL);
+            libc::raise(sig);
+        }
+    }
+
+    /// A temporary file registered for removal on a signal while it lives.
+    pub(super) struct Live(Option<usize>);
+
+    impl Live {
+        pub(super) fn new(path: &Path) -> Live {
+            use std::os::unix::ffi::OsStrExt;
+            if !INSTALLED.load(Ordering::SeqCst) {
+                return Live(None);
+            }
+            let Ok(c) = CString::new(path.as_os_str().as_bytes()) else {
+                return Live(None);
+            };
+            let p = c.into_raw();
+            for (i, slot) in LIVE.iter().enumerate() {
+                if slot
+                    .compare_exchange(std::ptr::null_mut(), p, Ordering::SeqCst, Ordering::SeqCst)
+                    .is_ok()
+                {
+                    return Live(Some(i));
+                }
+            }
+            // SAFETY: p came from into_raw above and was not stored.
+            drop(unsafe { CString::from_raw(p) });
+            Live(None)
+        }
+    }
+
+    impl Drop for Live {
+        fn drop(&mut self) {
+            // The string is left allocated (a few bytes per write): a handler running on
+            // another thread may be reading it.
+            if let Some(i) = self.0 {
+                LIVE[i].store(std::ptr::null_mut(), Ordering::SeqCst);
+            }
+        }
+    }
+}
+
+#[cfg(not(unix))]
+mod on_signal {
+    pub(super) fn install() {}
+    pub(super) struct Live;
+    impl Live {
+        pub(super) fn new(_: &std::path::Path) -> Live {
+            Live
+        }
+    }
 }
 
 /// Writes `bytes` to `path` atomically (see [`write_with`]).
@@ -192,6 +291,28 @@ pub fn prepare(outputs: &[Output]) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Refuses an output that is one of the command's inputs (`(what, path)`, e.g. the scene
+/// file): the write would replace the input (`brdf eval --dirs x.csv --out x.csv`, a scene
+/// named `.exr` given as its own `--out`). Paths are compared as [`resolve`] sees them.
+pub fn refuse_inputs(outputs: &[Output], inputs: &[(&str, &Path)]) -> anyhow::Result<()> {
+    for o in outputs {
+        for (what, input) in inputs {
+            if resolve(o.path) == resolve(input) {
+                anyhow::bail!(
+                    "{} {} is also the {what}: writing it would replace the input; give the output another path",
+                    o.option,
+                    o.path.display()
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The longest file name (one path component) the common file systems accept (ext4, XFS,
+/// btrfs, tmpfs: `NAME_MAX`).
+const MAX_NAME_BYTES: usize = 255;
+
 fn check_one(o: &Output) -> anyhow::Result<()> {
     let shown = o.path.display();
     if o.path.file_name().is_none() {
@@ -199,6 +320,15 @@ fn check_one(o: &Output) -> anyhow::Result<()> {
     }
     if o.path.is_dir() {
         anyhow::bail!("{} {shown}: is a directory; give a file name", o.option);
+    }
+    // The probe below uses a shortened name, so it cannot see a name the file system refuses:
+    // a 300-character output name passed and failed after the render.
+    let name_len = o.path.file_name().map_or(0, |n| n.len());
+    if name_len > MAX_NAME_BYTES {
+        anyhow::bail!(
+            "{} {shown}: the file name is {name_len} bytes long, over the {MAX_NAME_BYTES} bytes a file name may have",
+            o.option
+        );
     }
     let dir = parent_dir(o.path);
     if !dir.is_dir() {
@@ -213,13 +343,14 @@ fn check_one(o: &Output) -> anyhow::Result<()> {
     // Creating a file is the only reliable test (permissions, read-only or special file
     // systems, ACLs, root on /sys): make the temporary file the real write would make, and drop
     // it, which removes it.
-    temp_file(o.path, dir).map_err(|e| {
+    let probe = temp_file(o.path, dir).map_err(|e| {
         anyhow::anyhow!(
             "{} {shown}: cannot write to the directory {}: {e}",
             o.option,
             dir.display()
         )
     })?;
+    let _live = on_signal::Live::new(probe.path());
     Ok(())
 }
 

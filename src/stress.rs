@@ -1829,15 +1829,15 @@ pub fn run(opts: &Options) -> Result<Report> {
         }
     }
     if !failures.is_empty() {
-        let mut f = std::fs::File::create(&opts.failures_out).with_context(|| {
-            format!(
-                "cannot write the failure file {}",
-                opts.failures_out.display()
-            )
-        })?;
+        // Through the atomic writer: a full disk leaves the old file, never half a record, and
+        // a symbolic link there is replaced, not followed.
+        let mut text = String::new();
         for x in &failures {
-            writeln!(f, "{}", serde_json::to_string(x)?)?;
+            text += &serde_json::to_string(x)?;
+            text.push('\n');
         }
+        crate::outfile::write(&opts.failures_out, text.as_bytes())
+            .context("cannot write the failure file")?;
     }
     Ok(Report { stats, failures })
 }
@@ -1854,6 +1854,20 @@ pub fn cli(
     if !(budget.is_finite() && (0.0..=1e7).contains(&budget)) {
         bail!("--budget {budget} is out of range: seconds in [0, 1e7]");
     }
+    // Before any case runs: an unwritable failure file, and a --device that names no device
+    // (every case would "fail" for want of it, and those records would replace the file).
+    crate::outfile::prepare(&[crate::outfile::Output {
+        option: "--failures",
+        path: &failures_out,
+    }])?;
+    if device.is_some() {
+        Context::new(&ContextOptions {
+            device: device.clone(),
+            validation: false,
+        })
+        .context("--device")?
+        .finish();
+    }
     let opts = Options {
         budget: Duration::from_secs_f64(budget),
         seed,
@@ -1867,10 +1881,17 @@ pub fn cli(
     };
     let t = Instant::now();
     let report = run(&opts)?;
-    print!("{}", report.table());
-    println!("seed {seed}, {:.1} s", t.elapsed().as_secs_f64());
+    let mut text = report.table();
+    text += &format!("seed {seed}, {:.1} s\n", t.elapsed().as_secs_f64());
     for f in &report.failures {
-        println!("FAIL {} seed {}: {}", f.group, f.seed, f.message);
+        text += &format!("FAIL {} seed {}: {}\n", f.group, f.seed, f.message);
+    }
+    {
+        // The report is the command's data: a failed write is an error, not a panic.
+        let mut o = std::io::stdout().lock();
+        o.write_all(text.as_bytes())
+            .and_then(|_| o.flush())
+            .context("cannot write to standard output")?;
     }
     if !report.failures.is_empty() {
         bail!(

@@ -938,3 +938,113 @@ fn missing_field_of_the_only_table_names_table_and_line() {
         "{msg}"
     );
 }
+
+/// Fixed-length vectors refuse extra elements, located like every other error (they loaded
+/// silently: serde's `[f64; 3]` reads three elements and TOML ignored the rest).
+#[test]
+fn fixed_length_vectors_refuse_extra_elements() {
+    let cases: [(&str, &str, &str, &str); 5] = [
+        (
+            "position = [0.0, 0.0, -4.0]",
+            "position = [0.0, 0.0, -4.0, \"junk\"]",
+            "camera.position",
+            "invalid length 4, expected an array of 3 elements",
+        ),
+        (
+            "fov_y = 40.0",
+            "fov_y = 40.0\nup = [0, 1, 0, 7, 8]",
+            "camera.up",
+            "invalid length 5",
+        ),
+        (
+            "center = [0.0, 0.0, 0.0]",
+            "center = [0.0, 0.0, 0.0, 1.0]",
+            "shapes[0].sphere.center",
+            "invalid length 4",
+        ),
+        (
+            "sphere = { center = [0.0, 0.0, 0.0], radius = 1.0 }",
+            "triangles = [[[0, 0, 0, 5], [1, 0, 0], [0, 1, 0]]]",
+            "shapes[0].triangles[0][0]",
+            "invalid length 4",
+        ),
+        (
+            "sphere = { center = [0.0, 0.0, 0.0], radius = 1.0 }",
+            "quads = [[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 2, 0]]]",
+            "shapes[0].quads[0]",
+            "invalid length 5, expected an array of 4 elements",
+        ),
+    ];
+    for (from, to, field, what) in cases {
+        let src = with(from, to);
+        let at = to.lines().last().unwrap();
+        expect_error(&src, at, field, what);
+    }
+    // Too few is refused as before, and the exact length still loads.
+    expect_error(
+        &with("center = [0.0, 0.0, 0.0]", "center = [0.0, 0.0]"),
+        "center = [0.0, 0.0]",
+        "shapes[0].sphere.center",
+        "invalid length 2",
+    );
+    let t = with(
+        "sphere = { center = [0.0, 0.0, 0.0], radius = 1.0 }",
+        "quads = [[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]]",
+    );
+    assert_eq!(
+        load_str(&t, Path::new("q.toml")).unwrap().triangles.len(),
+        2
+    );
+}
+
+/// OBJ points and polylines are not faces: `l 1 2 3` gave the image of `f 1 2 3`, and a file
+/// of lines only loaded. They are dropped and counted in one warning.
+#[test]
+fn obj_points_and_lines_are_ignored_and_counted() {
+    let obj = format!("{QUAD_OBJ}l 1 2 3\nl 1 2 3 4\nl 1 2\np 1 2 3\n");
+    let (_dir, path) = scene_with_obj(&obj, "");
+    let s = load(&path).unwrap();
+    assert_eq!(s.triangles.len(), 2, "the quad only");
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert!(
+        s.warnings[0].contains("1 point and 3 line element(s)"),
+        "{:?}",
+        s.warnings
+    );
+    // Lines only: no triangles (BASE's sphere keeps the scene valid), and a warning that says so.
+    let (_dir, path) = scene_with_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2 3\n", "");
+    let s = load(&path).unwrap();
+    assert!(s.triangles.is_empty());
+    assert!(
+        s.warnings.iter().any(|w| w.contains("no usable triangles")),
+        "{:?}",
+        s.warnings
+    );
+}
+
+/// The scene's max_depth is held to the renderers' limit, as `--max-depth` is (2^20 + 1 loaded
+/// and failed only on the GPU, without a line).
+#[test]
+fn max_depth_over_the_limit_is_an_error() {
+    let src = with(
+        "[materials.m]",
+        "[integrator]\nmax_depth = 1048577\n\n[materials.m]",
+    );
+    expect_error(
+        &src,
+        "max_depth = 1048577",
+        "integrator.max_depth",
+        "must be in [1, 1048576]",
+    );
+    let ok = with(
+        "[materials.m]",
+        "[integrator]\nmax_depth = 1048576\n\n[materials.m]",
+    );
+    assert_eq!(
+        load_str(&ok, Path::new("d.toml"))
+            .unwrap()
+            .integrator
+            .max_depth,
+        1 << 20
+    );
+}

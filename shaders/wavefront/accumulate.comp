@@ -18,7 +18,7 @@ layout(local_size_x = 64) in;
 // such terms can overflow. The loop below never needs to go beyond it.
 #define FILM_SCALE_MAX 160
 
-void main() {
+void run_kernel() {
     // One invocation per pixel adds its samples in sample order, so the film holds the same f32
     // sums whatever the number of samples per wave.
     uint p = gl_GlobalInvocationID.x;
@@ -49,4 +49,10 @@ void main() {
     }
     film[pixel] = vec4(sum, float(k));
     film2[pixel].xyz = sum2;
+}
+
+// The whole kernel, then the loop-budget check (state.glsl), which every return above reaches.
+void main() {
+    run_kernel();
+    check_loops();
 }

@@ -7,7 +7,7 @@
 #include "wavefront/path.glsl"
 layout(local_size_x = 64) in;
 
-void main() {
+void run_kernel() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= counters[COUNTER_RAY + ray_queue_in()]) return;
     uint path = queue_entry(ray_queue_in() * g.wave_paths + i);
@@ -21,4 +21,10 @@ void main() {
     if (slot == NO_QUEUE) return;
     hit_rec_set(path, uvec4(hit.prim, floatBitsToUint(hit.bary.x), floatBitsToUint(hit.bary.y), floatBitsToUint(hit.t)));
     queue_push(QUEUE_MATERIAL + slot, COUNTER_MATERIAL + slot, path);
+}
+
+// The whole kernel, then the loop-budget check (state.glsl), which every return above reaches.
+void main() {
+    run_kernel();
+    check_loops();
 }

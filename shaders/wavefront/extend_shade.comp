@@ -12,7 +12,7 @@
 #include "wavefront/scatter.glsl"
 layout(local_size_x = 64) in;
 
-void main() {
+void run_kernel() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= counters[COUNTER_RAY + ray_queue_in()]) return;
     uint path = queue_entry(ray_queue_in() * g.wave_paths + i);
@@ -36,4 +36,10 @@ void main() {
     ray_o_set(path, vec4(sc.o, 0.0));
     ray_d_set(path, vec4(sc.d, sc.pdf));
     queue_push(ray_queue_out(), COUNTER_RAY + ray_queue_out(), path);
+}
+
+// The whole kernel, then the loop-budget check (state.glsl), which every return above reaches.
+void main() {
+    run_kernel();
+    check_loops();
 }

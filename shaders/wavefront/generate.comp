@@ -5,7 +5,7 @@
 #include "wavefront/path.glsl"
 layout(local_size_x = 64) in;
 
-void main() {
+void run_kernel() {
     uint path = gl_GlobalInvocationID.x;
     if (path == 0u) counters[COUNTER_RAY] = pc.wave_size;
     if (path >= pc.wave_size) return;
@@ -17,4 +17,10 @@ void main() {
     beta_set(path, vec4(1.0));
     radiance_set(path, vec4(0.0));
     queue_entry_set(path, path);
+}
+
+// The whole kernel, then the loop-budget check (state.glsl), which every return above reaches.
+void main() {
+    run_kernel();
+    check_loops();
 }

@@ -4,6 +4,9 @@
 // `segment_end`), the shading of every model behind one switch (brdf/any.glsl), and the shadow
 // ray traced on the spot. The same random-number keys, arithmetic and order of additions as the
 // wavefront stages, so the same image; it writes each path's radiance for `accumulate`.
+// A path that the driver's loop budget stops (Mesa 22.3's gallivm: 65,535 loop iterations per
+// invocation, state.glsl `loops_intact`) is saved in the path state and resumed by the next
+// dispatch (push constant `phase` 1), which the host repeats until no path is left.
 // Here for the benchmark (`brdfwave bench`, `render --integrator megakernel`): it keeps no
 // path state in memory and needs no queues, at the price of SIMD lanes that wait for the
 // slowest path of their subgroup and for every model's code in one pipeline.
@@ -32,38 +35,81 @@ void main() {
     barrier();
     uint path = gl_GlobalInvocationID.x;
     if (path < pc.wave_size) {
-        uint n_extension = 0u;
-        uint n_shadow = 0u;
         vec3 o;
         vec3 d;
-        camera_ray(path, o, d);
-        vec3 b = vec3(1.0);
-        vec3 l = vec3(0.0);
-        float prev_pdf = 0.0;
-        for (uint depth = 1u; depth <= g.max_depth; ++depth) {
+        vec3 b;
+        vec3 l;
+        float prev_pdf;
+        uint depth;
+        if (pc.phase == 0u) {
+            camera_ray(path, o, d);
+            b = vec3(1.0);
+            l = vec3(0.0);
+            prev_pdf = 0.0;
+            depth = 1u;
+            radiance_set(path, vec4(0.0));
+            ray_o_set(path, vec4(o, 1.0));
+            ray_d_set(path, vec4(d, 0.0));
+            beta_set(path, vec4(b, 0.0));
+        } else {
+            // Resumed: the state saved below; depth 0 marks a path that has ended.
+            vec4 ro = ray_o(path);
+            vec4 rd = ray_d(path);
+            o = ro.xyz;
+            depth = uint(ro.w);
+            d = rd.xyz;
+            prev_pdf = rd.w;
+            b = beta(path).xyz;
+            l = radiance(path).xyz;
+        }
+        // One segment per iteration, kept only if no loop was cut short in it (loops_intact,
+        // state.glsl): otherwise the path stops where the segment began and the host resumes it
+        // with a fresh loop budget. A redone segment draws the same random numbers (keyed on
+        // path and depth) and adds to l in the same order, so the image does not depend on where
+        // a path was stopped. Each kept segment is saved to the path state at once: the budget
+        // may also run out at this loop's own back edge, and the variables seen after a loop
+        // left that way are not reliable, while memory is. Ending at max_depth is segment_end's
+        // (NO_QUEUE).
+        bool ended = depth == 0u;
+        while (!ended) {
             vec3 e;
             Hit hit;
-            n_extension += 1u;
-            atomicAdd(wg_segment_extension[min(depth, SEGMENTS_COUNTED) - 1u], 1u);
             Surface s;
             uint slot = segment_end(depth, o, d, prev_pdf, b, e, hit, s);
-            l += e;
-            if (slot == NO_QUEUE) break;
-            Scatter sc = shade_vertex(path, depth, s, d, b, counter_nonfinite_shade(slot));
-            if (sc.shadow) {
-                n_shadow += 1u;
-                atomicAdd(wg_segment_shadow[min(depth, SEGMENTS_COUNTED) - 1u], 1u);
-                if (!trace_any(sc.shadow_o, sc.shadow_d, sc.shadow_tmax)) l += sc.shadow_l;
+            Scatter sc;
+            sc.shadow = false;
+            sc.next = false;
+            bool lit = false;
+            if (slot != NO_QUEUE) {
+                sc = shade_vertex(path, depth, s, d, b, counter_nonfinite_shade(slot));
+                if (sc.shadow) lit = !trace_any(sc.shadow_o, sc.shadow_d, sc.shadow_tmax);
             }
-            if (!sc.next) break;
+            if (!loops_intact()) break;
+            atomicAdd(wg_extension, 1u);
+            atomicAdd(wg_segment_extension[min(depth, SEGMENTS_COUNTED) - 1u], 1u);
+            l += e;
+            if (sc.shadow) {
+                atomicAdd(wg_shadow, 1u);
+                atomicAdd(wg_segment_shadow[min(depth, SEGMENTS_COUNTED) - 1u], 1u);
+                if (lit) l += sc.shadow_l;
+            }
+            radiance_set(path, vec4(l, 0.0));
+            if (!sc.next) {
+                ray_o_set(path, vec4(0.0));
+                ended = true;
+                break;
+            }
             o = sc.o;
             d = sc.d;
             b = sc.beta;
             prev_pdf = sc.pdf;
+            depth += 1u;
+            ray_o_set(path, vec4(o, float(depth)));
+            ray_d_set(path, vec4(d, prev_pdf));
+            beta_set(path, vec4(b, 0.0));
         }
-        radiance_set(path, vec4(l, 0.0));
-        atomicAdd(wg_extension, n_extension);
-        atomicAdd(wg_shadow, n_shadow);
+        // Read back from memory, not from the loop's variables (see above).
+        if (ray_o(path).w != 0.0) atomicAdd(counters[COUNTER_RESUMED], 1u);
     }
     barrier();
     if (gl_LocalInvocationIndex == 0u) {

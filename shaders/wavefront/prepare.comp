@@ -15,7 +15,7 @@ void add_total(uint c, uint n) {
     counters[c] = lo;
 }
 
-void main() {
+void run_kernel() {
     if (pc.phase == 0u) {
         uint rays = counters[COUNTER_RAY + ray_queue_in()];
         args[ARGS_RAY] = groups(rays);
@@ -31,4 +31,10 @@ void main() {
         add_total(COUNTER_SHADOW_TOTAL, counters[COUNTER_SHADOW]);
         add_total(counter_segment_shadow(pc.depth), counters[COUNTER_SHADOW]);
     }
+}
+
+// The whole kernel, then the loop-budget check (state.glsl), which every return above reaches.
+void main() {
+    run_kernel();
+    check_loops();
 }

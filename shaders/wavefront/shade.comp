@@ -10,7 +10,7 @@
 #include "wavefront/scatter.glsl"
 layout(local_size_x = 64) in;
 
-void main() {
+void run_kernel() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= counters[COUNTER_MATERIAL + pc.queue_slot]) return;
     uint path = queue_entry((QUEUE_MATERIAL + pc.queue_slot) * g.wave_paths + i);
@@ -33,4 +33,10 @@ void main() {
     ray_o_set(path, vec4(sc.o, 0.0));
     ray_d_set(path, vec4(sc.d, sc.pdf));
     queue_push(ray_queue_out(), COUNTER_RAY + ray_queue_out(), path);
+}
+
+// The whole kernel, then the loop-budget check (state.glsl), which every return above reaches.
+void main() {
+    run_kernel();
+    check_loops();
 }

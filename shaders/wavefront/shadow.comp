@@ -5,10 +5,16 @@
 #include "wavefront/state.glsl"
 layout(local_size_x = 64) in;
 
-void main() {
+void run_kernel() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= counters[COUNTER_SHADOW]) return;
     uint path = queue_entry(QUEUE_SHADOW * g.wave_paths + i);
     vec4 o = shadow_o(path);
     if (!trace_any(o.xyz, shadow_d(path).xyz, o.w)) radiance_set(path, radiance(path) + vec4(shadow_l(path).xyz, 0.0));
+}
+
+// The whole kernel, then the loop-budget check (state.glsl), which every return above reaches.
+void main() {
+    run_kernel();
+    check_loops();
 }

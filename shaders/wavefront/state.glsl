@@ -129,6 +129,28 @@ bool finite_or_count(vec3 v, uint c) {
     return false;
 }
 
+// The loop budget. Mesa 22.3's gallivm (lavapipe) ends every loop of a shader invocation once the
+// invocation has made 65,535 loop iterations in all (LP_MAX_TGSI_LOOP_ITERATIONS, never reset),
+// without any sign: the code after the loop runs as if the loop had ended. loops_intact() runs a
+// loop of two iterations that the compiler cannot unroll (x = 1 -> 3 -> 7 is no induction
+// variable of a constant step, and x starts from a uniform, min(g.width, 1) = 1): it makes both
+// iterations iff the budget was not used up before it, that is iff no loop of this invocation
+// has been cut short so far. (A loop counted by a plain `k < 2` would be unrolled, and then
+// tell nothing.) Other drivers have no such limit, and it always returns true.
+bool loops_intact() {
+    uint x = min(g.width, 1u);
+    while (x < 7u) x = 2u * x + 1u;
+    return x == 7u;
+}
+
+// Run at the end of every wavefront kernel (after all its loops, on every path through it):
+// counts an invocation whose loops were cut short, which the host reports as an error. Every loop
+// of these kernels has a bound well below the budget (docs/loops.md), BVH traversal aside, whose
+// iterations grow with the nodes a ray visits: this is what catches a traversal cut short.
+void check_loops() {
+    if (!loops_intact()) atomicAdd(counters[COUNTER_CUT_SHORT], 1u);
+}
+
 uint ray_queue_in() { return (pc.depth + 1u) & 1u; }  // segment 1 reads queue 0
 uint ray_queue_out() { return pc.depth & 1u; }
 

@@ -110,13 +110,18 @@ impl Default for He {
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
     let d = He::default();
     let sigma0 = r.scalar("sigma0", d.sigma0, 0.0, 50.0)?;
-    let tau = r.scalar("tau", d.tau, 0.0, 1000.0)?;
+    // Ranges open at 0: checked here in one message (the range check's "[0, 1000]" said 0 was
+    // valid, and then 0 was refused).
+    let tau = r.scalar("tau", d.tau, f32::NEG_INFINITY, 1000.0)?;
     if tau <= 0.0 {
-        return Err(r.error("tau", "must be > 0 (the autocorrelation length, µm)"));
+        return Err(r.error(
+            "tau",
+            "must be > 0 and at most 1000 (the autocorrelation length, µm)",
+        ));
     }
-    let ior = r.rgb("ior", d.ior, 0.0, 100.0)?;
+    let ior = r.rgb("ior", d.ior, f32::NEG_INFINITY, 100.0)?;
     if ior.min_element() <= 0.0 {
-        return Err(r.error("ior", "must be > 0 in every channel"));
+        return Err(r.error("ior", "must be > 0 and at most 100 in every channel"));
     }
     let k = r.rgb("k", d.k, 0.0, 100.0)?;
     let wavelengths = r.rgb("wavelengths", d.wavelengths, 0.2, 5.0)?;

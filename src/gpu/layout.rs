@@ -194,6 +194,11 @@ fixed_counters! {
     ExtensionRaysHi => "COUNTER_EXT_TOTAL_HI",
     ShadowRaysLo => "COUNTER_SHADOW_TOTAL",
     ShadowRaysHi => "COUNTER_SHADOW_TOTAL_HI",
+    /// Invocations whose loops the driver cut short (state.glsl `check_loops`): an error.
+    CutShort => "COUNTER_CUT_SHORT",
+    /// Running count of the paths the megakernel stopped before their end, to be resumed by
+    /// the next dispatch (megakernel.comp).
+    MegakernelResumed => "COUNTER_RESUMED",
 }
 
 /// Counters before the per-queue ones.

@@ -69,6 +69,10 @@ pub const MAX_WAVE_PATHS: u32 = 1 << 20;
 /// Segments recorded between two checks whether any path is left (deep renders only: a scene
 /// with `max_depth` at most this never waits for the host within a wave).
 const SEGMENTS_PER_CHECK: u32 = 16;
+/// Most samples of one pixel in a wave. `accumulate` adds a pixel's samples of a wave in one
+/// loop of two iterations per sample, which must stay within the 65,535 loop iterations that
+/// Mesa 22.3's gallivm allows an invocation (docs/loops.md); the film's sums do not depend on it.
+pub const MAX_SAMPLES_PER_WAVE: u32 = 8192;
 
 /// How the GPU follows paths.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -206,6 +210,8 @@ pub struct GpuRenderer<'a> {
     /// reset, `film_samples.end` the next to render.
     film_samples: Range<u32>,
     stage_seconds: Vec<(String, f64)>,
+    /// The megakernel's count of resumed paths (`Counter::MegakernelResumed`) as last seen.
+    resumed_seen: u32,
     pub setup: SetupStats,
 }
 
@@ -260,7 +266,10 @@ impl<'a> GpuRenderer<'a> {
         let spp = scene.integrator.spp.max(1) as u64;
         let most = wave_paths as u64;
         let wave_paths = if pixels <= most {
-            (pixels * spp.min(most / pixels.max(1))) as u32
+            (pixels
+                * spp
+                    .min(most / pixels.max(1))
+                    .min(MAX_SAMPLES_PER_WAVE as u64)) as u32
         } else {
             wave_paths
         };
@@ -395,6 +404,7 @@ impl<'a> GpuRenderer<'a> {
             tile,
             film_samples: 0..0,
             stage_seconds: Vec::new(),
+            resumed_seen: 0,
             setup,
         };
         // Device memory starts undefined: an empty film, so that `render_samples` may follow.
@@ -419,6 +429,7 @@ impl<'a> GpuRenderer<'a> {
         self.ctx.submit_and_wait(rec)?;
         self.film_samples = 0..0;
         self.stage_seconds.clear();
+        self.resumed_seen = 0;
         Ok(())
     }
 
@@ -484,6 +495,7 @@ impl<'a> GpuRenderer<'a> {
             }
             ctx.submit_and_wait(rec)?;
             add_stage_times(ctx.read_timestamps()?, &mut self.stage_seconds);
+            self.check_loops()?;
             self.film_samples.end = samples_done;
             progress((samples_done - self.film_samples.start) as f64);
             if t_batch.elapsed().as_secs_f64() < BATCH_SECONDS {
@@ -640,25 +652,79 @@ impl<'a> GpuRenderer<'a> {
         Ok(rec)
     }
 
-    /// Records one wave of the megakernel: every path from the camera to its end.
+    /// Records one wave of the megakernel: every path from the camera to its end. A path the
+    /// driver's loop budget stops is saved and resumed by another dispatch (megakernel.comp):
+    /// in a deep render (`max_depth` over [`SEGMENTS_PER_CHECK`]) the host waits after each
+    /// dispatch and dispatches again while any path is left; in a shallow one, where that would
+    /// take a segment of thousands of loop iterations, [`Self::check_loops`] reports it.
     fn record_megakernel_wave<'r>(
         &mut self,
         mut rec: Recorder<'r>,
-        push: Push,
+        mut push: Push,
     ) -> Result<Recorder<'r>>
     where
         'a: 'r,
     {
-        rec = self.ensure_timestamps(rec, 1)?;
         let groups = push.wave_size.div_ceil(LOCAL_SIZE);
-        self.dispatch(
-            &mut rec,
-            self.stages.megakernel,
-            &push,
-            Dispatch::Groups(groups),
-            "megakernel",
-        );
-        Ok(rec)
+        let c = self.counters;
+        let mut segments = None;
+        loop {
+            rec = self.ensure_timestamps(rec, 1)?;
+            self.dispatch(
+                &mut rec,
+                self.stages.megakernel,
+                &push,
+                Dispatch::Groups(groups),
+                "megakernel",
+            );
+            if self.scene.integrator.max_depth <= SEGMENTS_PER_CHECK {
+                return Ok(rec);
+            }
+            rec = self.resubmit(rec)?;
+            let counters: Vec<u32> = self.ctx.download(self.owned.buffer(Binding::Counters))?;
+            let resumed = counters[c.fixed(Counter::MegakernelResumed)];
+            let left = resumed.wrapping_sub(self.resumed_seen);
+            self.resumed_seen = resumed;
+            if left == 0 {
+                return Ok(rec);
+            }
+            // Every segment adds an extension ray: none since the last dispatch means that one
+            // segment needs more loop iterations than the driver allows an invocation.
+            let done = c.total(&counters, Counter::ExtensionRaysLo);
+            if segments == Some(done) {
+                bail!(
+                    "the megakernel cannot complete a path segment within the Vulkan driver's loop limit \
+                     (Mesa 22.3's lavapipe allows 65,535 loop iterations per invocation); \
+                     render with --integrator wavefront"
+                );
+            }
+            segments = Some(done);
+            push.phase = 1;
+        }
+    }
+
+    /// Fails if the driver cut short any loop of a kernel since the last reset (the image would
+    /// be silently wrong; state.glsl `check_loops`), or left a megakernel path unfinished.
+    fn check_loops(&self) -> Result<()> {
+        let counters: Vec<u32> = self.ctx.download(self.owned.buffer(Binding::Counters))?;
+        let c = self.counters;
+        let cut = counters[c.fixed(Counter::CutShort)];
+        if cut > 0 {
+            bail!(
+                "the Vulkan driver cut short the loops of {cut} kernel invocation(s), which would give a wrong image \
+                 (Mesa 22.3's lavapipe stops every loop of an invocation after 65,535 iterations in all; \
+                 a BVH traversal of a very large scene can take that many): render on the CPU (--backend cpu) \
+                 or with another Vulkan driver"
+            );
+        }
+        if counters[c.fixed(Counter::MegakernelResumed)] != self.resumed_seen {
+            bail!(
+                "the megakernel could not finish its paths within the Vulkan driver's loop limit \
+                 (Mesa 22.3's lavapipe allows 65,535 loop iterations per invocation); \
+                 render with --integrator wavefront"
+            );
+        }
+        Ok(())
     }
 
     /// Bind, push constants, dispatch, barrier, timestamp: every stage goes through here.

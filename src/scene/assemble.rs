@@ -53,7 +53,7 @@ impl Cx<'_> {
     }
 
     pub(super) fn v3(&self, v: &V3, field: &str) -> Result<Vec3, SceneError> {
-        self.vec3(v.span(), field, v.value)
+        self.vec3(v.span(), field, v.value.0)
     }
 
     /// A non-negative RGB radiance.
@@ -156,6 +156,18 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
         Some(r) => cx.radiance(r, "environment.radiance")?,
         None => Vec3::ZERO,
     };
+    // The depth limit of the renderers (`--max-depth` is held to the same): the random-number
+    // key of a deeper segment would reuse another depth's numbers.
+    if let Some(d) = raw.integrator.as_ref().and_then(|i| i.max_depth.as_ref()) {
+        if d.value > crate::gpu::MAX_DEPTH {
+            let msg = format!(
+                "{} is out of range: must be in [1, {}]",
+                d.value,
+                crate::gpu::MAX_DEPTH
+            );
+            return Err(cx.err(d.span(), "integrator.max_depth", msg));
+        }
+    }
 
     // Materials, in file order (the map is sorted by name; the spans give the order).
     let mut defs: Vec<(String, Option<Range<usize>>, MaterialTable)> = Vec::new();
@@ -412,7 +424,7 @@ pub(super) fn shape_primitives(
             let fq = format!("{f}.quads[{k}]");
             let mut p = [Vec3::ZERO; 4];
             for (j, v) in q.value.iter().enumerate() {
-                p[j] = cx.vec3(q.span(), &fq, *v)?;
+                p[j] = cx.vec3(q.span(), &fq, v.0)?;
             }
             for (half, idx) in [[0, 1, 2], [0, 2, 3]].iter().enumerate() {
                 let t = [p[idx[0]], p[idx[1]], p[idx[2]]];
@@ -443,7 +455,7 @@ pub(super) fn shape_primitives(
             let ft = format!("{f}.triangles[{k}]");
             let mut t = [Vec3::ZERO; 3];
             for (j, v) in q.value.iter().enumerate() {
-                t[j] = cx.vec3(q.span(), &ft, *v)?;
+                t[j] = cx.vec3(q.span(), &ft, v.0)?;
             }
             if let Some(msg) = edge_overflow(&t) {
                 return Err(cx.err(q.span(), &ft, format!("{label}, triangle {k}: {msg}")));

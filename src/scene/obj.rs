@@ -127,6 +127,31 @@ pub(super) fn obj_triangles(
         let msg = format!("OBJ file '{shown}' refers to MTL materials; they are ignored: every face uses this shape's material");
         cx.warn(span.clone(), fo, msg);
     }
+    // Points (`p`) and polylines (`l`) are not surfaces: tobj's ignore_points / ignore_lines
+    // drop only those of one and two vertices, and `l 1 2 3` became a face. Removed here (the
+    // line numbers stay), and counted.
+    let (mut points, mut polylines) = (0usize, 0usize);
+    let text: String = text
+        .lines()
+        .map(|l| match l.split_whitespace().next() {
+            Some("p") => {
+                points += 1;
+                ""
+            }
+            Some("l") => {
+                polylines += 1;
+                ""
+            }
+            _ => l,
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    if points + polylines > 0 {
+        let msg = format!(
+            "OBJ file '{shown}': {points} point and {polylines} line element(s) ('p', 'l') ignored: only faces ('f') are surfaces"
+        );
+        cx.warn(span.clone(), fo, msg);
+    }
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: true,

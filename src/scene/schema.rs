@@ -9,9 +9,9 @@ use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::fmt;
 
-pub(super) type V3 = Sp<[f64; 3]>;
-pub(super) type Quads = Vec<Sp<[[f64; 3]; 4]>>;
-pub(super) type Tris = Vec<Sp<[[f64; 3]; 3]>>;
+pub(super) type V3 = Sp<Arr<f64, 3>>;
+pub(super) type Quads = Vec<Sp<Arr<Arr<f64, 3>, 4>>>;
+pub(super) type Tris = Vec<Sp<Arr<Arr<f64, 3>, 3>>>;
 /// A material's fields, given to [`brdf::parse_material`].
 pub(super) type MaterialTable = BTreeMap<String, Sp<toml::Value>>;
 
@@ -127,5 +127,50 @@ impl<'de> Deserialize<'de> for Triple {
             }
         }
         d.deserialize_any(V)
+    }
+}
+
+/// An array of exactly `N` values. serde's `[T; N]` reads its first `N` elements and, from
+/// TOML, ignores the rest: `position = [0.0, 1.0, -5.0, "junk"]` or a quad with a fifth vertex
+/// loaded without a word.
+pub(super) struct Arr<T, const N: usize>(pub(super) [T; N]);
+
+impl<T, const N: usize> std::ops::Deref for Arr<T, N> {
+    type Target = [T; N];
+    fn deref(&self) -> &[T; N] {
+        &self.0
+    }
+}
+
+impl<'de, T: Deserialize<'de>, const N: usize> Deserialize<'de> for Arr<T, N> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V<T, const N: usize>(std::marker::PhantomData<T>);
+        impl<'de, T: Deserialize<'de>, const N: usize> Visitor<'de> for V<T, N> {
+            type Value = Arr<T, N>;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                write!(f, "an array of {N} elements")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Arr<T, N>, A::Error> {
+                let mut v = Vec::with_capacity(N);
+                while v.len() < N {
+                    match seq.next_element::<T>()? {
+                        Some(x) => v.push(x),
+                        None => return Err(de::Error::invalid_length(v.len(), &self)),
+                    }
+                }
+                let mut n = N;
+                while seq.next_element::<de::IgnoredAny>()?.is_some() {
+                    n += 1;
+                }
+                if n != N {
+                    return Err(de::Error::invalid_length(n, &self));
+                }
+                match v.try_into() {
+                    Ok(a) => Ok(Arr(a)),
+                    Err(_) => Err(de::Error::invalid_length(N, &self)),
+                }
+            }
+        }
+        d.deserialize_seq(V(std::marker::PhantomData))
     }
 }

@@ -1,0 +1,63 @@
+//! How much memory a large allocation may take, asked before making it: an allocation that
+//! fails aborts the process (`memory allocation of N bytes failed`), so a render whose film
+//! cannot fit is refused up front with the figure and what to do instead.
+
+/// The bytes this process can still allocate, as far as the system says: the least of the
+/// kernel's estimate of available memory (`MemAvailable`), the room left under a cgroup v2
+/// memory limit, and the room left under the address-space limit (`ulimit -v`). `None` when
+/// none of them is known.
+pub fn available_bytes() -> Option<u64> {
+    let read = |p: &str| std::fs::read_to_string(p).ok();
+    let kib_field = |text: &str, key: &str| -> Option<u64> {
+        text.lines()
+            .find_map(|l| l.strip_prefix(key))
+            .and_then(|r| r.split_whitespace().next())
+            .and_then(|v| v.parse::<u64>().ok())
+            .map(|k| k * 1024)
+    };
+    let mut least: Option<u64> = None;
+    let mut take = |v: u64| least = Some(least.map_or(v, |l| l.min(v)));
+    if let Some(v) = read("/proc/meminfo").and_then(|t| kib_field(&t, "MemAvailable:")) {
+        take(v);
+    }
+    if let (Some(max), Some(cur)) = (
+        read("/sys/fs/cgroup/memory.max").and_then(|t| t.trim().parse::<u64>().ok()),
+        read("/sys/fs/cgroup/memory.current").and_then(|t| t.trim().parse::<u64>().ok()),
+    ) {
+        take(max.saturating_sub(cur));
+    }
+    #[cfg(unix)]
+    {
+        let mut lim = libc::rlimit {
+            rlim_cur: 0,
+            rlim_max: 0,
+        };
+        // SAFETY: getrlimit writes the struct it is given.
+        let ok = unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut lim) } == 0;
+        if ok && lim.rlim_cur != libc::RLIM_INFINITY {
+            let used = read("/proc/self/status")
+                .and_then(|t| kib_field(&t, "VmSize:"))
+                .unwrap_or(0);
+            // rlim_t is u64 here, narrower or signed elsewhere.
+            #[allow(clippy::unnecessary_cast)]
+            let limit = lim.rlim_cur as u64;
+            take(limit.saturating_sub(used));
+        }
+    }
+    least
+}
+
+/// Fails when `bytes` are more than [`available_bytes`]: `what` says what needs them (it
+/// starts the message), `advice` what to do instead.
+pub fn check(bytes: u64, what: &str, advice: &str) -> anyhow::Result<()> {
+    if let Some(free) = available_bytes() {
+        if bytes > free {
+            anyhow::bail!(
+                "{what} needs about {} MiB, and {} MiB are available; {advice}",
+                bytes >> 20,
+                free >> 20
+            );
+        }
+    }
+    Ok(())
+}
