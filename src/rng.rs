@@ -13,11 +13,11 @@
 //!   Dimensions come in pairs (see [`dim`]); within one (pixel, depth, pair) the sample index
 //!   `i` is first shuffled by a nested uniform (Owen) scramble of its bits taken in reverse
 //!   order, keyed on a hash of (seed, pixel, depth, pair) — the index shuffle that pads one pair
-//!   against the others (Burley 2020, "Practical Hash-based Owen Scrambling", JCGT 9(4), sec. 4).
+//!   against the others (Burley 2020, "Practical Hash-based Owen Scrambling", JCGT 9(4)).
 //!   The pair is then the first two dimensions of the Sobol' sequence at the shuffled index,
-//!   each Owen-scrambled with its own key (same paper, sec. 3, with its improved Laine–Karras
-//!   hash). The first two Sobol' dimensions form a (0,2)-sequence (Sobol' 1967; Niederreiter
-//!   1992), and both the shuffle and the scramble keep that: for any `m`, the samples `0..2^m`
+//!   each Owen-scrambled with its own key (same paper, with its improved Laine–Karras hash).
+//!   The first two Sobol' dimensions form a (0,2)-sequence (Sobol' 1967; Niederreiter 1992),
+//!   and both the shuffle and the scramble keep that: for any `m`, the samples `0..2^m`
 //!   of a pair are a (0,m,2)-net (each of the 2^m elementary intervals of area 2^-m holds
 //!   exactly one point), and each aligned block `k·2^m..(k+1)·2^m` is one too, so progressive
 //!   passes and sample ranges of power-of-two sizes are stratified as one render. Every single
