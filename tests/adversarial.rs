@@ -558,6 +558,18 @@ fn a_signal_during_a_write_leaves_the_old_output_and_no_temporary() {
     assert_eq!(temporaries(), 0, "no temporary file left");
 }
 
+/// `brdf eval` of a Lambert material on the CPU over the directions in `dirs`.
+fn eval_lambert(dirs: &Path) -> Output {
+    check(
+        bin()
+            .args(["brdf", "eval", "--material", "model = \"lambert\""])
+            .args(["--backend", "cpu", "--dirs", s(dirs)])
+            .output()
+            .unwrap(),
+        "brdf eval",
+    )
+}
+
 /// Messages of issue 22 item 15: a part header's text with escape codes is refused, not
 /// printed raw; a byte-order mark before a CSV header is accepted; He's tau gives its true
 /// range.
@@ -576,14 +588,7 @@ fn messages_say_what_is_wrong() {
         "\u{feff}wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n",
     )
     .unwrap();
-    let o = check(
-        bin()
-            .args(["brdf", "eval", "--material", "model = \"lambert\""])
-            .args(["--backend", "cpu", "--dirs", s(&dirs)])
-            .output()
-            .unwrap(),
-        "brdf eval",
-    );
+    let o = eval_lambert(&dirs);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     fails_with(
         &[
@@ -628,14 +633,7 @@ fn brdf_eval_warns_below_the_horizon() {
         "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n0,0,-1,0,0,1\n0,0,1,0.6,0,-0.8\n",
     )
     .unwrap();
-    let o = check(
-        bin()
-            .args(["brdf", "eval", "--material", "model = \"lambert\""])
-            .args(["--backend", "cpu", "--dirs", s(&dirs)])
-            .output()
-            .unwrap(),
-        "brdf eval",
-    );
+    let o = eval_lambert(&dirs);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
     assert!(

@@ -98,6 +98,37 @@ fn subgroup_and_plain_queue_pushes_give_the_same_image() {
     finish(ctx);
 }
 
+/// The Cornell box at 24×24, max depth 8, with this sampler, spp and seed.
+fn cornell_box(sampler: Sampler, spp: u32, seed: u32) -> brdfwave::scene::Scene {
+    let mut s = scene("cornell-box.toml", 24, 24, spp, 8, seed);
+    s.integrator.sampler = sampler;
+    s
+}
+
+/// The per-pixel two-sample z-test of two renders' means at alpha 0.01 with the pooled
+/// (Student) variance: the calibrated choice when both run the same estimator (Welch is
+/// anti-conservative for skewed per-sample distributions).
+fn pooled_z_test(
+    a: &brdfwave::output::RenderOutput,
+    b: &brdfwave::output::RenderOutput,
+) -> metrics::ZTestReport {
+    let opts = metrics::ZTestOptions {
+        alpha: 0.01,
+        variance: metrics::VarianceModel::Pooled,
+        ..Default::default()
+    };
+    metrics::z_test_with(
+        &a.mean,
+        &a.variance,
+        a.spp as u64,
+        &b.mean,
+        &b.variance,
+        b.spp as u64,
+        &opts,
+    )
+    .unwrap()
+}
+
 /// Independent seeds: per-pixel two-sample test of the means (Mitsuba-style, Šidák-corrected).
 /// With the `independent` sampler: the pooled variance is the calibrated choice only when a
 /// pixel's samples are independent (a `sobol` render's per-sample variance overstates the
@@ -105,30 +136,9 @@ fn subgroup_and_plain_queue_pushes_give_the_same_image() {
 #[test]
 fn cornell_box_gpu_and_cpu_agree_statistically_with_independent_seeds() {
     let ctx = context();
-    let independent = |seed| {
-        let mut s = scene("cornell-box.toml", 24, 24, 128, 8, seed);
-        s.integrator.sampler = Sampler::Independent;
-        s
-    };
-    let (gpu, _) = render_gpu(&ctx, &independent(1));
-    let cpu = render_cpu(&independent(2));
-    // Both sides run the same estimator, so the pooled (Student) variance is the calibrated
-    // choice (Welch is anti-conservative for skewed per-sample distributions).
-    let opts = metrics::ZTestOptions {
-        alpha: 0.01,
-        variance: metrics::VarianceModel::Pooled,
-        ..Default::default()
-    };
-    let r = metrics::z_test_with(
-        &gpu.mean,
-        &gpu.variance,
-        gpu.spp as u64,
-        &cpu.mean,
-        &cpu.variance,
-        cpu.spp as u64,
-        &opts,
-    )
-    .unwrap();
+    let (gpu, _) = render_gpu(&ctx, &cornell_box(Sampler::Independent, 128, 1));
+    let cpu = render_cpu(&cornell_box(Sampler::Independent, 128, 2));
+    let r = pooled_z_test(&gpu, &cpu);
     if !r.pass {
         save("z-gpu.exr", &gpu.mean);
         save("z-cpu.exr", &cpu.mean);
@@ -147,35 +157,16 @@ fn cornell_box_gpu_and_cpu_agree_statistically_with_independent_seeds() {
 /// `independent` one (the point of the sampler), checked on the mean squared error.
 #[test]
 fn sobol_sampler_agrees_with_independent_and_has_less_error() {
-    let with = |sampler, spp, seed| {
-        let mut s = scene("cornell-box.toml", 24, 24, spp, 8, seed);
-        s.integrator.sampler = sampler;
-        s
-    };
-    let sobol = render_cpu(&with(Sampler::Sobol, 128, 1));
-    let indep = render_cpu(&with(Sampler::Independent, 128, 2));
-    let opts = metrics::ZTestOptions {
-        alpha: 0.01,
-        variance: metrics::VarianceModel::Pooled,
-        ..Default::default()
-    };
-    let r = metrics::z_test_with(
-        &sobol.mean,
-        &sobol.variance,
-        sobol.spp as u64,
-        &indep.mean,
-        &indep.variance,
-        indep.spp as u64,
-        &opts,
-    )
-    .unwrap();
+    let sobol = render_cpu(&cornell_box(Sampler::Sobol, 128, 1));
+    let indep = render_cpu(&cornell_box(Sampler::Independent, 128, 2));
+    let r = pooled_z_test(&sobol, &indep);
     assert!(r.pass, "{r}");
     // Error against a 4096-spp independent reference, at 32 spp (three seeds each).
-    let reference = render_cpu(&with(Sampler::Independent, 4096, 99)).mean;
+    let reference = render_cpu(&cornell_box(Sampler::Independent, 4096, 99)).mean;
     let mse = |sampler| {
         (10..13)
             .map(|seed| {
-                let img = render_cpu(&with(sampler, 32, seed)).mean;
+                let img = render_cpu(&cornell_box(sampler, 32, seed)).mean;
                 metrics::diff(&img, &reference).unwrap().mse
             })
             .sum::<f64>()
