@@ -19,6 +19,33 @@ pub fn chain(e: &anyhow::Error) -> String {
     out
 }
 
+/// A text file's contents, or an error that says where the file stops being UTF-8 text:
+/// `line L, column C (byte offset B): byte 0xNN is not UTF-8`. `std::fs::read_to_string`
+/// reports only "stream did not contain valid UTF-8", which leaves the user searching.
+pub fn read_utf8(path: &std::path::Path) -> std::io::Result<String> {
+    let bytes = std::fs::read(path)?;
+    String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let bytes = e.as_bytes();
+        std::io::Error::new(std::io::ErrorKind::InvalidData, not_utf8_at(bytes, at))
+    })
+}
+
+/// Where the invalid UTF-8 at byte offset `at` of `bytes` is, as a 1-based line and a column
+/// counted in characters of the valid text before it.
+fn not_utf8_at(bytes: &[u8], at: usize) -> String {
+    // The prefix up to `at` is valid UTF-8 by construction of `valid_up_to`.
+    let valid = std::str::from_utf8(&bytes[..at]).unwrap_or("");
+    let line = valid.matches('\n').count() + 1;
+    let line_start = valid.rfind('\n').map_or(0, |i| i + 1);
+    let column = valid[line_start..].chars().count() + 1;
+    format!(
+        "not UTF-8 text: line {line}, column {column} (byte offset {at}): byte 0x{:02x} is not \
+         UTF-8 (save the file as UTF-8)",
+        bytes[at]
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -45,5 +72,27 @@ mod tests {
             .context("top")
             .unwrap_err();
         assert_eq!(chain(&e), "top: middle: root");
+    }
+
+    #[test]
+    fn invalid_utf8_is_located_by_line_and_column() {
+        let bytes = "a = 1\nb = \"é"
+            .as_bytes()
+            .iter()
+            .copied()
+            .chain([0xff, b'"'])
+            .collect::<Vec<u8>>();
+        let at = std::str::from_utf8(&bytes).unwrap_err().valid_up_to();
+        let m = not_utf8_at(&bytes, at);
+        assert!(m.contains("line 2, column 7") && m.contains("0xff"), "{m}");
+        let dir = std::env::temp_dir().join(format!("bw-utf8-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("x.txt");
+        std::fs::write(&f, &bytes).unwrap();
+        let e = read_utf8(&f).unwrap_err();
+        assert_eq!(e.to_string(), m);
+        std::fs::write(&f, "fine\n").unwrap();
+        assert_eq!(read_utf8(&f).unwrap(), "fine\n");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -641,3 +641,90 @@ fn brdf_eval_warns_below_the_horizon() {
         "{err}"
     );
 }
+
+/// With no file descriptor left, Vulkan's failure is named as that, not as a missing Vulkan
+/// installation. The test runs itself again as a child process, which uses up its descriptors
+/// (under a lowered limit) and then asks for the device list.
+#[test]
+fn no_file_descriptor_left_is_named_as_such() {
+    const CHILD: &str = "BRDFWAVE_TEST_FD_CHILD";
+    if std::env::var_os(CHILD).is_some() {
+        let limit = libc::rlimit {
+            rlim_cur: 64,
+            rlim_max: 64,
+        };
+        // SAFETY: plain system calls on this process's own limit.
+        assert_eq!(unsafe { libc::setrlimit(libc::RLIMIT_NOFILE, &limit) }, 0);
+        let mut held = Vec::new();
+        while let Ok(f) = std::fs::File::open("/dev/null") {
+            held.push(f);
+            assert!(held.len() < 64, "the limit did not apply");
+        }
+        let e = brdfwave::vk::Context::list_devices().unwrap_err();
+        drop(held);
+        println!("CHILD-ERROR: {}", brdfwave::errors::chain(&e));
+        return;
+    }
+    let out = Command::new(std::env::current_exe().unwrap())
+        .args([
+            "--exact",
+            "no_file_descriptor_left_is_named_as_such",
+            "--nocapture",
+            "--test-threads=1",
+        ])
+        .env(CHILD, "1")
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "child failed:\n{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let line = text
+        .lines()
+        .find_map(|l| l.find("CHILD-ERROR: ").map(|i| &l[i..]))
+        .unwrap_or_else(|| panic!("no error line from the child:\n{text}"));
+    assert!(
+        line.contains("no file descriptor left") && !line.contains("apt-get install"),
+        "{line}"
+    );
+}
+
+/// A text input that is not UTF-8 (a scene, an OBJ mesh, a direction CSV) is refused with the
+/// line and column where it stops being UTF-8.
+#[test]
+fn non_utf8_text_inputs_are_located() {
+    let scene = tmp("latin1.toml");
+    std::fs::write(&scene, b"# caf\xe9\n[camera]\n").unwrap();
+    fails_with(
+        &["render", s(&scene)],
+        &["latin1.toml", "line 1, column 6", "0xe9", "not UTF-8"],
+    );
+    let csv = tmp("dirs.csv");
+    std::fs::write(&csv, b"wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,\xff1\n").unwrap();
+    fails_with(
+        &[
+            "brdf",
+            "eval",
+            "--material",
+            "model = \"lambert\"",
+            "--dirs",
+            s(&csv),
+        ],
+        &["dirs.csv", "line 2, column 11", "0xff"],
+    );
+    let obj = tmp("mesh.obj");
+    std::fs::write(&obj, b"v 0 0 0\nv 1 0 0\nv 0 1 0\n# \xc3(\nf 1 2 3\n").unwrap();
+    let with_obj = tmp("with-obj.toml");
+    let cornell = std::fs::read_to_string(common::repo().join("scenes/cornell-box.toml")).unwrap();
+    std::fs::write(
+        &with_obj,
+        format!("{cornell}\n[[shapes]]\nobj = \"mesh.obj\"\nmaterial = \"white\"\n"),
+    )
+    .unwrap();
+    fails_with(
+        &["render", s(&with_obj)],
+        &["mesh.obj", "line 4, column 3", "0xc3"],
+    );
+}

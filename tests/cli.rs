@@ -830,6 +830,35 @@ fn messages_name_the_cause_once_and_in_plain_words() {
             && err.contains("Unset VK_ICD_FILENAMES"),
         "{err}"
     );
+
+    // A manifest that exists but is garbage (the loader says "host memory allocation has
+    // failed") and one whose library is missing: each is named with what is wrong with it.
+    let garbage = d.join("garbage_icd.json");
+    std::fs::write(&garbage, b"garbage\n").unwrap();
+    let no_lib = d.join("nolib_icd.json");
+    std::fs::write(
+        &no_lib,
+        br#"{"file_format_version": "1.0.0", "ICD": {"library_path": "./missing_lvp.so", "api_version": "1.3.230"}}"#,
+    )
+    .unwrap();
+    for (manifest, expect) in [
+        (&garbage, "not a JSON driver manifest"),
+        (&no_lib, "missing_lvp.so does not"),
+    ] {
+        let out = bin()
+            .arg("devices")
+            .env("VK_ICD_FILENAMES", manifest)
+            .env_remove("VK_DRIVER_FILES")
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(1));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains(expect) && err.contains("Unset VK_ICD_FILENAMES"),
+            "{}: {err}",
+            manifest.display()
+        );
+    }
 }
 
 #[test]

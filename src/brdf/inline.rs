@@ -27,6 +27,22 @@ pub fn parse_inline_from(from: &str, src: &str) -> Result<(Material, Vec<String>
     // Comma-separated fields are the inside of an inline table; newline-separated fields are a
     // table body. Try the first, then the second.
     let wrapped = format!("material = {{ {} }}", src.trim());
+    // A `}` in the text would close the wrapping table early and let the rest define other
+    // tables, which were then ignored: refuse anything beside the one material table.
+    if let Ok(table) = toml::from_str::<toml::Table>(&wrapped) {
+        let extra: Vec<String> = table
+            .keys()
+            .filter(|k| k.as_str() != "material")
+            .map(|k| format!("'{k}'"))
+            .collect();
+        if !extra.is_empty() {
+            return Err(anyhow!(
+                "{from}: only the material's fields are allowed, but the text also defines {} \
+                 (a '}}' in it ends the material's table early)",
+                extra.join(", ")
+            ));
+        }
+    }
     let (source, fields) = match toml::from_str::<Wrapped>(&wrapped) {
         Ok(w) => (wrapped.clone(), w.material),
         Err(first) => match toml::from_str::<BTreeMap<String, Spanned<Value>>>(src) {
@@ -65,5 +81,17 @@ mod tests {
             .to_string();
         assert!(e.contains("albdo") && e.contains("unknown field"), "{e}");
         assert!(parse_inline("model = ").is_err());
+        // Text that closes the wrapping table and smuggles in other tables is refused.
+        let e = parse_inline("model = \"lambert\", albedo = 0.5 }\n[x]\ny = 1\nz = {")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("'x'") && e.contains("only the material's fields"),
+            "{e}"
+        );
+        let e = parse_inline("model = \"lambert\" }\nother = { a = 1")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("'other'"), "{e}");
     }
 }

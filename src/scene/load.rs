@@ -64,7 +64,7 @@ fn located(file: &str, line: Option<usize>, field: Option<&str>, message: &str) 
 
 /// Read and load a scene file. Relative OBJ paths are resolved against the file's directory.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
-    let source = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
+    let source = crate::errors::read_utf8(path).map_err(|source| SceneError::Read {
         file: path.display().to_string(),
         source,
     })?;

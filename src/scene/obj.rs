@@ -109,7 +109,7 @@ pub(super) fn obj_triangles(
         cx.dir.join(rel)
     };
     let shown = full.display().to_string();
-    let text = std::fs::read_to_string(&full).map_err(|e| {
+    let text = crate::errors::read_utf8(&full).map_err(|e| {
         cx.err(
             span.clone(),
             fo,

@@ -238,8 +238,31 @@ fn is_harmless_loader_message(
 }
 
 fn load_entry() -> Result<ash::Entry> {
-    unsafe { ash::Entry::load() }
-        .map_err(|e| anyhow!("cannot load the Vulkan loader (libvulkan.so.1): {e}; {INSTALL_HINT}"))
+    unsafe { ash::Entry::load() }.map_err(|e| {
+        let text = e.to_string();
+        // With no file descriptor left the loader cannot be opened either, but installing it
+        // again would not help: say what would.
+        if text.contains("Too many open files") || out_of_file_descriptors() {
+            anyhow!("cannot load the Vulkan loader (libvulkan.so.1): {e}; {FD_HINT}")
+        } else {
+            anyhow!("cannot load the Vulkan loader (libvulkan.so.1): {e}; {INSTALL_HINT}")
+        }
+    })
+}
+
+/// What to do when the process has run out of file descriptors (EMFILE/ENFILE).
+const FD_HINT: &str = "the process has no file descriptor left (EMFILE): raise the limit \
+     (`ulimit -n`, e.g. to 1024) or close files it inherited; the Vulkan installation is not the \
+     problem";
+
+/// Whether opening a file fails now for want of file descriptors (EMFILE: this process's
+/// limit, ENFILE: the system's). The loader reports such a failure as "no driver", which would
+/// point the user at reinstalling Vulkan.
+fn out_of_file_descriptors() -> bool {
+    match std::fs::File::open("/dev/null") {
+        Ok(_) => false,
+        Err(e) => matches!(e.raw_os_error(), Some(libc::EMFILE) | Some(libc::ENFILE)),
+    }
 }
 
 fn instance_extensions(entry: &ash::Entry, layer: Option<&CStr>) -> Vec<CString> {
@@ -315,16 +338,29 @@ fn create_instance(
             info = info.push_next(&mut features);
         }
     }
-    let instance = unsafe { entry.create_instance(&info, None) }.map_err(|e| match e {
-        vk::Result::ERROR_INCOMPATIBLE_DRIVER | vk::Result::ERROR_INITIALIZATION_FAILED => {
-            match driver_override_hint() {
-                Some(hint) => anyhow!("vkCreateInstance: {e}: {hint}"),
-                None => {
-                    anyhow!("vkCreateInstance: no Vulkan 1.2 driver could be loaded ({e}); {INSTALL_HINT}")
-                }
-            }
+    let instance = unsafe { entry.create_instance(&info, None) }.map_err(|e| {
+        if out_of_file_descriptors() {
+            return anyhow!("vkCreateInstance: {e}: {FD_HINT}");
         }
-        e => anyhow!("vkCreateInstance: {e}"),
+        // A driver manifest the loader cannot parse gives ERROR_OUT_OF_HOST_MEMORY (Vulkan
+        // loader 1.3.239), so an override of the driver list explains that code too.
+        match (e, driver_override_hint()) {
+            (
+                vk::Result::ERROR_INCOMPATIBLE_DRIVER
+                | vk::Result::ERROR_INITIALIZATION_FAILED
+                | vk::Result::ERROR_OUT_OF_HOST_MEMORY,
+                Some(hint),
+            ) => anyhow!("vkCreateInstance: {e}: {hint}"),
+            (
+                vk::Result::ERROR_INCOMPATIBLE_DRIVER | vk::Result::ERROR_INITIALIZATION_FAILED,
+                None,
+            ) => {
+                anyhow!(
+                    "vkCreateInstance: no Vulkan 1.2 driver could be loaded ({e}); {INSTALL_HINT}"
+                )
+            }
+            (e, _) => anyhow!("vkCreateInstance: {e}"),
+        }
     })?;
     Ok((instance, use_validation))
 }
@@ -344,11 +380,11 @@ fn driver_override_hint() -> Option<String> {
     let tried: Vec<String> = std::env::split_paths(&value)
         .map(|p| {
             let state = if p.is_file() {
-                "exists"
+                manifest_state(&p)
             } else if p.exists() {
-                "not a file"
+                "not a file".to_string()
             } else {
-                "does not exist"
+                "does not exist".to_string()
             };
             format!("{} ({state})", p.display())
         })
@@ -360,6 +396,40 @@ fn driver_override_hint() -> Option<String> {
         tried.join(", "),
         std::env::consts::ARCH
     ))
+}
+
+/// What is wrong with an existing driver manifest, as far as can be told without loading it: a
+/// manifest is a JSON object whose `ICD.library_path` names the driver's shared library.
+fn manifest_state(path: &std::path::Path) -> String {
+    const MAX_MANIFEST: u64 = 1 << 20;
+    let len = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+    if len > MAX_MANIFEST {
+        return format!("exists, but is {len} bytes: not a driver manifest");
+    }
+    let text = match std::fs::read(path) {
+        Ok(b) => b,
+        Err(e) => return format!("exists, but cannot be read: {e}"),
+    };
+    let json: serde_json::Value = match serde_json::from_slice(&text) {
+        Ok(v) => v,
+        Err(e) => return format!("exists, but is not a JSON driver manifest: {e}"),
+    };
+    let Some(lib) = json
+        .get("ICD")
+        .and_then(|icd| icd.get("library_path"))
+        .and_then(|l| l.as_str())
+    else {
+        return "exists, but has no ICD.library_path: not a driver manifest".to_string();
+    };
+    // A bare file name is looked up by the dynamic linker; a path is relative to the manifest.
+    if lib.contains('/') {
+        let dir = path.parent().unwrap_or(std::path::Path::new("."));
+        let full = dir.join(lib);
+        if !full.is_file() {
+            return format!("exists, but its driver library {} does not", full.display());
+        }
+    }
+    "exists".to_string()
 }
 
 /// Whether the validation layer and its debug-utils extension can be enabled: `Ok(Ok(has
