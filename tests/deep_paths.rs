@@ -96,6 +96,19 @@ fn the_white_furnace_gives_half_the_depth_everywhere() {
     furnace_at(&[1_000, 10_000, 100_000], &[Integrator::Megakernel], true);
 }
 
+/// 16 CPU paths of 2^20 segments each: every path reaches its last segment. A cosine sample on
+/// the concentric disk's rim (a random number exactly 0, once in 2^24) used to be a tangent
+/// direction of pdf 0, which ended the path: 0.9 % to 8 % of these segments were lost,
+/// depending on the sampler.
+#[test]
+fn a_million_segment_furnace_loses_no_path_on_the_cpu() {
+    let d = 1u32 << 20;
+    let s = white_furnace(4, 4, 1, d);
+    let out = render_cpu(&s);
+    assert_eq!(out.extension_rays, 16 * d as u64, "segments traced");
+    assert_mean("cpu at D = 2^20", &out, 0.5 * d as f64);
+}
+
 #[test]
 #[ignore = "about 30 s on lavapipe: run with --ignored"]
 fn deep_wavefront_furnace() {

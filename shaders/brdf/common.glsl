@@ -8,6 +8,9 @@
 // Sampling the hemisphere
 // ---------------------------------------------------------------------------------------------
 
+// The least cos²θ of sample_cosine_hemisphere: 2^-23 (Rust: brdf::common::MIN_COS2).
+const float MIN_COS2 = 1.0 / 8388608.0;
+
 // Cosine-weighted hemisphere sample, concentric mapping (Shirley & Chiu 1997). pdf = cosθ/π.
 vec3 sample_cosine_hemisphere(vec2 u) {
     vec2 a = 2.0 * u - vec2(1.0);
@@ -23,8 +26,13 @@ vec3 sample_cosine_hemisphere(vec2 u) {
         float phi = PI / 2.0 - (PI / 4.0) * (a.x / a.y);
         d = vec2(r * cos(phi), r * sin(phi));
     }
-    float z = sqrt(max(1.0 - dot(d, d), 0.0));
-    return vec3(d, z);
+    // The rim (cosθ = 0, pdf 0) moves inwards to 1 - |d|² = MIN_COS2, as in the Rust twin.
+    float z2 = 1.0 - dot(d, d);
+    if (z2 < MIN_COS2) {
+        d = d * (sqrt(1.0 - MIN_COS2) / length(d));
+        return vec3(d, sqrt(MIN_COS2));
+    }
+    return vec3(d, sqrt(z2));
 }
 
 float cosine_hemisphere_pdf(float cos_theta) { return max(cos_theta, 0.0) * INV_PI; }
