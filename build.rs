@@ -1,36 +1,121 @@
-//! Link the `shaderc` crate against Debian's static shaderc/glslang libraries.
+//! How the GLSL compiler (shaderc, through the `shaderc` crate) is linked, and the shaders
+//! embedded.
 //!
-//! Without `SHADERC_LIB_DIR` the `shaderc-sys` build script would compile shaderc, glslang and
-//! SPIRV-Tools from C++ source (about 7 minutes on 2 cores). Debian 12's `libshaderc-dev` ships
-//! `libshaderc_combined.a`, which does not contain glslang, so the glslang static libraries from
-//! `glslang-dev` are linked here as well.
-//! `.cargo/config.toml` sets `SHADERC_LIB_DIR` for `shaderc-sys`.
+//! `shaderc-sys` (the `shaderc` crate's build script) looks for a native shaderc in this order:
+//! `SHADERC_LIB_DIR`; `$VULKAN_SDK/lib`; pkg-config's `shaderc`; `/usr/lib/<arch>-linux-gnu`,
+//! `/usr/lib64` or `/usr/lib`; and it links `libshaderc_combined.a` when the directory has it
+//! (the `prefer-static-linking` feature), else `libshaderc.so` / `libshaderc_shared.so`. Only
+//! when none is found does it compile shaderc, glslang and SPIRV-Tools from C++ source (about 7
+//! minutes on 2 cores; it needs cmake, python3 and a C++ compiler).
+//!
+//! Debian 12's `libshaderc-dev` ships a `libshaderc_combined.a` that does not contain glslang:
+//! the glslang static libraries of `glslang-dev` must be linked as well. This script finds the
+//! directory shaderc-sys will use, the same way, and adds them exactly when that directory holds
+//! Debian's split static libraries; with a shared or a truly combined library (a Vulkan SDK, other
+//! distributions) or a source build nothing is added. A `cargo:warning` says which case it was.
 //!
 //! It also embeds the GLSL sources under `shaders/` into the binary: a table of
 //! `(path relative to shaders/, include_str!(...))` is written to `$OUT_DIR/embedded_shaders.rs`
 //! and included by `src/vk/shader.rs`, so the binary compiles its kernels from any directory.
 
+use std::path::{Path, PathBuf};
+
+/// The glslang static libraries Debian's `libshaderc_combined.a` leaves out, in link order.
+const DEBIAN_GLSLANG: [&str; 9] = [
+    "glslang",
+    "MachineIndependent",
+    "GenericCodeGen",
+    "OSDependent",
+    "OGLCompiler",
+    "SPIRV",
+    "SPIRV-Tools-opt",
+    "SPIRV-Tools",
+    "glslang-default-resource-limits",
+];
+
 fn main() {
-    let dir = std::env::var("SHADERC_LIB_DIR")
-        .unwrap_or_else(|_| "/usr/lib/x86_64-linux-gnu".to_string());
-    println!("cargo:rerun-if-env-changed=SHADERC_LIB_DIR");
-    println!("cargo:rerun-if-changed=build.rs");
-    println!("cargo:rustc-link-search=native={dir}");
-    for lib in [
-        "glslang",
-        "MachineIndependent",
-        "GenericCodeGen",
-        "OSDependent",
-        "OGLCompiler",
-        "SPIRV",
-        "SPIRV-Tools-opt",
-        "SPIRV-Tools",
-        "glslang-default-resource-limits",
-    ] {
-        println!("cargo:rustc-link-lib=static={lib}");
+    for var in ["SHADERC_LIB_DIR", "VULKAN_SDK", "PKG_CONFIG_PATH"] {
+        println!("cargo:rerun-if-env-changed={var}");
     }
+    println!("cargo:rerun-if-changed=build.rs");
+    link_debian_glslang();
     embed_shaders();
     git_commit();
+}
+
+/// The directory shaderc-sys searches for a native shaderc (its `get_search_dir`), if any.
+fn shaderc_search_dir() -> Option<PathBuf> {
+    if let Ok(dir) = std::env::var("SHADERC_LIB_DIR") {
+        return Some(PathBuf::from(dir));
+    }
+    if let Ok(sdk) = std::env::var("VULKAN_SDK") {
+        return Some(Path::new(&sdk).join("lib"));
+    }
+    let pkg = std::process::Command::new("pkg-config")
+        .args(["--variable=libdir", "shaderc"])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        .filter(|d| !d.is_empty());
+    if let Some(dir) = pkg {
+        return Some(PathBuf::from(dir));
+    }
+    let arch = std::env::var("CARGO_CFG_TARGET_ARCH").unwrap_or_default();
+    let arch = if arch == "x86" { "i386".to_string() } else { arch };
+    [format!("/usr/lib/{arch}-linux-gnu"), "/usr/lib64".into(), "/usr/lib".into()]
+        .into_iter()
+        .map(PathBuf::from)
+        .find(|d| d.is_dir())
+}
+
+/// Links Debian's glslang static libraries when shaderc-sys will link Debian's
+/// `libshaderc_combined.a`, and says in a build note how shaderc is linked.
+fn link_debian_glslang() {
+    let dir = shaderc_search_dir();
+    let has = |d: &Path, f: &str| d.join(f).is_file();
+    match &dir {
+        Some(d) if has(d, "libshaderc_combined.a") => {
+            let missing: Vec<&str> = DEBIAN_GLSLANG
+                .iter()
+                .copied()
+                .filter(|l| !has(d, &format!("lib{l}.a")))
+                .collect();
+            if missing.len() == DEBIAN_GLSLANG.len() {
+                println!(
+                    "cargo:warning=shaderc: static libshaderc_combined.a from {} (self-contained)",
+                    d.display()
+                );
+                return;
+            }
+            if !missing.is_empty() {
+                println!(
+                    "cargo:warning=shaderc: {} has Debian's libshaderc_combined.a but not the \
+                     glslang static libraries {missing:?}: install glslang-dev and spirv-tools \
+                     (scripts/setup.sh), or set SHADERC_LIB_DIR to a directory with a shared \
+                     libshaderc.so",
+                    d.display()
+                );
+            }
+            println!("cargo:rustc-link-search=native={}", d.display());
+            for lib in DEBIAN_GLSLANG {
+                println!("cargo:rustc-link-lib=static={lib}");
+            }
+            println!(
+                "cargo:warning=shaderc: Debian's static shaderc and glslang libraries from {}",
+                d.display()
+            );
+        }
+        Some(d) if has(d, "libshaderc.so") || has(d, "libshaderc_shared.so") => println!(
+            "cargo:warning=shaderc: the shared library from {} (libshaderc.so must be \
+             installed where the program runs)",
+            d.display()
+        ),
+        _ => println!(
+            "cargo:warning=shaderc: no native library found, so shaderc-sys builds it from \
+             source (several minutes; needs cmake, python3 and a C++ compiler)"
+        ),
+    }
 }
 
 /// Sets `BRDFWAVE_COMMIT` to the git commit being built (12 hex digits), or empty outside a git
@@ -66,7 +151,6 @@ const SHADER_ENDINGS: [&str; 4] = ["glsl", "comp", "h", "inc"];
 /// Writes `$OUT_DIR/embedded_shaders.rs`: `pub static EMBEDDED_SHADERS: &[(&str, &str)]`,
 /// sorted by path, paths relative to `shaders/` with `/` separators.
 fn embed_shaders() {
-    use std::path::{Path, PathBuf};
     let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("CARGO_MANIFEST_DIR"));
     let root = manifest.join("shaders");
     // A directory makes cargo rescan the whole tree for changes (added or removed files too).
