@@ -12,6 +12,7 @@
 //! buffer; counters (atomics), indirect arguments and the film stay storage buffers.
 //! BENCHMARKS.md has the measurements.
 
+use crate::conventions::SEGMENTS_COUNTED;
 use ash::vk;
 
 /// How a binding is declared and bound.
@@ -203,8 +204,6 @@ fixed_counters! {
 
 /// Counters before the per-queue ones.
 pub const FIXED_COUNTERS: u32 = Counter::ALL.len() as u32;
-/// Path segments counted one by one in the per-segment ray counts; deeper ones add to the last.
-pub const SEGMENTS_COUNTED: u32 = 32;
 
 /// Where each counter of a scene with `queues` material queues is.
 #[derive(Clone, Copy, Debug)]

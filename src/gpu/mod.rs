@@ -559,7 +559,7 @@ impl<'a> GpuRenderer<'a> {
             // counts its rays itself).
             extension_rays: c.total(&counters, Counter::ExtensionRaysLo),
             shadow_rays: c.total(&counters, Counter::ShadowRaysLo),
-            rays_by_segment: (1..=scene.integrator.max_depth.min(layout::SEGMENTS_COUNTED))
+            rays_by_segment: (1..=scene.integrator.max_depth.min(crate::conventions::SEGMENTS_COUNTED))
                 .map(|d| {
                     (
                         c.total_at(&counters, c.segment_extension(d)),
