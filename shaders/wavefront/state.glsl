@@ -97,7 +97,7 @@ layout(push_constant) uniform Push {
     uint sample_index;  // sample of the wave's first path
     uint chunk_offset;  // first pixel of this chunk
     uint wave_size;    // paths in this wave
-    uint phase;         // prepare kernel: which arguments to write
+    uint phase;         // prepare: which arguments to write (PREPARE_*); megakernel: MEGAKERNEL_*
     uint queue_slot;    // shade kernels: which material queue
     uint chunk_pixels;  // pixels in this chunk (wave_size is a multiple)
 } pc;

@@ -163,26 +163,34 @@ impl Binding {
     }
 }
 
-/// Declares [`Counter`] and, with each counter, the `#define` the shaders know it by: adding a
-/// counter is one line here (and its use in a shader).
-macro_rules! fixed_counters {
-    ($($(#[$doc:meta])* $name:ident => $define:literal,)*) => {
-        /// The counters (one u32 each) in binding `counters`: these fixed ones first, then per
-        /// material queue k its length, then the non-finite counts of `extend` and of each shade
-        /// kernel, then the rays by segment ([`Counters`]).
+/// Declares a fixed list of numbered slots as an enum and, with each slot, the `#define` the
+/// shaders know it by: the numbers are the declaration order, so adding a slot is one line
+/// (and its use in a shader), and nothing after it needs renumbering by hand.
+macro_rules! slots {
+    ($(#[$enum_doc:meta])* $enum:ident { $($(#[$doc:meta])* $name:ident => $define:literal,)* }) => {
+        $(#[$enum_doc])*
         #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-        pub enum Counter {
+        pub enum $enum {
             $($(#[$doc])* $name,)*
         }
 
-        impl Counter {
-            /// Every fixed counter, in order, with its `#define` name.
-            pub const ALL: &'static [(Counter, &'static str)] = &[$((Counter::$name, $define),)*];
+        impl $enum {
+            /// Every slot, in order, with its `#define` name.
+            pub const ALL: &'static [($enum, &'static str)] = &[$(($enum::$name, $define),)*];
+
+            /// Its number (the position in [`Self::ALL`]).
+            pub fn index(self) -> u32 {
+                self as u32
+            }
         }
     };
 }
 
-fixed_counters! {
+slots! {
+    /// The counters (one u32 each) in binding `counters`: these fixed ones first, then per
+    /// material queue k its length, then the non-finite counts of `extend` and of each shade
+    /// kernel, then the rays by segment ([`Counters`]).
+    Counter {
     /// Lengths of the two ping-pong ray queues.
     RayQueue0 => "COUNTER_RAY",
     RayQueue1 => "COUNTER_RAY_1",
@@ -200,6 +208,7 @@ fixed_counters! {
     /// Running count of the paths the megakernel stopped before their end, to be resumed by
     /// the next dispatch (megakernel.comp).
     MegakernelResumed => "COUNTER_RESUMED",
+}
 }
 
 /// Counters before the per-queue ones.
@@ -243,6 +252,15 @@ impl Counters {
     pub fn is_empty(self) -> bool {
         false
     }
+    /// Length of ray queue `q` (`Queue::Ray0` or `Queue::Ray1`): the ray-queue counters are in
+    /// the order of their queues.
+    pub fn ray_queue(self, q: Queue) -> usize {
+        debug_assert!(
+            matches!(q, Queue::Ray0 | Queue::Ray1),
+            "{q:?} is no ray queue"
+        );
+        (Counter::RayQueue0.index() + q.index() - Queue::Ray0.index()) as usize
+    }
     /// A 64-bit total kept in two words from `lo`.
     pub fn total(self, values: &[u32], lo: Counter) -> u64 {
         self.total_at(values, lo as usize)
@@ -253,19 +271,86 @@ impl Counters {
     }
 }
 
-/// Indirect-dispatch argument slots (4 u32 each) in binding `args`: the ray queue, the shadow
-/// queue, then one per material queue.
-pub const ARGS_RAY: u32 = 0;
-pub const ARGS_SHADOW: u32 = 1;
-pub const ARGS_MATERIAL: u32 = 2;
+slots! {
+    /// Indirect-dispatch argument slots (4 u32 each: x, y, z, pad) in binding `args`: these
+    /// fixed ones, then one per material queue ([`Args::material`]).
+    Args {
+    /// The extension rays of the segment (`extend`, or `extend_shade_<model>`).
+    Ray => "ARGS_RAY",
+    /// The shadow queue (`shadow`).
+    Shadow => "ARGS_SHADOW",
+}
+}
 
-/// Queue regions of binding `queues`, each `wave_paths` entries: two ping-pong ray queues, the
-/// shadow queue, then one per material queue.
-pub const QUEUE_SHADOW: u32 = 2;
-pub const QUEUE_MATERIAL: u32 = 3;
+impl Args {
+    /// The slot of material queue k (`shade_<model>`).
+    pub fn material(k: u32) -> u32 {
+        Self::ALL.len() as u32 + k
+    }
+    /// How many slots a scene with `queues` material queues has.
+    pub fn len(queues: u32) -> u32 {
+        Self::material(queues)
+    }
+}
+
+slots! {
+    /// Queue regions of binding `queues`, `wave_paths` entries each: these fixed ones, then one
+    /// per material queue ([`Queue::material`]). The region of a queue is also the offset of its
+    /// length from the first of its counters (`Counter::RayQueue0`), for the ray queues.
+    Queue {
+    /// The two ping-pong ray queues: segment d reads queue (d + 1) mod 2 and its shade stage
+    /// writes the other one.
+    Ray0 => "QUEUE_RAY",
+    Ray1 => "QUEUE_RAY_1",
+    /// Shadow rays of the segment, written by the shade kernels.
+    Shadow => "QUEUE_SHADOW",
+}
+}
+
+impl Queue {
+    /// The region of material queue k.
+    pub fn material(k: u32) -> u32 {
+        Self::ALL.len() as u32 + k
+    }
+    /// How many regions a scene with `queues` material queues has.
+    pub fn len(queues: u32) -> u32 {
+        Self::material(queues)
+    }
+    /// The ray queue that holds the rays of segment `depth` (segment 1 reads queue 0).
+    pub fn ray_in(depth: u32) -> Queue {
+        match depth % 2 {
+            1 => Queue::Ray0,
+            _ => Queue::Ray1,
+        }
+    }
+}
+
+slots! {
+    /// What the one-thread `prepare` kernel does (push constant `phase`): each phase writes the
+    /// indirect arguments of the stage it comes before.
+    Prepare {
+    /// Before `extend`: its arguments from the ray queue, the ray totals, and empty queues for
+    /// what the segment appends.
+    Extend => "PREPARE_EXTEND",
+    /// Before the shade kernels: the arguments of each material queue.
+    Shade => "PREPARE_SHADE",
+    /// Before `shadow`: its arguments from the shadow queue, and the shadow-ray totals.
+    Shadow => "PREPARE_SHADOW",
+}
+}
+
+slots! {
+    /// What a megakernel dispatch does (push constant `phase`).
+    MegakernelPhase {
+    /// Start every path of the wave at the camera.
+    Start => "MEGAKERNEL_START",
+    /// Resume the paths the driver's loop budget stopped (megakernel.comp).
+    Resume => "MEGAKERNEL_RESUME",
+}
+}
 
 /// The `#define`s every wavefront kernel is compiled with: binding numbers, counter positions,
-/// argument and queue slots.
+/// argument and queue slots, the phases of `prepare` and of the megakernel.
 pub fn defines() -> Vec<(String, String)> {
     let mut d: Vec<(String, String)> = Binding::ALL
         .iter()
@@ -277,14 +362,19 @@ pub fn defines() -> Vec<(String, String)> {
         })
         .collect();
     let c = |name: &str, v: u32| (name.to_string(), format!("{v}u"));
-    d.extend(Counter::ALL.iter().map(|&(k, name)| c(name, k as u32)));
+    d.extend(Counter::ALL.iter().map(|&(k, name)| c(name, k.index())));
+    d.extend(Args::ALL.iter().map(|&(k, name)| c(name, k.index())));
+    d.extend(Queue::ALL.iter().map(|&(k, name)| c(name, k.index())));
+    d.extend(Prepare::ALL.iter().map(|&(k, name)| c(name, k.index())));
+    d.extend(
+        MegakernelPhase::ALL
+            .iter()
+            .map(|&(k, name)| c(name, k.index())),
+    );
     d.extend([
         c("COUNTER_MATERIAL", FIXED_COUNTERS),
-        c("ARGS_RAY", ARGS_RAY),
-        c("ARGS_SHADOW", ARGS_SHADOW),
-        c("ARGS_MATERIAL", ARGS_MATERIAL),
-        c("QUEUE_SHADOW", QUEUE_SHADOW),
-        c("QUEUE_MATERIAL", QUEUE_MATERIAL),
+        c("ARGS_MATERIAL", Args::material(0)),
+        c("QUEUE_MATERIAL", Queue::material(0)),
         c("SEGMENTS_COUNTED", SEGMENTS_COUNTED),
     ]);
     d
@@ -305,13 +395,49 @@ mod tests {
         assert_eq!(names.len(), Binding::ALL.len());
     }
 
-    #[test]
-    fn fixed_counters_are_numbered_in_order_with_distinct_defines() {
-        for (i, (k, name)) in Counter::ALL.iter().enumerate() {
-            assert_eq!(*k as usize, i);
-            assert!(name.starts_with("COUNTER_"));
-            assert_eq!(Counter::ALL.iter().filter(|(_, n)| n == name).count(), 1);
+    /// Every table of slots is numbered in declaration order and names each slot once, with
+    /// its table's prefix.
+    fn check_slots<T: Copy + std::fmt::Debug>(
+        all: &[(T, &str)],
+        index: fn(T) -> u32,
+        prefix: &str,
+    ) {
+        for (i, &(k, name)) in all.iter().enumerate() {
+            assert_eq!(index(k) as usize, i, "{k:?}");
+            assert!(name.starts_with(prefix), "{name} is not {prefix}*");
+            assert_eq!(all.iter().filter(|(_, n)| *n == name).count(), 1, "{name}");
         }
+    }
+
+    #[test]
+    fn slots_are_numbered_in_order_with_distinct_defines() {
+        check_slots(Counter::ALL, Counter::index, "COUNTER_");
+        check_slots(Args::ALL, Args::index, "ARGS_");
+        check_slots(Queue::ALL, Queue::index, "QUEUE_");
+        check_slots(Prepare::ALL, Prepare::index, "PREPARE_");
+        check_slots(MegakernelPhase::ALL, MegakernelPhase::index, "MEGAKERNEL_");
+        let names: Vec<String> = defines().into_iter().map(|(n, _)| n).collect();
+        for n in &names {
+            assert_eq!(
+                names.iter().filter(|m| *m == n).count(),
+                1,
+                "{n} defined twice"
+            );
+        }
+    }
+
+    /// The shaders index the ray queues and their counters by `ray_queue_in()` from the first.
+    #[test]
+    fn ray_queues_alternate_and_their_counters_follow_them() {
+        let c = Counters { queues: 2 };
+        assert_eq!(Queue::ray_in(1), Queue::Ray0);
+        assert_eq!(Queue::ray_in(2), Queue::Ray1);
+        assert_eq!(Queue::ray_in(3), Queue::Ray0);
+        assert_eq!(Queue::Ray1.index(), Queue::Ray0.index() + 1);
+        assert_eq!(c.ray_queue(Queue::Ray0), Counter::RayQueue0 as usize);
+        assert_eq!(c.ray_queue(Queue::Ray1), Counter::RayQueue1 as usize);
+        assert_eq!(Queue::len(2), Queue::material(1) + 1);
+        assert_eq!(Args::len(2), Args::material(1) + 1);
     }
 
     #[test]

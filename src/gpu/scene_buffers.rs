@@ -57,6 +57,21 @@ pub fn sphere_data(scene: &Scene) -> Vec<[f32; 4]> {
     out
 }
 
+/// Each material's queue: the position of its model among the scene's shaded models
+/// (`Scene::shaded_models`, one material queue and shade pipeline each), or [`NO_QUEUE`] for a
+/// material that does not scatter.
+pub fn queue_slots(scene: &Scene) -> Vec<u32> {
+    let models = scene.shaded_models();
+    scene
+        .materials
+        .iter()
+        .map(|m| match m.brdf.scatters() {
+            true => models.iter().position(|&x| x == m.model).unwrap() as u32,
+            false => NO_QUEUE,
+        })
+        .collect()
+}
+
 /// Material records; `queue_slot[m]` is the material's queue (or NO_QUEUE).
 pub fn material_records(scene: &Scene, queue_slot: &[u32]) -> Vec<[u32; RECORD_WORDS]> {
     records(&scene.materials, queue_slot)
