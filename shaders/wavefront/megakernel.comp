@@ -13,7 +13,7 @@
 #extension GL_GOOGLE_include_directive : require
 #include "brdf/any.glsl"
 #include "wavefront/scatter.glsl"
-layout(local_size_x = 64) in;
+layout(local_size_x = LOCAL_SIZE) in;
 
 // Rays traced by the workgroup, in all and by segment, added to the 64-bit counts once per
 // workgroup.

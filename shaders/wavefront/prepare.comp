@@ -7,7 +7,9 @@
 #include "wavefront/state.glsl"
 layout(local_size_x = 1) in;
 
-uvec4 groups(uint n) { return uvec4((n + 63u) / 64u, 1u, 1u, 0u); }
+// Workgroups of LOCAL_SIZE invocations for n paths.
+const uint GROUP = uint(LOCAL_SIZE);
+uvec4 groups(uint n) { return uvec4((n + (GROUP - 1u)) / GROUP, 1u, 1u, 0u); }
 
 // 64-bit running total in two words (for the rays/s figures).
 void add_total(uint c, uint n) {
@@ -18,15 +20,15 @@ void add_total(uint c, uint n) {
 
 void run_kernel() {
     if (pc.phase == PREPARE_EXTEND) {
-        uint rays = counters[COUNTER_RAY + ray_queue_in()];
+        uint rays = counters[counter_ray_queue(ray_queue_in())];
         args[ARGS_RAY] = groups(rays);
         add_total(COUNTER_EXT_TOTAL, rays);
         add_total(counter_segment_extension(pc.depth), rays);
-        counters[COUNTER_RAY + ray_queue_out()] = 0u;
+        counters[counter_ray_queue(ray_queue_out())] = 0u;
         counters[COUNTER_SHADOW] = 0u;
-        for (uint k = 0u; k < g.num_queues; ++k) counters[COUNTER_MATERIAL + k] = 0u;
+        for (uint k = 0u; k < g.num_queues; ++k) counters[counter_material_queue(k)] = 0u;
     } else if (pc.phase == PREPARE_SHADE) {
-        for (uint k = 0u; k < g.num_queues; ++k) args[ARGS_MATERIAL + k] = groups(counters[COUNTER_MATERIAL + k]);
+        for (uint k = 0u; k < g.num_queues; ++k) args[ARGS_MATERIAL + k] = groups(counters[counter_material_queue(k)]);
     } else {  // PREPARE_SHADOW
         args[ARGS_SHADOW] = groups(counters[COUNTER_SHADOW]);
         add_total(COUNTER_SHADOW_TOTAL, counters[COUNTER_SHADOW]);

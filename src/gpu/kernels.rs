@@ -2,9 +2,10 @@
 //! (pipelines with their descriptor sets) its [`Schedule`] dispatches, built from the stage
 //! table ([`Stage`]) with the defines every kernel shares.
 
+use super::interface::{self, Push};
 use super::layout::{self, Binding, Counters, Kind, Queue};
 use super::stages::{ModelQueue, Schedule, ShadeKernel, Stage, WaveKernels};
-use super::{scene_buffers, Integrator, Push, SetupStats};
+use super::{scene_buffers, Integrator, SetupStats};
 use crate::brdf::MODELS;
 use crate::bvh::Bvh;
 use crate::film::Tile;
@@ -140,7 +141,7 @@ pub(super) fn create_buffers<'a>(
             Binding::Emitters => data(bytemuck::cast_slice(&scene_buffers::emitter_data(
                 scene, &lights,
             )))?,
-            Binding::Globals => data(bytemuck::cast_slice(&scene_buffers::globals(
+            Binding::Globals => data(bytemuck::bytes_of(&scene_buffers::globals(
                 scene, &lights, num_queues, wave_paths, tile,
             )))?,
             Binding::RayO
@@ -184,6 +185,8 @@ struct Builder<'b, 'a> {
     owned: &'b mut Owned<'a>,
     setup: &'b mut SetupStats,
     common: Defines,
+    /// The generated sources every kernel can include: the interface header.
+    generated: Defines,
     kinds: Vec<vk::DescriptorType>,
 }
 
@@ -202,8 +205,9 @@ impl Builder<'_, '_> {
         let t = Instant::now();
         let spirv = self
             .compiler
-            .compile(file, &defines, &overrides)
-            .with_context(|| format!("compiling {file} for pipeline {name}"))?;
+            .compile_generated(file, &defines, &overrides, &self.generated)
+            .with_context(|| format!("compiling {file} for pipeline {name}"))?
+            .spirv;
         self.setup.seconds_shader_compile += t.elapsed().as_secs_f64();
         let t = Instant::now();
         let pipeline = self.ctx.create_compute_pipeline_with(
@@ -213,6 +217,14 @@ impl Builder<'_, '_> {
             std::mem::size_of::<Push>() as u32,
         )?;
         self.setup.seconds_pipeline_create += t.elapsed().as_secs_f64();
+        if pipeline.local_size_x != stage.local_size() {
+            let size = pipeline.local_size_x;
+            self.ctx.destroy_pipeline(pipeline);
+            bail!(
+                "{file} has local_size_x = {size}, but the host dispatches it in workgroups of {} (gpu::stages::Stage::local_size)",
+                stage.local_size()
+            );
+        }
         let set = match self
             .ctx
             .create_descriptor_set_with(&pipeline, &self.owned.resources())
@@ -241,12 +253,11 @@ impl Builder<'_, '_> {
     }
 }
 
-/// The defines added to every kernel: the layout's numbers, the sampler and its dimension
-/// table, subgroup-aggregated queue pushes where the device has subgroup ballots (see
+/// The defines added to every kernel (the layout's numbers come with the generated interface
+/// header instead): the sampler and its dimension table, subgroup-aggregated queue pushes where the device has subgroup ballots (see
 /// `queue_push` in state.glsl), the tile mapping (see `path_pixel`) and the scene's features.
 fn common_defines(ctx: &Context, scene: &Scene, tiled: bool) -> Defines {
-    let mut common = layout::defines();
-    common.extend(crate::rng::defines(scene.integrator.sampler));
+    let mut common = crate::rng::defines(scene.integrator.sampler);
     common.push(("NO_QUEUE".into(), format!("{}u", scene_buffers::NO_QUEUE)));
     if ctx.features.subgroup_ballot {
         common.push(("SUBGROUP_QUEUES".into(), "1".into()));
@@ -294,6 +305,7 @@ pub(super) fn build_kernels<'a>(
         owned,
         setup,
         common: common_defines(ctx, scene, tiled),
+        generated: vec![(interface::HEADER.to_string(), interface::glsl())],
         kinds: Binding::ALL.iter().map(|b| b.descriptor_type()).collect(),
     };
     let queue = |slot: usize, model: usize| ModelQueue {

@@ -152,6 +152,45 @@ impl Binding {
         }
     }
 
+    /// Its name in GLSL (a block's instance or member name) and what it holds, for the
+    /// declaration in the generated interface ([`super::interface::glsl`]).
+    pub fn glsl(self) -> (&'static str, &'static str) {
+        match self {
+            Binding::BvhNodes => ("bvh_nodes", "4 texels per node: (lmin, left), (lmax, right), (rmin, left_count), (rmax, right_count); the u32 fields as bits in .w (src/bvh.rs)"),
+            Binding::BvhPrims => ("bvh_prims", "primitive references: triangle index, or sphere index | BVH_SPHERE_BIT"),
+            Binding::Triangles => ("tri_data", "3 texels per triangle: (v0, material bits), (v1, emitter bits or 0xFFFFFFFF), (v2, unused)"),
+            Binding::Spheres => ("sphere_data", "2 texels per sphere: (center, radius), (material bits, emitter bits, inward bits, 0)"),
+            Binding::TriAttrs => ("tri_attrs", "4 texels per triangle: (n0, u0), (n1, u1), (n2, u2), (v0, v1, v2, flags)"),
+            Binding::Materials => ("material_words", "the material records (src/brdf/mod.rs)"),
+            Binding::Lights => ("light_table", "(prim ref, floatBits(cdf)) per emitting primitive"),
+            Binding::Emitters => ("emitter_data", "radiance, lum(Le)/W per emitter"),
+            Binding::Globals => ("g", "scene-wide values, read at uniform offsets (one load each)"),
+            Binding::RayO => ("ray_o_img", "xyz origin (megakernel: w = depth of the path to resume, 0 once ended)"),
+            Binding::RayD => ("ray_d_img", "xyz direction, w = pdf of the BSDF sample (0: camera/delta)"),
+            Binding::Beta => ("beta_img", "path throughput"),
+            Binding::Radiance => ("radiance_img", "radiance gathered along the path"),
+            Binding::HitRec => ("hit_rec_img", "prim, bary.x, bary.y, t (float bits)"),
+            Binding::ShadowO => ("shadow_o_img", "xyz origin, w = tmax"),
+            Binding::ShadowD => ("shadow_d_img", "xyz direction"),
+            Binding::ShadowL => ("shadow_l_img", "unoccluded contribution"),
+            Binding::Queues => ("queue_img", "path indices: the regions of `Queue`, wave_paths entries each"),
+            Binding::Counters => ("counters", "`Counter`, then the `CounterBlock`s: queue lengths, non-finite counts, ray totals"),
+            Binding::Args => ("args", "indirect dispatch arguments (x, y, z, pad) per `Args` slot"),
+            Binding::Film => ("film", "running sums of radiance per pixel, .w the scale exponent k (accumulate.comp)"),
+            Binding::Film2 => ("film2", "running sums of radiance² per pixel"),
+        }
+    }
+
+    /// The element type of a storage-buffer binding's array.
+    pub fn storage_element(self) -> Option<&'static str> {
+        match self {
+            Binding::Counters => Some("uint"),
+            Binding::Args => Some("uvec4"),
+            Binding::Film | Binding::Film2 => Some("vec4"),
+            _ => None,
+        }
+    }
+
     /// The buffer usage the binding needs.
     pub fn usage(self) -> vk::BufferUsageFlags {
         match self.kind() {
@@ -211,8 +250,105 @@ slots! {
 }
 }
 
+/// Invocations per workgroup of every wavefront kernel but the one-thread `prepare` (the shaders'
+/// `LOCAL_SIZE`; each pipeline's reflected size is checked against it).
+pub const LOCAL_SIZE: u32 = 64;
+
+// The megakernel clears and adds its per-segment ray counts with one invocation per segment.
+const _: () = assert!(SEGMENTS_COUNTED <= LOCAL_SIZE);
+
 /// Counters before the per-queue ones.
 pub const FIXED_COUNTERS: u32 = Counter::ALL.len() as u32;
+
+/// The blocks of counters after the fixed ones, in order. Each is sized by the scene's number of
+/// material queues; [`CounterBlock::row`] is the one description of where each counter is, which
+/// both [`Counters`] (the host) and the generated GLSL functions `counter_<name>` ([`glsl`])
+/// evaluate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CounterBlock {
+    /// Length of material queue k.
+    MaterialQueue,
+    /// Non-finite emitted values dropped by `extend`.
+    NonfiniteExtend,
+    /// Non-finite values dropped by the shade kernel of material queue k.
+    NonfiniteShade,
+    /// 64-bit counts (low word, high word) of the extension rays of path segment d (1-based;
+    /// the last counted segment also holds all deeper ones).
+    SegmentExtension,
+    /// The same for the shadow rays traced from the vertex at the end of segment d.
+    SegmentShadow,
+}
+
+/// What a counter block's entry is numbered by.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BlockIndex {
+    /// One entry.
+    None,
+    /// A material queue k (0-based).
+    Queue,
+    /// A path segment d, 1-based, clamped to 1 ..= [`SEGMENTS_COUNTED`].
+    Segment,
+}
+
+/// One block of counters: `per_queue` × queues + `words` counters, an entry every `stride`.
+#[derive(Clone, Copy, Debug)]
+pub struct BlockRow {
+    /// The GLSL function is `counter_<name>`.
+    pub name: &'static str,
+    pub per_queue: u32,
+    pub words: u32,
+    pub stride: u32,
+    pub index: BlockIndex,
+}
+
+impl CounterBlock {
+    pub const ALL: [CounterBlock; 5] = [
+        CounterBlock::MaterialQueue,
+        CounterBlock::NonfiniteExtend,
+        CounterBlock::NonfiniteShade,
+        CounterBlock::SegmentExtension,
+        CounterBlock::SegmentShadow,
+    ];
+
+    pub fn row(self) -> BlockRow {
+        let (name, per_queue, words, stride, index) = match self {
+            CounterBlock::MaterialQueue => ("material_queue", 1, 0, 1, BlockIndex::Queue),
+            CounterBlock::NonfiniteExtend => ("nonfinite_extend", 0, 1, 0, BlockIndex::None),
+            CounterBlock::NonfiniteShade => ("nonfinite_shade", 1, 0, 1, BlockIndex::Queue),
+            CounterBlock::SegmentExtension => (
+                "segment_extension",
+                0,
+                2 * SEGMENTS_COUNTED,
+                2,
+                BlockIndex::Segment,
+            ),
+            CounterBlock::SegmentShadow => (
+                "segment_shadow",
+                0,
+                2 * SEGMENTS_COUNTED,
+                2,
+                BlockIndex::Segment,
+            ),
+        };
+        BlockRow {
+            name,
+            per_queue,
+            words,
+            stride,
+            index,
+        }
+    }
+
+    /// Where the block starts, as (per queue, words): the fixed counters and every block
+    /// before it.
+    pub fn start(self) -> (u32, u32) {
+        let mut start = (0, FIXED_COUNTERS);
+        for b in Self::ALL.into_iter().take_while(|&b| b != self) {
+            start = (start.0 + b.row().per_queue, start.1 + b.row().words);
+        }
+        start
+    }
+}
 
 /// Where each counter of a scene with `queues` material queues is.
 #[derive(Clone, Copy, Debug)]
@@ -224,30 +360,45 @@ impl Counters {
     pub fn fixed(self, c: Counter) -> usize {
         c as usize
     }
+    /// Entry `i` of block `b` (a queue k or a segment d, as the block's [`BlockIndex`] says;
+    /// ignored for a single entry).
+    pub fn at(self, b: CounterBlock, i: u32) -> usize {
+        let (per_queue, words) = b.start();
+        let row = b.row();
+        let i = match row.index {
+            BlockIndex::None => 0,
+            BlockIndex::Queue => i,
+            BlockIndex::Segment => i.clamp(1, SEGMENTS_COUNTED) - 1,
+        };
+        (per_queue * self.queues + words + row.stride * i) as usize
+    }
     /// Length of material queue k.
     pub fn material_queue(self, k: u32) -> usize {
-        (FIXED_COUNTERS + k) as usize
+        self.at(CounterBlock::MaterialQueue, k)
     }
     /// Non-finite emitted values dropped by `extend`.
     pub fn nonfinite_extend(self) -> usize {
-        (FIXED_COUNTERS + self.queues) as usize
+        self.at(CounterBlock::NonfiniteExtend, 0)
     }
     /// Non-finite values dropped by the shade kernel of material queue k.
     pub fn nonfinite_shade(self, k: u32) -> usize {
-        (FIXED_COUNTERS + self.queues + 1 + k) as usize
+        self.at(CounterBlock::NonfiniteShade, k)
     }
     /// 64-bit count (low word) of the extension rays of path segment `d` (1-based; the last
     /// counted segment also holds all deeper ones).
     pub fn segment_extension(self, d: u32) -> usize {
-        (FIXED_COUNTERS + 2 * self.queues + 1 + 2 * (d.clamp(1, SEGMENTS_COUNTED) - 1)) as usize
+        self.at(CounterBlock::SegmentExtension, d)
     }
     /// The same for the shadow rays traced from the vertex at the end of segment `d`.
     pub fn segment_shadow(self, d: u32) -> usize {
-        self.segment_extension(d) + 2 * SEGMENTS_COUNTED as usize
+        self.at(CounterBlock::SegmentShadow, d)
     }
-    /// How many counters there are.
+    /// How many counters there are: the end of the last block.
     pub fn len(self) -> usize {
-        (FIXED_COUNTERS + 2 * self.queues + 1 + 4 * SEGMENTS_COUNTED) as usize
+        let (per_queue, words) = CounterBlock::ALL.iter().fold((0, FIXED_COUNTERS), |s, b| {
+            (s.0 + b.row().per_queue, s.1 + b.row().words)
+        });
+        (per_queue * self.queues + words) as usize
     }
     pub fn is_empty(self) -> bool {
         false
@@ -349,8 +500,9 @@ slots! {
 }
 }
 
-/// The `#define`s every wavefront kernel is compiled with: binding numbers, counter positions,
-/// argument and queue slots, the phases of `prepare` and of the megakernel.
+/// The numbers of the interface, as `#define`s of the generated header
+/// ([`super::interface::glsl`]): binding numbers, fixed counters, argument and queue slots, the
+/// phases of `prepare` and of the megakernel, the local size.
 pub fn defines() -> Vec<(String, String)> {
     let mut d: Vec<(String, String)> = Binding::ALL
         .iter()
@@ -372,7 +524,7 @@ pub fn defines() -> Vec<(String, String)> {
             .map(|&(k, name)| c(name, k.index())),
     );
     d.extend([
-        c("COUNTER_MATERIAL", FIXED_COUNTERS),
+        ("LOCAL_SIZE".to_string(), LOCAL_SIZE.to_string()),
         c("ARGS_MATERIAL", Args::material(0)),
         c("QUEUE_MATERIAL", Queue::material(0)),
         c("SEGMENTS_COUNTED", SEGMENTS_COUNTED),
@@ -423,6 +575,24 @@ mod tests {
                 1,
                 "{n} defined twice"
             );
+        }
+    }
+
+    /// The block table gives the positions the hand-written formulas gave before it.
+    #[test]
+    fn counter_blocks_give_the_former_positions() {
+        let f = FIXED_COUNTERS as usize;
+        for q in [1u32, 2, 8] {
+            let c = Counters { queues: q };
+            let qq = q as usize;
+            assert_eq!(c.material_queue(1), f + 1);
+            assert_eq!(c.nonfinite_extend(), f + qq);
+            assert_eq!(c.nonfinite_shade(1), f + qq + 2);
+            assert_eq!(c.segment_extension(3), f + 2 * qq + 1 + 4);
+            assert_eq!(c.segment_shadow(3), c.segment_extension(3) + 64);
+            assert_eq!(c.segment_shadow(99), c.segment_shadow(32));
+            assert_eq!(c.segment_shadow(0), c.segment_shadow(1));
+            assert_eq!(c.len(), f + 2 * qq + 1 + 4 * 32);
         }
     }
 

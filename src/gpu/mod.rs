@@ -41,6 +41,7 @@
 //! queue, argument and `prepare` tables of [`layout`]: every number follows from those.
 
 pub mod brdf_probe;
+pub mod interface;
 mod kernels;
 pub mod layout;
 pub mod scene_buffers;
@@ -53,29 +54,16 @@ use crate::output::{nonfinite_stages, RenderOutput};
 use crate::scene::Scene;
 use crate::vk::{Context, Recorder, ShaderCompiler};
 use anyhow::{bail, Context as _, Result};
+use interface::Push;
 pub(crate) use kernels::model_shader_inputs;
 pub use kernels::scene_features;
 use kernels::{KernelId, Owned};
-use layout::{Binding, Counter, Counters};
+use layout::{Binding, Counter, Counters, LOCAL_SIZE};
 use stages::Schedule;
 use std::ops::Range;
 use std::time::Instant;
 use waves::waves;
 
-/// Bytes of push constants (`Push` in state.glsl).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
-pub(crate) struct Push {
-    depth: u32,
-    sample_index: u32,
-    chunk_offset: u32,
-    wave_size: u32,
-    phase: u32,
-    queue_slot: u32,
-    chunk_pixels: u32,
-}
-
-pub(crate) const LOCAL_SIZE: u32 = 64;
 /// Most path slots in a wave: bounded by the 65535-workgroup dispatch limit and lavapipe's
 /// 128 MiB storage-buffer range (the queue buffer holds (3 + models) × wave_paths indices).
 pub const MAX_WAVE_PATHS: u32 = 1 << 20;

@@ -6,9 +6,10 @@
 //! order ([`Segment`]), and the queue, argument and phase numbers come from
 //! [`super::layout`], which gives the shaders the same numbers.
 
+use super::interface::Push;
 use super::kernels::KernelId;
-use super::layout::{Args, Binding, Counter, MegakernelPhase, Prepare, Queue};
-use super::{GpuRenderer, Push, LOCAL_SIZE, SEGMENTS_PER_CHECK};
+use super::layout::{Args, Binding, Counter, MegakernelPhase, Prepare, Queue, LOCAL_SIZE};
+use super::{GpuRenderer, SEGMENTS_PER_CHECK};
 use crate::vk::Recorder;
 use anyhow::{bail, Result};
 
@@ -39,6 +40,13 @@ impl Stage {
     /// timestamps.
     pub fn name(self) -> &'static str {
         self.row().0
+    }
+    /// Its workgroup size (`local_size_x`), checked against the pipeline's.
+    pub fn local_size(self) -> u32 {
+        match self {
+            Stage::Prepare => 1,
+            _ => LOCAL_SIZE,
+        }
     }
     /// Its shader, relative to `shaders/`.
     pub fn file(self) -> &'static str {
