@@ -32,7 +32,8 @@
 //!
 //! Files: `stages.rs` (the stage table, the [`Integrator`]'s schedule of kernels and the
 //! recording of a wave, segment by segment), `kernels.rs` (buffers and pipelines),
-//! `waves.rs` (the cutting of a render into waves), `layout.rs` (the Rust–GLSL interface),
+//! `waves.rs` (the cutting of a render into waves), `layout.rs` and `interface.rs` (the
+//! Rust–GLSL interface, described once and emitted as the header `wavefront/interface.glsl`),
 //! `scene_buffers.rs` (the scene as the kernels read it).
 //!
 //! A new stage is its kernel (a `.comp` file and a `stages::Stage` row), its routing (a
