@@ -36,6 +36,19 @@ pub(super) enum Stage {
 }
 
 impl Stage {
+    /// Every stage (the table's tests go through them).
+    #[cfg(test)]
+    pub const ALL: [Stage; 8] = [
+        Stage::Generate,
+        Stage::Prepare,
+        Stage::Extend,
+        Stage::Shade,
+        Stage::ExtendShade,
+        Stage::Shadow,
+        Stage::Accumulate,
+        Stage::Megakernel,
+    ];
+
     /// The pipeline's name (with `_<model>` for a per-model stage), and the label of its
     /// timestamps.
     pub fn name(self) -> &'static str {
@@ -354,6 +367,30 @@ impl<'a> GpuRenderer<'a> {
             self.resubmit(rec)
         } else {
             Ok(rec)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Stage;
+
+    /// Every stage has its own name and an embedded shader that says its local size.
+    #[test]
+    fn the_stage_table_names_each_kernel_once_and_its_shader_exists() {
+        let c = crate::vk::ShaderCompiler::new()
+            .unwrap()
+            .with_embedded_shaders();
+        for (i, s) in Stage::ALL.iter().enumerate() {
+            assert!(Stage::ALL[..i]
+                .iter()
+                .all(|t| t.name() != s.name() && t.file() != s.file()));
+            let text = c.read_source(s.file()).unwrap();
+            let size = match s.local_size() {
+                1 => "layout(local_size_x = 1) in;",
+                _ => "layout(local_size_x = LOCAL_SIZE) in;",
+            };
+            assert!(text.contains(size), "{} does not declare {size}", s.file());
         }
     }
 }
