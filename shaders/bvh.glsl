@@ -4,32 +4,24 @@
 // fuse multiply-adds (which would change results and break the sign symmetry of the watertight
 // edge functions).
 //
-// Include after `#version 460`. The wavefront kernels get the binding numbers as defines
-// generated from src/gpu/layout.rs; without them, define BVH_BINDING to place the four
-// bindings at BVH_BINDING .. BVH_BINDING + 3.
+// Include after `#version 460`. The wavefront kernels include it after their generated interface
+// (wavefront/interface.glsl, from src/gpu/layout.rs), which declares the four bindings below;
+// without it (a standalone probe), define BVH_BINDING to place them at BVH_BINDING ..
+// BVH_BINDING + 3 and they are declared here.
 #ifndef BVH_GLSL
 #define BVH_GLSL
 
-#ifndef BINDING_BVH_NODES
+#ifndef INTERFACE_GLSL
 #ifndef BVH_BINDING
 #define BVH_BINDING 0
 #endif
-#define BINDING_BVH_NODES (BVH_BINDING + 0)
-#define BINDING_BVH_PRIMS (BVH_BINDING + 1)
-#define BINDING_TRIANGLES (BVH_BINDING + 2)
-#define BINDING_SPHERES (BVH_BINDING + 3)
+// Uniform texel buffers (src/gpu/layout.rs says why, and documents their contents), read as raw
+// 32-bit words.
+layout(set = 0, binding = BVH_BINDING + 0) uniform usamplerBuffer bvh_nodes;
+layout(set = 0, binding = BVH_BINDING + 1) uniform usamplerBuffer bvh_prims;
+layout(set = 0, binding = BVH_BINDING + 2) uniform usamplerBuffer tri_data;
+layout(set = 0, binding = BVH_BINDING + 3) uniform usamplerBuffer sphere_data;
 #endif
-
-// Uniform texel buffers (src/gpu/layout.rs says why), read as raw 32-bit words.
-// 4 texels per node: (lmin, left), (lmax, right), (rmin, left_count), (rmax, right_count); the
-// u32 fields as bits in .w.
-layout(set = 0, binding = BINDING_BVH_NODES) uniform usamplerBuffer bvh_nodes;
-// Primitive references: triangle index, or sphere index | BVH_SPHERE_BIT.
-layout(set = 0, binding = BINDING_BVH_PRIMS) uniform usamplerBuffer bvh_prims;
-// 3 texels per triangle: (v0, material bits), (v1, emitter bits or 0xFFFFFFFF), (v2, unused).
-layout(set = 0, binding = BINDING_TRIANGLES) uniform usamplerBuffer tri_data;
-// 2 texels per sphere: (center, radius), (material bits, emitter bits, inward bits, 0).
-layout(set = 0, binding = BINDING_SPHERES) uniform usamplerBuffer sphere_data;
 
 vec4 bvh_node(uint i) { return uintBitsToFloat(texelFetch(bvh_nodes, int(i))); }
 uint bvh_prim(uint i) { return texelFetch(bvh_prims, int(i)).x; }
@@ -37,7 +29,7 @@ vec4 tri_texel(uint i) { return uintBitsToFloat(texelFetch(tri_data, int(i))); }
 vec4 sphere_texel(uint i) { return uintBitsToFloat(texelFetch(sphere_data, int(i))); }
 
 // Triangle i's three texels: the vertices v0, v1, v2 in .xyz, the material and emitter bits in
-// v0.w and v1.w (layout above).
+// v0.w and v1.w (layout: src/gpu/layout.rs `Binding::glsl`).
 void triangle_texels(uint i, out vec4 v0, out vec4 v1, out vec4 v2) {
     v0 = tri_texel(3u * i);
     v1 = tri_texel(3u * i + 1u);

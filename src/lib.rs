@@ -11,6 +11,7 @@
 //! * `gpu` — the wavefront integrator built on `vk` (kernels in `shaders/wavefront/`);
 //! * `camera`, `lights` — camera rays and the emitter table both renderers sample;
 //! * `output` — what a render returns, whichever backend made it;
+//! * `conventions` — what both renderers agree on (e.g. the ray counts by segment);
 //! * `film` — per-pixel sample sums, partial films of split renders, and their exact merge;
 //! * `brdf_tools` — `brdfwave brdf eval | plot | report`;
 //! * `imageio`, `metrics` — image files and image comparison;
@@ -41,6 +42,7 @@ pub mod brdf;
 pub mod brdf_tools;
 pub mod bvh;
 pub mod camera;
+pub mod conventions;
 pub mod cpu;
 pub mod errors;
 pub mod film;

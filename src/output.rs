@@ -2,8 +2,9 @@
 
 use crate::imageio::Image;
 
-/// Path segments counted one by one in [`RenderOutput::rays_by_segment`].
-pub const SEGMENTS_COUNTED: u32 = crate::gpu::layout::SEGMENTS_COUNTED;
+/// Path segments counted one by one in [`RenderOutput::rays_by_segment`] (a convention of both
+/// renderers, [`crate::conventions`]).
+pub use crate::conventions::SEGMENTS_COUNTED;
 
 pub struct RenderOutput {
     /// Per-pixel mean radiance (linear RGB).

@@ -279,7 +279,10 @@ fn a_lambert_only_scene_builds_only_the_lambert_shade_pipeline() {
         vec!["extend_shade_lambert"],
         "all pipelines: {pipelines:?}"
     );
-    assert!(!pipelines.iter().any(|p| p == "extend"), "{pipelines:?}");
+    assert!(
+        !pipelines.iter().any(|p| p == "extend" || p == "shadow"),
+        "{pipelines:?}"
+    );
     // The same scene with a second (black-free) model forces separate extend and shade kernels
     // and a material queue per model: the Lambert paths render as before.
     let one = scene("cornell-box.toml", 24, 20, 3, 6, 1);

@@ -519,6 +519,46 @@ fn compile_errors_name_file_and_line() {
     assert!(err.contains("BAD NAME"), "{err}");
 }
 
+/// A generated source shadows the file of its name for that one compilation, and its text is
+/// part of the cache key (the wavefront kernels' interface header comes this way).
+#[test]
+fn generated_sources_shadow_files_and_key_the_cache() {
+    let top =
+        "#version 450\n#extension GL_GOOGLE_include_directive : require\n#include \"t/gen.glsl\"\n\
+               layout(local_size_x = 1) in;\nlayout(std430, binding = 0) buffer D { uint d[]; };\n\
+               void main() { d[0] = GENERATED; }\n";
+    let dir = tempfile::tempdir().unwrap();
+    let c = compiler(&[
+        ("t/top.comp", top),
+        ("t/gen.glsl", "#error not generated\n"),
+    ])
+    .with_cache_dir(dir.path());
+    let err = format!("{:#}", c.compile("t/top.comp", &[], &[]).unwrap_err());
+    assert!(err.contains("not generated"), "{err}");
+    let gen = |v: &str| {
+        vec![(
+            "t/gen.glsl".to_string(),
+            format!("#define GENERATED {v}u\n"),
+        )]
+    };
+    let one = c
+        .compile_generated("t/top.comp", &[], &[], &gen("1"))
+        .unwrap();
+    let two = c
+        .compile_generated("t/top.comp", &[], &[], &gen("2"))
+        .unwrap();
+    assert!(!two.from_cache, "other generated text must miss the cache");
+    assert_ne!(one.key, two.key);
+    assert_ne!(one.spirv, two.spirv);
+    let again = c
+        .compile_generated("t/top.comp", &[], &[], &gen("1"))
+        .unwrap();
+    assert!(again.from_cache);
+    assert_eq!(again.spirv, one.spirv);
+    // Nothing stays behind: without it, the file is read again.
+    assert!(c.compile("t/top.comp", &[], &[]).is_err());
+}
+
 #[test]
 fn shader_dir_overrides_embedded_sources() {
     let dir = tempfile::tempdir().unwrap();

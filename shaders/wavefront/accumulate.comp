@@ -11,7 +11,7 @@
 // (src/gpu/mod.rs) multiplies the sums by 2^k and 2^2k in f64.
 #extension GL_GOOGLE_include_directive : require
 #include "wavefront/state.glsl"
-layout(local_size_x = 64) in;
+layout(local_size_x = LOCAL_SIZE) in;
 
 #define FILM_SCALE_STEP 32
 // 2^128 > FLT_MAX, so l·2^-160 < 2^-32 and its square < 2^-64: no sum of fewer than 2^64

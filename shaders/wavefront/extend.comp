@@ -5,11 +5,11 @@
 // (wavefront/path.glsl `segment_end`). A non-finite emitted contribution is counted and dropped.
 #extension GL_GOOGLE_include_directive : require
 #include "wavefront/path.glsl"
-layout(local_size_x = 64) in;
+layout(local_size_x = LOCAL_SIZE) in;
 
 void run_kernel() {
     uint i = gl_GlobalInvocationID.x;
-    if (i >= counters[COUNTER_RAY + ray_queue_in()]) return;
+    if (i >= counters[counter_ray_queue(ray_queue_in())]) return;
     uint path = queue_entry(ray_queue_in() * g.wave_paths + i);
     vec4 dd = ray_d(path);
     vec3 o = ray_o(path).xyz;
@@ -20,7 +20,7 @@ void run_kernel() {
     if (e.x != 0.0 || e.y != 0.0 || e.z != 0.0) radiance_set(path, radiance(path) + vec4(e, 0.0));
     if (slot == NO_QUEUE) return;
     hit_rec_set(path, uvec4(hit.prim, floatBitsToUint(hit.bary.x), floatBitsToUint(hit.bary.y), floatBitsToUint(hit.t)));
-    queue_push(QUEUE_MATERIAL + slot, COUNTER_MATERIAL + slot, path);
+    queue_push(QUEUE_MATERIAL + slot, counter_material_queue(slot), path);
 }
 
 // The whole kernel, then the loop-budget check (state.glsl), which every return above reaches.

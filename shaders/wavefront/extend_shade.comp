@@ -10,11 +10,11 @@
 #extension GL_GOOGLE_include_directive : require
 #include "brdf/model.glsl"
 #include "wavefront/scatter.glsl"
-layout(local_size_x = 64) in;
+layout(local_size_x = LOCAL_SIZE) in;
 
 void run_kernel() {
     uint i = gl_GlobalInvocationID.x;
-    if (i >= counters[COUNTER_RAY + ray_queue_in()]) return;
+    if (i >= counters[counter_ray_queue(ray_queue_in())]) return;
     uint path = queue_entry(ray_queue_in() * g.wave_paths + i);
     vec4 dd = ray_d(path);
     vec3 o = ray_o(path).xyz;
@@ -35,7 +35,7 @@ void run_kernel() {
     beta_set(path, vec4(sc.beta, 0.0));
     ray_o_set(path, vec4(sc.o, 0.0));
     ray_d_set(path, vec4(sc.d, sc.pdf));
-    queue_push(ray_queue_out(), COUNTER_RAY + ray_queue_out(), path);
+    queue_push(ray_queue_out(), counter_ray_queue(ray_queue_out()), path);
 }
 
 // The whole kernel, then the loop-budget check (state.glsl), which every return above reaches.

@@ -3,11 +3,11 @@
 // position in the pixel). Every path slot enters ray queue 0.
 #extension GL_GOOGLE_include_directive : require
 #include "wavefront/path.glsl"
-layout(local_size_x = 64) in;
+layout(local_size_x = LOCAL_SIZE) in;
 
 void run_kernel() {
     uint path = gl_GlobalInvocationID.x;
-    if (path == 0u) counters[COUNTER_RAY] = pc.wave_size;
+    if (path == 0u) counters[counter_ray_queue(QUEUE_RAY)] = pc.wave_size;
     if (path >= pc.wave_size) return;
     vec3 o;
     vec3 d;
@@ -16,7 +16,7 @@ void run_kernel() {
     ray_d_set(path, vec4(d, 0.0));
     beta_set(path, vec4(1.0));
     radiance_set(path, vec4(0.0));
-    queue_entry_set(path, path);
+    queue_entry_set(QUEUE_RAY * g.wave_paths + path, path);
 }
 
 // The whole kernel, then the loop-budget check (state.glsl), which every return above reaches.

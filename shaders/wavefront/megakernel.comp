@@ -6,14 +6,14 @@
 // wavefront stages, so the same image; it writes each path's radiance for `accumulate`.
 // A path that the driver's loop budget stops (Mesa 22.3's gallivm: 65,535 loop iterations per
 // invocation, state.glsl `loops_intact`) is saved in the path state and resumed by the next
-// dispatch (push constant `phase` 1), which the host repeats until no path is left.
+// dispatch (push constant `phase` MEGAKERNEL_RESUME), which the host repeats until no path is left.
 // Here for the benchmark (`brdfwave bench`, `render --integrator megakernel`): it keeps no
 // path state in memory and needs no queues, at the price of SIMD lanes that wait for the
 // slowest path of their subgroup and for every model's code in one pipeline.
 #extension GL_GOOGLE_include_directive : require
 #include "brdf/any.glsl"
 #include "wavefront/scatter.glsl"
-layout(local_size_x = 64) in;
+layout(local_size_x = LOCAL_SIZE) in;
 
 // Rays traced by the workgroup, in all and by segment, added to the 64-bit counts once per
 // workgroup.
@@ -41,7 +41,7 @@ void main() {
         vec3 l;
         float prev_pdf;
         uint depth;
-        if (pc.phase == 0u) {
+        if (pc.phase == MEGAKERNEL_START) {
             camera_ray(path, o, d);
             b = vec3(1.0);
             l = vec3(0.0);

@@ -1,12 +1,15 @@
 #version 460
 // One thread: turns queue counters into indirect dispatch arguments and resets the counters the
-// next stage appends to. Phase 0 runs before `extend`, phase 1 after it (material queues),
-// phase 2 after shading (shadow queue).
+// next stage appends to. The push constant `phase` says for which stage (src/gpu/layout.rs
+// `Prepare`): PREPARE_EXTEND before `extend`, PREPARE_SHADE after it (material queues),
+// PREPARE_SHADOW after shading (shadow queue).
 #extension GL_GOOGLE_include_directive : require
 #include "wavefront/state.glsl"
 layout(local_size_x = 1) in;
 
-uvec4 groups(uint n) { return uvec4((n + 63u) / 64u, 1u, 1u, 0u); }
+// Workgroups of LOCAL_SIZE invocations for n paths.
+const uint GROUP = uint(LOCAL_SIZE);
+uvec4 groups(uint n) { return uvec4((n + (GROUP - 1u)) / GROUP, 1u, 1u, 0u); }
 
 // 64-bit running total in two words (for the rays/s figures).
 void add_total(uint c, uint n) {
@@ -16,17 +19,17 @@ void add_total(uint c, uint n) {
 }
 
 void run_kernel() {
-    if (pc.phase == 0u) {
-        uint rays = counters[COUNTER_RAY + ray_queue_in()];
+    if (pc.phase == PREPARE_EXTEND) {
+        uint rays = counters[counter_ray_queue(ray_queue_in())];
         args[ARGS_RAY] = groups(rays);
         add_total(COUNTER_EXT_TOTAL, rays);
         add_total(counter_segment_extension(pc.depth), rays);
-        counters[COUNTER_RAY + ray_queue_out()] = 0u;
+        counters[counter_ray_queue(ray_queue_out())] = 0u;
         counters[COUNTER_SHADOW] = 0u;
-        for (uint k = 0u; k < g.num_queues; ++k) counters[COUNTER_MATERIAL + k] = 0u;
-    } else if (pc.phase == 1u) {
-        for (uint k = 0u; k < g.num_queues; ++k) args[ARGS_MATERIAL + k] = groups(counters[COUNTER_MATERIAL + k]);
-    } else {
+        for (uint k = 0u; k < g.num_queues; ++k) counters[counter_material_queue(k)] = 0u;
+    } else if (pc.phase == PREPARE_SHADE) {
+        for (uint k = 0u; k < g.num_queues; ++k) args[ARGS_MATERIAL + k] = groups(counters[counter_material_queue(k)]);
+    } else {  // PREPARE_SHADOW
         args[ARGS_SHADOW] = groups(counters[COUNTER_SHADOW]);
         add_total(COUNTER_SHADOW_TOTAL, counters[COUNTER_SHADOW]);
         add_total(counter_segment_shadow(pc.depth), counters[COUNTER_SHADOW]);

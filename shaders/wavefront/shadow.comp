@@ -3,7 +3,7 @@
 // Each path has at most one shadow ray per segment, so each radiance entry has one writer.
 #extension GL_GOOGLE_include_directive : require
 #include "wavefront/state.glsl"
-layout(local_size_x = 64) in;
+layout(local_size_x = LOCAL_SIZE) in;
 
 void run_kernel() {
     uint i = gl_GlobalInvocationID.x;

@@ -1,6 +1,8 @@
-// The wavefront integrator's bindings, shared by every stage. Their numbers, the counter
-// positions and the argument and queue slots are #defines (BINDING_*, COUNTER_*, ARGS_*, QUEUE_*)
-// generated from src/gpu/layout.rs, which describes each binding once.
+// The wavefront integrator's state, shared by every stage. The bindings' declarations, the push
+// constants, the Globals block, the numbers (BINDING_*, COUNTER_*, ARGS_*, QUEUE_*, PREPARE_*,
+// LOCAL_SIZE) and the counter positions (counter_*) come from the header wavefront/interface.glsl,
+// generated at pipeline build time from one description in Rust (src/gpu/layout.rs and
+// src/gpu/interface.rs); this file adds the accessors.
 //
 // Path state is structure-of-arrays, one entry per path slot of the current wave; queues hold
 // path indices only (the state never moves). Counters and indirect-dispatch arguments live in
@@ -11,17 +13,13 @@
 #ifdef SUBGROUP_QUEUES
 #extension GL_KHR_shader_subgroup_ballot : require
 #endif
+#include "wavefront/interface.glsl"
 #include "common.glsl"
 #include "rng.glsl"
 
 #include "bvh.glsl"
 
 // Scene data (uniform texel buffers, raw 32-bit words).
-layout(set = 0, binding = BINDING_TRI_ATTRS) uniform usamplerBuffer tri_attrs;  // 4 per triangle: (n0, u0), (n1, u1), (n2, u2), (v0, v1, v2, flags)
-layout(set = 0, binding = BINDING_MATERIALS) uniform usamplerBuffer material_words;  // 8 per material
-layout(set = 0, binding = BINDING_LIGHTS) uniform usamplerBuffer light_table;   // (prim ref, floatBits(cdf))
-layout(set = 0, binding = BINDING_EMITTERS) uniform usamplerBuffer emitter_data;  // radiance, lum(Le)/W
-
 vec4 tri_attr(uint i) { return uintBitsToFloat(texelFetch(tri_attrs, int(i))); }
 uvec2 light_entry(uint i) { return texelFetch(light_table, int(i)).xy; }
 vec4 emitter(uint i) { return uintBitsToFloat(texelFetch(emitter_data, int(i))); }
@@ -32,41 +30,10 @@ Material load_material(uint i) {
     return m;
 }
 
-// Scene-wide values (a uniform buffer: read at uniform offsets, one load each).
-layout(scalar, set = 0, binding = BINDING_GLOBALS) uniform Globals {
-    vec3 cam_origin;
-    vec3 cam_forward;
-    vec3 cam_right;   // scaled by tan(fov/2)·aspect
-    vec3 cam_up;      // scaled by tan(fov/2)
-    vec3 environment;
-    uint num_lights;
-    uint width;
-    uint height;
-    uint max_depth;
-    uint seed;
-    uint rr_enabled;
-    uint rr_start_depth;
-    uint num_queues;  // material queues in use
-    uint wave_paths;    // path slots per wave
-    uint tile_x;      // the part of the image rendered (all of it unless TILED):
-    uint tile_y;      //   columns tile_x .. tile_x + tile_width, rows from tile_y
-    uint tile_width;
-} g;
-
-// Path state (SoA), storage texel buffers (an image load is a vector gather on lavapipe;
-// src/gpu/layout.rs). Read and written through the accessors below.
-layout(set = 0, binding = BINDING_RAY_O, rgba32f) uniform restrict imageBuffer ray_o_img;      // xyz origin
-layout(set = 0, binding = BINDING_RAY_D, rgba32f) uniform restrict imageBuffer ray_d_img;      // xyz direction, w = pdf of the BSDF sample (0: camera/delta)
-layout(set = 0, binding = BINDING_BETA, rgba32f) uniform restrict imageBuffer beta_img;        // path throughput
-layout(set = 0, binding = BINDING_RADIANCE, rgba32f) uniform restrict imageBuffer radiance_img;
-layout(set = 0, binding = BINDING_HIT_REC, rgba32ui) uniform restrict uimageBuffer hit_rec_img;  // prim, bary.x, bary.y, t (float bits)
-layout(set = 0, binding = BINDING_SHADOW_O, rgba32f) uniform restrict imageBuffer shadow_o_img;  // xyz origin, w = tmax
-layout(set = 0, binding = BINDING_SHADOW_D, rgba32f) uniform restrict imageBuffer shadow_d_img;
-layout(set = 0, binding = BINDING_SHADOW_L, rgba32f) uniform restrict imageBuffer shadow_l_img;  // unoccluded contribution
-// Queues: [0, cap) and [cap, 2cap) ping-pong ray queues; [2cap, 3cap) shadow queue;
-// [(3 + k)cap, (4 + k)cap) material queue k.
-layout(set = 0, binding = BINDING_QUEUES, r32ui) uniform restrict uimageBuffer queue_img;
-
+// Path state (SoA) in storage texel buffers (an image load is a vector gather on lavapipe;
+// src/gpu/layout.rs), read and written through the accessors below. Queues: the regions of
+// src/gpu/layout.rs `Queue`, g.wave_paths entries each: QUEUE_RAY and QUEUE_RAY_1 ping-pong,
+// QUEUE_SHADOW, then QUEUE_MATERIAL + k for material queue k.
 #define STATE_ACCESSORS(name, img, T) \
     T name(uint p) { return imageLoad(img, int(p)); } \
     void name##_set(uint p, T v) { imageStore(img, int(p), v); }
@@ -81,27 +48,6 @@ STATE_ACCESSORS(shadow_l, shadow_l_img, vec4)
 uint queue_entry(uint i) { return imageLoad(queue_img, int(i)).x; }
 void queue_entry_set(uint i, uint path) { imageStore(queue_img, int(i), uvec4(path)); }
 
-// Counters (src/gpu/layout.rs `Counter`): queue lengths, non-finite counts, ray totals.
-layout(std430, set = 0, binding = BINDING_COUNTERS) buffer Counters { uint counters[]; };
-// Indirect dispatch arguments, 4 uints each (x, y, z, pad): 0 ray, 1 shadow, 2 + k material k.
-layout(std430, set = 0, binding = BINDING_ARGS) buffer Args { uvec4 args[]; };
-// Film: running sums of radiance and radiance² per pixel.
-layout(std430, set = 0, binding = BINDING_FILM) buffer Film { vec4 film[]; };
-layout(std430, set = 0, binding = BINDING_FILM2) buffer Film2 { vec4 film2[]; };
-
-// A wave traces wave_size = chunk_pixels × k paths: k consecutive samples of the pixels
-// [chunk_offset, chunk_offset + chunk_pixels). Small images take several samples per wave, so
-// that a large GPU has enough paths in flight; large images take one sample of one chunk.
-layout(push_constant) uniform Push {
-    uint depth;         // segment index d of the rays being traced / the vertex being shaded
-    uint sample_index;  // sample of the wave's first path
-    uint chunk_offset;  // first pixel of this chunk
-    uint wave_size;    // paths in this wave
-    uint phase;         // prepare kernel: which arguments to write
-    uint queue_slot;    // shade kernels: which material queue
-    uint chunk_pixels;  // pixels in this chunk (wave_size is a multiple)
-} pc;
-
 // Path slot p holds pixel chunk_offset + p mod chunk_pixels of the tile (the film's index),
 // sample sample_index + p / chunk_pixels.
 uint path_film_pixel(uint path) { return pc.chunk_offset + path % pc.chunk_pixels; }
@@ -114,12 +60,6 @@ uint path_pixel(uint path) {
     return p;
 }
 uint path_sample(uint path) { return pc.sample_index + path / pc.chunk_pixels; }
-
-uint counter_nonfinite_extend() { return COUNTER_MATERIAL + g.num_queues; }
-// 64-bit counts (two words) of the extension and shadow rays of segment d (src/gpu/layout.rs).
-uint counter_segment_extension(uint d) { return COUNTER_MATERIAL + 2u * g.num_queues + 1u + 2u * (clamp(d, 1u, SEGMENTS_COUNTED) - 1u); }
-uint counter_segment_shadow(uint d) { return counter_segment_extension(d) + 2u * SEGMENTS_COUNTED; }
-uint counter_nonfinite_shade(uint slot) { return COUNTER_MATERIAL + g.num_queues + 1u + slot; }
 
 // Whether v is finite; if not, counts it at counter c (the caller then drops it). Reads the
 // bits, which the compiler cannot assume away as it may isnan/isinf.
@@ -151,8 +91,11 @@ void check_loops() {
     if (!loops_intact()) atomicAdd(counters[COUNTER_CUT_SHORT], 1u);
 }
 
-uint ray_queue_in() { return (pc.depth + 1u) & 1u; }  // segment 1 reads queue 0
-uint ray_queue_out() { return pc.depth & 1u; }
+// The ray queue of this segment's rays and of the next segment's: QUEUE_RAY + 0 or 1 (segment 1
+// reads QUEUE_RAY); the counter of ray queue q is COUNTER_RAY + q - QUEUE_RAY.
+uint ray_queue_in() { return QUEUE_RAY + ((pc.depth + 1u) & 1u); }
+uint ray_queue_out() { return QUEUE_RAY + (pc.depth & 1u); }
+uint counter_ray_queue(uint q) { return COUNTER_RAY + (q - QUEUE_RAY); }
 
 // Append a path index to queue q (counter c). With SUBGROUP_QUEUES (set where the device has
 // subgroup ballots), the invocations of a subgroup that push to the same queue take their slots

@@ -12,6 +12,7 @@
 //! buffer; counters (atomics), indirect arguments and the film stay storage buffers.
 //! BENCHMARKS.md has the measurements.
 
+use crate::conventions::SEGMENTS_COUNTED;
 use ash::vk;
 
 /// How a binding is declared and bound.
@@ -151,6 +152,45 @@ impl Binding {
         }
     }
 
+    /// Its name in GLSL (a block's instance or member name) and what it holds, for the
+    /// declaration in the generated interface ([`super::interface::glsl`]).
+    pub fn glsl(self) -> (&'static str, &'static str) {
+        match self {
+            Binding::BvhNodes => ("bvh_nodes", "4 texels per node: (lmin, left), (lmax, right), (rmin, left_count), (rmax, right_count); the u32 fields as bits in .w (src/bvh.rs)"),
+            Binding::BvhPrims => ("bvh_prims", "primitive references: triangle index, or sphere index | BVH_SPHERE_BIT"),
+            Binding::Triangles => ("tri_data", "3 texels per triangle: (v0, material bits), (v1, emitter bits or 0xFFFFFFFF), (v2, unused)"),
+            Binding::Spheres => ("sphere_data", "2 texels per sphere: (center, radius), (material bits, emitter bits, inward bits, 0)"),
+            Binding::TriAttrs => ("tri_attrs", "4 texels per triangle: (n0, u0), (n1, u1), (n2, u2), (v0, v1, v2, flags)"),
+            Binding::Materials => ("material_words", "the material records (src/brdf/mod.rs)"),
+            Binding::Lights => ("light_table", "(prim ref, floatBits(cdf)) per emitting primitive"),
+            Binding::Emitters => ("emitter_data", "radiance, lum(Le)/W per emitter"),
+            Binding::Globals => ("g", "scene-wide values, read at uniform offsets (one load each)"),
+            Binding::RayO => ("ray_o_img", "xyz origin (megakernel: w = depth of the path to resume, 0 once ended)"),
+            Binding::RayD => ("ray_d_img", "xyz direction, w = pdf of the BSDF sample (0: camera/delta)"),
+            Binding::Beta => ("beta_img", "path throughput"),
+            Binding::Radiance => ("radiance_img", "radiance gathered along the path"),
+            Binding::HitRec => ("hit_rec_img", "prim, bary.x, bary.y, t (float bits)"),
+            Binding::ShadowO => ("shadow_o_img", "xyz origin, w = tmax"),
+            Binding::ShadowD => ("shadow_d_img", "xyz direction"),
+            Binding::ShadowL => ("shadow_l_img", "unoccluded contribution"),
+            Binding::Queues => ("queue_img", "path indices: the regions of `Queue`, wave_paths entries each"),
+            Binding::Counters => ("counters", "`Counter`, then the `CounterBlock`s: queue lengths, non-finite counts, ray totals"),
+            Binding::Args => ("args", "indirect dispatch arguments (x, y, z, pad) per `Args` slot"),
+            Binding::Film => ("film", "running sums of radiance per pixel, .w the scale exponent k (accumulate.comp)"),
+            Binding::Film2 => ("film2", "running sums of radiance² per pixel"),
+        }
+    }
+
+    /// The element type of a storage-buffer binding's array.
+    pub fn storage_element(self) -> Option<&'static str> {
+        match self {
+            Binding::Counters => Some("uint"),
+            Binding::Args => Some("uvec4"),
+            Binding::Film | Binding::Film2 => Some("vec4"),
+            _ => None,
+        }
+    }
+
     /// The buffer usage the binding needs.
     pub fn usage(self) -> vk::BufferUsageFlags {
         match self.kind() {
@@ -162,26 +202,34 @@ impl Binding {
     }
 }
 
-/// Declares [`Counter`] and, with each counter, the `#define` the shaders know it by: adding a
-/// counter is one line here (and its use in a shader).
-macro_rules! fixed_counters {
-    ($($(#[$doc:meta])* $name:ident => $define:literal,)*) => {
-        /// The counters (one u32 each) in binding `counters`: these fixed ones first, then per
-        /// material queue k its length, then the non-finite counts of `extend` and of each shade
-        /// kernel, then the rays by segment ([`Counters`]).
+/// Declares a fixed list of numbered slots as an enum and, with each slot, the `#define` the
+/// shaders know it by: the numbers are the declaration order, so adding a slot is one line
+/// (and its use in a shader), and nothing after it needs renumbering by hand.
+macro_rules! slots {
+    ($(#[$enum_doc:meta])* $enum:ident { $($(#[$doc:meta])* $name:ident => $define:literal,)* }) => {
+        $(#[$enum_doc])*
         #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-        pub enum Counter {
+        pub enum $enum {
             $($(#[$doc])* $name,)*
         }
 
-        impl Counter {
-            /// Every fixed counter, in order, with its `#define` name.
-            pub const ALL: &'static [(Counter, &'static str)] = &[$((Counter::$name, $define),)*];
+        impl $enum {
+            /// Every slot, in order, with its `#define` name.
+            pub const ALL: &'static [($enum, &'static str)] = &[$(($enum::$name, $define),)*];
+
+            /// Its number (the position in [`Self::ALL`]).
+            pub fn index(self) -> u32 {
+                self as u32
+            }
         }
     };
 }
 
-fixed_counters! {
+slots! {
+    /// The counters (one u32 each) in binding `counters`: these fixed ones first, then per
+    /// material queue k its length, then the non-finite counts of `extend` and of each shade
+    /// kernel, then the rays by segment ([`Counters`]).
+    Counter {
     /// Lengths of the two ping-pong ray queues.
     RayQueue0 => "COUNTER_RAY",
     RayQueue1 => "COUNTER_RAY_1",
@@ -200,11 +248,107 @@ fixed_counters! {
     /// the next dispatch (megakernel.comp).
     MegakernelResumed => "COUNTER_RESUMED",
 }
+}
+
+/// Invocations per workgroup of every wavefront kernel but the one-thread `prepare` (the shaders'
+/// `LOCAL_SIZE`; each pipeline's reflected size is checked against it).
+pub const LOCAL_SIZE: u32 = 64;
+
+// The megakernel clears and adds its per-segment ray counts with one invocation per segment.
+const _: () = assert!(SEGMENTS_COUNTED <= LOCAL_SIZE);
 
 /// Counters before the per-queue ones.
 pub const FIXED_COUNTERS: u32 = Counter::ALL.len() as u32;
-/// Path segments counted one by one in the per-segment ray counts; deeper ones add to the last.
-pub const SEGMENTS_COUNTED: u32 = 32;
+
+/// The blocks of counters after the fixed ones, in order. Each is sized by the scene's number of
+/// material queues; [`CounterBlock::row`] is the one description of where each counter is, which
+/// both [`Counters`] (the host) and the generated GLSL functions `counter_<name>` ([`glsl`])
+/// evaluate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CounterBlock {
+    /// Length of material queue k.
+    MaterialQueue,
+    /// Non-finite emitted values dropped by `extend`.
+    NonfiniteExtend,
+    /// Non-finite values dropped by the shade kernel of material queue k.
+    NonfiniteShade,
+    /// 64-bit counts (low word, high word) of the extension rays of path segment d (1-based;
+    /// the last counted segment also holds all deeper ones).
+    SegmentExtension,
+    /// The same for the shadow rays traced from the vertex at the end of segment d.
+    SegmentShadow,
+}
+
+/// What a counter block's entry is numbered by.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BlockIndex {
+    /// One entry.
+    None,
+    /// A material queue k (0-based).
+    Queue,
+    /// A path segment d, 1-based, clamped to 1 ..= [`SEGMENTS_COUNTED`].
+    Segment,
+}
+
+/// One block of counters: `per_queue` × queues + `words` counters, an entry every `stride`.
+#[derive(Clone, Copy, Debug)]
+pub struct BlockRow {
+    /// The GLSL function is `counter_<name>`.
+    pub name: &'static str,
+    pub per_queue: u32,
+    pub words: u32,
+    pub stride: u32,
+    pub index: BlockIndex,
+}
+
+impl CounterBlock {
+    pub const ALL: [CounterBlock; 5] = [
+        CounterBlock::MaterialQueue,
+        CounterBlock::NonfiniteExtend,
+        CounterBlock::NonfiniteShade,
+        CounterBlock::SegmentExtension,
+        CounterBlock::SegmentShadow,
+    ];
+
+    pub fn row(self) -> BlockRow {
+        let (name, per_queue, words, stride, index) = match self {
+            CounterBlock::MaterialQueue => ("material_queue", 1, 0, 1, BlockIndex::Queue),
+            CounterBlock::NonfiniteExtend => ("nonfinite_extend", 0, 1, 0, BlockIndex::None),
+            CounterBlock::NonfiniteShade => ("nonfinite_shade", 1, 0, 1, BlockIndex::Queue),
+            CounterBlock::SegmentExtension => (
+                "segment_extension",
+                0,
+                2 * SEGMENTS_COUNTED,
+                2,
+                BlockIndex::Segment,
+            ),
+            CounterBlock::SegmentShadow => (
+                "segment_shadow",
+                0,
+                2 * SEGMENTS_COUNTED,
+                2,
+                BlockIndex::Segment,
+            ),
+        };
+        BlockRow {
+            name,
+            per_queue,
+            words,
+            stride,
+            index,
+        }
+    }
+
+    /// Where the block starts, as (per queue, words): the fixed counters and every block
+    /// before it.
+    pub fn start(self) -> (u32, u32) {
+        let mut start = (0, FIXED_COUNTERS);
+        for b in Self::ALL.into_iter().take_while(|&b| b != self) {
+            start = (start.0 + b.row().per_queue, start.1 + b.row().words);
+        }
+        start
+    }
+}
 
 /// Where each counter of a scene with `queues` material queues is.
 #[derive(Clone, Copy, Debug)]
@@ -216,33 +360,57 @@ impl Counters {
     pub fn fixed(self, c: Counter) -> usize {
         c as usize
     }
+    /// Entry `i` of block `b` (a queue k or a segment d, as the block's [`BlockIndex`] says;
+    /// ignored for a single entry).
+    pub fn at(self, b: CounterBlock, i: u32) -> usize {
+        let (per_queue, words) = b.start();
+        let row = b.row();
+        let i = match row.index {
+            BlockIndex::None => 0,
+            BlockIndex::Queue => i,
+            BlockIndex::Segment => i.clamp(1, SEGMENTS_COUNTED) - 1,
+        };
+        (per_queue * self.queues + words + row.stride * i) as usize
+    }
     /// Length of material queue k.
     pub fn material_queue(self, k: u32) -> usize {
-        (FIXED_COUNTERS + k) as usize
+        self.at(CounterBlock::MaterialQueue, k)
     }
     /// Non-finite emitted values dropped by `extend`.
     pub fn nonfinite_extend(self) -> usize {
-        (FIXED_COUNTERS + self.queues) as usize
+        self.at(CounterBlock::NonfiniteExtend, 0)
     }
     /// Non-finite values dropped by the shade kernel of material queue k.
     pub fn nonfinite_shade(self, k: u32) -> usize {
-        (FIXED_COUNTERS + self.queues + 1 + k) as usize
+        self.at(CounterBlock::NonfiniteShade, k)
     }
     /// 64-bit count (low word) of the extension rays of path segment `d` (1-based; the last
     /// counted segment also holds all deeper ones).
     pub fn segment_extension(self, d: u32) -> usize {
-        (FIXED_COUNTERS + 2 * self.queues + 1 + 2 * (d.clamp(1, SEGMENTS_COUNTED) - 1)) as usize
+        self.at(CounterBlock::SegmentExtension, d)
     }
     /// The same for the shadow rays traced from the vertex at the end of segment `d`.
     pub fn segment_shadow(self, d: u32) -> usize {
-        self.segment_extension(d) + 2 * SEGMENTS_COUNTED as usize
+        self.at(CounterBlock::SegmentShadow, d)
     }
-    /// How many counters there are.
+    /// How many counters there are: the end of the last block.
     pub fn len(self) -> usize {
-        (FIXED_COUNTERS + 2 * self.queues + 1 + 4 * SEGMENTS_COUNTED) as usize
+        let (per_queue, words) = CounterBlock::ALL.iter().fold((0, FIXED_COUNTERS), |s, b| {
+            (s.0 + b.row().per_queue, s.1 + b.row().words)
+        });
+        (per_queue * self.queues + words) as usize
     }
     pub fn is_empty(self) -> bool {
         false
+    }
+    /// Length of ray queue `q` (`Queue::Ray0` or `Queue::Ray1`): the ray-queue counters are in
+    /// the order of their queues.
+    pub fn ray_queue(self, q: Queue) -> usize {
+        debug_assert!(
+            matches!(q, Queue::Ray0 | Queue::Ray1),
+            "{q:?} is no ray queue"
+        );
+        (Counter::RayQueue0.index() + q.index() - Queue::Ray0.index()) as usize
     }
     /// A 64-bit total kept in two words from `lo`.
     pub fn total(self, values: &[u32], lo: Counter) -> u64 {
@@ -254,19 +422,87 @@ impl Counters {
     }
 }
 
-/// Indirect-dispatch argument slots (4 u32 each) in binding `args`: the ray queue, the shadow
-/// queue, then one per material queue.
-pub const ARGS_RAY: u32 = 0;
-pub const ARGS_SHADOW: u32 = 1;
-pub const ARGS_MATERIAL: u32 = 2;
+slots! {
+    /// Indirect-dispatch argument slots (4 u32 each: x, y, z, pad) in binding `args`: these
+    /// fixed ones, then one per material queue ([`Args::material`]).
+    Args {
+    /// The extension rays of the segment (`extend`, or `extend_shade_<model>`).
+    Ray => "ARGS_RAY",
+    /// The shadow queue (`shadow`).
+    Shadow => "ARGS_SHADOW",
+}
+}
 
-/// Queue regions of binding `queues`, each `wave_paths` entries: two ping-pong ray queues, the
-/// shadow queue, then one per material queue.
-pub const QUEUE_SHADOW: u32 = 2;
-pub const QUEUE_MATERIAL: u32 = 3;
+impl Args {
+    /// The slot of material queue k (`shade_<model>`).
+    pub fn material(k: u32) -> u32 {
+        Self::ALL.len() as u32 + k
+    }
+    /// How many slots a scene with `queues` material queues has.
+    pub fn len(queues: u32) -> u32 {
+        Self::material(queues)
+    }
+}
 
-/// The `#define`s every wavefront kernel is compiled with: binding numbers, counter positions,
-/// argument and queue slots.
+slots! {
+    /// Queue regions of binding `queues`, `wave_paths` entries each: these fixed ones, then one
+    /// per material queue ([`Queue::material`]). The region of a queue is also the offset of its
+    /// length from the first of its counters (`Counter::RayQueue0`), for the ray queues.
+    Queue {
+    /// The two ping-pong ray queues: segment d reads queue (d + 1) mod 2 and its shade stage
+    /// writes the other one.
+    Ray0 => "QUEUE_RAY",
+    Ray1 => "QUEUE_RAY_1",
+    /// Shadow rays of the segment, written by the shade kernels.
+    Shadow => "QUEUE_SHADOW",
+}
+}
+
+impl Queue {
+    /// The region of material queue k.
+    pub fn material(k: u32) -> u32 {
+        Self::ALL.len() as u32 + k
+    }
+    /// How many regions a scene with `queues` material queues has.
+    pub fn len(queues: u32) -> u32 {
+        Self::material(queues)
+    }
+    /// The ray queue that holds the rays of segment `depth` (segment 1 reads queue 0).
+    pub fn ray_in(depth: u32) -> Queue {
+        match depth % 2 {
+            1 => Queue::Ray0,
+            _ => Queue::Ray1,
+        }
+    }
+}
+
+slots! {
+    /// What the one-thread `prepare` kernel does (push constant `phase`): each phase writes the
+    /// indirect arguments of the stage it comes before.
+    Prepare {
+    /// Before `extend`: its arguments from the ray queue, the ray totals, and empty queues for
+    /// what the segment appends.
+    Extend => "PREPARE_EXTEND",
+    /// Before the shade kernels: the arguments of each material queue.
+    Shade => "PREPARE_SHADE",
+    /// Before `shadow`: its arguments from the shadow queue, and the shadow-ray totals.
+    Shadow => "PREPARE_SHADOW",
+}
+}
+
+slots! {
+    /// What a megakernel dispatch does (push constant `phase`).
+    MegakernelPhase {
+    /// Start every path of the wave at the camera.
+    Start => "MEGAKERNEL_START",
+    /// Resume the paths the driver's loop budget stopped (megakernel.comp).
+    Resume => "MEGAKERNEL_RESUME",
+}
+}
+
+/// The numbers of the interface, as `#define`s of the generated header
+/// ([`super::interface::glsl`]): binding numbers, fixed counters, argument and queue slots, the
+/// phases of `prepare` and of the megakernel, the local size.
 pub fn defines() -> Vec<(String, String)> {
     let mut d: Vec<(String, String)> = Binding::ALL
         .iter()
@@ -278,14 +514,19 @@ pub fn defines() -> Vec<(String, String)> {
         })
         .collect();
     let c = |name: &str, v: u32| (name.to_string(), format!("{v}u"));
-    d.extend(Counter::ALL.iter().map(|&(k, name)| c(name, k as u32)));
+    d.extend(Counter::ALL.iter().map(|&(k, name)| c(name, k.index())));
+    d.extend(Args::ALL.iter().map(|&(k, name)| c(name, k.index())));
+    d.extend(Queue::ALL.iter().map(|&(k, name)| c(name, k.index())));
+    d.extend(Prepare::ALL.iter().map(|&(k, name)| c(name, k.index())));
+    d.extend(
+        MegakernelPhase::ALL
+            .iter()
+            .map(|&(k, name)| c(name, k.index())),
+    );
     d.extend([
-        c("COUNTER_MATERIAL", FIXED_COUNTERS),
-        c("ARGS_RAY", ARGS_RAY),
-        c("ARGS_SHADOW", ARGS_SHADOW),
-        c("ARGS_MATERIAL", ARGS_MATERIAL),
-        c("QUEUE_SHADOW", QUEUE_SHADOW),
-        c("QUEUE_MATERIAL", QUEUE_MATERIAL),
+        ("LOCAL_SIZE".to_string(), LOCAL_SIZE.to_string()),
+        c("ARGS_MATERIAL", Args::material(0)),
+        c("QUEUE_MATERIAL", Queue::material(0)),
         c("SEGMENTS_COUNTED", SEGMENTS_COUNTED),
     ]);
     d
@@ -306,13 +547,67 @@ mod tests {
         assert_eq!(names.len(), Binding::ALL.len());
     }
 
-    #[test]
-    fn fixed_counters_are_numbered_in_order_with_distinct_defines() {
-        for (i, (k, name)) in Counter::ALL.iter().enumerate() {
-            assert_eq!(*k as usize, i);
-            assert!(name.starts_with("COUNTER_"));
-            assert_eq!(Counter::ALL.iter().filter(|(_, n)| n == name).count(), 1);
+    /// Every table of slots is numbered in declaration order and names each slot once, with
+    /// its table's prefix.
+    fn check_slots<T: Copy + std::fmt::Debug>(
+        all: &[(T, &str)],
+        index: fn(T) -> u32,
+        prefix: &str,
+    ) {
+        for (i, &(k, name)) in all.iter().enumerate() {
+            assert_eq!(index(k) as usize, i, "{k:?}");
+            assert!(name.starts_with(prefix), "{name} is not {prefix}*");
+            assert_eq!(all.iter().filter(|(_, n)| *n == name).count(), 1, "{name}");
         }
+    }
+
+    #[test]
+    fn slots_are_numbered_in_order_with_distinct_defines() {
+        check_slots(Counter::ALL, Counter::index, "COUNTER_");
+        check_slots(Args::ALL, Args::index, "ARGS_");
+        check_slots(Queue::ALL, Queue::index, "QUEUE_");
+        check_slots(Prepare::ALL, Prepare::index, "PREPARE_");
+        check_slots(MegakernelPhase::ALL, MegakernelPhase::index, "MEGAKERNEL_");
+        let names: Vec<String> = defines().into_iter().map(|(n, _)| n).collect();
+        for n in &names {
+            assert_eq!(
+                names.iter().filter(|m| *m == n).count(),
+                1,
+                "{n} defined twice"
+            );
+        }
+    }
+
+    /// The block table gives the positions the hand-written formulas gave before it.
+    #[test]
+    fn counter_blocks_give_the_former_positions() {
+        let f = FIXED_COUNTERS as usize;
+        for q in [1u32, 2, 8] {
+            let c = Counters { queues: q };
+            let qq = q as usize;
+            assert_eq!(c.material_queue(1), f + 1);
+            assert_eq!(c.nonfinite_extend(), f + qq);
+            assert_eq!(c.nonfinite_shade(1), f + qq + 2);
+            assert_eq!(c.segment_extension(3), f + 2 * qq + 1 + 4);
+            assert_eq!(c.segment_shadow(3), c.segment_extension(3) + 64);
+            assert_eq!(c.segment_shadow(99), c.segment_shadow(32));
+            assert_eq!(c.segment_shadow(0), c.segment_shadow(1));
+            assert_eq!(c.len(), f + 2 * qq + 1 + 4 * 32);
+        }
+    }
+
+    /// The shaders index the ray queues and their counters by `ray_queue_in()` from the first.
+    #[test]
+    fn ray_queues_alternate_and_their_counters_follow_them() {
+        let c = Counters { queues: 2 };
+        assert_eq!(Queue::ray_in(1), Queue::Ray0);
+        assert_eq!(Queue::ray_in(2), Queue::Ray1);
+        assert_eq!(Queue::ray_in(3), Queue::Ray0);
+        assert_eq!(Queue::Ray1.index(), Queue::Ray0.index() + 1);
+        assert_eq!(c.ray_queue(Queue::Ray0), Counter::RayQueue0 as usize);
+        assert_eq!(c.ray_queue(Queue::Ray1), Counter::RayQueue1 as usize);
+        assert_eq!(Queue::len(2), Queue::material(1) + 1);
+        assert_eq!(Args::len(2), Args::material(1) + 1);
     }
 
     #[test]

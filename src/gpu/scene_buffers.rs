@@ -1,6 +1,7 @@
 //! Packing the scene into the GPU buffers the kernels read (layouts documented beside each
-//! buffer in `shaders/wavefront/state.glsl` and `shaders/bvh.glsl`).
+//! binding in `gpu::layout`, from which the kernels' declarations are generated).
 
+use super::interface::Globals;
 use crate::brdf::{Material, RECORD_WORDS};
 use crate::bvh::Bvh;
 use crate::camera::CameraBasis;
@@ -57,6 +58,21 @@ pub fn sphere_data(scene: &Scene) -> Vec<[f32; 4]> {
     out
 }
 
+/// Each material's queue: the position of its model among the scene's shaded models
+/// (`Scene::shaded_models`, one material queue and shade pipeline each), or [`NO_QUEUE`] for a
+/// material that does not scatter.
+pub fn queue_slots(scene: &Scene) -> Vec<u32> {
+    let models = scene.shaded_models();
+    scene
+        .materials
+        .iter()
+        .map(|m| match m.brdf.scatters() {
+            true => models.iter().position(|&x| x == m.model).unwrap() as u32,
+            false => NO_QUEUE,
+        })
+        .collect()
+}
+
 /// Material records; `queue_slot[m]` is the material's queue (or NO_QUEUE).
 pub fn material_records(scene: &Scene, queue_slot: &[u32]) -> Vec<[u32; RECORD_WORDS]> {
     records(&scene.materials, queue_slot)
@@ -101,41 +117,35 @@ pub fn emitter_data(scene: &Scene, lights: &LightTable) -> Vec<[f32; 4]> {
         .collect()
 }
 
-/// The `Globals` block (scalar layout) of state.glsl.
+/// The scene-wide values the kernels read (`Globals`, declared once in `gpu::interface`).
 pub fn globals(
     scene: &Scene,
     lights: &LightTable,
     num_queues: u32,
     wave_paths: u32,
     tile: crate::film::Tile,
-) -> Vec<u32> {
+) -> Globals {
     let cam = CameraBasis::new(scene);
-    let mut w: Vec<u32> = Vec::with_capacity(32);
-    for v in [
-        cam.origin,
-        cam.forward,
-        cam.right,
-        cam.up,
-        scene.environment,
-    ] {
-        w.extend(v.to_array().iter().map(|f| f.to_bits()));
-    }
     let it = &scene.integrator;
-    w.extend([
-        lights.prims.len() as u32,
-        scene.width,
-        scene.height,
-        it.max_depth,
-        it.seed,
-        it.russian_roulette as u32,
-        it.rr_start_depth,
+    Globals {
+        cam_origin: cam.origin.to_array(),
+        cam_forward: cam.forward.to_array(),
+        cam_right: cam.right.to_array(),
+        cam_up: cam.up.to_array(),
+        environment: scene.environment.to_array(),
+        num_lights: lights.prims.len() as u32,
+        width: scene.width,
+        height: scene.height,
+        max_depth: it.max_depth,
+        seed: it.seed,
+        rr_enabled: it.russian_roulette as u32,
+        rr_start_depth: it.rr_start_depth,
         num_queues,
         wave_paths,
-        tile.x,
-        tile.y,
-        tile.width,
-    ]);
-    w
+        tile_x: tile.x,
+        tile_y: tile.y,
+        tile_width: tile.width,
+    }
 }
 
 /// BVH nodes as raw words (4 vec4 each).

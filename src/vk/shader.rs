@@ -4,7 +4,9 @@
 //! environment variable `BRDFWAVE_SHADER_DIR` is set, from that directory (edit shaders without
 //! rebuilding). `#include "x"` names are relative to the shader root, never to the including
 //! file. *Overrides* map a virtual include name to a real file, so that one kernel template
-//! (`#include "brdf/model.glsl"`) serves every reflectance model.
+//! (`#include "brdf/model.glsl"`) serves every reflectance model. *Generated* sources
+//! ([`ShaderCompiler::compile_generated`]) are headers written by the caller for one
+//! compilation, e.g. the wavefront kernels' interface generated from `gpu::layout`.
 //!
 //! Compiled modules are cached under `<cache>/spirv/<key>.spv`, where `<key>` is a 64-bit FNV-1a
 //! hash of every source file the shader can read (found by following the `#include` lines
@@ -167,7 +169,15 @@ impl ShaderCompiler {
 
     /// The text of a source file, `path` relative to the shader root.
     pub fn read_source(&self, path: &str) -> Result<String> {
+        self.read_source_in(path, &[])
+    }
+
+    /// The text of a source file, from `generated` (name, text) first.
+    fn read_source_in(&self, path: &str, generated: &[(String, String)]) -> Result<String> {
         let name = normalize(path)?;
+        if let Some((_, text)) = generated.iter().find(|(p, _)| *p == name) {
+            return Ok(text.clone());
+        }
         if let Some((_, text)) = self.extra.iter().find(|(p, _)| *p == name) {
             return Ok(text.clone());
         }
@@ -208,6 +218,25 @@ impl ShaderCompiler {
         defines: &[(String, String)],
         overrides: &[(String, String)],
     ) -> Result<CompiledShader> {
+        self.compile_generated(path, defines, overrides, &[])
+    }
+
+    /// [`compile_detailed`](Self::compile_detailed) with `generated` (path, text) source files
+    /// that shadow any file of that name for this compilation only (and are hashed into the
+    /// cache key like any source): headers generated from a description in Rust, such as the
+    /// wavefront kernels' interface (`gpu::layout::glsl`).
+    pub fn compile_generated(
+        &self,
+        path: &str,
+        defines: &[(String, String)],
+        overrides: &[(String, String)],
+        generated: &[(String, String)],
+    ) -> Result<CompiledShader> {
+        let generated: Vec<(String, String)> = generated
+            .iter()
+            .map(|(p, t)| Ok((normalize(p)?, t.clone())))
+            .collect::<Result<_>>()?;
+        let generated = &generated[..];
         let start = Instant::now();
         let top = normalize(path)?;
         for (name, value) in defines {
@@ -215,7 +244,7 @@ impl ShaderCompiler {
         }
         let overrides =
             normalize_overrides(overrides).with_context(|| format!("compiling shader {top}"))?;
-        let key = self.cache_key(&top, defines, &overrides)?;
+        let key = self.cache_key(&top, defines, &overrides, generated)?;
         let entry = self
             .spirv_cache_dir()
             .map(|d| d.join(format!("{key:016x}.spv")));
@@ -252,7 +281,7 @@ impl ShaderCompiler {
             }
         }
 
-        let spirv = self.compile_uncached(&top, defines, &overrides)?;
+        let spirv = self.compile_uncached(&top, defines, &overrides, generated)?;
         let mut write_failed = false;
         if let Some(entry) = &entry {
             if let Err(e) = write_atomic(entry, &encode_cache_entry(&spirv, key)) {
@@ -294,6 +323,7 @@ impl ShaderCompiler {
         top: &str,
         defines: &[(String, String)],
         overrides: &[(String, String)],
+        generated: &[(String, String)],
     ) -> Result<u64> {
         let mut h = Fnv64::new();
         h.str("brdfwave-spirv")
@@ -301,7 +331,7 @@ impl ShaderCompiler {
             .str(OPTIONS_TAG)
             .str(top);
         let top_text = self
-            .read_source(top)
+            .read_source_in(top, generated)
             .with_context(|| format!("compiling shader {top}"))?;
         h.str(&top_text);
         // Depth first, in include order, each file once: the hash is a deterministic function of
@@ -321,7 +351,7 @@ impl ShaderCompiler {
                     continue;
                 }
                 h.str(&requested).str(&resolved);
-                match self.read_source(&resolved) {
+                match self.read_source_in(&resolved, generated) {
                     Ok(t) => {
                         h.u64(1).str(&t);
                         children.push(t);
@@ -351,8 +381,9 @@ impl ShaderCompiler {
         top: &str,
         defines: &[(String, String)],
         overrides: &[(String, String)],
+        generated: &[(String, String)],
     ) -> Result<Vec<u32>> {
-        let text = self.read_source(top)?;
+        let text = self.read_source_in(top, generated)?;
         let mut opts =
             shaderc::CompileOptions::new().map_err(|e| anyhow!("creating shaderc options: {e}"))?;
         opts.set_source_language(shaderc::SourceLanguage::GLSL);
@@ -374,7 +405,7 @@ impl ShaderCompiler {
             let name = normalize(requested).map_err(|e| format!("#include \"{requested}\" in {requester}: {e}"))?;
             let real = Self::resolve(&name, overrides);
             let via = if real != name { format!(" (override of \"{name}\")") } else { String::new() };
-            match self.read_source(real) {
+            match self.read_source_in(real, generated) {
                 Ok(content) => Ok(shaderc::ResolvedInclude { resolved_name: real.to_string(), content }),
                 Err(e) => Err(format!("#include \"{requested}\" in {requester}{via}: {e:#}")),
             }

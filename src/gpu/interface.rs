@@ -1,0 +1,276 @@
+//! The Rust–GLSL interface of the wavefront kernels, generated from one description: the
+//! header [`glsl`] (included by `shaders/wavefront/state.glsl` as [`HEADER`]) holds the numbers
+//! of [`super::layout`] as `#define`s, the declaration of every binding (from
+//! [`Binding::kind`], its format and [`Binding::glsl`]), the `Globals` uniform block and the
+//! `Push` constants (from the Rust structs below, declared once with [`glsl_block!`]), and
+//! the counter positions as functions (from [`CounterBlock::row`], the formula the host uses
+//! too). The shader and the host therefore cannot disagree on a binding, a field's position
+//! or a counter's place; kajiya's "resources from description values" is the model
+//! (Tomasz Stachowiak, kajiya, 2021).
+
+use super::layout::{self, Binding, BlockIndex, CounterBlock, Kind};
+use ash::vk;
+
+/// The generated header's name among the shader sources.
+pub const HEADER: &str = "wavefront/interface.glsl";
+
+/// A Rust type that stands for a GLSL one in a [`glsl_block!`] struct (scalar layout: each
+/// field 4-byte aligned, so the `#[repr(C)]` struct has the block's layout).
+pub trait GlslType {
+    const GLSL: &'static str;
+}
+impl GlslType for u32 {
+    const GLSL: &'static str = "uint";
+}
+impl GlslType for f32 {
+    const GLSL: &'static str = "float";
+}
+impl GlslType for [f32; 3] {
+    const GLSL: &'static str = "vec3";
+}
+
+/// One field of a [`glsl_block!`] struct.
+#[derive(Clone, Copy, Debug)]
+pub struct Field {
+    pub name: &'static str,
+    pub glsl: &'static str,
+    pub doc: &'static str,
+}
+
+/// Declares a `#[repr(C)]` plain-old-data struct and, from the same lines, its field list
+/// (`FIELDS`: name, GLSL type, doc), from which the GLSL block is emitted: a field is declared
+/// once, in Rust.
+macro_rules! glsl_block {
+    ($(#[$meta:meta])* pub struct $name:ident {
+        $($(#[doc = $doc:literal])* pub $field:ident: $ty:ty,)*
+    }) => {
+        $(#[$meta])*
+        #[repr(C)]
+        #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+        pub struct $name {
+            $($(#[doc = $doc])* pub $field: $ty,)*
+        }
+
+        impl $name {
+            /// The fields in order, as the GLSL block declares them.
+            pub const FIELDS: &'static [Field] = &[$(Field {
+                name: stringify!($field),
+                glsl: <$ty as GlslType>::GLSL,
+                doc: concat!($($doc),*),
+            },)*];
+        }
+    };
+}
+
+glsl_block! {
+    /// The push constants of every wavefront kernel (GLSL `pc`). A wave traces wave_size =
+    /// chunk_pixels × k paths: k consecutive samples of the pixels [chunk_offset, chunk_offset +
+    /// chunk_pixels). Small images take several samples per wave, so that a large GPU has enough
+    /// paths in flight; large images take one sample of one chunk.
+    pub struct Push {
+        /// segment index d of the rays being traced / the vertex being shaded
+        pub depth: u32,
+        /// sample of the wave's first path
+        pub sample_index: u32,
+        /// first pixel of this chunk
+        pub chunk_offset: u32,
+        /// paths in this wave
+        pub wave_size: u32,
+        /// prepare: which arguments to write (PREPARE_*); megakernel: MEGAKERNEL_*
+        pub phase: u32,
+        /// shade kernels: which material queue
+        pub queue_slot: u32,
+        /// pixels in this chunk (wave_size is a multiple)
+        pub chunk_pixels: u32,
+    }
+}
+
+glsl_block! {
+    /// The scene-wide values (binding `globals`, GLSL `g`, scalar layout).
+    pub struct Globals {
+        pub cam_origin: [f32; 3],
+        pub cam_forward: [f32; 3],
+        /// scaled by tan(fov/2)·aspect
+        pub cam_right: [f32; 3],
+        /// scaled by tan(fov/2)
+        pub cam_up: [f32; 3],
+        pub environment: [f32; 3],
+        pub num_lights: u32,
+        pub width: u32,
+        pub height: u32,
+        pub max_depth: u32,
+        pub seed: u32,
+        pub rr_enabled: u32,
+        pub rr_start_depth: u32,
+        /// material queues in use
+        pub num_queues: u32,
+        /// path slots per wave
+        pub wave_paths: u32,
+        /// the part of the image rendered (all of it unless TILED): columns tile_x .. tile_x +
+        /// tile_width, rows from tile_y
+        pub tile_x: u32,
+        pub tile_y: u32,
+        pub tile_width: u32,
+    }
+}
+
+/// `struct { fields } instance;` lines of a block, each field with its doc.
+fn block_fields(fields: &[Field]) -> String {
+    let mut s = String::new();
+    for f in fields {
+        s += &format!("    {} {};", f.glsl, f.name);
+        if !f.doc.is_empty() {
+            s += &format!("  //{}", f.doc);
+        }
+        s += "\n";
+    }
+    s
+}
+
+/// The GLSL image format qualifier of a texel format, and whether it holds unsigned integers.
+fn texel_format(f: vk::Format) -> (&'static str, bool) {
+    match f {
+        vk::Format::R32_UINT => ("r32ui", true),
+        vk::Format::R32G32_UINT => ("rg32ui", true),
+        vk::Format::R32G32B32A32_UINT => ("rgba32ui", true),
+        vk::Format::R32G32B32A32_SFLOAT => ("rgba32f", false),
+        other => panic!("no GLSL format for {other:?}: add it to gpu::interface::texel_format"),
+    }
+}
+
+/// The declaration of binding `b`.
+fn declaration(b: Binding) -> String {
+    let (name, about) = b.glsl();
+    let at = format!("set = 0, binding = BINDING_{}", b.name().to_uppercase());
+    let decl = match b.kind() {
+        Kind::Texels(f) => {
+            let u = if texel_format(f).1 { "u" } else { "" };
+            format!("layout({at}) uniform {u}samplerBuffer {name};")
+        }
+        Kind::Image(f) => {
+            let (q, uint) = texel_format(f);
+            let u = if uint { "u" } else { "" };
+            format!("layout({at}, {q}) uniform restrict {u}imageBuffer {name};")
+        }
+        Kind::Uniform => {
+            assert_eq!(b, Binding::Globals, "the one uniform block is Globals");
+            format!(
+                "layout(scalar, {at}) uniform Globals {{\n{}}} {name};",
+                block_fields(Globals::FIELDS)
+            )
+        }
+        Kind::Storage => {
+            let element = b
+                .storage_element()
+                .unwrap_or_else(|| panic!("storage binding {b:?} has no element type"));
+            let block = b.name()[..1].to_uppercase() + &b.name()[1..];
+            format!("layout(std430, {at}) buffer {block} {{ {element} {name}[]; }};")
+        }
+    };
+    format!("// {}: {about}\n{decl}\n", b.name())
+}
+
+/// `counter_<name>(…)`: the position of a [`CounterBlock`]'s entry, the formula of
+/// [`layout::Counters::at`].
+fn counter_function(b: CounterBlock) -> String {
+    let row = b.row();
+    let (per_queue, words) = b.start();
+    let mut terms = vec![format!("{words}u")];
+    if per_queue > 0 {
+        terms.push(format!("{per_queue}u * g.num_queues"));
+    }
+    let (param, index) = match row.index {
+        BlockIndex::None => ("", None),
+        BlockIndex::Queue => ("uint k", Some("k".to_string())),
+        BlockIndex::Segment => (
+            "uint d",
+            Some("(clamp(d, 1u, SEGMENTS_COUNTED) - 1u)".to_string()),
+        ),
+    };
+    if let Some(i) = index {
+        terms.push(format!("{}u * {i}", row.stride));
+    }
+    format!(
+        "uint counter_{}({param}) {{ return {}; }}\n",
+        row.name,
+        terms.join(" + ")
+    )
+}
+
+/// The generated header: the interface of every wavefront kernel.
+pub fn glsl() -> String {
+    let mut s = String::from(
+        "// The wavefront kernels' interface, generated by src/gpu/interface.rs from the description\n\
+         // in src/gpu/layout.rs and the Push / Globals structs: edit those, not this text.\n\
+         #ifndef INTERFACE_GLSL\n#define INTERFACE_GLSL\n\n",
+    );
+    for (name, value) in layout::defines() {
+        s += &format!("#define {name} {value}\n");
+    }
+    s += "\n";
+    for b in Binding::ALL {
+        s += &declaration(b);
+    }
+    s += &format!(
+        "\n// {}\nlayout(push_constant) uniform Push {{\n{}}} pc;\n\n",
+        "Push constants (src/gpu/interface.rs `Push`).",
+        block_fields(Push::FIELDS)
+    );
+    s += "// Counter positions (src/gpu/layout.rs `CounterBlock`).\n";
+    for b in CounterBlock::ALL {
+        s += &counter_function(b);
+    }
+    s += "\n#endif\n";
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Scalar layout: the Rust structs have exactly the words of their GLSL fields.
+    #[test]
+    fn blocks_are_packed_as_their_fields() {
+        let words = |fields: &[Field]| -> usize {
+            fields
+                .iter()
+                .map(|f| match f.glsl {
+                    "uint" | "float" => 1,
+                    "vec3" => 3,
+                    t => panic!("{t}"),
+                })
+                .sum()
+        };
+        assert_eq!(std::mem::size_of::<Push>(), 4 * words(Push::FIELDS));
+        assert_eq!(std::mem::size_of::<Globals>(), 4 * words(Globals::FIELDS));
+        assert_eq!(Push::FIELDS[0].name, "depth");
+        assert_eq!(Globals::FIELDS.last().unwrap().name, "tile_width");
+    }
+
+    /// Every binding is declared once, at its define, with the image format of its texels.
+    #[test]
+    fn the_header_declares_every_binding_and_counter() {
+        let h = glsl();
+        for b in Binding::ALL {
+            let at = format!("binding = BINDING_{})", b.name().to_uppercase());
+            let at_fmt = format!("binding = BINDING_{},", b.name().to_uppercase());
+            let n = h.matches(&at).count() + h.matches(&at_fmt).count();
+            assert_eq!(n, 1, "{b:?} declared {n} times");
+        }
+        assert!(h.contains("layout(set = 0, binding = BINDING_HIT_REC, rgba32ui) uniform restrict uimageBuffer hit_rec_img;"));
+        assert!(h.contains("layout(set = 0, binding = BINDING_RAY_O, rgba32f) uniform restrict imageBuffer ray_o_img;"));
+        assert!(h.contains("buffer Counters { uint counters[]; };"));
+        assert!(h.contains("    uint tile_width;"));
+        for b in CounterBlock::ALL {
+            assert!(h.contains(&format!("uint counter_{}(", b.row().name)));
+        }
+        // The formula as the host evaluates it, for 3 queues: FIXED + 2·3 + 1 + 2·(5 − 1).
+        let c = layout::Counters { queues: 3 };
+        let f = layout::FIXED_COUNTERS;
+        assert_eq!(c.segment_extension(5) as u32, f + 2 * 3 + 1 + 2 * 4);
+        assert!(h.contains(&format!(
+            "uint counter_segment_extension(uint d) {{ return {}u + 2u * g.num_queues + 2u * (clamp(d, 1u, SEGMENTS_COUNTED) - 1u); }}",
+            f + 1
+        )));
+    }
+}
