@@ -53,6 +53,7 @@ pub mod metrics;
 pub mod outfile;
 pub mod output;
 pub mod plot;
+pub mod render;
 pub mod rng;
 pub mod robust;
 pub mod scene;
