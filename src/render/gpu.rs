@@ -1,7 +1,9 @@
 //! The Vulkan integrator (`crate::gpu::GpuRenderer`) behind [`Renderer`]: it holds its film on
 //! the device, and its tile from its creation.
 
-use super::{Description, GpuDescription, Progress, ProgressUnit, RenderRequest, Rendered, Renderer};
+use super::{
+    Description, GpuDescription, Progress, ProgressUnit, RenderRequest, Rendered, Renderer,
+};
 use crate::bvh::Bvh;
 use crate::film::Tile;
 use crate::gpu::{GpuOptions, GpuRenderer, Integrator};
