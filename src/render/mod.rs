@@ -147,11 +147,15 @@ pub fn open<'a>(
     })
 }
 
-/// Renders `scene.integrator.spp` samples per pixel of the whole image on `backend` (building
-/// the BVH): the common case of the tests and the stress harness.
+/// Renders `scene.integrator.spp` samples per pixel of the whole image on `backend`, building
+/// the BVH: the common case of the tests and the stress harness.
 pub fn render_whole(backend: Backend<'_>, scene: &Scene) -> Result<RenderOutput> {
-    let bvh = crate::bvh::build(scene);
-    let mut r = open(backend, scene, &bvh, Tile::full(scene.width, scene.height))?;
+    render_all(backend, scene, &crate::bvh::build(scene))
+}
+
+/// Renders `scene.integrator.spp` samples per pixel of the whole image on `backend`.
+pub fn render_all(backend: Backend<'_>, scene: &Scene, bvh: &Bvh) -> Result<RenderOutput> {
+    let mut r = open(backend, scene, bvh, Tile::full(scene.width, scene.height))?;
     let request = RenderRequest::samples(0..scene.integrator.spp);
     Ok(r.render(&request, &|_| {})?.output)
 }
