@@ -2,13 +2,15 @@
 
 use super::{parse_device, warn_gpu_only, Backend};
 use anyhow::{bail, Context as _, Result};
+use brdfwave::brdf::inline::parse_inline;
+use brdfwave::brdf_tools as tools;
 use brdfwave::{
     imageio,
     outfile::{self, Output},
     vk,
 };
 use clap::Subcommand;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(Subcommand)]
 pub enum BrdfCommand {
@@ -60,8 +62,6 @@ pub enum BrdfCommand {
 }
 
 pub fn run(cmd: BrdfCommand) -> Result<()> {
-    use brdfwave::brdf::inline::parse_inline;
-    use brdfwave::brdf_tools as tools;
     match cmd {
         BrdfCommand::Eval {
             material,
@@ -69,110 +69,126 @@ pub fn run(cmd: BrdfCommand) -> Result<()> {
             backend,
             out,
             device,
-        } => {
-            if backend == Backend::Cpu {
-                warn_gpu_only(&[("--device", device.is_some())]);
-            }
-            if let Some(p) = &out {
-                let o = [Output {
-                    option: "--out",
-                    path: p,
-                }];
-                outfile::refuse_inputs(&o, &[("--dirs file", &dirs)])?;
-                outfile::prepare(&o)?;
-            }
-            let m = parse_inline(&material)?;
-            let pairs = tools::read_direction_csv(&dirs)?;
-            // Below the horizon every model is 0 by definition: say so rather than print zeros
-            // without a word.
-            let below = pairs
-                .iter()
-                .filter(|(wi, wo)| wi.z <= 0.0 || wo.z <= 0.0)
-                .count();
-            if below > 0 {
-                eprintln!(
-                    "warning: {}: {below} of {} direction pairs have wi or wo at or below the horizon (z <= 0), where f and pdf are 0",
-                    dirs.display(),
-                    pairs.len()
-                );
-            }
-            let values = match backend {
-                Backend::Cpu => tools::eval_cpu(&m, &pairs),
-                Backend::Gpu => {
-                    let ctx = vk::Context::new(&vk::ContextOptions {
-                        device,
-                        validation: false,
-                    })?;
-                    let compiler = vk::ShaderCompiler::new()?;
-                    brdfwave::gpu::brdf_probe::eval(&ctx, &compiler, &m, &pairs)?
-                }
-            };
-            let csv = tools::format_eval_csv(&pairs, &values);
-            match out {
-                Some(p) => outfile::write(&p, csv.as_bytes())?,
-                None => out!("{csv}")?,
-            }
-        }
+        } => eval(&material, &dirs, backend, out.as_deref(), device),
         BrdfCommand::Plot {
             material,
             theta_i,
             out,
-        } => {
-            if !(0.0..90.0).contains(&theta_i) {
-                bail!("--theta-i must be in [0, 90) degrees, got {theta_i}");
-            }
-            imageio::Format::from_path(&out).context("--out")?;
-            outfile::prepare(&[Output {
-                option: "--out",
-                path: &out,
-            }])?;
-            let m = parse_inline(&material)?;
-            tools::write_plot(&out, &tools::plot_lobe(m.brdf.as_ref(), theta_i))?;
-            outln!("wrote {}", out.display())?;
-        }
+        } => plot(&material, theta_i, &out),
         BrdfCommand::Report {
             out,
             no_gpu,
             device,
-        } => {
-            if no_gpu {
-                warn_gpu_only(&[("--device", device.is_some())]);
-            }
-            tools::prepare_report_dir(&out)?;
-            let gpu = if no_gpu {
-                None
-            } else {
-                let ctx = vk::Context::new(&vk::ContextOptions {
-                    device,
-                    validation: false,
-                })?;
-                let compiler = vk::ShaderCompiler::new()?;
-                Some((ctx, compiler))
-            };
-            let mut rows = Vec::new();
-            for (label, src) in tools::REPRESENTATIVE {
-                eprintln!("measuring {label}");
-                let (mut row, m) = tools::report_row(label, src)?;
-                if let Some((ctx, compiler)) = &gpu {
-                    row.ns_per_eval_gpu =
-                        Some(brdfwave::gpu::brdf_probe::eval_cost(ctx, compiler, &m)?);
-                }
-                tools::write_plot(
-                    &out.join(format!("lobe_{}.png", tools::slug(label))),
-                    &tools::plot_lobe(m.brdf.as_ref(), 45.0),
-                )?;
-                rows.push(row);
-            }
-            let device_name = gpu.as_ref().map(|(c, _)| c.device_name.clone());
-            let md = tools::report_markdown(&rows, device_name.as_deref());
-            outfile::write(&out.join("report.md"), md.as_bytes())?;
-            outfile::write(&out.join("report.csv"), tools::report_csv(&rows).as_bytes())?;
-            out!("{md}")?;
-            outln!(
-                "\nwrote {}/report.md, report.csv and lobe_*.png",
-                out.display()
-            )?;
-        }
+        } => report(&out, no_gpu, device),
     }
+}
+
+/// `brdf eval`: f and pdf of each direction pair, on the Rust model or its GLSL twin.
+fn eval(
+    material: &str,
+    dirs: &Path,
+    backend: Backend,
+    out: Option<&Path>,
+    device: Option<String>,
+) -> Result<()> {
+    if backend == Backend::Cpu {
+        warn_gpu_only(&[("--device", device.is_some())]);
+    }
+    if let Some(p) = out {
+        let o = [Output {
+            option: "--out",
+            path: p,
+        }];
+        outfile::refuse_inputs(&o, &[("--dirs file", dirs)])?;
+        outfile::prepare(&o)?;
+    }
+    let m = parse_inline(material)?;
+    let pairs = tools::read_direction_csv(dirs)?;
+    // Below the horizon every model is 0 by definition: say so rather than print zeros
+    // without a word.
+    let below = pairs
+        .iter()
+        .filter(|(wi, wo)| wi.z <= 0.0 || wo.z <= 0.0)
+        .count();
+    if below > 0 {
+        eprintln!(
+            "warning: {}: {below} of {} direction pairs have wi or wo at or below the horizon (z <= 0), where f and pdf are 0",
+            dirs.display(),
+            pairs.len()
+        );
+    }
+    let values = match backend {
+        Backend::Cpu => tools::eval_cpu(&m, &pairs),
+        Backend::Gpu => {
+            let ctx = vk::Context::new(&vk::ContextOptions {
+                device,
+                validation: false,
+            })?;
+            let compiler = vk::ShaderCompiler::new()?;
+            brdfwave::gpu::brdf_probe::eval(&ctx, &compiler, &m, &pairs)?
+        }
+    };
+    let csv = tools::format_eval_csv(&pairs, &values);
+    match out {
+        Some(p) => outfile::write(p, csv.as_bytes())?,
+        None => out!("{csv}")?,
+    }
+    Ok(())
+}
+
+/// `brdf plot`: the lobe at one angle of incidence.
+fn plot(material: &str, theta_i: f32, out: &Path) -> Result<()> {
+    if !(0.0..90.0).contains(&theta_i) {
+        bail!("--theta-i must be in [0, 90) degrees, got {theta_i}");
+    }
+    imageio::Format::from_path(out).context("--out")?;
+    outfile::prepare(&[Output {
+        option: "--out",
+        path: out,
+    }])?;
+    let m = parse_inline(material)?;
+    tools::write_plot(out, &tools::plot_lobe(m.brdf.as_ref(), theta_i))?;
+    outln!("wrote {}", out.display())?;
+    Ok(())
+}
+
+/// `brdf report`: every model at its representative parameters.
+fn report(out: &Path, no_gpu: bool, device: Option<String>) -> Result<()> {
+    if no_gpu {
+        warn_gpu_only(&[("--device", device.is_some())]);
+    }
+    tools::prepare_report_dir(out)?;
+    let gpu = if no_gpu {
+        None
+    } else {
+        let ctx = vk::Context::new(&vk::ContextOptions {
+            device,
+            validation: false,
+        })?;
+        let compiler = vk::ShaderCompiler::new()?;
+        Some((ctx, compiler))
+    };
+    let mut rows = Vec::new();
+    for (label, src) in tools::REPRESENTATIVE {
+        eprintln!("measuring {label}");
+        let (mut row, m) = tools::report_row(label, src)?;
+        if let Some((ctx, compiler)) = &gpu {
+            row.ns_per_eval_gpu = Some(brdfwave::gpu::brdf_probe::eval_cost(ctx, compiler, &m)?);
+        }
+        tools::write_plot(
+            &out.join(format!("lobe_{}.png", tools::slug(label))),
+            &tools::plot_lobe(m.brdf.as_ref(), 45.0),
+        )?;
+        rows.push(row);
+    }
+    let device_name = gpu.as_ref().map(|(c, _)| c.device_name.clone());
+    let md = tools::report_markdown(&rows, device_name.as_deref());
+    outfile::write(&out.join("report.md"), md.as_bytes())?;
+    outfile::write(&out.join("report.csv"), tools::report_csv(&rows).as_bytes())?;
+    out!("{md}")?;
+    outln!(
+        "\nwrote {}/report.md, report.csv and lobe_*.png",
+        out.display()
+    )?;
     Ok(())
 }

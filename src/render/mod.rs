@@ -159,3 +159,120 @@ pub fn render_all(backend: Backend<'_>, scene: &Scene, bvh: &Bvh) -> Result<Rend
     let request = RenderRequest::samples(0..scene.integrator.spp);
     Ok(r.render(&request, &|_| {})?.output)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+    use std::sync::Mutex;
+
+    fn cornell(size: u32, spp: u32) -> Scene {
+        let source = include_str!("../../scenes/cornell-box.toml");
+        let mut s = crate::scene::load_str(source, Path::new("cornell-box.toml")).unwrap();
+        s.width = size;
+        s.height = size;
+        s.integrator.spp = spp;
+        s.integrator.max_depth = 4;
+        s
+    }
+
+    /// Samples added over several calls give the film of one call, bit for bit, and a tile
+    /// the same pixels as the whole image: the request, not the call pattern, fixes the image.
+    #[test]
+    fn calls_and_tiles_do_not_change_the_cpu_image() {
+        let s = cornell(12, 6);
+        let bvh = crate::bvh::build(&s);
+        let whole = render_all(Backend::Cpu, &s, &bvh).unwrap();
+        let tile = Tile {
+            x: 3,
+            y: 5,
+            width: 6,
+            height: 4,
+        };
+        let mut r = open(Backend::Cpu, &s, &bvh, tile).unwrap();
+        r.render(&RenderRequest::samples(0..1), &|_| {}).unwrap();
+        let last = r.render(&RenderRequest::samples(1..6), &|_| {}).unwrap();
+        assert_eq!(last.output.spp, 6);
+        for y in 0..tile.height {
+            for x in 0..tile.width {
+                let t = (y * tile.width + x) as usize;
+                let w = ((y + tile.y) * s.width + x + tile.x) as usize;
+                assert_eq!(
+                    last.output.mean.data[t], whole.mean.data[w],
+                    "pixel ({x}, {y}) of the tile"
+                );
+            }
+        }
+    }
+
+    /// A film handed over holds the samples asked for, and the renderer starts a new one.
+    #[test]
+    fn take_film_hands_the_film_over() {
+        let s = cornell(4, 3);
+        let bvh = crate::bvh::build(&s);
+        let mut r = open(Backend::Cpu, &s, &bvh, Tile::full(4, 4)).unwrap();
+        let request = RenderRequest {
+            samples: 2..5,
+            take_film: true,
+        };
+        let film = r.render(&request, &|_| {}).unwrap().film.unwrap();
+        assert_eq!(film.samples(), 2..5);
+        // The new film takes any samples, as an empty one does.
+        let again = r.render(&RenderRequest::samples(0..1), &|_| {}).unwrap();
+        assert_eq!(again.output.spp, 1);
+        assert!(again.film.is_none());
+    }
+
+    /// Samples that do not follow the film's are an error naming both, never a panic.
+    #[test]
+    fn samples_must_follow_the_film() {
+        let s = cornell(4, 2);
+        let bvh = crate::bvh::build(&s);
+        let mut r = open(Backend::Cpu, &s, &bvh, Tile::full(4, 4)).unwrap();
+        r.render(&RenderRequest::samples(0..2), &|_| {}).unwrap();
+        let e = r
+            .render(&RenderRequest::samples(3..4), &|_| {})
+            .err()
+            .expect("a gap is refused");
+        assert_eq!(
+            e.to_string(),
+            "samples from 3 asked for, but the film holds samples 0..2"
+        );
+    }
+
+    /// A tile outside the image is refused when the renderer is made.
+    #[test]
+    fn open_refuses_a_tile_outside_the_image() {
+        let s = cornell(4, 1);
+        let bvh = crate::bvh::build(&s);
+        let outside = Tile {
+            x: 2,
+            y: 0,
+            width: 3,
+            height: 4,
+        };
+        assert!(open(Backend::Cpu, &s, &bvh, outside).is_err());
+    }
+
+    /// The CPU reports every row of the tile once, in rows of the tile.
+    #[test]
+    fn cpu_progress_counts_rows() {
+        let s = cornell(5, 1);
+        let bvh = crate::bvh::build(&s);
+        let mut r = open(Backend::Cpu, &s, &bvh, Tile::full(5, 5)).unwrap();
+        assert_eq!(r.describe().progress, ProgressUnit::Rows);
+        let seen = Mutex::new(Vec::new());
+        r.render(&RenderRequest::samples(0..1), &|p| {
+            seen.lock().unwrap().push(p)
+        })
+        .unwrap();
+        let mut done: Vec<f64> = seen.lock().unwrap().iter().map(|p| p.done).collect();
+        done.sort_by(f64::total_cmp);
+        assert_eq!(done, [1.0, 2.0, 3.0, 4.0, 5.0]);
+        assert!(seen
+            .lock()
+            .unwrap()
+            .iter()
+            .all(|p| p.total == 5.0 && p.unit == ProgressUnit::Rows));
+    }
+}

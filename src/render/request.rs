@@ -94,3 +94,72 @@ impl RenderRequest {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+
+    fn cornell() -> Scene {
+        let source = include_str!("../../scenes/cornell-box.toml");
+        crate::scene::load_str(source, Path::new("cornell-box.toml")).unwrap()
+    }
+
+    #[test]
+    fn overrides_apply_and_name_the_option_they_refuse() {
+        let mut s = cornell();
+        let o = Overrides {
+            spp: Some(7),
+            res: Some((20, 10)),
+            max_depth: Some(3),
+            seed: Some(9),
+            sampler: Some(Sampler::Independent),
+            samples: None,
+            tile: None,
+        };
+        let r = o.apply(&mut s).unwrap();
+        assert_eq!(r.samples, 0..7);
+        assert_eq!(r.tile, Tile::full(20, 10));
+        assert_eq!((s.width, s.height, s.integrator.max_depth), (20, 10, 3));
+        assert_eq!(
+            (s.integrator.seed, s.integrator.sampler),
+            (9, Sampler::Independent)
+        );
+
+        // A sample range sets the scene's spp to its length.
+        let part = Overrides {
+            samples: Some(4..10),
+            ..Overrides::default()
+        };
+        assert_eq!(part.apply(&mut s).unwrap().samples, 4..10);
+        assert_eq!(s.integrator.spp, 6);
+
+        let refused = |o: Overrides| format!("{:#}", o.apply(&mut cornell()).unwrap_err());
+        assert!(refused(Overrides {
+            spp: Some(0),
+            ..Overrides::default()
+        })
+        .starts_with("--spp"));
+        assert!(refused(Overrides {
+            max_depth: Some(0),
+            ..Overrides::default()
+        })
+        .starts_with("--max-depth"));
+        assert!(refused(Overrides {
+            max_depth: Some(crate::gpu::MAX_DEPTH + 1),
+            ..Overrides::default()
+        })
+        .starts_with("--max-depth"));
+        assert!(refused(Overrides {
+            res: Some((8, 8)),
+            tile: Some(Tile {
+                x: 4,
+                y: 4,
+                width: 5,
+                height: 1
+            }),
+            ..Overrides::default()
+        })
+        .starts_with("--tile"));
+    }
+}
