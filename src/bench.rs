@@ -662,6 +662,53 @@ fn reference(o: &BenchOptions, sc: &Scene, bvh: &Bvh) -> Result<(Image, Option<f
     Ok((img, Some(err)))
 }
 
+/// The runner of configuration `c`: ours through [`crate::render`] on the scene `sc` as the
+/// configuration renders it (a GPU configuration has its context `ctx`), or the Mitsuba peer
+/// when it could be set up (`mitsuba_ok`).
+#[allow(clippy::too_many_arguments)]
+fn runner<'a>(
+    c: &Config,
+    ctx: Option<&'a Context>,
+    sc: &'a Scene,
+    bvh: &'a Bvh,
+    compiler: &'a ShaderCompiler,
+    mitsuba_ok: &Result<()>,
+    mitsuba_json: &Path,
+    out: &Path,
+) -> Result<Box<dyn Runner + 'a>> {
+    match (c, ctx) {
+        (Config::Gpu { .. } | Config::Cpu { .. }, ctx) => {
+            let backend = match (c, ctx) {
+                (Config::Gpu { integrator, .. }, Some(ctx)) => render::Backend::Gpu {
+                    ctx,
+                    compiler,
+                    options: GpuOptions {
+                        integrator: *integrator,
+                        ..GpuOptions::default()
+                    },
+                },
+                (Config::Gpu { .. }, None) => unreachable!("a GPU configuration has a context"),
+                _ => render::Backend::Cpu,
+            };
+            let t = Instant::now();
+            render::open(backend, sc, bvh, Tile::full(sc.width, sc.height)).map(|r| {
+                Box::new(RendererRunner {
+                    renderer: r,
+                    setup_seconds: t.elapsed().as_secs_f64(),
+                    done: 0,
+                    seconds: 0.0,
+                    last: None,
+                }) as Box<dyn Runner>
+            })
+        }
+        (Config::Mitsuba { variant, sampler }, _) => match mitsuba_ok {
+            Ok(()) => MitsubaRunner::start(variant, sampler, mitsuba_json, out)
+                .map(|r| Box::new(r) as Box<dyn Runner>),
+            Err(e) => Err(anyhow!("{e}")),
+        },
+    }
+}
+
 /// Runs the benchmark; writes `bench.csv`, `bench.png` and `bench.md` under `o.out` and
 /// returns the markdown summary.
 pub fn run(o: &BenchOptions) -> Result<String> {
@@ -739,37 +786,16 @@ pub fn run(o: &BenchOptions) -> Result<String> {
     let mut runners: Vec<(String, Box<dyn Runner + '_>)> = Vec::new();
     for ((c, ctx), sc) in o.configs.iter().zip(&contexts).zip(&scenes) {
         let name = c.name();
-        let runner: Result<Box<dyn Runner + '_>> = match (c, ctx) {
-            (Config::Gpu { .. } | Config::Cpu { .. }, ctx) => {
-                let backend = match (c, ctx) {
-                    (Config::Gpu { integrator, .. }, Some(ctx)) => render::Backend::Gpu {
-                        ctx,
-                        compiler: &compiler,
-                        options: GpuOptions {
-                            integrator: *integrator,
-                            ..GpuOptions::default()
-                        },
-                    },
-                    (Config::Gpu { .. }, None) => unreachable!("a GPU configuration has a context"),
-                    _ => render::Backend::Cpu,
-                };
-                let t = Instant::now();
-                render::open(backend, sc, &bvh, Tile::full(sc.width, sc.height)).map(|r| {
-                    Box::new(RendererRunner {
-                        renderer: r,
-                        setup_seconds: t.elapsed().as_secs_f64(),
-                        done: 0,
-                        seconds: 0.0,
-                        last: None,
-                    }) as Box<dyn Runner>
-                })
-            }
-            (Config::Mitsuba { variant, sampler }, _) => match &mitsuba_ok {
-                Ok(()) => MitsubaRunner::start(variant, sampler, &mitsuba_json, &o.out)
-                    .map(|r| Box::new(r) as Box<dyn Runner>),
-                Err(e) => Err(anyhow!("{e}")),
-            },
-        };
+        let runner = runner(
+            c,
+            ctx.as_ref(),
+            sc,
+            &bvh,
+            &compiler,
+            &mitsuba_ok,
+            &mitsuba_json,
+            &o.out,
+        );
         match runner {
             Ok(r) => runners.push((name, r)),
             Err(e) if matches!(c, Config::Mitsuba { .. }) => {
