@@ -28,11 +28,13 @@
 //! about four times the time of its last render; its budget share counts the last render.)
 
 use crate::bvh::{self, Bvh};
-use crate::cpu::{CpuFilm, CpuRenderer};
-use crate::gpu::{GpuOptions, GpuRenderer, Integrator};
+use crate::film::Tile;
+use crate::gpu::{GpuOptions, Integrator};
 use crate::imageio::{self, Image};
 use crate::metrics;
+use crate::output::RenderOutput;
 use crate::plot::{self, Series};
+use crate::render::{self, RenderRequest, Renderer};
 use crate::rng::Sampler;
 use crate::scene::{self, Scene, Triangle};
 use crate::vk::{self, Context, ContextOptions, ShaderCompiler};
@@ -246,71 +248,42 @@ trait Runner {
     fn details(&mut self) -> Details;
 }
 
-struct GpuRunner<'a> {
-    renderer: GpuRenderer<'a>,
-    device: String,
+/// brdfwave's own configurations, on either backend, through [`crate::render`]: each pass
+/// continues the renderer's sample sequence.
+struct RendererRunner<'a> {
+    renderer: Box<dyn Renderer + 'a>,
     setup_seconds: f64,
     done: u32,
     seconds: f64,
+    /// The image after the last pass, and its counts.
+    last: Option<RenderOutput>,
 }
 
-impl Runner for GpuRunner<'_> {
+impl Runner for RendererRunner<'_> {
     fn pass(&mut self, n: u32) -> Result<(u32, f64)> {
-        let t = Instant::now();
-        self.renderer
-            .render_samples(self.done..self.done + n, &|_| {})?;
+        let request = RenderRequest::samples(self.done..self.done + n);
+        let r = self.renderer.render(&request, &|_| {})?;
         self.done += n;
-        self.seconds += t.elapsed().as_secs_f64();
+        self.seconds += r.seconds_samples;
+        self.last = Some(r.output);
         Ok((self.done, self.seconds))
     }
     fn image(&mut self) -> Result<Image> {
-        Ok(self.renderer.output()?.mean)
+        let out = self.last.as_ref().ok_or_else(|| anyhow!("no pass yet"))?;
+        Ok(out.mean.clone())
     }
     fn details(&mut self) -> Details {
-        let out = self.renderer.output().ok();
+        let d = self.renderer.describe();
+        let setup = d.gpu.map(|g| g.setup).unwrap_or_default();
+        let out = self.last.as_ref();
         Details {
-            device: self.device.clone(),
+            device: d.device,
             setup_seconds: self.setup_seconds,
-            rays: out
-                .as_ref()
-                .map(|o| o.extension_rays + o.shadow_rays)
-                .unwrap_or(0),
-            rays_by_segment: out
-                .as_ref()
-                .map(|o| o.rays_by_segment.clone())
-                .unwrap_or_default(),
-            stage_seconds: out.map(|o| o.stage_seconds).unwrap_or_default(),
-            pipelines_compile: self.renderer.setup.seconds_shader_compile,
-            pipelines_create: self.renderer.setup.seconds_pipeline_create,
-            ..Default::default()
-        }
-    }
-}
-
-struct CpuRunner<'a> {
-    renderer: CpuRenderer<'a>,
-    film: CpuFilm,
-    seconds: f64,
-}
-
-impl Runner for CpuRunner<'_> {
-    fn pass(&mut self, n: u32) -> Result<(u32, f64)> {
-        let t = Instant::now();
-        let start = self.film.spp();
-        self.renderer
-            .render_samples(&mut self.film, start..start + n, &|_| {});
-        self.seconds += t.elapsed().as_secs_f64();
-        Ok((self.film.spp(), self.seconds))
-    }
-    fn image(&mut self) -> Result<Image> {
-        Ok(self.renderer.output(&self.film).mean)
-    }
-    fn details(&mut self) -> Details {
-        let o = self.renderer.output(&self.film);
-        Details {
-            device: format!("CPU reference ({} threads)", rayon::current_num_threads()),
-            rays: o.extension_rays + o.shadow_rays,
-            rays_by_segment: o.rays_by_segment,
+            rays: out.map(|o| o.extension_rays + o.shadow_rays).unwrap_or(0),
+            rays_by_segment: out.map(|o| o.rays_by_segment.clone()).unwrap_or_default(),
+            stage_seconds: out.map(|o| o.stage_seconds.clone()).unwrap_or_default(),
+            pipelines_compile: setup.seconds_shader_compile,
+            pipelines_create: setup.seconds_pipeline_create,
             ..Default::default()
         }
     }
@@ -669,7 +642,7 @@ fn reference(o: &BenchOptions, sc: &Scene, bvh: &Bvh) -> Result<(Image, Option<f
         o.reference_spp
     );
     let t = Instant::now();
-    let out = CpuRenderer::new(&rs, bvh).render(&|_| {});
+    let out = render::render_all(render::Backend::Cpu, &rs, bvh)?;
     let err = reference_error(&out.mean, &out.variance, o.reference_spp);
     let img = out.mean;
     eprintln!("reference: {:.1} s", t.elapsed().as_secs_f64());
@@ -687,6 +660,53 @@ fn reference(o: &BenchOptions, sc: &Scene, bvh: &Bvh) -> Result<(Image, Option<f
         }
     }
     Ok((img, Some(err)))
+}
+
+/// The runner of configuration `c`: ours through [`crate::render`] on the scene `sc` as the
+/// configuration renders it (a GPU configuration has its context `ctx`), or the Mitsuba peer
+/// when it could be set up (`mitsuba_ok`).
+#[allow(clippy::too_many_arguments)]
+fn runner<'a>(
+    c: &Config,
+    ctx: Option<&'a Context>,
+    sc: &'a Scene,
+    bvh: &'a Bvh,
+    compiler: &'a ShaderCompiler,
+    mitsuba_ok: &Result<()>,
+    mitsuba_json: &Path,
+    out: &Path,
+) -> Result<Box<dyn Runner + 'a>> {
+    match (c, ctx) {
+        (Config::Gpu { .. } | Config::Cpu { .. }, ctx) => {
+            let backend = match (c, ctx) {
+                (Config::Gpu { integrator, .. }, Some(ctx)) => render::Backend::Gpu {
+                    ctx,
+                    compiler,
+                    options: GpuOptions {
+                        integrator: *integrator,
+                        ..GpuOptions::default()
+                    },
+                },
+                (Config::Gpu { .. }, None) => unreachable!("a GPU configuration has a context"),
+                _ => render::Backend::Cpu,
+            };
+            let t = Instant::now();
+            render::open(backend, sc, bvh, Tile::full(sc.width, sc.height)).map(|r| {
+                Box::new(RendererRunner {
+                    renderer: r,
+                    setup_seconds: t.elapsed().as_secs_f64(),
+                    done: 0,
+                    seconds: 0.0,
+                    last: None,
+                }) as Box<dyn Runner>
+            })
+        }
+        (Config::Mitsuba { variant, sampler }, _) => match mitsuba_ok {
+            Ok(()) => MitsubaRunner::start(variant, sampler, mitsuba_json, out)
+                .map(|r| Box::new(r) as Box<dyn Runner>),
+            Err(e) => Err(anyhow!("{e}")),
+        },
+    }
 }
 
 /// Runs the benchmark; writes `bench.csv`, `bench.png` and `bench.md` under `o.out` and
@@ -766,45 +786,16 @@ pub fn run(o: &BenchOptions) -> Result<String> {
     let mut runners: Vec<(String, Box<dyn Runner + '_>)> = Vec::new();
     for ((c, ctx), sc) in o.configs.iter().zip(&contexts).zip(&scenes) {
         let name = c.name();
-        let runner: Result<Box<dyn Runner + '_>> = match (c, ctx) {
-            (Config::Gpu { integrator, .. }, Some(ctx)) => {
-                let t = Instant::now();
-                GpuRenderer::with_options(
-                    ctx,
-                    sc,
-                    &bvh,
-                    &compiler,
-                    GpuOptions {
-                        integrator: *integrator,
-                        ..GpuOptions::default()
-                    },
-                )
-                .map(|r| {
-                    Box::new(GpuRunner {
-                        renderer: r,
-                        device: ctx.device_name.clone(),
-                        setup_seconds: t.elapsed().as_secs_f64(),
-                        done: 0,
-                        seconds: 0.0,
-                    }) as Box<dyn Runner>
-                })
-            }
-            (Config::Cpu { .. }, _) => {
-                let r = CpuRenderer::new(sc, &bvh);
-                let film = r.film();
-                Ok(Box::new(CpuRunner {
-                    renderer: r,
-                    film,
-                    seconds: 0.0,
-                }))
-            }
-            (Config::Mitsuba { variant, sampler }, _) => match &mitsuba_ok {
-                Ok(()) => MitsubaRunner::start(variant, sampler, &mitsuba_json, &o.out)
-                    .map(|r| Box::new(r) as Box<dyn Runner>),
-                Err(e) => Err(anyhow!("{e}")),
-            },
-            _ => unreachable!("a GPU configuration has a context"),
-        };
+        let runner = runner(
+            c,
+            ctx.as_ref(),
+            sc,
+            &bvh,
+            &compiler,
+            &mitsuba_ok,
+            &mitsuba_json,
+            &o.out,
+        );
         match runner {
             Ok(r) => runners.push((name, r)),
             Err(e) if matches!(c, Config::Mitsuba { .. }) => {
@@ -1176,21 +1167,23 @@ fn scaling(o: &BenchOptions, mesh_triangles: u32) -> Result<String> {
         let t_bvh = t.elapsed().as_secs_f64();
         let cold_dir = tempfile::tempdir()?;
         let cold = ShaderCompiler::new()?.with_cache_dir(cold_dir.path());
-        let r = GpuRenderer::new(&ctx, &s, &bvh, &cold)?;
-        let compile_cold = r.setup.seconds_shader_compile;
+        let full = Tile::full(s.width, s.height);
+        let setup = |r: &dyn Renderer| r.describe().gpu.map(|g| g.setup).unwrap_or_default();
+        let r = render::open(render::Backend::gpu(&ctx, &cold), &s, &bvh, full)?;
+        let compile_cold = setup(r.as_ref()).seconds_shader_compile;
         drop(r);
-        let mut r = GpuRenderer::new(&ctx, &s, &bvh, &cold)?;
-        let (compile_warm, create) = (
-            r.setup.seconds_shader_compile,
-            r.setup.seconds_pipeline_create,
-        );
+        let mut r = render::open(render::Backend::gpu(&ctx, &cold), &s, &bvh, full)?;
+        let warm = setup(r.as_ref());
+        let (compile_warm, create) = (warm.seconds_shader_compile, warm.seconds_pipeline_create);
         let t = Instant::now();
-        let out = r.render(&|_| {})?;
+        let out = r
+            .render(&RenderRequest::samples(0..s.integrator.spp), &|_| {})?
+            .output;
         let dt = t.elapsed().as_secs_f64();
         let paths = s.width as f64 * s.height as f64 * s.integrator.spp as f64;
         drop(r);
         let t = Instant::now();
-        CpuRenderer::new(&s, &bvh).render(&|_| {});
+        render::render_all(render::Backend::Cpu, &s, &bvh)?;
         let dt_cpu = t.elapsed().as_secs_f64();
         let _ = writeln!(
             md,

@@ -9,6 +9,9 @@
 //! * `cpu` — the CPU reference path tracer;
 //! * `vk` — the Vulkan backend layer: device, buffers, shader compilation, pipelines;
 //! * `gpu` — the wavefront integrator built on `vk` (kernels in `shaders/wavefront/`);
+//! * `render` — one `Renderer` interface to both, and the render request: what `render`,
+//!   `bench`, `stress` and the tests render through (the commands themselves are `src/cmd/`,
+//!   one module each, dispatched by `src/main.rs`);
 //! * `camera`, `lights` — camera rays and the emitter table both renderers sample;
 //! * `output` — what a render returns, whichever backend made it;
 //! * `conventions` — what both renderers agree on (e.g. the ray counts by segment);
@@ -55,6 +58,7 @@ pub mod metrics;
 pub mod outfile;
 pub mod output;
 pub mod plot;
+pub mod render;
 pub mod rng;
 pub mod robust;
 pub mod scene;

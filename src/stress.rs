@@ -944,7 +944,7 @@ fn case_gpu_math(env: &mut Env, seed: u64) -> Result<CaseResult> {
 
 fn render_cpu(s: &Scene) -> crate::output::RenderOutput {
     let b = crate::bvh::build(s);
-    crate::cpu::CpuRenderer::new(s, &b).render(&|_| {})
+    crate::render::CpuBackend::render_all(s, &b)
 }
 
 fn small(mut s: Scene, w: u32, spp: u32, seed: u32) -> Scene {
@@ -962,9 +962,7 @@ fn render_on(env: &mut Env, s: &Scene, gpu: bool) -> Result<crate::output::Rende
         return Ok(render_cpu(s));
     }
     let (ctx, compiler) = env.gpu()?;
-    let bvh = crate::bvh::build(s);
-    let mut g = crate::gpu::GpuRenderer::new(ctx, s, &bvh, compiler)?;
-    g.render(&|_| {})
+    crate::render::render_whole(crate::render::Backend::gpu(ctx, compiler), s)
 }
 
 fn backend_name(gpu: bool) -> &'static str {

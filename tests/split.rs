@@ -6,10 +6,9 @@
 mod common;
 
 use brdfwave::bvh;
-use brdfwave::cpu::CpuRenderer;
 use brdfwave::film::{self, Part, Tile};
-use brdfwave::gpu::{GpuOptions, GpuRenderer};
 use brdfwave::imageio::Image;
+use brdfwave::render::{self, Backend, RenderRequest};
 use brdfwave::scene::Scene;
 use common::{context, finish, scene};
 use std::ops::Range;
@@ -25,20 +24,36 @@ fn tile(x: u32, y: u32, width: u32, height: u32) -> Tile {
     }
 }
 
-/// Renders one part on the CPU and writes it to `dir/name`.
-fn cpu_part(s: &Scene, samples: Range<u32>, t: Tile, dir: &Path, name: &str) -> PathBuf {
+/// Renders one part on `backend` through the renderer interface and writes it to `dir/name`.
+fn part_on(
+    backend: Backend<'_>,
+    s: &Scene,
+    samples: Range<u32>,
+    t: Tile,
+    dir: &Path,
+    name: &str,
+) -> PathBuf {
     let b = bvh::build(s);
-    let r = CpuRenderer::new(s, &b);
-    let mut f = r.film_of(t);
-    r.render_samples(&mut f, samples, &|_| {});
-    let out = r.output(&f);
+    let mut r = render::open(backend, s, &b, t).unwrap();
+    let request = RenderRequest {
+        samples,
+        take_film: true,
+    };
+    let rendered = r.render(&request, &|_| {}).unwrap();
+    let film = rendered.film.expect("the film asked for");
+    let on = r.describe().backend;
     let path = dir.join(name);
     film::write_part(
         &path,
-        &Part::of_render("test.toml", s, f.film, &out, "cpu", "test", 0.0),
+        &Part::of_render("test.toml", s, film, &rendered.output, on, "test", 0.0),
     )
     .unwrap();
     path
+}
+
+/// Renders one part on the CPU and writes it to `dir/name`.
+fn cpu_part(s: &Scene, samples: Range<u32>, t: Tile, dir: &Path, name: &str) -> PathBuf {
+    part_on(Backend::Cpu, s, samples, t, dir, name)
 }
 
 /// Renders one part on the GPU and writes it to `dir/name`.
@@ -50,23 +65,8 @@ fn gpu_part(
     dir: &Path,
     name: &str,
 ) -> PathBuf {
-    let b = bvh::build(s);
     let compiler = brdfwave::vk::ShaderCompiler::new().unwrap();
-    let options = GpuOptions {
-        tile: Some(t),
-        ..GpuOptions::default()
-    };
-    let mut r = GpuRenderer::with_options(ctx, s, &b, &compiler, options).unwrap();
-    r.render_samples(samples, &|_| {}).unwrap();
-    let out = r.output().unwrap();
-    let f = r.film().unwrap();
-    let path = dir.join(name);
-    film::write_part(
-        &path,
-        &Part::of_render("test.toml", s, f, &out, "gpu", "test", 0.0),
-    )
-    .unwrap();
-    path
+    part_on(Backend::gpu(ctx, &compiler), s, samples, t, dir, name)
 }
 
 fn crop(img: &Image, t: Tile) -> Image {
@@ -131,10 +131,7 @@ fn gpu_and_mixed_parts_merge_within_rounding() {
     let s = scene("cornell-box.toml", 24, 18, 9, 5, 3);
     let compiler = brdfwave::vk::ShaderCompiler::new().unwrap();
     let b = bvh::build(&s);
-    let whole = GpuRenderer::new(&ctx, &s, &b, &compiler)
-        .unwrap()
-        .render(&|_| {})
-        .unwrap();
+    let whole = render::render_all(Backend::gpu(&ctx, &compiler), &s, &b).unwrap();
     let full = Tile::full(24, 18);
     let t = tile(5, 3, 7, 11);
     let a = gpu_part(&ctx, &s, 0..9, t, dir.path(), "tile.bwfilm");

@@ -3,10 +3,10 @@
 
 pub mod brdf;
 
-use brdfwave::bvh;
-use brdfwave::cpu::CpuRenderer;
-use brdfwave::gpu::GpuRenderer;
+use brdfwave::film::Tile;
+use brdfwave::gpu::GpuOptions;
 use brdfwave::output::RenderOutput;
+use brdfwave::render::{self, Backend, RenderRequest};
 use brdfwave::scene::{self, Scene};
 use brdfwave::vk::{Context, ContextOptions, ShaderCompiler};
 use std::path::{Path, PathBuf};
@@ -39,9 +39,9 @@ pub fn context() -> Context {
     .expect("a Vulkan device (install mesa-vulkan-drivers)")
 }
 
+/// Render on the CPU reference, through the renderer interface (`brdfwave::render`).
 pub fn render_cpu(s: &Scene) -> RenderOutput {
-    let b = bvh::build(s);
-    CpuRenderer::new(s, &b).render(&|_| {})
+    render::render_whole(Backend::Cpu, s).expect("CPU render")
 }
 
 /// Render on the GPU; returns the output and the names of the pipelines built. Fails the test
@@ -52,13 +52,23 @@ pub fn render_gpu(ctx: &Context, s: &Scene) -> (RenderOutput, Vec<String>) {
 
 /// [`render_gpu`] with at most `wave_paths` paths in flight.
 pub fn render_gpu_wave(ctx: &Context, s: &Scene, wave_paths: u32) -> (RenderOutput, Vec<String>) {
-    let b = bvh::build(s);
+    let b = brdfwave::bvh::build(s);
     let compiler = ShaderCompiler::new().expect("shader compiler");
     let (out, pipelines) = {
-        let mut r = GpuRenderer::with_wave_paths(ctx, s, &b, &compiler, wave_paths)
+        let backend = Backend::Gpu {
+            ctx,
+            compiler: &compiler,
+            options: GpuOptions {
+                wave_paths,
+                ..GpuOptions::default()
+            },
+        };
+        let mut r = render::open(backend, s, &b, Tile::full(s.width, s.height))
             .expect("GPU renderer set-up");
-        let out = r.render(&|_| {}).expect("GPU render");
-        (out, r.setup.pipelines.clone())
+        let request = RenderRequest::samples(0..s.integrator.spp);
+        let out = r.render(&request, &|_| {}).expect("GPU render").output;
+        let pipelines = r.describe().gpu.expect("a GPU renderer").setup.pipelines;
+        (out, pipelines)
     };
     let msgs = ctx.validation_messages();
     assert!(

@@ -1,0 +1,194 @@
+//! `brdfwave brdf eval | plot | report` (`brdfwave::brdf_tools`).
+
+use super::{parse_device, warn_gpu_only, Backend};
+use anyhow::{bail, Context as _, Result};
+use brdfwave::brdf::inline::parse_inline;
+use brdfwave::brdf_tools as tools;
+use brdfwave::{
+    imageio,
+    outfile::{self, Output},
+    vk,
+};
+use clap::Subcommand;
+use std::path::{Path, PathBuf};
+
+#[derive(Subcommand)]
+pub enum BrdfCommand {
+    /// Evaluate f and pdf for direction pairs from a CSV (header wi_x,wi_y,wi_z,wo_x,wo_y,wo_z).
+    Eval {
+        /// The material as an inline TOML table, e.g. 'model = "ward", kd = 0.1, ks = 0.8, alpha_x = 0.2, alpha_y = 0.1'.
+        #[arg(long)]
+        material: String,
+        /// CSV of direction pairs, header wi_x,wi_y,wi_z,wo_x,wo_y,wo_z: unit vectors in the
+        /// local frame (z = normal), both pointing away from the surface, wi toward the light.
+        #[arg(long)]
+        dirs: PathBuf,
+        /// Where to evaluate: the Rust model or its GLSL twin on the Vulkan device.
+        #[arg(long, value_enum, default_value = "cpu")]
+        backend: Backend,
+        /// Output CSV (default: stdout); missing directories are created.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Vulkan device for --backend gpu: a case-insensitive part of its name (default:
+        /// lavapipe if present; `brdfwave devices` lists them).
+        #[arg(long, value_parser = parse_device)]
+        device: Option<String>,
+    },
+    /// Plot the lobe: polar plot of f·cosθo in the plane of incidence and a hemisphere image.
+    Plot {
+        /// The material as an inline TOML table, as for `brdf eval`.
+        #[arg(long)]
+        material: String,
+        /// Angle of incidence in degrees, in [0, 90).
+        #[arg(long, allow_hyphen_values = true)]
+        theta_i: f32,
+        /// Output image: .png (as drawn, sRGB), .exr or .pfm (the same colours, linear).
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Measure every model at representative parameters: albedo, reciprocity, χ², cost, variance.
+    Report {
+        /// Directory for report.md, report.csv and lobe_*.png (created if missing).
+        #[arg(long, default_value = "out/report")]
+        out: PathBuf,
+        /// Skip the GPU cost measurement.
+        #[arg(long)]
+        no_gpu: bool,
+        /// Vulkan device for the GPU cost measurement: a case-insensitive part of its name
+        /// (default: lavapipe if present; `brdfwave devices` lists them).
+        #[arg(long, value_parser = parse_device)]
+        device: Option<String>,
+    },
+}
+
+pub fn run(cmd: BrdfCommand) -> Result<()> {
+    match cmd {
+        BrdfCommand::Eval {
+            material,
+            dirs,
+            backend,
+            out,
+            device,
+        } => eval(&material, &dirs, backend, out.as_deref(), device),
+        BrdfCommand::Plot {
+            material,
+            theta_i,
+            out,
+        } => plot(&material, theta_i, &out),
+        BrdfCommand::Report {
+            out,
+            no_gpu,
+            device,
+        } => report(&out, no_gpu, device),
+    }
+}
+
+/// `brdf eval`: f and pdf of each direction pair, on the Rust model or its GLSL twin.
+fn eval(
+    material: &str,
+    dirs: &Path,
+    backend: Backend,
+    out: Option<&Path>,
+    device: Option<String>,
+) -> Result<()> {
+    if backend == Backend::Cpu {
+        warn_gpu_only(&[("--device", device.is_some())]);
+    }
+    if let Some(p) = out {
+        let o = [Output {
+            option: "--out",
+            path: p,
+        }];
+        outfile::refuse_inputs(&o, &[("--dirs file", dirs)])?;
+        outfile::prepare(&o)?;
+    }
+    let m = parse_inline(material)?;
+    let pairs = tools::read_direction_csv(dirs)?;
+    // Below the horizon every model is 0 by definition: say so rather than print zeros
+    // without a word.
+    let below = pairs
+        .iter()
+        .filter(|(wi, wo)| wi.z <= 0.0 || wo.z <= 0.0)
+        .count();
+    if below > 0 {
+        eprintln!(
+            "warning: {}: {below} of {} direction pairs have wi or wo at or below the horizon (z <= 0), where f and pdf are 0",
+            dirs.display(),
+            pairs.len()
+        );
+    }
+    let values = match backend {
+        Backend::Cpu => tools::eval_cpu(&m, &pairs),
+        Backend::Gpu => {
+            let ctx = vk::Context::new(&vk::ContextOptions {
+                device,
+                validation: false,
+            })?;
+            let compiler = vk::ShaderCompiler::new()?;
+            brdfwave::gpu::brdf_probe::eval(&ctx, &compiler, &m, &pairs)?
+        }
+    };
+    let csv = tools::format_eval_csv(&pairs, &values);
+    match out {
+        Some(p) => outfile::write(p, csv.as_bytes())?,
+        None => out!("{csv}")?,
+    }
+    Ok(())
+}
+
+/// `brdf plot`: the lobe at one angle of incidence.
+fn plot(material: &str, theta_i: f32, out: &Path) -> Result<()> {
+    if !(0.0..90.0).contains(&theta_i) {
+        bail!("--theta-i must be in [0, 90) degrees, got {theta_i}");
+    }
+    imageio::Format::from_path(out).context("--out")?;
+    outfile::prepare(&[Output {
+        option: "--out",
+        path: out,
+    }])?;
+    let m = parse_inline(material)?;
+    tools::write_plot(out, &tools::plot_lobe(m.brdf.as_ref(), theta_i))?;
+    outln!("wrote {}", out.display())?;
+    Ok(())
+}
+
+/// `brdf report`: every model at its representative parameters.
+fn report(out: &Path, no_gpu: bool, device: Option<String>) -> Result<()> {
+    if no_gpu {
+        warn_gpu_only(&[("--device", device.is_some())]);
+    }
+    tools::prepare_report_dir(out)?;
+    let gpu = if no_gpu {
+        None
+    } else {
+        let ctx = vk::Context::new(&vk::ContextOptions {
+            device,
+            validation: false,
+        })?;
+        let compiler = vk::ShaderCompiler::new()?;
+        Some((ctx, compiler))
+    };
+    let mut rows = Vec::new();
+    for (label, src) in tools::REPRESENTATIVE {
+        eprintln!("measuring {label}");
+        let (mut row, m) = tools::report_row(label, src)?;
+        if let Some((ctx, compiler)) = &gpu {
+            row.ns_per_eval_gpu = Some(brdfwave::gpu::brdf_probe::eval_cost(ctx, compiler, &m)?);
+        }
+        tools::write_plot(
+            &out.join(format!("lobe_{}.png", tools::slug(label))),
+            &tools::plot_lobe(m.brdf.as_ref(), 45.0),
+        )?;
+        rows.push(row);
+    }
+    let device_name = gpu.as_ref().map(|(c, _)| c.device_name.clone());
+    let md = tools::report_markdown(&rows, device_name.as_deref());
+    outfile::write(&out.join("report.md"), md.as_bytes())?;
+    outfile::write(&out.join("report.csv"), tools::report_csv(&rows).as_bytes())?;
+    out!("{md}")?;
+    outln!(
+        "\nwrote {}/report.md, report.csv and lobe_*.png",
+        out.display()
+    )?;
+    Ok(())
+}

@@ -1,0 +1,162 @@
+//! `brdfwave merge`: partial films into one image (`brdfwave::film::merge`).
+
+use super::summary::{stage_counts, write_nonfinite, StageCount};
+use anyhow::{bail, Context as _, Result};
+use brdfwave::{
+    film, imageio,
+    outfile::{self, Output},
+};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args)]
+pub struct MergeArgs {
+    /// The partial films (.bwfilm), in any order.
+    #[arg(required = true)]
+    parts: Vec<PathBuf>,
+    /// Output images (.exr, .png or .pfm); may be given several times.
+    #[arg(long = "out", required = true)]
+    out: Vec<PathBuf>,
+    /// The samples the parts must hold together, START..END: a set that holds fewer (a
+    /// missing last part) is refused (default: any one range, without gaps or overlaps).
+    #[arg(long, value_parser = brdfwave::film::parse_samples)]
+    samples: Option<std::ops::Range<u32>>,
+    /// Also write the per-pixel variance of one sample (EXR).
+    #[arg(long)]
+    variance_out: Option<PathBuf>,
+    /// Print the summary as one JSON object on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+/// What `merge` reports.
+#[derive(Serialize)]
+struct MergeSummary {
+    scene: String,
+    parts: usize,
+    tiles: usize,
+    width: u32,
+    height: u32,
+    samples: [u32; 2],
+    spp: u32,
+    backends: Vec<String>,
+    extension_rays: u64,
+    shadow_rays: u64,
+    nonfinite_samples: u64,
+    nonfinite_by_stage: Vec<StageCount>,
+    /// The parts' render times added: the compute time of the whole job.
+    seconds_render: f64,
+    mean_radiance: [f64; 3],
+    outputs: Vec<String>,
+    variance_output: Option<String>,
+}
+
+impl std::fmt::Display for MergeSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "merged         {} parts ({} tile{}) of {}",
+            self.parts,
+            self.tiles,
+            if self.tiles == 1 { "" } else { "s" },
+            self.scene
+        )?;
+        writeln!(
+            f,
+            "image          {}x{}, {} spp (samples {}..{})",
+            self.width, self.height, self.spp, self.samples[0], self.samples[1]
+        )?;
+        writeln!(f, "rendered on    {}", self.backends.join("; "))?;
+        writeln!(
+            f,
+            "work           {:.3} s of rendering, {} extension and {} shadow rays",
+            self.seconds_render, self.extension_rays, self.shadow_rays
+        )?;
+        write_nonfinite(f, self.nonfinite_samples, &self.nonfinite_by_stage)?;
+        for o in self.outputs.iter().chain(&self.variance_output) {
+            writeln!(f, "wrote          {o}")?;
+        }
+        Ok(())
+    }
+}
+
+pub fn run(a: MergeArgs) -> Result<()> {
+    let MergeArgs {
+        parts,
+        out,
+        samples,
+        variance_out,
+        json,
+    } = a;
+    let (parts, out, variance_out) = (&parts[..], &out[..], variance_out.as_deref());
+    let mut planned: Vec<Output> = out
+        .iter()
+        .map(|p| Output {
+            option: "--out",
+            path: p,
+        })
+        .collect();
+    if let Some(v) = variance_out {
+        planned.push(Output {
+            option: "--variance-out",
+            path: v,
+        });
+    }
+    for o in &planned {
+        imageio::Format::from_path(o.path).with_context(|| o.option.to_string())?;
+        if let Some(p) = parts
+            .iter()
+            .find(|p| outfile::resolve(p) == outfile::resolve(o.path))
+        {
+            bail!(
+                "{} {} is also a part to merge: it would be overwritten",
+                o.option,
+                p.display()
+            );
+        }
+    }
+    outfile::prepare(&planned)?;
+    let m = film::merge(parts)?;
+    if let Some(want) = samples.filter(|w| *w != m.samples) {
+        bail!(
+            "the parts hold samples {}..{}, not the {}..{} asked for (--samples): a part is missing or left over",
+            m.samples.start,
+            m.samples.end,
+            want.start,
+            want.end
+        );
+    }
+    let paths: Vec<&Path> = planned.iter().map(|o| o.path).collect();
+    outfile::write_each(&paths, |i, p| {
+        imageio::write(p, if i < out.len() { &m.mean } else { &m.variance })?;
+        Ok(())
+    })?;
+    let nonfinite_samples = m.nonfinite_by_stage.iter().map(|s| s.1).sum();
+    let summary = MergeSummary {
+        scene: m.scene.clone(),
+        parts: parts.len(),
+        tiles: m.tiles,
+        width: m.mean.width,
+        height: m.mean.height,
+        samples: [m.samples.start, m.samples.end],
+        spp: m.samples.end - m.samples.start,
+        backends: m.backends.clone(),
+        extension_rays: m.extension_rays,
+        shadow_rays: m.shadow_rays,
+        nonfinite_samples,
+        nonfinite_by_stage: stage_counts(&m.nonfinite_by_stage),
+        seconds_render: m.seconds_render,
+        mean_radiance: m.mean.mean(),
+        outputs: out.iter().map(|o| o.display().to_string()).collect(),
+        variance_output: variance_out.map(|v| v.display().to_string()),
+    };
+    if json {
+        outln!("{}", serde_json::to_string(&summary)?)?;
+    } else {
+        out!("{summary}")?;
+    }
+    if nonfinite_samples > 0 {
+        eprintln!("warning: the parts dropped {nonfinite_samples} non-finite values");
+    }
+    Ok(())
+}

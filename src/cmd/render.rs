@@ -1,0 +1,553 @@
+//! `brdfwave render`: one scene, one backend, one [`Renderer`] (`brdfwave::render`), written to
+//! images or a partial film, and the summary of the render.
+
+use super::summary::{stage_counts, write_nonfinite, StageCount};
+use super::{parse_device, parse_res, parse_sampler, warn_gpu_only, Backend, IntegratorArg};
+use anyhow::{bail, Context as _, Result};
+use brdfwave::{
+    bvh::{self, Bvh},
+    film::{self, Tile},
+    imageio,
+    outfile::{self, Output},
+    render::{
+        self, Description, Overrides, Progress, ProgressUnit, RenderRequest, Rendered, Renderer,
+    },
+    scene::{self, Scene},
+    vk,
+};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The options of `brdfwave render`.
+#[derive(clap::Args)]
+pub struct RenderArgs {
+    /// The scene file (TOML; scenes/README.md documents the format).
+    scene: PathBuf,
+    /// Renderer: the Vulkan wavefront path tracer or the CPU reference.
+    #[arg(long, value_enum, default_value = "gpu")]
+    backend: Backend,
+    /// Samples per pixel (overrides the scene).
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Image size WxH (overrides the scene).
+    #[arg(long, value_parser = parse_res)]
+    res: Option<(u32, u32)>,
+    /// Maximum path segments; the camera segment is one (overrides the scene).
+    #[arg(long)]
+    max_depth: Option<u32>,
+    /// Seed of the random numbers, 0 to 4294967295 (overrides the scene); the same seed
+    /// gives nearly the same image on both backends.
+    #[arg(long)]
+    seed: Option<u32>,
+    /// Where the random numbers come from (overrides the scene): `sobol` (Owen-scrambled
+    /// Sobol' points, the default) or `independent`.
+    #[arg(long, value_parser = parse_sampler)]
+    sampler: Option<brdfwave::rng::Sampler>,
+    /// Output files (.exr, .png or .pfm images; .bwfilm, a partial film for `brdfwave
+    /// merge`); may be given several times; missing directories are created. Default:
+    /// out/<scene name>.png
+    #[arg(long = "out")]
+    out: Vec<PathBuf>,
+    /// Render only these sample indices, START..END (END exclusive), e.g. 0..256, for a
+    /// partial film: parts with consecutive ranges merge into the image of one render
+    /// (default: 0..spp).
+    #[arg(long, value_parser = brdfwave::film::parse_samples, conflicts_with = "spp")]
+    samples: Option<std::ops::Range<u32>>,
+    /// Render only the pixels of this tile, X,Y,W,H (from the top-left corner), for a
+    /// partial film; images written are the tile's size (default: the whole image).
+    #[arg(long, value_parser = brdfwave::film::Tile::parse)]
+    tile: Option<Tile>,
+    /// Also write the per-pixel variance of one sample (EXR), for statistical tests.
+    #[arg(long)]
+    variance_out: Option<PathBuf>,
+    /// Vulkan device: a case-insensitive part of its name (default: lavapipe if present;
+    /// `brdfwave devices` lists them). GPU backend only.
+    #[arg(long, value_parser = parse_device)]
+    device: Option<String>,
+    /// Enable the Khronos validation layer; the run fails if it reports anything, or if the
+    /// layer is not installed. GPU backend only.
+    #[arg(long)]
+    validation: bool,
+    /// GPU: most paths in flight at a time, 64 to 1048576 (the default). The image does not
+    /// depend on it.
+    #[arg(long)]
+    wave_paths: Option<u32>,
+    /// GPU: how paths are followed: `wavefront` (the stages with queues, the default) or
+    /// `megakernel` (one kernel per wave, the benchmark's baseline). Same image.
+    #[arg(long, value_enum, default_value = "wavefront")]
+    integrator: IntegratorArg,
+    /// Print the summary as one JSON object on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+impl RenderArgs {
+    fn overrides(&self) -> Overrides {
+        Overrides {
+            spp: self.spp,
+            res: self.res,
+            max_depth: self.max_depth,
+            seed: self.seed,
+            sampler: self.sampler,
+            samples: self.samples.clone(),
+            tile: self.tile,
+        }
+    }
+}
+
+/// The bar of a render's progress on stderr (drawn only on a terminal): rows of the tile on
+/// the CPU, per cent of the samples on the GPU.
+fn progress_bar(unit: ProgressUnit, total: f64) -> ProgressBar {
+    let (len, template) = match unit {
+        ProgressUnit::Rows => (
+            total as u64,
+            "{spinner} rows [{bar:40}] {pos}/{len} {elapsed} eta {eta}",
+        ),
+        // Per mille of a sample, so that a single wave shows progress by segment.
+        ProgressUnit::Samples => (
+            total as u64 * 1000,
+            "{spinner} samples [{bar:40}] {percent}% {elapsed} eta {eta}",
+        ),
+    };
+    let pb = ProgressBar::new(len);
+    pb.set_style(
+        ProgressStyle::with_template(template)
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    pb
+}
+
+fn show(pb: &ProgressBar, p: Progress) {
+    pb.set_position(match p.unit {
+        ProgressUnit::Rows => p.done as u64,
+        ProgressUnit::Samples => (p.done * 1000.0) as u64,
+    });
+}
+
+/// What `render` reports: printed as text, or as one JSON object with `--json`.
+#[derive(Serialize)]
+struct RenderSummary {
+    backend: &'static str,
+    device: String,
+    scene: String,
+    width: u32,
+    height: u32,
+    /// The part of the image rendered, when not all of it (`--tile`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    tile: Option<Tile>,
+    /// The sample indices rendered, START..END.
+    samples: [u32; 2],
+    spp: u32,
+    max_depth: u32,
+    seed: u32,
+    sampler: &'static str,
+    russian_roulette: bool,
+    /// GPU only.
+    #[serde(flatten)]
+    gpu: Option<GpuSetup>,
+    seconds_bvh: f64,
+    bvh_nodes: usize,
+    seconds_setup: f64,
+    seconds_render: f64,
+    paths_per_second: f64,
+    rays_per_second: f64,
+    extension_rays: u64,
+    shadow_rays: u64,
+    rays_by_segment: Vec<SegmentRays>,
+    nonfinite_samples: u64,
+    nonfinite_by_stage: Vec<StageCount>,
+    mean_radiance: [f64; 3],
+    stage_seconds: Vec<StageSeconds>,
+    outputs: Vec<String>,
+    variance_output: Option<String>,
+}
+
+#[derive(Serialize)]
+struct GpuSetup {
+    pipelines: Vec<String>,
+    seconds_shader_compile: f64,
+    seconds_pipeline_create: f64,
+    wave_paths: u32,
+    integrator: &'static str,
+    subgroup_queues: bool,
+}
+
+#[derive(Serialize)]
+struct SegmentRays {
+    extension: u64,
+    shadow: u64,
+}
+
+#[derive(Serialize)]
+struct StageSeconds {
+    stage: String,
+    seconds: f64,
+}
+
+impl std::fmt::Display for RenderSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "backend        {} on {}", self.backend, self.device)?;
+        let part = match (&self.tile, self.samples[0]) {
+            (None, 0) => String::new(),
+            (tile, _) => format!(
+                " (samples {}..{}{})",
+                self.samples[0],
+                self.samples[1],
+                tile.map(|t| format!(", tile {t}")).unwrap_or_default()
+            ),
+        };
+        writeln!(
+            f,
+            "image          {}x{}, {} spp{part}, max depth {}, sampler {}",
+            self.width, self.height, self.spp, self.max_depth, self.sampler
+        )?;
+        if let Some(g) = &self.gpu {
+            writeln!(
+                f,
+                "pipelines      {} (compile {:.3} s, create {:.3} s)",
+                g.pipelines.join(", "),
+                g.seconds_shader_compile,
+                g.seconds_pipeline_create
+            )?;
+            let sg = if g.subgroup_queues {
+                ", subgroup-aggregated queue pushes"
+            } else {
+                ""
+            };
+            writeln!(f, "wave           {} paths in flight{sg}", g.wave_paths)?;
+        }
+        writeln!(
+            f,
+            "time           set-up {:.3} s (BVH {:.3} s), render {:.3} s",
+            self.seconds_setup, self.seconds_bvh, self.seconds_render
+        )?;
+        writeln!(
+            f,
+            "throughput     {:.3} M paths/s, {:.3} M rays/s",
+            self.paths_per_second / 1e6,
+            self.rays_per_second / 1e6
+        )?;
+        write_nonfinite(f, self.nonfinite_samples, &self.nonfinite_by_stage)?;
+        if !self.stage_seconds.is_empty() {
+            let parts: Vec<String> = self
+                .stage_seconds
+                .iter()
+                .map(|e| format!("{} {:.3}", e.stage, e.seconds))
+                .collect();
+            writeln!(f, "stages (s)     {}", parts.join(", "))?;
+        }
+        for o in self.outputs.iter().chain(&self.variance_output) {
+            writeln!(f, "wrote          {o}")?;
+        }
+        Ok(())
+    }
+}
+
+/// Where a render's outputs go: images get the mean (or, for `--variance-out`, the variance);
+/// `.bwfilm` files get the partial film.
+fn is_partial_film(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("bwfilm"))
+}
+
+/// The outputs of a render: the images and partial films asked for (`--out`, else the
+/// default), then `--variance-out`.
+struct Outputs {
+    outs: Vec<PathBuf>,
+    variance_out: Option<PathBuf>,
+    option: &'static str,
+}
+
+impl Outputs {
+    fn of(a: &RenderArgs) -> Self {
+        let (outs, option) = if a.out.is_empty() {
+            let stem = a
+                .scene
+                .file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or("render");
+            (
+                vec![PathBuf::from(format!("out/{stem}.png"))],
+                "the default output",
+            )
+        } else {
+            (a.out.clone(), "--out")
+        };
+        Outputs {
+            outs,
+            variance_out: a.variance_out.clone(),
+            option,
+        }
+    }
+
+    fn planned(&self) -> Vec<Output<'_>> {
+        let mut planned: Vec<Output> = self
+            .outs
+            .iter()
+            .map(|p| Output {
+                option: self.option,
+                path: p,
+            })
+            .collect();
+        if let Some(v) = &self.variance_out {
+            planned.push(Output {
+                option: "--variance-out",
+                path: v,
+            });
+        }
+        planned
+    }
+
+    /// Refuses an output of an unknown format or that is the scene file, and makes the
+    /// directories, before anything is rendered.
+    fn prepare(&self, scene: &Path) -> Result<()> {
+        let planned = self.planned();
+        for (i, o) in planned.iter().enumerate() {
+            if i < self.outs.len() && is_partial_film(o.path) {
+                continue;
+            }
+            imageio::Format::from_path(o.path).with_context(|| {
+                if i < self.outs.len() {
+                    format!("{} (a partial film ends in .bwfilm)", o.option)
+                } else {
+                    o.option.to_string()
+                }
+            })?;
+        }
+        outfile::refuse_inputs(&planned, &[("scene file", scene)])?;
+        outfile::prepare(&planned)
+    }
+
+    fn wants_film(&self) -> bool {
+        self.outs.iter().any(|p| is_partial_film(p))
+    }
+
+    /// Writes every output that can be written, even when one fails; then reports the failures.
+    fn write(&self, r: &Rendered, part: Option<&film::Part>) -> Result<()> {
+        let planned = self.planned();
+        let paths: Vec<&Path> = planned.iter().map(|o| o.path).collect();
+        outfile::write_each(&paths, |i, p| {
+            if i < self.outs.len() && is_partial_film(p) {
+                film::write_part(p, part.expect("a film is kept for .bwfilm outputs"))?;
+            } else {
+                let img = if i < self.outs.len() {
+                    &r.output.mean
+                } else {
+                    &r.output.variance
+                };
+                imageio::write(p, img)?;
+            }
+            Ok(())
+        })?;
+        Ok(())
+    }
+}
+
+pub fn run(a: RenderArgs) -> Result<()> {
+    let t0 = Instant::now();
+    let mut sc = scene::load(&a.scene)?;
+    for w in &sc.warnings {
+        eprintln!("{w}");
+    }
+    let part = a.overrides().apply(&mut sc)?;
+    if let Some(w) = a.wave_paths {
+        brdfwave::gpu::check_wave_paths(w).context("--wave-paths")?;
+    }
+    if a.backend == Backend::Cpu {
+        warn_gpu_only(&[
+            ("--device", a.device.is_some()),
+            ("--validation", a.validation),
+            ("--wave-paths", a.wave_paths.is_some()),
+        ]);
+    } else if a.validation {
+        vk::require_validation().context("--validation")?;
+    }
+    let outputs = Outputs::of(&a);
+    outputs.prepare(&a.scene)?;
+    let t_bvh = Instant::now();
+    let bvh = bvh::build(&sc);
+    let seconds_bvh = t_bvh.elapsed().as_secs_f64();
+    let gpu = match a.backend {
+        Backend::Gpu => Some((
+            vk::Context::new(&vk::ContextOptions {
+                device: a.device.clone(),
+                validation: a.validation,
+            })?,
+            vk::ShaderCompiler::new()?,
+        )),
+        Backend::Cpu => None,
+    };
+    let backend = match &gpu {
+        Some((ctx, compiler)) => render::Backend::Gpu {
+            ctx,
+            compiler,
+            options: brdfwave::gpu::GpuOptions {
+                wave_paths: a.wave_paths.unwrap_or(brdfwave::gpu::MAX_WAVE_PATHS),
+                integrator: a.integrator.gpu(),
+                tile: None,
+            },
+        },
+        None => render::Backend::Cpu,
+    };
+    let request = RenderRequest {
+        samples: part.samples.clone(),
+        take_film: outputs.wants_film(),
+    };
+    let r = render::open(backend, &sc, &bvh, part.tile)?;
+    let (mut rendered, description, seconds_setup, seconds_render) =
+        render_with_progress(r, &request, part.tile, t0)?;
+    // Tear down now so that messages raised at device destruction (leaks) count too.
+    if let Some((ctx, compiler)) = gpu {
+        drop(compiler);
+        let msgs = ctx.finish();
+        if !msgs.is_empty() {
+            bail!(
+                "the validation layer reported {} message(s):\n{}",
+                msgs.len(),
+                msgs.join("\n")
+            );
+        }
+    }
+    let part_film = rendered.film.take().map(|film| {
+        film::Part::of_render(
+            &a.scene.display().to_string(),
+            &sc,
+            film,
+            &rendered.output,
+            description.backend,
+            &description.device,
+            seconds_render,
+        )
+    });
+    outputs.write(&rendered, part_film.as_ref())?;
+    let times = Times {
+        bvh: seconds_bvh,
+        setup: seconds_setup,
+        render: seconds_render,
+    };
+    let summary = summary(
+        &a,
+        &sc,
+        &bvh,
+        &part,
+        &description,
+        &rendered,
+        times,
+        &outputs,
+    );
+    if a.json {
+        outln!("{}", serde_json::to_string(&summary)?)?;
+    } else {
+        out!("{summary}")?;
+    }
+    if rendered.output.nonfinite_samples > 0 {
+        eprintln!(
+            "warning: {} non-finite values were dropped (see the stages above)",
+            rendered.output.nonfinite_samples
+        );
+    }
+    Ok(())
+}
+
+/// Renders the request with a progress bar; returns what was rendered, the renderer's
+/// description, and the seconds of set-up (since `t0`) and of the render.
+fn render_with_progress(
+    mut r: Box<dyn Renderer + '_>,
+    request: &RenderRequest,
+    tile: Tile,
+    t0: Instant,
+) -> Result<(Rendered, Description, f64, f64)> {
+    let seconds_setup = t0.elapsed().as_secs_f64();
+    let description = r.describe();
+    let unit = description.progress;
+    let pb = progress_bar(unit, unit.total(tile, &request.samples));
+    let t = Instant::now();
+    let rendered = r.render(request, &|p| show(&pb, p))?;
+    let seconds_render = t.elapsed().as_secs_f64();
+    pb.finish_and_clear();
+    Ok((rendered, description, seconds_setup, seconds_render))
+}
+
+/// The seconds of a render's phases.
+#[derive(Clone, Copy)]
+struct Times {
+    bvh: f64,
+    setup: f64,
+    render: f64,
+}
+
+#[allow(clippy::too_many_arguments)]
+fn summary(
+    a: &RenderArgs,
+    sc: &Scene,
+    bvh: &Bvh,
+    part: &render::Resolved,
+    d: &Description,
+    r: &Rendered,
+    times: Times,
+    outputs: &Outputs,
+) -> RenderSummary {
+    let output = &r.output;
+    let tile = part.tile;
+    let paths = tile.pixels() as f64 * output.spp as f64;
+    let rays = (output.extension_rays + output.shadow_rays) as f64;
+    RenderSummary {
+        backend: d.backend,
+        device: d.device.clone(),
+        scene: a.scene.display().to_string(),
+        width: sc.width,
+        height: sc.height,
+        tile: (tile != Tile::full(sc.width, sc.height)).then_some(tile),
+        samples: [part.samples.start, part.samples.end],
+        spp: output.spp,
+        max_depth: sc.integrator.max_depth,
+        seed: sc.integrator.seed,
+        sampler: sc.integrator.sampler.name(),
+        russian_roulette: sc.integrator.russian_roulette,
+        gpu: d.gpu.as_ref().map(|g| GpuSetup {
+            pipelines: g.setup.pipelines.clone(),
+            seconds_shader_compile: g.setup.seconds_shader_compile,
+            seconds_pipeline_create: g.setup.seconds_pipeline_create,
+            wave_paths: g.setup.wave_paths,
+            integrator: g.integrator.name(),
+            subgroup_queues: g.setup.subgroup_queues,
+        }),
+        seconds_bvh: times.bvh,
+        bvh_nodes: bvh.nodes.len(),
+        seconds_setup: times.setup,
+        seconds_render: times.render,
+        paths_per_second: paths / times.render.max(1e-9),
+        rays_per_second: rays / times.render.max(1e-9),
+        extension_rays: output.extension_rays,
+        shadow_rays: output.shadow_rays,
+        rays_by_segment: output
+            .rays_by_segment
+            .iter()
+            .map(|&(extension, shadow)| SegmentRays { extension, shadow })
+            .collect(),
+        nonfinite_samples: output.nonfinite_samples,
+        nonfinite_by_stage: stage_counts(&output.nonfinite_by_stage),
+        mean_radiance: output.mean.mean(),
+        stage_seconds: output
+            .stage_seconds
+            .iter()
+            .map(|(stage, seconds)| StageSeconds {
+                stage: stage.clone(),
+                seconds: *seconds,
+            })
+            .collect(),
+        outputs: outputs
+            .outs
+            .iter()
+            .map(|o| o.display().to_string())
+            .collect(),
+        variance_output: outputs
+            .variance_out
+            .as_ref()
+            .map(|v| v.display().to_string()),
+    }
+}

@@ -1,0 +1,98 @@
+//! The CPU reference (`crate::cpu::CpuRenderer`) behind [`Renderer`]: the adapter holds the film
+//! that the CPU renderer is passed.
+
+use super::{Description, Progress, ProgressUnit, RenderRequest, Rendered, Renderer};
+use crate::bvh::Bvh;
+use crate::cpu::{CpuFilm, CpuRenderer};
+use crate::film::{self, Tile};
+use crate::output::RenderOutput;
+use crate::scene::Scene;
+use anyhow::{bail, Result};
+use std::ops::Range;
+use std::time::Instant;
+
+pub struct CpuBackend<'a> {
+    renderer: CpuRenderer<'a>,
+    film: CpuFilm,
+}
+
+impl<'a> CpuBackend<'a> {
+    /// A renderer of `tile` (within the image) of `scene`, with an empty film.
+    pub fn new(scene: &'a Scene, bvh: &'a Bvh, tile: Tile) -> Self {
+        let renderer = CpuRenderer::new(scene, bvh);
+        let film = renderer.film_of(tile);
+        CpuBackend { renderer, film }
+    }
+
+    /// `scene.integrator.spp` samples per pixel of the whole image. Unlike
+    /// [`Renderer::render`] it does not ask first whether the film fits in memory, so it cannot
+    /// fail: for the small scenes of the stress harness, whose geometry cases catch panics.
+    pub fn render_all(scene: &'a Scene, bvh: &'a Bvh) -> RenderOutput {
+        let mut r = CpuBackend::new(scene, bvh, Tile::full(scene.width, scene.height));
+        r.add(0..scene.integrator.spp, &|_| {});
+        r.renderer.output(&r.film)
+    }
+
+    /// Adds the samples `samples` to the film.
+    fn add(&mut self, samples: Range<u32>, progress: &(dyn Fn(Progress) + Sync)) {
+        let total = ProgressUnit::Rows.total(self.film.film.tile, &samples);
+        self.renderer
+            .render_samples(&mut self.film, samples, &|rows| {
+                progress(Progress {
+                    done: rows as f64,
+                    total,
+                    unit: ProgressUnit::Rows,
+                })
+            });
+    }
+}
+
+impl Renderer for CpuBackend<'_> {
+    fn render(
+        &mut self,
+        request: &RenderRequest,
+        progress: &(dyn Fn(Progress) + Sync),
+    ) -> Result<Rendered> {
+        let tile = self.film.film.tile;
+        let held = self.film.film.samples();
+        if !self.film.film.blocks.is_empty() && request.samples.start != held.end {
+            bail!(
+                "samples from {} asked for, but the film holds samples {}..{}",
+                request.samples.start,
+                held.start,
+                held.end
+            );
+        }
+        // The film (6 f64 sums per pixel and block), the mean and variance images, and the
+        // encoded output (a partial film is the sums again): an allocation that fails aborts,
+        // so ask first.
+        let blocks = film::dyadic_blocks(request.samples.clone()).len() as u64;
+        let per_pixel = 48 * blocks + 24 + if request.take_film { 48 * blocks } else { 12 };
+        crate::memory::check(
+            tile.pixels() as u64 * per_pixel,
+            &format!("a CPU render of {}x{} pixels", tile.width, tile.height),
+            "render a smaller image or split it into tiles (--tile)",
+        )?;
+        let t = Instant::now();
+        self.add(request.samples.clone(), progress);
+        let seconds_samples = t.elapsed().as_secs_f64();
+        let output = self.renderer.output(&self.film);
+        let film = request
+            .take_film
+            .then(|| std::mem::replace(&mut self.film, self.renderer.film_of(tile)).film);
+        Ok(Rendered {
+            output,
+            film,
+            seconds_samples,
+        })
+    }
+
+    fn describe(&self) -> Description {
+        Description {
+            backend: "cpu",
+            device: format!("CPU reference ({} threads)", rayon::current_num_threads()),
+            progress: ProgressUnit::Rows,
+            gpu: None,
+        }
+    }
+}

@@ -1,0 +1,89 @@
+//! The Vulkan integrator (`crate::gpu::GpuRenderer`) behind [`Renderer`]: it holds its film on
+//! the device, and its tile from its creation.
+
+use super::{
+    Description, GpuDescription, Progress, ProgressUnit, RenderRequest, Rendered, Renderer,
+};
+use crate::bvh::Bvh;
+use crate::film::Tile;
+use crate::gpu::{GpuOptions, GpuRenderer, Integrator};
+use crate::scene::Scene;
+use crate::vk::{Context, ShaderCompiler};
+use anyhow::Result;
+use std::time::Instant;
+
+pub struct GpuBackend<'a> {
+    renderer: GpuRenderer<'a>,
+    ctx: &'a Context,
+    integrator: Integrator,
+}
+
+impl<'a> GpuBackend<'a> {
+    /// A renderer of `tile` (within the image) of `scene` with `options` (whose own tile is
+    /// replaced by `tile`), with an empty film.
+    pub fn new(
+        ctx: &'a Context,
+        compiler: &ShaderCompiler,
+        scene: &'a Scene,
+        bvh: &Bvh,
+        tile: Tile,
+        options: GpuOptions,
+    ) -> Result<Self> {
+        let options = GpuOptions {
+            tile: Some(tile),
+            ..options
+        };
+        Ok(GpuBackend {
+            renderer: GpuRenderer::with_options(ctx, scene, bvh, compiler, options)?,
+            ctx,
+            integrator: options.integrator,
+        })
+    }
+}
+
+impl Renderer for GpuBackend<'_> {
+    fn render(
+        &mut self,
+        request: &RenderRequest,
+        progress: &(dyn Fn(Progress) + Sync),
+    ) -> Result<Rendered> {
+        let total = request.samples.len() as f64;
+        let t = Instant::now();
+        self.renderer
+            .render_samples(request.samples.clone(), &|done| {
+                progress(Progress {
+                    done,
+                    total,
+                    unit: ProgressUnit::Samples,
+                })
+            })?;
+        let seconds_samples = t.elapsed().as_secs_f64();
+        let output = self.renderer.output()?;
+        // Downloaded again only for a partial film (output() keeps only the images).
+        let film = match request.take_film {
+            true => {
+                let film = self.renderer.film()?;
+                self.renderer.reset()?;
+                Some(film)
+            }
+            false => None,
+        };
+        Ok(Rendered {
+            output,
+            film,
+            seconds_samples,
+        })
+    }
+
+    fn describe(&self) -> Description {
+        Description {
+            backend: "gpu",
+            device: self.ctx.device_name.clone(),
+            progress: ProgressUnit::Samples,
+            gpu: Some(GpuDescription {
+                integrator: self.integrator,
+                setup: self.renderer.setup.clone(),
+            }),
+        }
+    }
+}
