@@ -66,7 +66,7 @@ Scatter shade_vertex(uint path, uint depth, Surface s, vec3 d, vec3 b, uint c) {
                         r.shadow = true;
                         r.shadow_o = origin;
                         r.shadow_d = wi;
-                        // Shortened by SHADOW_EPSILON (Rust: bvh::SHADOW_EPSILON).
+                        // Shortened by SHADOW_EPSILON (Rust: robust::SHADOW_EPSILON).
                         r.shadow_tmax = dist * (1.0 - SHADOW_EPSILON);
                         r.shadow_l = contrib;
                     }

@@ -15,12 +15,13 @@
 pub mod surface;
 
 use crate::brdf::Brdf;
-use crate::bvh::{self, Bvh};
+use crate::bvh::Bvh;
 use crate::camera::CameraBasis;
 use crate::film::{self, Block, Film, PairwiseSum, Tile};
 use crate::lights::LightTable;
 use crate::output::{nonfinite_stages, RenderOutput, SEGMENTS_COUNTED};
 use crate::rng::{dim, PathRng};
+use crate::robust;
 use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -283,7 +284,7 @@ impl<'a> CpuRenderer<'a> {
             if wo.z <= 0.0 {
                 break;
             }
-            let origin = bvh::offset_ray_origin(si.p, si.p_err, si.ng);
+            let origin = robust::offset_ray_origin(si.p, si.p_err, si.ng);
             // The light choice and the lobe choice are one pair (LIGHT_SELECT, BSDF_LOBE).
             let u_choice = rng.get2(depth, dim::LIGHT_SELECT);
 
@@ -291,7 +292,7 @@ impl<'a> CpuRenderer<'a> {
             if !self.lights.is_empty() {
                 let u_light = rng.get2(depth, dim::LIGHT_U);
                 let ls = sample_light(s, &self.lights, u_choice.x, u_light.x, u_light.y);
-                let target = bvh::offset_ray_origin(ls.p, ls.p_err, ls.n);
+                let target = robust::offset_ray_origin(ls.p, ls.p_err, ls.n);
                 let to_light = target - origin;
                 let dist2 = to_light.length_squared();
                 if dist2 > 0.0 {
@@ -311,7 +312,7 @@ impl<'a> CpuRenderer<'a> {
                             } else {
                                 stats.shadow_rays += 1;
                                 stats.segment_shadow[seg] += 1;
-                                let tmax = dist * (1.0 - bvh::SHADOW_EPSILON);
+                                let tmax = dist * (1.0 - robust::SHADOW_EPSILON);
                                 if !self.bvh.occluded(s, origin, wi, tmax) {
                                     l += contrib;
                                 }
