@@ -1,7 +1,7 @@
 //! Merging partial films (`brdfwave merge`): checking that the parts belong to one render and
 //! cover every pixel's samples once, then joining their sums exactly.
 
-use super::{read_header, read_part, Block, Film, Tile};
+use super::{read_header, read_part, Block, Film, PartHeader, Tile};
 use crate::imageio::Image;
 use anyhow::{bail, Result};
 use std::ops::Range;
@@ -38,6 +38,23 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
         .iter()
         .map(|p| read_header(p))
         .collect::<Result<Vec<_>>>()?;
+    check_one_render(paths, &headers)?;
+    let (mut cells, samples) = cells(paths, &headers)?;
+    join_sums(paths, &headers, &mut cells)?;
+    let (mean, variance) = images(headers[0].width, headers[0].height, &cells);
+    totals(&headers, mean, variance, samples)
+}
+
+/// A cell of the grid the tiles' edges cut the image into, and the parts whose tiles hold it.
+type Cell = (Film, Vec<usize>);
+
+/// The partial film `i`'s sample range.
+fn samples_of(headers: &[PartHeader], i: usize) -> Range<u32> {
+    headers[i].samples[0]..headers[i].samples[1]
+}
+
+/// The parts come from the same scene and settings, the same program and the same image size.
+fn check_one_render(paths: &[PathBuf], headers: &[PartHeader]) -> Result<()> {
     let name = |i: usize| paths[i].display().to_string();
     let first = &headers[0];
     for (i, h) in headers.iter().enumerate().skip(1) {
@@ -70,11 +87,16 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
             ));
         }
     }
-    let (width, height) = (first.width, first.height);
-    let samples_of = |i: usize| headers[i].samples[0]..headers[i].samples[1];
+    Ok(())
+}
 
-    // The grid the tiles' edges cut the image into: each cell lies in the same parts' tiles
-    // throughout, which must cover the same samples, each sample once.
+/// The grid the tiles' edges cut the image into, each cell with its (empty) film and its parts,
+/// and the sample range every pixel has (None without cells): each cell lies in the same parts' tiles throughout,
+/// which must cover the same samples, each sample once.
+fn cells(paths: &[PathBuf], headers: &[PartHeader]) -> Result<(Vec<Cell>, Option<Range<u32>>)> {
+    let name = |i: usize| paths[i].display().to_string();
+    let (width, height) = (headers[0].width, headers[0].height);
+    let samples_of = |i: usize| samples_of(headers, i);
     let cuts = |edges: &mut dyn Iterator<Item = u32>, size: u32| {
         let mut v: Vec<u32> = edges.chain([0, size]).collect();
         v.sort_unstable();
@@ -93,7 +115,7 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
             .flat_map(|h| [h.tile.y, h.tile.y + h.tile.height]),
         height,
     );
-    let mut cells: Vec<(Film, Vec<usize>)> = Vec::new();
+    let mut cells: Vec<Cell> = Vec::new();
     let mut range: Option<(Range<u32>, Tile)> = None;
     for y in ys.windows(2) {
         for x in xs.windows(2) {
@@ -143,11 +165,15 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
             cells.push((Film::new(cell), members));
         }
     }
+    Ok((cells, range.map(|(r, _)| r)))
+}
 
-    // The sums, one part at a time in sample order: each cell gets its parts' blocks, cut to
-    // the cell, in order.
+/// The sums, one part at a time in sample order: each cell gets its parts' blocks, cut to the
+/// cell, in order.
+fn join_sums(paths: &[PathBuf], headers: &[PartHeader], cells: &mut [Cell]) -> Result<()> {
+    let name = |i: usize| paths[i].display().to_string();
     let mut order: Vec<usize> = (0..headers.len()).collect();
-    order.sort_by_key(|&i| (samples_of(i).start, samples_of(i).end));
+    order.sort_by_key(|&i| (samples_of(headers, i).start, samples_of(headers, i).end));
     for i in order {
         let part = read_part(&paths[i])?;
         if part.header != headers[i] {
@@ -173,9 +199,14 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
             film.add_blocks(blocks);
         }
     }
+    Ok(())
+}
+
+/// The mean and variance images of the whole `width` x `height` image from the cells' films.
+fn images(width: u32, height: u32, cells: &[Cell]) -> (Image, Image) {
     let mut mean = Image::new(width, height);
     let mut variance = Image::new(width, height);
-    for (film, _) in &cells {
+    for (film, _) in cells {
         let cell = film.tile;
         let (m, v) = film.images();
         for py in 0..cell.height {
@@ -186,6 +217,16 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
             }
         }
     }
+    (mean, variance)
+}
+
+/// The merged result: the images and what the parts rendered together (their counts added).
+fn totals(
+    headers: &[PartHeader],
+    mean: Image,
+    variance: Image,
+    samples: Option<Range<u32>>,
+) -> Result<Merged> {
     let tiles = {
         let mut t: Vec<Tile> = headers.iter().map(|h| h.tile).collect();
         t.sort_by_key(|t| (t.y, t.x, t.height, t.width));
@@ -195,7 +236,7 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
     let mut nonfinite_by_stage: Vec<(String, u64)> = Vec::new();
     let mut backends: Vec<String> = Vec::new();
     let overflow = |what: &str| anyhow::anyhow!("the parts' {what} add up to more than 2^64");
-    for h in &headers {
+    for h in headers {
         for (stage, n) in &h.nonfinite_by_stage {
             match nonfinite_by_stage.iter_mut().find(|(s, _)| s == stage) {
                 Some((_, t)) => {
@@ -214,7 +255,7 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
     Ok(Merged {
         mean,
         variance,
-        samples: range.expect("at least one cell").0,
+        samples: samples.expect("at least one cell"),
         tiles,
         extension_rays: headers
             .iter()
@@ -226,7 +267,7 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
             .ok_or_else(|| overflow("shadow-ray counts"))?,
         nonfinite_by_stage,
         seconds_render: headers.iter().map(|h| h.seconds_render).sum(),
-        scene: first.scene.clone(),
+        scene: headers[0].scene.clone(),
         backends,
     })
 }
