@@ -62,6 +62,8 @@ pub fn triangle_double_area_f64(v: &[Vec3; 3]) -> f64 {
     (d(v[1]) - d(v[0])).cross(d(v[2]) - d(v[0])).length()
 }
 
+/// `gamma(n) = n·u / (1 - n·u)` with `u = 2^-24` the unit roundoff of f32: a bound on the
+/// relative error of `n` successive roundings (Higham 2002, "Accuracy and Stability of Numerical
 /// Algorithms", lemma 3.1; used this way by Pharr, Jakob & Humphreys 2016, "Physically Based
 /// Rendering" 3rd ed., sec. 3.9).
 pub const fn gamma(n: u32) -> f32 {

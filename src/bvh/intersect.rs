@@ -182,8 +182,6 @@ pub fn intersect_sphere(o: Vec3, d: Vec3, center: Vec3, radius: f32, tmax: f32) 
     }
 }
 
-/// `gamma(n) = n·u / (1 - n·u)` with `u = 2^-24` the unit roundoff of f32: a bound on the
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -28,6 +28,7 @@ pub struct GpuNode {
 
 const _: () = assert!(std::mem::size_of::<GpuNode>() == 64);
 
+/// Stack entry of a child link.
 #[inline]
 pub(super) fn link(index: u32, count: u32) -> u32 {
     if count == 0 {
