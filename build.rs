@@ -119,8 +119,8 @@ fn link_debian_glslang() {
 }
 
 /// Sets `BRDFWAVE_COMMIT` to the git commit being built (12 hex digits), or empty outside a git
-/// checkout; partial films record it (`src/film.rs`, `code_version`) so that parts rendered by
-/// different versions are not merged. Re-run when HEAD or a branch moves.
+/// checkout; partial films record it (`src/film/part.rs`, `code_version`) so that parts rendered
+/// by different versions are not merged. Re-run when HEAD or a branch moves.
 fn git_commit() {
     let git = |args: &[&str]| -> Option<String> {
         let out = std::process::Command::new("git").args(args).output().ok()?;

@@ -1,4 +1,4 @@
-// BVH traversal and ray/primitive intersection. Rust twin: src/bvh.rs, which documents the
+// BVH traversal and ray/primitive intersection. Rust twin: src/bvh/, whose mod.rs documents the
 // node layout, the link encoding, the tie rule and the numerics. Every step below repeats the
 // Rust arithmetic in the same order; intermediate values are `precise` so the compiler cannot
 // fuse multiply-adds (which would change results and break the sign symmetry of the watertight
@@ -316,35 +316,6 @@ bool trace_closest(vec3 o, vec3 d, float tmax, out Hit hit) {
 bool trace_any(vec3 o, vec3 d, float tmax) {
     Hit h;
     return bvh_traverse(o, d, tmax, true, h);
-}
-
-// Shadow rays end this fraction of their length before the light point (Rust: SHADOW_EPSILON).
-#define SHADOW_EPSILON uintBitsToFloat(0x38d1b717u)
-
-// Rust: next_float_up / next_float_down / offset_ray_origin in src/bvh.rs (the same arithmetic).
-// The next float above (below) x; -0 and +0 are treated as +0 (-0). Non-finite x unchanged.
-float bvh_next_float_up(float x) {
-    if ((floatBitsToUint(x) & 0x7f800000u) == 0x7f800000u) return x;
-    uint b = x == 0.0 ? 0u : floatBitsToUint(x);
-    return uintBitsToFloat(x >= 0.0 ? b + 1u : b - 1u);
-}
-float bvh_next_float_down(float x) {
-    if ((floatBitsToUint(x) & 0x7f800000u) == 0x7f800000u) return x;
-    uint b = x == 0.0 ? 0x80000000u : floatBitsToUint(x);
-    return uintBitsToFloat(x <= 0.0 ? b + 1u : b - 1u);
-}
-
-// Move p, within err (per coordinate) of the true surface point, off the surface to the side of
-// the unit normal n: by |n|.err along n, then each coordinate one float further along n
-// (Pharr, Jakob & Humphreys 2016, sec. 3.9.5).
-vec3 offset_ray_origin(vec3 p, vec3 err, vec3 n) {
-    precise float d = abs(n.x) * err.x + abs(n.y) * err.y + abs(n.z) * err.z;
-    precise vec3 q = p + n * d;
-    for (int i = 0; i < 3; ++i) {
-        if (n[i] > 0.0) q[i] = bvh_next_float_up(q[i]);
-        else if (n[i] < 0.0) q[i] = bvh_next_float_down(q[i]);
-    }
-    return q;
 }
 
 #endif

@@ -5,6 +5,8 @@
 //! * `scene` — scene format and loader (`scenes/README.md` documents the TOML);
 //! * `brdf` — one file per reflectance model (GLSL twins in `shaders/brdf/`);
 //! * `bvh` — host binned-SAH BVH, its GPU layout and the CPU traversal (`shaders/bvh.glsl`);
+//! * `robust` — robust f32 geometry: error-bounded hit points, ray-origin offsets
+//!   (`shaders/robust.glsl`);
 //! * `rng` — the counter-based random numbers both renderers share (`shaders/rng.glsl`);
 //! * `cpu` — the CPU reference path tracer;
 //! * `vk` — the Vulkan backend layer: device, buffers, shader compilation, pipelines;

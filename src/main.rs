@@ -69,7 +69,7 @@ enum Command {
         #[command(subcommand)]
         command: cmd::brdf::BrdfCommand,
     },
-    /// Randomized numerical-stability checks within a time budget (see src/stress.rs).
+    /// Randomized numerical-stability checks within a time budget (see src/stress/).
     Stress(cmd::stress::StressArgs),
 }
 

@@ -5,6 +5,7 @@
 
 use brdfwave::bvh::{self, Bvh, Hit, MAX_DEPTH, SPHERE_BIT};
 use brdfwave::gpu::scene_buffers;
+use brdfwave::robust;
 use brdfwave::scene::shapes::icosphere;
 use brdfwave::scene::{Camera, Integrator, Scene, Sphere, Triangle};
 use brdfwave::stress::Rng;
@@ -574,16 +575,16 @@ fn offset_origins_do_not_hit_their_own_surface() {
             let (p, err, ng, radius) = if h.prim & SPHERE_BIT != 0 {
                 let sph = &s.spheres[(h.prim & !SPHERE_BIT) as usize];
                 let u = rng.dir();
-                let (p, err) = bvh::sphere_point(sph.center, u, sph.radius);
+                let (p, err) = robust::sphere_point(sph.center, u, sph.radius);
                 (p, err, u, sph.radius)
             } else {
                 let v = s.triangles[h.prim as usize].v;
-                let (p, err) = bvh::triangle_point(&v, h.bary.x, h.bary.y);
+                let (p, err) = robust::triangle_point(&v, h.bary.x, h.bary.y);
                 (p, err, brdfwave::robust::triangle_normal(&v), 0.0)
             };
             // Leave from both sides of the surface.
             for n in [ng, -ng] {
-                let origin = bvh::offset_ray_origin(p, err, n);
+                let origin = robust::offset_ray_origin(p, err, n);
                 let mut d = rng.dir();
                 if d.dot(n) < 0.0 {
                     d -= 2.0 * d.dot(n) * n;
@@ -822,6 +823,7 @@ const PROBE: &str = r#"#version 460
 #extension GL_GOOGLE_include_directive : require
 #define BVH_BINDING 2
 #include "bvh.glsl"
+#include "robust.glsl"
 layout(local_size_x = 64) in;
 layout(std430, set = 0, binding = 0) readonly buffer Rays { vec4 rays[]; };
 layout(std430, set = 0, binding = 1) writeonly buffer Out { uvec4 outp[]; };
@@ -971,11 +973,11 @@ fn glsl_traversal_matches_cpu_on_a_vulkan_device() {
             let (p, err, n) = if h.prim & SPHERE_BIT != 0 {
                 let sph = &s.spheres[(h.prim & !SPHERE_BIT) as usize];
                 let u = (o + d * h.t - sph.center).normalize();
-                let (p, err) = bvh::sphere_point(sph.center, u, sph.radius);
+                let (p, err) = robust::sphere_point(sph.center, u, sph.radius);
                 (p, err, u)
             } else {
                 let v = s.triangles[h.prim as usize].v;
-                let (p, err) = bvh::triangle_point(&v, h.bary.x, h.bary.y);
+                let (p, err) = robust::triangle_point(&v, h.bary.x, h.bary.y);
                 (p, err, brdfwave::robust::triangle_normal(&v))
             };
             let n = if k % 2 == 0 { n } else { -n };
@@ -983,7 +985,7 @@ fn glsl_traversal_matches_cpu_on_a_vulkan_device() {
             if dir.dot(n) < 0.0 {
                 dir -= 2.0 * dir.dot(n) * n;
             }
-            rays.push((bvh::offset_ray_origin(p, err, n), dir, f32::MAX));
+            rays.push((robust::offset_ray_origin(p, err, n), dir, f32::MAX));
             rays.push((p, dir, f32::MAX));
         }
         // Axis-aligned rays from grid points (zero direction components, box-face origins).
@@ -1014,7 +1016,7 @@ fn glsl_traversal_matches_cpu_on_a_vulkan_device() {
             let [prim, t, b1, b2] = out[2 * i];
             let [any, qx, qy, qz] = out[2 * i + 1];
             let cpu = b.closest(s, o, d, tmax);
-            let q = bvh::offset_ray_origin(o, o.abs() * 4.0e-7, d);
+            let q = robust::offset_ray_origin(o, o.abs() * 4.0e-7, d);
             assert_eq!(
                 [qx, qy, qz],
                 [q.x.to_bits(), q.y.to_bits(), q.z.to_bits()],

@@ -204,7 +204,7 @@ fn huge_environment_radiance_scales_the_image_linearly() {
 /// inside a box 43 000 from the origin saw the environment through a corner (stress suite).
 #[test]
 fn ray_origins_near_the_edges_of_a_closed_box_stay_inside() {
-    use brdfwave::bvh::{offset_ray_origin, pull_inside, triangle_point};
+    use brdfwave::robust::{offset_ray_origin, pull_inside, triangle_point};
     let mut rng = 0x2545_f491_4f6c_dd1du64;
     let mut uniform = move || {
         rng ^= rng << 13;

@@ -1,5 +1,5 @@
 //! Renders split by sample range and by tile, written as partial films and merged
-//! (`brdfwave render --samples/--tile`, `brdfwave merge`, `src/film.rs`): merged CPU parts equal
+//! (`brdfwave render --samples/--tile`, `brdfwave merge`, `src/film/`): merged CPU parts equal
 //! one CPU render bit for bit, GPU parts and parts from both backends agree within rounding, and
 //! merge refuses parts that do not make one render.
 

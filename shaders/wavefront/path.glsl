@@ -1,7 +1,8 @@
 // The integrator's steps along one path, written once and used by both GPU integrators: the
 // wavefront stages (generate, extend, shade, shadow: one step per kernel, the path state in
 // buffers between them) and the megakernel (every step of a path in one invocation). Rust twin
-// (independent code, same conventions and random-number keys): src/cpu/mod.rs.
+// (independent code, same conventions and random-number keys): camera_ray and segment_end in
+// src/cpu/path.rs, and the loop that calls them, trace_path in src/cpu/mod.rs.
 //
 // Shading a vertex is in wavefront/scatter.glsl, which needs the BRDF interface.
 #ifndef PATH_GLSL

@@ -1,7 +1,7 @@
 // Shading one path vertex: a light sample and a BRDF sample. Used by the wavefront shade
 // kernels and by the megakernel. The includer defines BRDF_EVAL / BRDF_PDF / BRDF_SAMPLE first
 // (shade.comp: one model's functions; megakernel.comp: brdf/any.glsl, a switch over the
-// scene's models). Rust twin: the loop body of CpuRenderer::trace_path (src/cpu/mod.rs).
+// scene's models). Rust twin: shade_vertex in src/cpu/scatter.rs.
 #ifndef SCATTER_GLSL
 #define SCATTER_GLSL
 #include "wavefront/path.glsl"
@@ -66,7 +66,7 @@ Scatter shade_vertex(uint path, uint depth, Surface s, vec3 d, vec3 b, uint c) {
                         r.shadow = true;
                         r.shadow_o = origin;
                         r.shadow_d = wi;
-                        // Shortened by SHADOW_EPSILON (Rust: bvh::SHADOW_EPSILON).
+                        // Shortened by SHADOW_EPSILON (Rust: robust::SHADOW_EPSILON).
                         r.shadow_tmax = dist * (1.0 - SHADOW_EPSILON);
                         r.shadow_l = contrib;
                     }

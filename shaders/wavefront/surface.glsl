@@ -3,6 +3,7 @@
 #ifndef SURFACE_GLSL
 #define SURFACE_GLSL
 #include "wavefront/state.glsl"
+#include "robust.glsl"
 
 #define SPHERE_BIT 0x80000000u
 #define NO_EMITTER 0xFFFFFFFFu
@@ -18,67 +19,6 @@ vec3 default_tangent(vec3 n) {
     float a = -1.0 / (s + n.z);
     float b = n.x * n.y * a;
     return vec3(1.0 + s * n.x * n.x * a, s * b, -s * n.x);
-}
-
-// Rust: bvh::gamma(n), triangle_point, SHIFT_ULPS, ulp, sphere_point (the same arithmetic; the bounds are
-// derived there, after Pharr, Jakob & Humphreys 2016, sec. 3.9).
-#define GAMMA2 uintBitsToFloat(0x34000001u)
-#define GAMMA4 uintBitsToFloat(0x34800002u)
-#define GAMMA5 uintBitsToFloat(0x34a00003u)
-#define SHIFT_ULPS 4.0
-// The spacing of the floats at x >= 0 (2^(exponent - 23)).
-float ulp(float x) {
-    uint e = (floatBitsToUint(x) >> 23) & 0xffu;
-    return e > 23u ? uintBitsToFloat((e - 23u) << 23) : uintBitsToFloat(1u);
-}
-// Rust: bvh::pull_inside. A hit's barycentrics moved a fraction t towards the centroid's
-// (1/3, 1/3), by SHIFT_ULPS ulps of the coordinates' magnitude (at most half way), so that a
-// point near an edge is not on or beyond the neighbouring face's plane.
-vec2 pull_inside(vec3 v0, vec3 v1, vec3 v2, float b1, float b2) {
-    precise vec3 e1 = v1 - v0;
-    precise vec3 e2 = v2 - v0;
-    const float third = 1.0 / 3.0;
-    precise float d1 = third - b1;
-    precise float d2 = third - b2;
-    precise vec3 to_c = abs(e1 * d1 + e2 * d2);
-    precise float dist = max(to_c.x, max(to_c.y, to_c.z));
-    if (!(dist > 0.0 && is_finite_f(dist))) return vec2(b1, b2);
-    vec3 a0 = abs(v0);
-    precise float delta = ulp(max(a0.x, max(a0.y, a0.z)) + 3.0 * dist) * SHIFT_ULPS;
-    precise float t = min(delta / dist, 0.5);
-    return vec2(b1 + t * d1, b2 + t * d2);
-}
-// p = v0 + (b1 (v1 - v0) + b2 (v2 - v0)); err bounds its distance from the plane per coordinate.
-void triangle_point(vec3 v0, vec3 v1, vec3 v2, float b1, float b2, out vec3 p, out vec3 err) {
-    precise vec3 e1 = (v1 - v0) * b1;
-    precise vec3 e2 = (v2 - v0) * b2;
-    precise vec3 q = v0 + (e1 + e2);
-    precise vec3 e = (abs(e1) + abs(e2)) * GAMMA4 + abs(q) * GAMMA2;
-    p = q;
-    err = e;
-}
-// p = c + u r for a (nearly) unit u; err bounds its distance from the sphere per coordinate.
-void sphere_point(vec3 c, vec3 u, float r, out vec3 p, out vec3 err) {
-    precise vec3 ur = u * r;
-    precise vec3 q = c + ur;
-    precise float radial = abs(1.0 - (u.x * u.x + u.y * u.y + u.z * u.z)) * abs(r);
-    precise vec3 e = abs(ur) * GAMMA5 + abs(q) * GAMMA2 + vec3(radial);
-    p = q;
-    err = e;
-}
-
-// Rust: robust::scale_to_unit_exponent and triangle_normal. An edge scaled by the power of two
-// that brings its largest component into [0.5, 1) (exact), so that the cross product of huge or
-// tiny edges neither overflows nor underflows; the same normal bit for bit otherwise.
-vec3 scaled_edge(vec3 e) {
-    float m = max(abs(e.x), max(abs(e.y), abs(e.z)));
-    if (!(m > 0.0) || !is_finite_f(m)) return e;
-    int ex;
-    frexp(m, ex);
-    return ldexp(e, ivec3(-ex));
-}
-vec3 triangle_normal(vec3 v0, vec3 v1, vec3 v2) {
-    return normalize(cross(scaled_edge(v1 - v0), scaled_edge(v2 - v0)));
 }
 
 Frame make_frame(vec3 n, vec3 hint) {

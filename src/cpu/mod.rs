@@ -12,21 +12,21 @@
 //! d adds segment d+1, so it is taken only when d < max_depth. Surfaces reflect on their front
 //! side only; a path that reaches a back face ends. Russian roulette is optional.
 
+mod path;
+mod scatter;
 pub mod surface;
 
-use crate::brdf::Brdf;
-use crate::bvh::{self, Bvh};
+use crate::bvh::Bvh;
 use crate::camera::CameraBasis;
 use crate::conventions::SEGMENTS_COUNTED;
 use crate::film::{self, Block, Film, PairwiseSum, Tile};
 use crate::lights::LightTable;
 use crate::output::{nonfinite_stages, RenderOutput};
-use crate::rng::{dim, PathRng};
+use crate::rng::PathRng;
 use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
-use surface::{light_pdf, power_heuristic, sample_light, surface_at};
 
 /// Statistics of one path.
 #[derive(Default)]
@@ -219,137 +219,44 @@ impl<'a> CpuRenderer<'a> {
         }
     }
 
-    /// Radiance of one camera path through pixel (x, y).
+    /// Radiance of one camera path through pixel (x, y): per segment [`Self::segment_end`]
+    /// (`path.rs`), then at a surface the path goes on from [`Self::shade_vertex`]
+    /// (`scatter.rs`) and its shadow ray, in the order of the GPU megakernel
+    /// (`shaders/wavefront/megakernel.comp`).
     fn trace_path(&self, x: u32, y: u32, rng: &PathRng, stats: &mut PathStats) -> Vec3 {
         let s = self.scene;
-        let max_depth = s.integrator.max_depth;
-        let sub_pixel = rng.get2(0, dim::PIXEL_X);
-        let fx = x as f32 + sub_pixel.x;
-        let fy = y as f32 + sub_pixel.y;
-        let mut o = self.camera.origin;
-        let mut d = self.camera.ray_direction(fx, fy, s.width, s.height);
+        let (mut o, mut d) = self.camera_ray(x, y, rng);
         let mut beta = Vec3::ONE;
         let mut l = Vec3::ZERO;
         // Solid-angle pdf of the BSDF sample that produced the current ray; 0 for the camera
         // ray and after delta lobes (emission is then counted with weight 1).
         let mut prev_pdf = 0.0f32;
-        for depth in 1..=max_depth {
+        for depth in 1..=s.integrator.max_depth {
             stats.extension_rays += 1;
             let seg = (depth.min(SEGMENTS_COUNTED) - 1) as usize;
             stats.segment_extension[seg] += 1;
-            let Some(hit) = self.bvh.closest(s, o, d, f32::MAX) else {
-                let e = beta * s.environment;
-                if e.is_finite() {
-                    l += e;
-                } else {
-                    stats.nonfinite_extend += 1;
-                }
+            let end = self.segment_end(depth, o, d, prev_pdf, beta, stats);
+            if let Some(e) = end.e {
+                l += e;
+            }
+            let Some(si) = end.surface else {
                 break;
             };
-            let si = surface_at(s, &hit, o, d);
-            if !si.front {
-                break;
-            }
-            if let Some(e) = si.emitter {
-                let le = s.emitters[e as usize].radiance;
-                let w = if prev_pdf > 0.0 {
-                    let cos_light = -d.dot(si.ng);
-                    power_heuristic(
-                        prev_pdf,
-                        light_pdf(
-                            self.lights.select_density[e as usize],
-                            hit.t * hit.t,
-                            cos_light,
-                        ),
-                    )
-                } else {
-                    1.0
-                };
-                let e = beta * le * w;
-                if e.is_finite() {
-                    l += e;
-                } else {
-                    stats.nonfinite_extend += 1;
+            let sc = self.shade_vertex(rng, depth, &si, d, beta, stats);
+            if let Some(sh) = sc.shadow {
+                stats.shadow_rays += 1;
+                stats.segment_shadow[seg] += 1;
+                if !self.bvh.occluded(s, sh.o, sh.d, sh.tmax) {
+                    l += sh.l;
                 }
             }
-            if depth == max_depth {
-                break;
-            }
-            let material = &s.materials[si.material as usize];
-            let brdf: &dyn Brdf = material.brdf.as_ref();
-            if !brdf.scatters() {
-                break;
-            }
-            let wo = si.frame.to_local(-d);
-            if wo.z <= 0.0 {
-                break;
-            }
-            let origin = bvh::offset_ray_origin(si.p, si.p_err, si.ng);
-            // The light choice and the lobe choice are one pair (LIGHT_SELECT, BSDF_LOBE).
-            let u_choice = rng.get2(depth, dim::LIGHT_SELECT);
-
-            // Next-event estimation.
-            if !self.lights.is_empty() {
-                let u_light = rng.get2(depth, dim::LIGHT_U);
-                let ls = sample_light(s, &self.lights, u_choice.x, u_light.x, u_light.y);
-                let target = bvh::offset_ray_origin(ls.p, ls.p_err, ls.n);
-                let to_light = target - origin;
-                let dist2 = to_light.length_squared();
-                if dist2 > 0.0 {
-                    let dist = dist2.sqrt();
-                    let wi = to_light / dist;
-                    let cos_light = -wi.dot(ls.n);
-                    let wi_local = si.frame.to_local(wi);
-                    if cos_light > 0.0 && wi.dot(si.ng) > 0.0 && wi_local.z > 0.0 {
-                        let pdf_l = light_pdf(ls.density, dist2, cos_light);
-                        let f = brdf.eval(wi_local, wo);
-                        if pdf_l > 0.0 && f != Vec3::ZERO {
-                            let pdf_b = brdf.pdf(wo, wi_local);
-                            let w = power_heuristic(pdf_l, pdf_b);
-                            let contrib = beta * f * (wi_local.z * w / pdf_l) * ls.radiance;
-                            if !contrib.is_finite() {
-                                stats.nonfinite_shade[material.model] += 1;
-                            } else {
-                                stats.shadow_rays += 1;
-                                stats.segment_shadow[seg] += 1;
-                                let tmax = dist * (1.0 - bvh::SHADOW_EPSILON);
-                                if !self.bvh.occluded(s, origin, wi, tmax) {
-                                    l += contrib;
-                                }
-                            }
-                        }
-                    }
-                }
-            }
-
-            // BSDF sampling for the next segment.
-            let u = rng.get2(depth, dim::BSDF_U);
-            let Some(bs) = brdf.sample(wo, u_choice.y, u) else {
+            let Some(next) = sc.next else {
                 break;
             };
-            let wi = si.frame.to_world(bs.wi);
-            if wi.dot(si.ng) <= 0.0 {
-                break;
-            }
-            beta *= bs.weight;
-            prev_pdf = if bs.delta { 0.0 } else { bs.pdf };
-            if s.integrator.russian_roulette && depth >= s.integrator.rr_start_depth {
-                let q = beta.max_element().min(1.0);
-                if rng.get(depth, dim::RR) >= q {
-                    break;
-                }
-                beta /= q;
-            }
-            // A non-finite throughput, direction or pdf ends the path, counted.
-            if !(beta.is_finite() && wi.is_finite() && prev_pdf.is_finite()) {
-                stats.nonfinite_shade[material.model] += 1;
-                break;
-            }
-            if beta == Vec3::ZERO {
-                break;
-            }
-            o = origin;
-            d = wi;
+            o = next.o;
+            d = next.d;
+            beta = next.beta;
+            prev_pdf = next.pdf;
         }
         l
     }

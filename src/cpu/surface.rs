@@ -1,8 +1,9 @@
 //! Surface interactions and light samples for the CPU reference renderer.
 //! GLSL twin: `shaders/wavefront/surface.glsl` (surfaces and light sampling).
 
-use crate::bvh::{sphere_point, triangle_point, Hit, SPHERE_BIT};
+use crate::bvh::{Hit, SPHERE_BIT};
 use crate::lights::LightTable;
+use crate::robust::{pull_inside, sphere_point, triangle_point};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -51,7 +52,7 @@ pub fn make_frame(n: Vec3, tangent_hint: Vec3) -> Frame {
 
 pub struct Surface {
     pub p: Vec3,
-    /// Absolute rounding-error bound of `p`, per coordinate (for `bvh::offset_ray_origin`).
+    /// Absolute rounding-error bound of `p`, per coordinate (for `robust::offset_ray_origin`).
     pub p_err: Vec3,
     /// Unit geometric normal on the front side.
     pub ng: Vec3,
@@ -86,7 +87,7 @@ pub fn surface_at(scene: &Scene, hit: &Hit, o: Vec3, d: Vec3) -> Surface {
         let (b1, b2) = (hit.bary.x, hit.bary.y);
         let b0 = 1.0 - b1 - b2;
         let [v0, v1, v2] = tri.v;
-        let (pb1, pb2) = crate::bvh::pull_inside(&tri.v, b1, b2);
+        let (pb1, pb2) = pull_inside(&tri.v, b1, b2);
         let (p, p_err) = triangle_point(&tri.v, pb1, pb2);
         let e1 = v1 - v0;
         let e2 = v2 - v0;
@@ -195,22 +196,4 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
     }
     let r = (b / a).min(1e18);
     1.0 / (1.0 + r * r)
-}
-
-#[cfg(test)]
-mod tests {
-    /// The GLSL twin's gamma(n) are the Rust ones, bit for bit.
-    #[test]
-    fn glsl_gammas_match() {
-        let glsl = include_str!("../../shaders/wavefront/surface.glsl");
-        for n in [2, 4, 5] {
-            let key = format!("#define GAMMA{n} ");
-            let line = glsl
-                .lines()
-                .find(|l| l.starts_with(&key))
-                .unwrap_or_else(|| panic!("GAMMA{n} not in surface.glsl"));
-            let want = format!("uintBitsToFloat({:#010x}u)", crate::bvh::gamma(n).to_bits());
-            assert_eq!(line[key.len()..].trim(), want);
-        }
-    }
 }

@@ -156,7 +156,7 @@ impl Binding {
     /// declaration in the generated interface ([`super::interface::glsl`]).
     pub fn glsl(self) -> (&'static str, &'static str) {
         match self {
-            Binding::BvhNodes => ("bvh_nodes", "4 texels per node: (lmin, left), (lmax, right), (rmin, left_count), (rmax, right_count); the u32 fields as bits in .w (src/bvh.rs)"),
+            Binding::BvhNodes => ("bvh_nodes", "4 texels per node: (lmin, left), (lmax, right), (rmin, left_count), (rmax, right_count); the u32 fields as bits in .w (src/bvh/node.rs)"),
             Binding::BvhPrims => ("bvh_prims", "primitive references: triangle index, or sphere index | BVH_SPHERE_BIT"),
             Binding::Triangles => ("tri_data", "3 texels per triangle: (v0, material bits), (v1, emitter bits or 0xFFFFFFFF), (v2, unused)"),
             Binding::Spheres => ("sphere_data", "2 texels per sphere: (center, radius), (material bits, emitter bits, inward bits, 0)"),

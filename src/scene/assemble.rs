@@ -2,9 +2,12 @@
 //! primitive lists of [`Scene`] (quads, triangles, spheres, OBJ meshes, each transformed and
 //! tagged with its material and emitter).
 
-use super::load::{SceneError, MAX_FILM_SIZE};
+use super::error::SceneError;
+use super::geometry::{degenerate, edge_overflow, Transform};
 use super::obj::{obj_triangles, ObjShape};
-use super::schema::{MaterialTable, RawCamera, RawScene, RawShape, RawTransform, Triple, V3};
+use super::schema::{
+    MaterialTable, RawCamera, RawIntegrator, RawScene, RawShape, RawTransform, Triple, V3,
+};
 use super::spanned::{Cx, Sp};
 use super::{Camera, Emitter, Integrator, Scene, Sphere, Triangle};
 use crate::brdf::params::fmt_num;
@@ -13,6 +16,9 @@ use glam::Vec3;
 use std::collections::{BTreeMap, HashMap};
 use std::ops::Range;
 use std::path::Path;
+
+/// Largest accepted film width or height in pixels.
+pub const MAX_FILM_SIZE: u32 = 16384;
 
 /// A vector for a message, `[x, y, z]`, each number as [`fmt_num`] writes it.
 pub(super) fn fmt_vec(v: Vec3) -> String {
@@ -85,32 +91,6 @@ impl Cx<'_> {
     }
 }
 
-/// Zero-area test: the two edges from `v0` are parallel or empty to within single precision,
-/// `|e1 × e2| <= 1e-6 |e1| |e2|`, evaluated in f64 so that no finite f32 triangle overflows
-/// (or underflows) into looking degenerate. An edge that itself overflows f32 (vertices of
-/// opposite sign near 3.4e38) counts as degenerate here; the loaders refuse such input first
-/// with a message ([`edge_overflow`]).
-pub(super) fn degenerate(v: &[Vec3; 3]) -> bool {
-    let d = |a: Vec3| glam::DVec3::new(a.x as f64, a.y as f64, a.z as f64);
-    let e1 = d(v[1]) - d(v[0]);
-    let e2 = d(v[2]) - d(v[0]);
-    let c = e1.cross(e2).length();
-    let edges_finite = (v[1] - v[0]).is_finite() && (v[2] - v[0]).is_finite();
-    !(c > 1e-6 * e1.length() * e2.length() && c.is_finite() && edges_finite)
-}
-
-/// A message when an edge `v1 - v0` or `v2 - v0` of a triangle with finite vertices is not
-/// finite in f32 (the renderers work with f32 edges).
-pub(super) fn edge_overflow(v: &[Vec3; 3]) -> Option<String> {
-    if (v[1] - v[0]).is_finite() && (v[2] - v[0]).is_finite() && (v[2] - v[1]).is_finite() {
-        return None;
-    }
-    Some(format!(
-        "the triangle {} {} {} has an edge longer than the single-precision range (about 3.4e38)",
-        v[0], v[1], v[2]
-    ))
-}
-
 pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, SceneError> {
     let camera = camera(cx, &raw.camera)?;
 
@@ -127,8 +107,89 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
     let width = size(&raw.film.width, "film.width")?;
     let height = size(&raw.film.height, "film.height")?;
 
+    let integrator = integrator(cx, raw.integrator.as_ref())?;
+
+    let environment = match raw.environment.as_ref().and_then(|e| e.radiance.as_ref()) {
+        Some(r) => cx.radiance(r, "environment.radiance")?,
+        None => Vec3::ZERO,
+    };
+    // The depth limit of the renderers (`--max-depth` is held to the same): the random-number
+    // key of a deeper segment would reuse another depth's numbers.
+    if let Some(d) = raw.integrator.as_ref().and_then(|i| i.max_depth.as_ref()) {
+        if d.value > crate::gpu::MAX_DEPTH {
+            let msg = format!(
+                "{} is out of range: must be in [1, {}]",
+                d.value,
+                crate::gpu::MAX_DEPTH
+            );
+            return Err(cx.err(d.span(), "integrator.max_depth", msg));
+        }
+    }
+
+    let (materials, material_names, material_spans) = materials(cx, raw.materials)?;
+    let index: HashMap<&str, usize> = material_names
+        .iter()
+        .enumerate()
+        .map(|(i, n)| (n.as_str(), i))
+        .collect();
+    let mut used = vec![false; materials.len()];
+
+    let mut out = Shapes::default();
+    for (i, shape) in raw.shapes.iter().enumerate() {
+        let f = format!("shapes[{i}]");
+        let m = &shape.value.material;
+        let Some(&material) = index.get(m.value.as_str()) else {
+            let known = if material_names.is_empty() {
+                "no materials are defined: add a [materials.NAME] table".to_string()
+            } else {
+                format!("defined materials: {}", material_names.join(", "))
+            };
+            let msg = format!("unknown material '{}' ({known})", m.value);
+            return Err(cx.err(m.span(), &format!("{f}.material"), msg));
+        };
+        used[material] = true;
+        shape_primitives(cx, &f, shape, material as u32, &mut out)?;
+    }
+
+    for (k, u) in used.iter().enumerate() {
+        if !u {
+            let (span, field) = (
+                material_spans[k].clone(),
+                format!("materials.{}", material_names[k]),
+            );
+            cx.warn(span, &field, "the material is defined but no shape uses it");
+        }
+    }
+    if out.triangles.is_empty() && out.spheres.is_empty() {
+        return Err(no_primitives(cx, &raw.shapes));
+    }
+    if out.emitters.is_empty() && environment == Vec3::ZERO {
+        cx.warnings.push(format!(
+            "warning: {}: the scene has no emitter and a black environment: every image will be black",
+            cx.file
+        ));
+    }
+
+    Ok(Scene {
+        path: path.to_path_buf(),
+        camera,
+        width,
+        height,
+        integrator,
+        materials,
+        material_names,
+        emitters: out.emitters,
+        triangles: out.triangles,
+        spheres: out.spheres,
+        environment,
+        warnings: std::mem::take(&mut cx.warnings),
+    })
+}
+
+/// The `[integrator]` table, each value checked; the defaults without it.
+fn integrator(cx: &Cx, raw: Option<&RawIntegrator>) -> Result<Integrator, SceneError> {
     let mut integrator = Integrator::default();
-    if let Some(i) = &raw.integrator {
+    if let Some(i) = raw {
         let d = Integrator::default();
         integrator.spp = cx.at_least_one(&i.spp, "integrator.spp", d.spp)?;
         integrator.max_depth =
@@ -151,27 +212,18 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
             })?;
         }
     }
+    Ok(integrator)
+}
 
-    let environment = match raw.environment.as_ref().and_then(|e| e.radiance.as_ref()) {
-        Some(r) => cx.radiance(r, "environment.radiance")?,
-        None => Vec3::ZERO,
-    };
-    // The depth limit of the renderers (`--max-depth` is held to the same): the random-number
-    // key of a deeper segment would reuse another depth's numbers.
-    if let Some(d) = raw.integrator.as_ref().and_then(|i| i.max_depth.as_ref()) {
-        if d.value > crate::gpu::MAX_DEPTH {
-            let msg = format!(
-                "{} is out of range: must be in [1, {}]",
-                d.value,
-                crate::gpu::MAX_DEPTH
-            );
-            return Err(cx.err(d.span(), "integrator.max_depth", msg));
-        }
-    }
-
-    // Materials, in file order (the map is sorted by name; the spans give the order).
+/// The materials, in file order (the map is sorted by name; the spans give the order): each
+/// parsed by its model, with its name and the span of its table.
+#[allow(clippy::type_complexity)]
+fn materials(
+    cx: &mut Cx,
+    raw: BTreeMap<String, Sp<MaterialTable>>,
+) -> Result<(Vec<brdf::Material>, Vec<String>, Vec<Option<Range<usize>>>), SceneError> {
     let mut defs: Vec<(String, Option<Range<usize>>, MaterialTable)> = Vec::new();
-    for (name, table) in raw.materials {
+    for (name, table) in raw {
         // A table made by dotted keys has no span of its own: use its first field's.
         let span = table.span.clone().or_else(|| {
             table
@@ -210,86 +262,36 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
         material_names.push(name);
         material_spans.push(span);
     }
-    let index: HashMap<&str, usize> = material_names
-        .iter()
-        .enumerate()
-        .map(|(i, n)| (n.as_str(), i))
-        .collect();
-    let mut used = vec![false; materials.len()];
+    Ok((materials, material_names, material_spans))
+}
 
-    let mut out = Shapes::default();
-    for (i, shape) in raw.shapes.iter().enumerate() {
-        let f = format!("shapes[{i}]");
-        let m = &shape.value.material;
-        let Some(&material) = index.get(m.value.as_str()) else {
-            let known = if material_names.is_empty() {
-                "no materials are defined: add a [materials.NAME] table".to_string()
+/// The error of a scene without primitives: none given, or shapes whose geometry came to
+/// nothing.
+fn no_primitives(cx: &Cx, shapes: &[Sp<RawShape>]) -> SceneError {
+    // With shapes present, their geometry came to nothing (OBJ files without faces, with
+    // lines only, or only zero-area triangles): the warnings say which and why.
+    let msg = if shapes.is_empty() {
+        "the scene has no primitives: add a [[shapes]] table with geometry".to_string()
+    } else {
+        let why: Vec<String> = cx
+            .warnings
+            .iter()
+            .filter(|w| w.contains("OBJ"))
+            .map(|w| format!("\n  {w}"))
+            .collect();
+        format!(
+            "the scene has no primitives: its shapes gave no triangles or spheres{}",
+            if why.is_empty() {
+                String::new()
             } else {
-                format!("defined materials: {}", material_names.join(", "))
-            };
-            let msg = format!("unknown material '{}' ({known})", m.value);
-            return Err(cx.err(m.span(), &format!("{f}.material"), msg));
-        };
-        used[material] = true;
-        shape_primitives(cx, &f, shape, material as u32, &mut out)?;
+                format!(", because:{}", why.concat())
+            }
+        )
+    };
+    match shapes.first() {
+        Some(s) => cx.err(s.span().or(s.value.material.span()), "shapes", msg),
+        None => cx.err(None, "shapes", msg),
     }
-
-    for (k, u) in used.iter().enumerate() {
-        if !u {
-            let (span, field) = (
-                material_spans[k].clone(),
-                format!("materials.{}", material_names[k]),
-            );
-            cx.warn(span, &field, "the material is defined but no shape uses it");
-        }
-    }
-    if out.triangles.is_empty() && out.spheres.is_empty() {
-        // With shapes present, their geometry came to nothing (OBJ files without faces, with
-        // lines only, or only zero-area triangles): the warnings say which and why.
-        let msg = if raw.shapes.is_empty() {
-            "the scene has no primitives: add a [[shapes]] table with geometry".to_string()
-        } else {
-            let why: Vec<String> = cx
-                .warnings
-                .iter()
-                .filter(|w| w.contains("OBJ"))
-                .map(|w| format!("\n  {w}"))
-                .collect();
-            format!(
-                "the scene has no primitives: its shapes gave no triangles or spheres{}",
-                if why.is_empty() {
-                    String::new()
-                } else {
-                    format!(", because:{}", why.concat())
-                }
-            )
-        };
-        return Err(match raw.shapes.first() {
-            Some(s) => cx.err(s.span().or(s.value.material.span()), "shapes", msg),
-            None => cx.err(None, "shapes", msg),
-        });
-    }
-    if out.emitters.is_empty() && environment == Vec3::ZERO {
-        cx.warnings.push(format!(
-            "warning: {}: the scene has no emitter and a black environment: every image will be black",
-            cx.file
-        ));
-    }
-
-    Ok(Scene {
-        path: path.to_path_buf(),
-        camera,
-        width,
-        height,
-        integrator,
-        materials,
-        material_names,
-        emitters: out.emitters,
-        triangles: out.triangles,
-        spheres: out.spheres,
-        environment,
-        warnings: std::mem::take(&mut cx.warnings),
-    })
 }
 
 pub(super) fn camera(cx: &Cx, c: &RawCamera) -> Result<Camera, SceneError> {
@@ -504,39 +506,6 @@ pub(super) fn shape_primitives(
     Ok(())
 }
 
-/// `p' = translate + R_y(angle) · (scale ⊙ p)`; normals `n' = normalize(R_y · (n / scale))`.
-pub(super) struct Transform {
-    pub(super) translate: Vec3,
-    pub(super) scale: Vec3,
-    pub(super) cos: f32,
-    pub(super) sin: f32,
-}
-
-impl Transform {
-    pub(super) fn identity() -> Self {
-        Transform {
-            translate: Vec3::ZERO,
-            scale: Vec3::ONE,
-            cos: 1.0,
-            sin: 0.0,
-        }
-    }
-    /// Rotation about +y, counter-clockwise seen from above (+z turns toward +x).
-    fn rot(&self, p: Vec3) -> Vec3 {
-        Vec3::new(
-            self.cos * p.x + self.sin * p.z,
-            p.y,
-            -self.sin * p.x + self.cos * p.z,
-        )
-    }
-    pub(super) fn point(&self, p: Vec3) -> Vec3 {
-        self.translate + self.rot(self.scale * p)
-    }
-    pub(super) fn normal(&self, n: Vec3) -> Vec3 {
-        self.rot(n / self.scale).normalize_or_zero()
-    }
-}
-
 pub(super) fn transform(cx: &Cx, f: &str, t: &RawTransform) -> Result<Transform, SceneError> {
     let mut xf = Transform::identity();
     if let Some(v) = &t.translate {
@@ -560,34 +529,4 @@ pub(super) fn transform(cx: &Cx, f: &str, t: &RawTransform) -> Result<Transform,
         xf.sin = rad.sin() as f32;
     }
     Ok(xf)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn transform_rotates_counter_clockwise_from_above() {
-        let mut xf = Transform::identity();
-        xf.cos = 0.0;
-        xf.sin = 1.0;
-        assert!((xf.point(Vec3::Z) - Vec3::X).length() < 1e-6);
-        xf.scale = Vec3::new(2.0, 1.0, 1.0);
-        // A normal of a plane x = y stretched in x: the normal tilts toward y.
-        let n = Transform {
-            cos: 1.0,
-            sin: 0.0,
-            ..xf
-        }
-        .normal(Vec3::new(1.0, -1.0, 0.0));
-        assert!((n - Vec3::new(1.0, -2.0, 0.0).normalize()).length() < 1e-6);
-    }
-
-    #[test]
-    fn degenerate_triangles() {
-        assert!(degenerate(&[Vec3::ZERO, Vec3::X, 2.0 * Vec3::X]));
-        assert!(degenerate(&[Vec3::ZERO, Vec3::ZERO, Vec3::Y]));
-        assert!(!degenerate(&[Vec3::ZERO, Vec3::X, Vec3::Y]));
-        assert!(degenerate(&[Vec3::ZERO, Vec3::X, Vec3::splat(f32::NAN)]));
-    }
 }

@@ -11,56 +11,13 @@
 //! located by [`super::spanned`]. Loading never panics on any input.
 
 use super::assemble::build;
+use super::error::SceneError;
 use super::schema::RawScene;
 use super::spanned::Cx;
 use super::Scene;
-use crate::brdf::ParamError;
 use std::path::Path;
 
-/// Largest accepted film width or height in pixels.
-pub const MAX_FILM_SIZE: u32 = 16384;
-
-/// Why a scene could not be loaded. The `Display` text always starts with the scene file's
-/// name, followed by the line and the field when they are known:
-/// `file:line: field 'a.b': what is wrong`.
-#[derive(Debug, thiserror::Error)]
-pub enum SceneError {
-    /// The scene file itself could not be read.
-    #[error("{file}: cannot read the scene file: {source}")]
-    Read {
-        file: String,
-        #[source]
-        source: std::io::Error,
-    },
-    /// Anything wrong with the contents: syntax, types, values, referenced OBJ files.
-    #[error("{}", located(file, *line, field.as_deref(), message))]
-    Invalid {
-        file: String,
-        /// 1-based line in the scene file.
-        line: Option<usize>,
-        /// Dotted path of the offending field, e.g. `shapes[2].sphere.radius`
-        /// (array indices are 0-based, in file order).
-        field: Option<String>,
-        message: String,
-    },
-    /// A material's parameters are wrong; the message (from [`crate::brdf`]) is already
-    /// `file:line: material 'name', field 'f': …`.
-    #[error(transparent)]
-    Material(#[from] ParamError),
-}
-
-fn located(file: &str, line: Option<usize>, field: Option<&str>, message: &str) -> String {
-    let mut s = file.to_string();
-    if let Some(l) = line {
-        s.push_str(&format!(":{l}"));
-    }
-    s.push_str(": ");
-    if let Some(f) = field {
-        s.push_str(&format!("field '{f}': "));
-    }
-    s.push_str(message);
-    s
-}
+pub use super::assemble::MAX_FILM_SIZE;
 
 /// Read and load a scene file. Relative OBJ paths are resolved against the file's directory.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {

@@ -4,8 +4,15 @@
 //! [`load`] into a [`Scene`]: flat lists of triangles and spheres, each tagged with a material
 //! index and an optional emitter index. The BVH (`crate::bvh`) is built over these lists and the
 //! GPU upload (`crate::gpu::scene_buffers`) packs them without further interpretation.
+//!
+//! The loader's files depend on each other as a tree: `load` (the entry points) uses `schema`
+//! (the raw serde form), `spanned` (values with their lines) and `assemble` (checks and
+//! flattening); `assemble` uses `obj` (OBJ meshes); both use `geometry` (the shape transform and
+//! the triangle checks); every step reports an `error::SceneError`.
 
 mod assemble;
+mod error;
+mod geometry;
 pub mod load;
 mod obj;
 mod schema;
@@ -130,4 +137,5 @@ impl Triangle {
     }
 }
 
-pub use load::{load, load_str, SceneError};
+pub use error::SceneError;
+pub use load::{load, load_str};

@@ -2,8 +2,8 @@
 //! tobj's triangulated meshes turned into [`Triangle`]s with the shape's transform, material
 //! and emitter.
 
-use super::assemble::{degenerate, edge_overflow, Transform};
-use super::load::SceneError;
+use super::error::SceneError;
+use super::geometry::{degenerate, edge_overflow, Transform};
 use super::spanned::{Cx, Sp};
 use super::Triangle;
 use glam::{Vec2, Vec3};

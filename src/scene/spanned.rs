@@ -4,7 +4,7 @@
 //! carry only a span: their field path is recovered by re-reading the document as a tree of
 //! spanned keys ([`Node`]) and finding the innermost key or value that contains the span.
 
-use super::load::SceneError;
+use super::error::SceneError;
 use crate::brdf::params::line_of;
 use serde::de::value::{MapAccessDeserializer, SeqAccessDeserializer};
 use serde::de::{

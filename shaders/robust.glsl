@@ -1,0 +1,101 @@
+// Robust geometry in f32: overflow-safe vectors, hit points with rounding-error bounds, and ray
+// origins offset off the surface they leave. Rust twin: src/robust.rs, the same functions under
+// the same names; every step repeats the Rust arithmetic in the same order, with intermediate
+// values `precise` so that the compiler cannot fuse multiply-adds.
+//
+// Include after `#version 460`.
+#ifndef ROBUST_GLSL
+#define ROBUST_GLSL
+#include "common.glsl"
+
+// Rust: gamma(n), triangle_point, SHIFT_ULPS, ulp, sphere_point (the same arithmetic; the bounds
+// are derived there, after Pharr, Jakob & Humphreys 2016, sec. 3.9).
+#define GAMMA2 uintBitsToFloat(0x34000001u)
+#define GAMMA4 uintBitsToFloat(0x34800002u)
+#define GAMMA5 uintBitsToFloat(0x34a00003u)
+#define SHIFT_ULPS 4.0
+// The spacing of the floats at x >= 0 (2^(exponent - 23)).
+float ulp(float x) {
+    uint e = (floatBitsToUint(x) >> 23) & 0xffu;
+    return e > 23u ? uintBitsToFloat((e - 23u) << 23) : uintBitsToFloat(1u);
+}
+// Rust: pull_inside. A hit's barycentrics moved a fraction t towards the centroid's
+// (1/3, 1/3), by SHIFT_ULPS ulps of the coordinates' magnitude (at most half way), so that a
+// point near an edge is not on or beyond the neighbouring face's plane.
+vec2 pull_inside(vec3 v0, vec3 v1, vec3 v2, float b1, float b2) {
+    precise vec3 e1 = v1 - v0;
+    precise vec3 e2 = v2 - v0;
+    const float third = 1.0 / 3.0;
+    precise float d1 = third - b1;
+    precise float d2 = third - b2;
+    precise vec3 to_c = abs(e1 * d1 + e2 * d2);
+    precise float dist = max(to_c.x, max(to_c.y, to_c.z));
+    if (!(dist > 0.0 && is_finite_f(dist))) return vec2(b1, b2);
+    vec3 a0 = abs(v0);
+    precise float delta = ulp(max(a0.x, max(a0.y, a0.z)) + 3.0 * dist) * SHIFT_ULPS;
+    precise float t = min(delta / dist, 0.5);
+    return vec2(b1 + t * d1, b2 + t * d2);
+}
+// p = v0 + (b1 (v1 - v0) + b2 (v2 - v0)); err bounds its distance from the plane per coordinate.
+void triangle_point(vec3 v0, vec3 v1, vec3 v2, float b1, float b2, out vec3 p, out vec3 err) {
+    precise vec3 e1 = (v1 - v0) * b1;
+    precise vec3 e2 = (v2 - v0) * b2;
+    precise vec3 q = v0 + (e1 + e2);
+    precise vec3 e = (abs(e1) + abs(e2)) * GAMMA4 + abs(q) * GAMMA2;
+    p = q;
+    err = e;
+}
+// p = c + u r for a (nearly) unit u; err bounds its distance from the sphere per coordinate.
+void sphere_point(vec3 c, vec3 u, float r, out vec3 p, out vec3 err) {
+    precise vec3 ur = u * r;
+    precise vec3 q = c + ur;
+    precise float radial = abs(1.0 - (u.x * u.x + u.y * u.y + u.z * u.z)) * abs(r);
+    precise vec3 e = abs(ur) * GAMMA5 + abs(q) * GAMMA2 + vec3(radial);
+    p = q;
+    err = e;
+}
+
+// Rust: scale_to_unit_exponent and triangle_normal. A vector scaled by the power of two
+// that brings its largest component into [0.5, 1) (exact), so that the cross product of huge or
+// tiny edges neither overflows nor underflows; the same normal bit for bit otherwise.
+vec3 scale_to_unit_exponent(vec3 e) {
+    float m = max(abs(e.x), max(abs(e.y), abs(e.z)));
+    if (!(m > 0.0) || !is_finite_f(m)) return e;
+    int ex;
+    frexp(m, ex);
+    return ldexp(e, ivec3(-ex));
+}
+vec3 triangle_normal(vec3 v0, vec3 v1, vec3 v2) {
+    return normalize(cross(scale_to_unit_exponent(v1 - v0), scale_to_unit_exponent(v2 - v0)));
+}
+
+// Shadow rays end this fraction of their length before the light point (Rust: SHADOW_EPSILON).
+#define SHADOW_EPSILON uintBitsToFloat(0x38d1b717u)
+
+// Rust: next_float_up / next_float_down / offset_ray_origin (the same arithmetic).
+// The next float above (below) x; -0 and +0 are treated as +0 (-0). Non-finite x unchanged.
+float next_float_up(float x) {
+    if ((floatBitsToUint(x) & 0x7f800000u) == 0x7f800000u) return x;
+    uint b = x == 0.0 ? 0u : floatBitsToUint(x);
+    return uintBitsToFloat(x >= 0.0 ? b + 1u : b - 1u);
+}
+float next_float_down(float x) {
+    if ((floatBitsToUint(x) & 0x7f800000u) == 0x7f800000u) return x;
+    uint b = x == 0.0 ? 0x80000000u : floatBitsToUint(x);
+    return uintBitsToFloat(x <= 0.0 ? b + 1u : b - 1u);
+}
+
+// Move p, within err (per coordinate) of the true surface point, off the surface to the side of
+// the unit normal n: by |n|.err along n, then each coordinate one float further along n
+// (Pharr, Jakob & Humphreys 2016, sec. 3.9.5).
+vec3 offset_ray_origin(vec3 p, vec3 err, vec3 n) {
+    precise float d = abs(n.x) * err.x + abs(n.y) * err.y + abs(n.z) * err.z;
+    precise vec3 q = p + n * d;
+    for (int i = 0; i < 3; ++i) {
+        if (n[i] > 0.0) q[i] = next_float_up(q[i]);
+        else if (n[i] < 0.0) q[i] = next_float_down(q[i]);
+    }
+    return q;
+}
+
+#endif

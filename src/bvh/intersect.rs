@@ -1,0 +1,244 @@
+//! Ray set-up and the ray/box, ray/triangle and ray/sphere tests the traversal runs (twins in
+//! `shaders/bvh.glsl`: `bvh_make_ray`, `bvh_box_hit`, `bvh_triangle`, `bvh_sphere`); the
+//! methods and their numerics are those of the [`crate::bvh`] module documentation.
+
+use crate::robust::dot3;
+use glam::{Vec2, Vec3};
+
+/// Ize 2013: the far slab distance is multiplied by this (1 + 2^-20, exact in f32), more than
+/// the 1 + 2·γ₃ the three roundings of `(b - o) · inv` need, to absorb the rounding of the
+/// primitive tests' `t` as well.
+pub const BOX_WIDEN: f32 = 1.0 + 1.0 / (1u32 << 20) as f32;
+/// Direction components smaller than this (2^-80) are treated as zero in the box test.
+pub(super) const ZERO_DIR: f32 = 1.0 / (1u128 << 80) as f32;
+/// Inverse used for zero direction components (2^120; finite, so `0 · ZERO_INV = 0`).
+pub(super) const ZERO_INV: f32 = (1u128 << 120) as f32;
+/// Padding of the slab interval of a zero direction component (2^80): an origin inside the
+/// slab, or on its faces, gets an interval wider than any `t` a scene can produce; one outside
+/// by more than `ZERO_PAD / ZERO_INV = 2^-40` gets an empty one.
+pub(super) const ZERO_PAD: f32 = (1u128 << 80) as f32;
+
+/// A ray origin closer to a sphere's surface than about `M · 2^-19`, M = max(|o|∞, r), counts
+/// as on the surface (16 ulps of the largest coordinate, more than the rounding of a point
+/// computed on the sphere): the root at t ≈ 0 is dropped so the ray finds the far side (see
+/// [`intersect_sphere`]). `|f|² - r²` is compared with `r · M · SPHERE_ON_SURFACE`.
+pub(super) const SPHERE_ON_SURFACE: f32 = 1.0 / (1u32 << 18) as f32;
+
+/// Per-ray constants of the box and triangle tests.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Ray {
+    o: Vec3,
+    /// Safe inverse direction (box test).
+    inv: Vec3,
+    /// ZERO_PAD on zero components, else 0.
+    pad: Vec3,
+    /// Woop et al.: axes of the shear, kz = largest |d| component.
+    kx: usize,
+    ky: usize,
+    kz: usize,
+    /// Shear constants (Sx, Sy, Sz).
+    s: Vec3,
+}
+
+#[inline]
+fn safe_inv(d: f32) -> (f32, f32) {
+    if d.abs() < ZERO_DIR {
+        (ZERO_INV, ZERO_PAD)
+    } else {
+        (1.0 / d, 0.0)
+    }
+}
+
+impl Ray {
+    /// None for a zero, infinite or NaN direction: such a ray hits nothing.
+    #[inline]
+    pub(super) fn new(o: Vec3, d: Vec3) -> Option<Ray> {
+        let a = d.abs();
+        let kz = if a.x >= a.y && a.x >= a.z {
+            0
+        } else if a.y >= a.z {
+            1
+        } else {
+            2
+        };
+        if !(a[kz] > 0.0 && a[kz] <= f32::MAX) {
+            return None;
+        }
+        let mut kx = if kz == 2 { 0 } else { kz + 1 };
+        let mut ky = if kx == 2 { 0 } else { kx + 1 };
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        let s = Vec3::new(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
+        let (ix, px) = safe_inv(d.x);
+        let (iy, py) = safe_inv(d.y);
+        let (iz, pz) = safe_inv(d.z);
+        Some(Ray {
+            o,
+            inv: Vec3::new(ix, iy, iz),
+            pad: Vec3::new(px, py, pz),
+            kx,
+            ky,
+            kz,
+            s,
+        })
+    }
+
+    /// Conservative slab test: (hit, entry distance clamped to 0).
+    #[inline]
+    pub(super) fn box_hit(&self, bmin: Vec3, bmax: Vec3, tmax: f32) -> (bool, f32) {
+        let t0 = (bmin - self.o) * self.inv;
+        let t1 = (bmax - self.o) * self.inv;
+        let tn = t0.min(t1) - self.pad;
+        let tf = t0.max(t1) + self.pad;
+        let tnear = tn.x.max(tn.y).max(tn.z.max(0.0));
+        let tfar = tf.x.min(tf.y).min(tf.z.min(tmax)) * BOX_WIDEN;
+        (tnear <= tfar, tnear)
+    }
+
+    /// Woop–Benthin–Wald watertight test; (t, (b1, b2)) with t in (0, tmax).
+    #[inline]
+    pub(super) fn triangle(&self, v: &[Vec3; 3], tmax: f32) -> Option<(f32, Vec2)> {
+        let (kx, ky, kz) = (self.kx, self.ky, self.kz);
+        let a = v[0] - self.o;
+        let b = v[1] - self.o;
+        let c = v[2] - self.o;
+        let ax = a[kx] - self.s.x * a[kz];
+        let ay = a[ky] - self.s.y * a[kz];
+        let bx = b[kx] - self.s.x * b[kz];
+        let by = b[ky] - self.s.y * b[kz];
+        let cx = c[kx] - self.s.x * c[kz];
+        let cy = c[ky] - self.s.y * c[kz];
+        let u = cx * by - cy * bx;
+        let v_ = ax * cy - ay * cx;
+        let w = bx * ay - by * ax;
+        if (u < 0.0 || v_ < 0.0 || w < 0.0) && (u > 0.0 || v_ > 0.0 || w > 0.0) {
+            return None;
+        }
+        let det = u + v_ + w;
+        if det == 0.0 {
+            return None;
+        }
+        let az = self.s.z * a[kz];
+        let bz = self.s.z * b[kz];
+        let cz = self.s.z * c[kz];
+        let tt = u * az + v_ * bz + w * cz;
+        // t > 0 needs T and det of the same sign (and T != 0).
+        if (det < 0.0 && tt >= 0.0) || (det > 0.0 && tt <= 0.0) {
+            return None;
+        }
+        let rcp = 1.0 / det;
+        let t = tt * rcp;
+        if !(t > 0.0 && t < tmax) {
+            return None;
+        }
+        Some((t, Vec2::new(v_ * rcp, w * rcp)))
+    }
+}
+
+/// Watertight ray/triangle intersection (Woop, Benthin & Wald 2013): the hit distance `t` in
+/// (0, tmax) and the barycentrics (b1, b2) of v1 and v2. None for a zero direction.
+pub fn intersect_triangle(o: Vec3, d: Vec3, v: &[Vec3; 3], tmax: f32) -> Option<(f32, Vec2)> {
+    Ray::new(o, d)?.triangle(v, tmax)
+}
+
+/// Ray/sphere intersection (Ray Tracing Gems ch. 7): the smallest root in (0, tmax), so a ray
+/// starting inside finds the far side. An origin within about 16 ulps of its largest
+/// coordinate (or of the radius) from the surface counts as on it: the root at t ≈ 0 is dropped, so a ray leaving the surface inwards finds
+/// the far side and one leaving outwards finds nothing. `d` need not be normalised.
+pub fn intersect_sphere(o: Vec3, d: Vec3, center: Vec3, radius: f32, tmax: f32) -> Option<f32> {
+    let f = o - center;
+    let a = dot3(d, d);
+    // Also rejects NaN (GLSL: `!(a > 0.0)`).
+    if a.is_nan() || a <= 0.0 {
+        return None;
+    }
+    let b = dot3(f, d);
+    let r2 = radius * radius;
+    let c = dot3(f, f) - r2;
+    // Discriminant / a from the squared distance of the centre to the line.
+    let k = b / a;
+    let l = f - d * k;
+    let disc = a * (r2 - dot3(l, l));
+    if disc < 0.0 {
+        return None;
+    }
+    let sq = disc.sqrt();
+    let q = if b >= 0.0 { -b - sq } else { -b + sq };
+    if q == 0.0 {
+        return None;
+    }
+    let m = o.x.abs().max(o.y.abs()).max(o.z.abs().max(radius.abs()));
+    let on_surface = c.abs() <= radius.abs() * m * SPHERE_ON_SURFACE;
+    let t0 = if on_surface { 0.0 } else { c / q };
+    let t1 = q / a;
+    let (lo, hi) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
+    if lo > 0.0 && lo < tmax {
+        Some(lo)
+    } else if hi > 0.0 && hi < tmax {
+        Some(hi)
+    } else {
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn triangle_hit_values() {
+        let v = [
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(0.0, 1.0, 1.0),
+        ];
+        let (t, b) = intersect_triangle(Vec3::new(0.25, 0.5, 0.0), Vec3::Z, &v, f32::MAX).unwrap();
+        assert_eq!(t, 1.0);
+        assert!((b - Vec2::new(0.25, 0.5)).abs().max_element() < 1e-6, "{b}");
+        // From behind and with a reversed direction: both sides hit (no culling).
+        let (t, _) =
+            intersect_triangle(Vec3::new(0.25, 0.5, 3.0), -Vec3::Z * 2.0, &v, f32::MAX).unwrap();
+        assert!((t - 1.0).abs() < 1e-6);
+        // Behind the origin, beyond tmax, outside, zero direction.
+        assert!(intersect_triangle(Vec3::new(0.25, 0.5, 2.0), Vec3::Z, &v, f32::MAX).is_none());
+        assert!(intersect_triangle(Vec3::new(0.25, 0.5, 0.0), Vec3::Z, &v, 1.0).is_none());
+        assert!(intersect_triangle(Vec3::new(0.75, 0.5, 0.0), Vec3::Z, &v, f32::MAX).is_none());
+        assert!(intersect_triangle(Vec3::new(0.25, 0.5, 0.0), Vec3::ZERO, &v, f32::MAX).is_none());
+        // A ray lying in the triangle's plane misses (det = 0).
+        assert!(intersect_triangle(Vec3::new(-1.0, 0.2, 1.0), Vec3::X, &v, f32::MAX).is_none());
+    }
+
+    #[test]
+    fn sphere_roots_outside_inside_and_on_surface() {
+        let c = Vec3::new(1.0, 2.0, 3.0);
+        let t = intersect_sphere(c - Vec3::X * 5.0, Vec3::X, c, 2.0, f32::MAX).unwrap();
+        assert!((t - 3.0).abs() < 1e-6);
+        // Unnormalised direction: t in units of d.
+        let t = intersect_sphere(c - Vec3::X * 5.0, Vec3::X * 2.0, c, 2.0, f32::MAX).unwrap();
+        assert!((t - 1.5).abs() < 1e-6);
+        // From inside: the far side.
+        let t = intersect_sphere(c, Vec3::Y, c, 2.0, f32::MAX).unwrap();
+        assert!((t - 2.0).abs() < 1e-6);
+        // From exactly on the surface: inwards finds the far side, outwards nothing.
+        let p = c + Vec3::new(0.0, 0.0, 2.0);
+        let t = intersect_sphere(p, -Vec3::Z, c, 2.0, f32::MAX).unwrap();
+        assert!((t - 4.0).abs() < 1e-5);
+        assert!(intersect_sphere(p, Vec3::Z, c, 2.0, f32::MAX).is_none());
+        // Miss, behind, tmax.
+        assert!(
+            intersect_sphere(c + Vec3::new(0.0, 3.0, -5.0), Vec3::Z, c, 2.0, f32::MAX).is_none()
+        );
+        assert!(intersect_sphere(c + Vec3::X * 5.0, Vec3::X, c, 2.0, f32::MAX).is_none());
+        assert!(intersect_sphere(c - Vec3::X * 5.0, Vec3::X, c, 2.0, 3.0).is_none());
+    }
+
+    #[test]
+    fn sphere_far_away_is_precise() {
+        // Small sphere at distance 1e4: the naive quadratic loses the discriminant.
+        let c = Vec3::new(0.0, 0.0, 1.0e4);
+        let t = intersect_sphere(Vec3::new(0.0, 0.0099, 0.0), Vec3::Z, c, 0.01, f32::MAX).unwrap();
+        let exact = 1.0e4 - (0.01f64 * 0.01 - 0.0099f64 * 0.0099).sqrt();
+        assert!((t as f64 - exact).abs() < 2e-3, "{t} vs {exact}");
+    }
+}

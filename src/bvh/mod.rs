@@ -1,0 +1,194 @@
+//! Host BVH: binned-SAH construction, the 64-byte GPU node layout and the CPU traversal.
+//!
+//! One job per file: `build.rs` the construction, `node.rs` the node layout and the stack's
+//! link encoding, `intersect.rs` the ray set-up and the box and primitive tests, `traverse.rs`
+//! the traversal; this file the public types. The robust-geometry helpers the renderers apply
+//! to a hit (error bounds, ray-origin offsets) are [`crate::robust`]'s.
+//!
+//! The GLSL twin of the traversal and of every intersection routine is `shaders/bvh.glsl`; it
+//! repeats the arithmetic below operation by operation (no fused multiply-adds: the GLSL marks
+//! the intermediate values `precise`) so that both renderers find the same hits.
+//!
+//! # Construction
+//! Binned SAH after Wald 2007 ("On fast Construction of SAH-based Bounding Volume
+//! Hierarchies"): [`BINS`] centroid bins per axis, traversal and intersection costs
+//! [`C_TRAV`] and [`C_INT`], leaves of at most [`MAX_LEAF`] primitives. A node becomes a leaf
+//! when it holds at most `MAX_LEAF` primitives and the leaf is not more expensive than the best
+//! split. When all centroids coincide, or a split would let the tree grow deeper than
+//! [`MAX_DEPTH`], the range is split at its object median instead, which bounds the depth (and
+//! so the traversal stack) for every input.
+//!
+//! # Node layout (Aila & Laine 2009)
+//! A [`GpuNode`] holds the boxes of *both* children, so one 64-byte fetch decides which
+//! children the ray enters and in which order. A child link is
+//! * an inner node: `count == 0`, `index` = node index (never 0, the root is nobody's child);
+//! * a leaf: `count` in `1..=MAX_LEAF`, `index` = first entry of [`Bvh::prims`];
+//! * absent: `count == 0` and `index == 0`. Traversal ignores an absent child whatever its box.
+//!
+//! The root (node 0) is always an inner node: a scene that fits in one leaf gets a root whose
+//! left child is that leaf and whose right child is absent; an empty scene gets a root with two
+//! absent children (and `prims` is empty).
+//!
+//! # Traversal
+//! Iterative, near child first, with a private stack of [`STACK_SIZE`] entries. A stack entry
+//! is an inner node index, or a leaf encoded as `LEAF_FLAG | first << 3 | (count - 1)` (so at
+//! most 2^28 primitives). Box tests follow Ize 2013 ("Robust BVH Ray Traversal", JCGT 2(2)):
+//! the far distance is widened by [`BOX_WIDEN`] so rounding never rejects a box the ray
+//! touches. Direction components with `|d| < ZERO_DIR` are treated as exactly parallel to the
+//! slab: the inverse is a large finite number and the slab interval is padded by `ZERO_PAD`,
+//! which makes a ray lying in a box's face plane count as inside the slab (no `0 * inf` NaN, no
+//! lost hits for axis-aligned rays grazing box faces).
+//!
+//! **Ties.** The closest hit is replaced only by a strictly smaller `t`. Among primitives at
+//! the same `t` the first one met wins; the order is: children in near-first order (left first
+//! when both entry distances are equal), the far child after the whole near subtree, and the
+//! primitives of a leaf in `prims` order. The GLSL traversal visits in exactly this order.
+//!
+//! # Intersections
+//! * Triangles: Woop, Benthin & Wald 2013, "Watertight Ray/Triangle Intersection" (JCGT 2(1)),
+//!   single precision without the double-precision fallback: an edge function that rounds to
+//!   zero counts as inside on both triangles sharing the edge, so a ray through a shared edge
+//!   or vertex hits at least one of them (it may hit both; the first found is kept).
+//! * Spheres: the quadratic in the form of Haines et al. 2019, "Precision Improvements for
+//!   Ray/Sphere Intersection" (Ray Tracing Gems ch. 7): the discriminant from the distance of
+//!   the centre to the line, and the two roots as `c/q` and `q/a` without cancellation.
+//! * Self-intersection (in [`crate::robust`], GLSL `shaders/robust.glsl`): [`offset_ray_origin`]
+//!   from the hit point's own rounding-error bound ([`triangle_point`], [`sphere_point`]), after
+//!   Pharr, Jakob & Humphreys 2016 ("Physically Based Rendering", 3rd ed., sec. 3.9).
+//!
+//! # Tests
+//! `tests/bvh.rs` compares both traversals with brute force over all primitives (random soups,
+//! closed meshes hit exactly at shared edges and vertices, spheres from inside and from their
+//! surface, axis-aligned and grazing rays, degenerate input) and runs `shaders/bvh.glsl` on a
+//! Vulkan device (lavapipe) against this module: the hits must be the same primitives, bit-exact
+//! where division and sqrt are correctly rounded.
+
+mod build;
+mod intersect;
+mod node;
+mod traverse;
+
+/// The robust-geometry helpers (hit points with error bounds, ray-origin offsets) are
+/// [`crate::robust`]'s; re-exported for callers that name them `bvh::…`.
+pub use crate::robust::{
+    gamma, next_float_down, next_float_up, offset_ray_origin, pull_inside, sphere_point,
+    triangle_point, ulp, SHADOW_EPSILON, SHIFT_ULPS,
+};
+pub use build::{build, BINS, C_INT, C_TRAV, MAX_DEPTH, MAX_LEAF};
+pub use intersect::{intersect_sphere, intersect_triangle, BOX_WIDEN};
+pub use node::{GpuNode, MAX_PRIMS, STACK_SIZE};
+
+use glam::{Vec2, Vec3};
+
+/// Primitive reference: triangle index, or sphere index with bit 31 set.
+pub const SPHERE_BIT: u32 = 0x8000_0000;
+
+/// Quality figures of a built BVH.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BvhStats {
+    /// Triangles plus spheres.
+    pub primitives: usize,
+    pub inner_nodes: usize,
+    pub leaves: usize,
+    /// Deepest inner node (root = 0).
+    pub max_depth: u32,
+    /// Deepest leaf (a child of the root has depth 1).
+    pub max_leaf_depth: u32,
+    pub mean_leaf_size: f32,
+    pub max_leaf_size: usize,
+    /// SAH cost `(Σ_inner A·C_TRAV + Σ_leaf A·n·C_INT) / A_root`, areas of the node boxes.
+    pub sah_cost: f32,
+    /// Splits made at the object median (coincident centroids or the depth limit).
+    pub median_splits: usize,
+}
+
+impl std::fmt::Display for BvhStats {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} prims, {} inner nodes, {} leaves (mean {:.2}, max {} prims), depth {} (leaves {}), \
+             SAH cost {:.3}, {} median splits",
+            self.primitives,
+            self.inner_nodes,
+            self.leaves,
+            self.mean_leaf_size,
+            self.max_leaf_size,
+            self.max_depth,
+            self.max_leaf_depth,
+            self.sah_cost,
+            self.median_splits
+        )
+    }
+}
+
+/// The built hierarchy: nodes (root = 0) and the primitive references the leaves index.
+#[derive(Clone, Debug, Default)]
+pub struct Bvh {
+    pub nodes: Vec<GpuNode>,
+    /// Primitive references (triangle index, or sphere index | `SPHERE_BIT`), leaf-contiguous.
+    pub prims: Vec<u32>,
+    /// The vertices of each triangle of `prims`, in the same order (zeros for spheres): the CPU
+    /// traversal reads a leaf's triangles from consecutive memory instead of the scene's larger
+    /// `Triangle` records.
+    pub leaf_triangles: Vec<[Vec3; 3]>,
+    /// Box of the whole scene (empty scene: both zero).
+    pub bounds_min: Vec3,
+    pub bounds_max: Vec3,
+    pub stats: BvhStats,
+}
+
+/// A ray hit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub t: f32,
+    /// Primitive reference (see [`SPHERE_BIT`]).
+    pub prim: u32,
+    /// (b1, b2) for triangles: p = (1-b1-b2) v0 + b1 v1 + b2 v2; zero for spheres.
+    pub bary: Vec2,
+}
+
+// ---------------------------------------------------------------------------------------------
+
+#[cfg(test)]
+mod tests {
+    use super::intersect::{SPHERE_ON_SURFACE, ZERO_DIR, ZERO_INV, ZERO_PAD};
+    use super::node::LEAF_FLAG;
+    use super::*;
+
+    /// The GLSL twin's constants are the Rust ones, bit for bit.
+    #[test]
+    fn glsl_constants_match() {
+        let glsl = include_str!("../../shaders/bvh.glsl");
+        let define = |name: &str| -> &str {
+            let key = format!("#define {name} ");
+            let line = glsl
+                .lines()
+                .find(|l| l.starts_with(&key))
+                .unwrap_or_else(|| panic!("{name} not in bvh.glsl"));
+            line[key.len()..].trim()
+        };
+        let bits = |name: &str| -> u32 {
+            let v = define(name);
+            let hex = v
+                .strip_prefix("uintBitsToFloat(0x")
+                .and_then(|v| v.strip_suffix("u)"))
+                .expect(v);
+            u32::from_str_radix(hex, 16).unwrap()
+        };
+        assert_eq!(define("BVH_STACK_SIZE"), STACK_SIZE.to_string());
+        assert_eq!(
+            define("BVH_SPHERE_BIT"),
+            format!("{SPHERE_BIT:#010X}u").replace("0X", "0x")
+        );
+        assert_eq!(
+            define("BVH_LEAF_FLAG"),
+            format!("{LEAF_FLAG:#010X}u").replace("0X", "0x")
+        );
+        assert_eq!(bits("BVH_BOX_WIDEN"), BOX_WIDEN.to_bits());
+        assert_eq!(bits("BVH_ZERO_DIR"), ZERO_DIR.to_bits());
+        assert_eq!(bits("BVH_ZERO_INV"), ZERO_INV.to_bits());
+        assert_eq!(bits("BVH_ZERO_PAD"), ZERO_PAD.to_bits());
+        assert_eq!(bits("BVH_SPHERE_ON_SURFACE"), SPHERE_ON_SURFACE.to_bits());
+        assert_eq!(bits("BVH_FLT_MAX"), f32::MAX.to_bits());
+    }
+}

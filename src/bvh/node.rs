@@ -1,0 +1,57 @@
+//! The 64-byte GPU node layout (Aila & Laine 2009) and the traversal stack's link encoding;
+//! see the [`crate::bvh`] module documentation. GLSL twin: `bvh_node`, `bvh_link` and the
+//! `BVH_*` defines in `shaders/bvh.glsl`.
+
+/// Traversal stack entries (Rust and GLSL).
+pub const STACK_SIZE: usize = 64;
+/// Marks a leaf in a traversal stack entry.
+pub(super) const LEAF_FLAG: u32 = 0x8000_0000;
+/// Largest primitive count the leaf encoding of a stack entry can address.
+pub const MAX_PRIMS: usize = 1 << 28;
+
+/// One node, Aila–Laine layout: both children's boxes in the parent (64 bytes, 4 × vec4 on the
+/// GPU with the u32 fields in `.w`). See the module documentation for the link encoding.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuNode {
+    pub lmin: [f32; 3],
+    /// Node index if `left_count == 0`, else first index into `prims`.
+    pub left: u32,
+    pub lmax: [f32; 3],
+    pub right: u32,
+    pub rmin: [f32; 3],
+    /// 0 = inner node (or absent when `left == 0`), else a leaf with that many prims.
+    pub left_count: u32,
+    pub rmax: [f32; 3],
+    pub right_count: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<GpuNode>() == 64);
+
+/// Stack entry of a child link.
+#[inline]
+pub(super) fn link(index: u32, count: u32) -> u32 {
+    if count == 0 {
+        index
+    } else {
+        LEAF_FLAG | (index << 3) | (count - 1)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn node_is_64_bytes_in_vec4_order() {
+        let n = GpuNode {
+            left: 1,
+            right: 2,
+            left_count: 3,
+            right_count: 4,
+            ..Default::default()
+        };
+        let w: &[u32; 16] = bytemuck::cast_ref(&n);
+        assert_eq!((w[3], w[7], w[11], w[15]), (1, 2, 3, 4));
+    }
+}

@@ -1,0 +1,95 @@
+//! The integrator's steps along one path that come before shading: the camera ray and the end
+//! of a path segment. GLSL twin (independent code, same conventions and random-number keys):
+//! `camera_ray` and `segment_end` in `shaders/wavefront/path.glsl`; shading a vertex is
+//! [`super::scatter`].
+
+use super::surface::{light_pdf, power_heuristic, surface_at, Surface};
+use super::{CpuRenderer, PathStats};
+use crate::rng::{dim, PathRng};
+use glam::Vec3;
+
+/// What the end of a path segment gives (the GLSL `segment_end`'s `e` and return value).
+pub(super) struct SegmentEnd {
+    /// The emitted light seen there, MIS-weighted against next-event estimation, or the
+    /// environment on a miss; `None` when there is none or it was not finite (counted).
+    pub e: Option<Vec3>,
+    /// The surface the path goes on from, for shading; `None` when the path ends there.
+    pub surface: Option<Surface>,
+}
+
+impl CpuRenderer<'_> {
+    /// Camera ray through pixel (x, y): box pixel filter, uniform position in the pixel.
+    pub(super) fn camera_ray(&self, x: u32, y: u32, rng: &PathRng) -> (Vec3, Vec3) {
+        let s = self.scene;
+        let sub_pixel = rng.get2(0, dim::PIXEL_X);
+        let fx = x as f32 + sub_pixel.x;
+        let fy = y as f32 + sub_pixel.y;
+        let o = self.camera.origin;
+        let d = self.camera.ray_direction(fx, fy, s.width, s.height);
+        (o, d)
+    }
+
+    /// The end of path segment `depth` (ray o + t d, throughput `beta`, `prev_pdf` the
+    /// solid-angle pdf of the BSDF sample that chose d, or 0): the light seen there, and the
+    /// surface when the path goes on from it; it ends on a miss, a back face, at the depth
+    /// limit and on a black surface. A non-finite light is counted (the GPU's `extend`) and
+    /// dropped.
+    pub(super) fn segment_end(
+        &self,
+        depth: u32,
+        o: Vec3,
+        d: Vec3,
+        prev_pdf: f32,
+        beta: Vec3,
+        stats: &mut PathStats,
+    ) -> SegmentEnd {
+        let s = self.scene;
+        let mut end = SegmentEnd {
+            e: None,
+            surface: None,
+        };
+        let Some(hit) = self.bvh.closest(s, o, d, f32::MAX) else {
+            let e = beta * s.environment;
+            if e.is_finite() {
+                end.e = Some(e);
+            } else {
+                stats.nonfinite_extend += 1;
+            }
+            return end;
+        };
+        let si = surface_at(s, &hit, o, d);
+        if !si.front {
+            return end;
+        }
+        if let Some(e) = si.emitter {
+            let le = s.emitters[e as usize].radiance;
+            let w = if prev_pdf > 0.0 {
+                let cos_light = -d.dot(si.ng);
+                power_heuristic(
+                    prev_pdf,
+                    light_pdf(
+                        self.lights.select_density[e as usize],
+                        hit.t * hit.t,
+                        cos_light,
+                    ),
+                )
+            } else {
+                1.0
+            };
+            let e = beta * le * w;
+            if e.is_finite() {
+                end.e = Some(e);
+            } else {
+                stats.nonfinite_extend += 1;
+            }
+        }
+        if depth == s.integrator.max_depth {
+            return end;
+        }
+        if !s.materials[si.material as usize].brdf.scatters() {
+            return end;
+        }
+        end.surface = Some(si);
+        end
+    }
+}

@@ -1,0 +1,133 @@
+//! Shading one path vertex: a light sample and a BRDF sample. GLSL twin (independent code, same
+//! conventions and random-number keys): `shade_vertex` in `shaders/wavefront/scatter.glsl`.
+
+use super::surface::{light_pdf, power_heuristic, sample_light, Surface};
+use super::{CpuRenderer, PathStats};
+use crate::brdf::Brdf;
+use crate::rng::{dim, PathRng};
+use crate::robust;
+use glam::Vec3;
+
+/// A shadow ray towards a light sample and the contribution it adds when unoccluded.
+pub(super) struct ShadowRay {
+    pub o: Vec3,
+    pub d: Vec3,
+    pub tmax: f32,
+    /// Its unoccluded contribution.
+    pub l: Vec3,
+}
+
+/// The next segment of a path: origin, direction, throughput, and the solid-angle pdf of the
+/// BSDF sample that chose the direction (0 after a delta lobe).
+pub(super) struct NextSegment {
+    pub o: Vec3,
+    pub d: Vec3,
+    pub beta: Vec3,
+    pub pdf: f32,
+}
+
+/// What shading one surface vertex produces (the GLSL `struct Scatter`).
+pub(super) struct Scatter {
+    pub shadow: Option<ShadowRay>,
+    pub next: Option<NextSegment>,
+}
+
+impl CpuRenderer<'_> {
+    /// Shades the vertex at the end of segment `depth` (surface `si`, reached along direction
+    /// `d` with throughput `beta`): one light sample (next-event estimation) and one BRDF
+    /// sample, keyed on (path, depth). Non-finite light contributions and continuations are
+    /// counted by model (the GPU's `shade_<model>`) and dropped.
+    pub(super) fn shade_vertex(
+        &self,
+        rng: &PathRng,
+        depth: u32,
+        si: &Surface,
+        d: Vec3,
+        beta: Vec3,
+        stats: &mut PathStats,
+    ) -> Scatter {
+        let s = self.scene;
+        let mut r = Scatter {
+            shadow: None,
+            next: None,
+        };
+        let material = &s.materials[si.material as usize];
+        let brdf: &dyn Brdf = material.brdf.as_ref();
+        let wo = si.frame.to_local(-d);
+        if wo.z <= 0.0 {
+            return r;
+        }
+        let origin = robust::offset_ray_origin(si.p, si.p_err, si.ng);
+        // The light choice and the lobe choice are one pair (LIGHT_SELECT, BSDF_LOBE).
+        let u_choice = rng.get2(depth, dim::LIGHT_SELECT);
+
+        // Next-event estimation.
+        if !self.lights.is_empty() {
+            let u_light = rng.get2(depth, dim::LIGHT_U);
+            let ls = sample_light(s, &self.lights, u_choice.x, u_light.x, u_light.y);
+            let target = robust::offset_ray_origin(ls.p, ls.p_err, ls.n);
+            let to_light = target - origin;
+            let dist2 = to_light.length_squared();
+            if dist2 > 0.0 {
+                let dist = dist2.sqrt();
+                let wi = to_light / dist;
+                let cos_light = -wi.dot(ls.n);
+                let wi_local = si.frame.to_local(wi);
+                if cos_light > 0.0 && wi.dot(si.ng) > 0.0 && wi_local.z > 0.0 {
+                    let pdf_l = light_pdf(ls.density, dist2, cos_light);
+                    let f = brdf.eval(wi_local, wo);
+                    if pdf_l > 0.0 && f != Vec3::ZERO {
+                        let pdf_b = brdf.pdf(wo, wi_local);
+                        let w = power_heuristic(pdf_l, pdf_b);
+                        let contrib = beta * f * (wi_local.z * w / pdf_l) * ls.radiance;
+                        if !contrib.is_finite() {
+                            stats.nonfinite_shade[material.model] += 1;
+                        } else {
+                            r.shadow = Some(ShadowRay {
+                                o: origin,
+                                d: wi,
+                                tmax: dist * (1.0 - robust::SHADOW_EPSILON),
+                                l: contrib,
+                            });
+                        }
+                    }
+                }
+            }
+        }
+
+        // BSDF sampling for the next segment.
+        let u = rng.get2(depth, dim::BSDF_U);
+        let Some(bs) = brdf.sample(wo, u_choice.y, u) else {
+            return r;
+        };
+        let wi = si.frame.to_world(bs.wi);
+        if wi.dot(si.ng) <= 0.0 {
+            return r;
+        }
+        let mut beta = beta;
+        beta *= bs.weight;
+        let prev_pdf = if bs.delta { 0.0 } else { bs.pdf };
+        if s.integrator.russian_roulette && depth >= s.integrator.rr_start_depth {
+            let q = beta.max_element().min(1.0);
+            if rng.get(depth, dim::RR) >= q {
+                return r;
+            }
+            beta /= q;
+        }
+        // A non-finite throughput, direction or pdf ends the path, counted.
+        if !(beta.is_finite() && wi.is_finite() && prev_pdf.is_finite()) {
+            stats.nonfinite_shade[material.model] += 1;
+            return r;
+        }
+        if beta == Vec3::ZERO {
+            return r;
+        }
+        r.next = Some(NextSegment {
+            o: origin,
+            d: wi,
+            beta,
+            pdf: prev_pdf,
+        });
+        r
+    }
+}
