@@ -44,7 +44,7 @@ use super::common::{
     diffuse_specular_pdf, expm1_f, luminance, pow_one_minus, reflect_about, same_hemisphere_up,
     sample_cosine_hemisphere,
 };
-use super::{flag, Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
+use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, PI};
 use std::sync::Arc;
@@ -152,9 +152,19 @@ pub const REPRESENTATIVE: &[(&str, &str)] = &[
 ];
 /// `p[1].w`: the form.
 pub const RECORD_CODES: &[(&str, f32)] = &[
-    ("BLINN_PHONG_CLASSIC", 0.0),
-    ("BLINN_PHONG_NORMALIZED", 1.0),
+    ("BLINN_PHONG_CLASSIC", Form::Classic.code()),
+    ("BLINN_PHONG_NORMALIZED", Form::Normalized.code()),
 ];
+
+impl Form {
+    /// The code in the GPU record (GLSL `BLINN_PHONG_<FORM>`).
+    pub const fn code(self) -> f32 {
+        match self {
+            Form::Classic => 0.0,
+            Form::Normalized => 1.0,
+        }
+    }
+}
 
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
     let kd = r.rgb_of(&KD)?;
@@ -246,10 +256,9 @@ pub fn sample(m: &BlinnPhong, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfS
 
 impl_brdf!(BlinnPhong {
     fn pack(&self) -> Params {
-        let normalized = flag(self.form == Form::Normalized);
         Params::from_vec4s([
             self.kd.extend(self.exponent),
-            self.ks.extend(normalized),
+            self.ks.extend(self.form.code()),
             Vec4::new(self.p_spec, self.k_n, 0.0, 0.0),
         ])
     }

@@ -55,7 +55,7 @@ use super::common::{
     ggx_d, luminance, reflect_about, reflected_pdf, same_hemisphere_up, sample_beckmann_h,
     sample_cosine_hemisphere, sample_ggx_h, smith_g1_beckmann_walter, smith_g1_ggx,
 };
-use super::{flag, Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
+use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;
@@ -248,14 +248,34 @@ pub const REPRESENTATIVE: &[(&str, &str)] = &[
 /// `p[2].w` the distribution, `p[3].w` the geometry, `p[4].x` the Fresnel term
 /// ([`Fresnel::code`]).
 pub const RECORD_CODES: &[(&str, f32)] = &[
-    ("CT_BECKMANN", 0.0),
-    ("CT_GGX", 1.0),
-    ("CT_V_CAVITY", 0.0),
-    ("CT_SMITH", 1.0),
+    ("CT_BECKMANN", Distribution::Beckmann.code()),
+    ("CT_GGX", Distribution::Ggx.code()),
+    ("CT_V_CAVITY", Geometry::VCavity.code()),
+    ("CT_SMITH", Geometry::Smith.code()),
     ("CT_FRESNEL_DIELECTRIC", Fresnel::Dielectric.code()),
     ("CT_FRESNEL_CONDUCTOR", Fresnel::Conductor.code()),
     ("CT_FRESNEL_SCHLICK", Fresnel::Schlick.code()),
 ];
+
+impl Distribution {
+    /// The code in the GPU record (GLSL `CT_<DISTRIBUTION>`).
+    pub const fn code(self) -> f32 {
+        match self {
+            Distribution::Beckmann => 0.0,
+            Distribution::Ggx => 1.0,
+        }
+    }
+}
+
+impl Geometry {
+    /// The code in the GPU record (GLSL `CT_<GEOMETRY>`).
+    pub const fn code(self) -> f32 {
+        match self {
+            Geometry::VCavity => 0.0,
+            Geometry::Smith => 1.0,
+        }
+    }
+}
 
 impl Fresnel {
     /// The Fresnel term's code in the GPU record (GLSL `CT_FRESNEL_<NAME>`).
@@ -472,8 +492,8 @@ impl_brdf!(CookTorrance {
         Params::from_vec4s([
             self.kd.extend(self.roughness),
             self.ks.extend(self.norm_factor()),
-            a.extend(flag(self.distribution == Distribution::Ggx)),
-            self.k.extend(flag(self.geometry == Geometry::Smith)),
+            a.extend(self.distribution.code()),
+            self.k.extend(self.geometry.code()),
             Vec4::new(fresnel, 0.0, 0.0, 0.0),
         ])
     }

@@ -14,7 +14,14 @@
 //!   that sample (the mixture density over all non-delta lobes, times their selection
 //!   probability).
 //!
-//! Adding a model: a Rust file here, a GLSL file in `shaders/brdf/`, one line in [`MODELS`].
+//! Adding a model: a Rust file here (with `parse`, `PARAMS`, `REPRESENTATIVE` and
+//! `RECORD_CODES`, which the registry row reads), a GLSL file in `shaders/brdf/` (with
+//! `<name>_eval`, `<name>_pdf` and `<name>_sample`), one line in the `registry!` list below and
+//! `tests/brdf_<name>.rs`. The megakernel's dispatch and the record codes are generated
+//! ([`glsl`]), the parameter tables too ([`docs`]); what cannot be derived (a GPU parity
+//! material, a stress generator, a sphere in `scenes/lineup.toml`, the README rows) fails a
+//! coverage test that names the model (tests/model_registry.rs, tests/brdf_gpu_parity.rs,
+//! tests/docs.rs).
 
 /// Implements [`Brdf`] for a model type by forwarding `eval`, `pdf` and `sample` to the free
 /// functions of the model's file, which carry the names and arguments of its GLSL twin

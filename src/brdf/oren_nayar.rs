@@ -42,7 +42,7 @@
 //! GPU record: `p[0].xyz` = albedo, `p[0].w` = σ, `p[1].x` = variant (0 full, 1 qualitative).
 
 use super::common::{diffuse_pdf, same_hemisphere_up, sample_diffuse};
-use super::{flag, Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
+use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, PI};
 use std::sync::Arc;
@@ -90,8 +90,20 @@ pub const REPRESENTATIVE: &[(&str, &str)] = &[(
     r#"model = "oren_nayar", albedo = 0.8, sigma = 0.3"#,
 )];
 /// `p[1].x`: the variant.
-pub const RECORD_CODES: &[(&str, f32)] =
-    &[("OREN_NAYAR_FULL", 0.0), ("OREN_NAYAR_QUALITATIVE", 1.0)];
+pub const RECORD_CODES: &[(&str, f32)] = &[
+    ("OREN_NAYAR_FULL", Variant::Full.code()),
+    ("OREN_NAYAR_QUALITATIVE", Variant::Qualitative.code()),
+];
+
+impl Variant {
+    /// The code in the GPU record (GLSL `OREN_NAYAR_<VARIANT>`).
+    pub const fn code(self) -> f32 {
+        match self {
+            Variant::Full => 0.0,
+            Variant::Qualitative => 1.0,
+        }
+    }
+}
 
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
     let albedo = r.rgb_of(&ALBEDO)?;
@@ -194,10 +206,9 @@ pub fn sample(m: &OrenNayar, given: Vec3, _u_lobe: f32, u: Vec2) -> Option<BrdfS
 
 impl_brdf!(OrenNayar {
     fn pack(&self) -> Params {
-        let qualitative = flag(self.variant == Variant::Qualitative);
         Params::from_vec4s([
             self.albedo.extend(self.sigma),
-            Vec4::new(qualitative, 0.0, 0.0, 0.0),
+            Vec4::new(self.variant.code(), 0.0, 0.0, 0.0),
         ])
     }
     fn scatters(&self) -> bool {

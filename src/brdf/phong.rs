@@ -42,7 +42,7 @@ use super::common::{
     diffuse_specular_pdf, expm1_f, luminance, one_minus_dot, orthonormal_basis, pow_one_minus,
     reflect_z, same_hemisphere_up, sample_cosine_hemisphere,
 };
-use super::{flag, Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
+use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, PI};
 use std::sync::Arc;
@@ -133,7 +133,20 @@ pub const REPRESENTATIVE: &[(&str, &str)] = &[
     ),
 ];
 /// `p[1].w`: the form.
-pub const RECORD_CODES: &[(&str, f32)] = &[("PHONG_SURVEY", 0.0), ("PHONG_NORMALIZED", 1.0)];
+pub const RECORD_CODES: &[(&str, f32)] = &[
+    ("PHONG_SURVEY", Form::Survey.code()),
+    ("PHONG_NORMALIZED", Form::Normalized.code()),
+];
+
+impl Form {
+    /// The code in the GPU record (GLSL `PHONG_<FORM>`).
+    pub const fn code(self) -> f32 {
+        match self {
+            Form::Survey => 0.0,
+            Form::Normalized => 1.0,
+        }
+    }
+}
 
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
     let kd = r.rgb_of(&KD)?;
@@ -207,10 +220,9 @@ pub fn sample(m: &Phong, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample
 
 impl_brdf!(Phong {
     fn pack(&self) -> Params {
-        let normalized = flag(self.form == Form::Normalized);
         Params::from_vec4s([
             self.kd.extend(self.exponent),
-            self.ks.extend(normalized),
+            self.ks.extend(self.form.code()),
             Vec4::new(self.p_spec, 0.0, 0.0, 0.0),
         ])
     }
