@@ -52,20 +52,12 @@ macro_rules! impl_brdf {
     };
 }
 
-pub mod blinn_phong;
 pub mod common;
-pub mod cook_torrance;
 pub mod docs;
 pub mod glsl;
-pub mod he;
 pub mod inline;
-pub mod lambert;
-pub mod oren_nayar;
 pub mod params;
-pub mod phong;
-pub mod schlick;
 pub mod validate;
-pub mod ward;
 
 use glam::{Vec2, Vec3, Vec4};
 pub use params::{Kind, Origin, Param, ParamError, ParamReader};
@@ -216,9 +208,11 @@ macro_rules! model {
     };
 }
 
-/// Declares [`MODELS`] and [`MODELS_COUNT`] from the list of model modules.
+/// Declares the model modules (`pub mod NAME;`, the file `src/brdf/NAME.rs`), [`MODELS`] and
+/// [`MODELS_COUNT`] from the list of model names: a model is one line here.
 macro_rules! registry {
     ($($m:ident),* $(,)?) => {
+        $(pub mod $m;)*
         /// Number of models in [`MODELS`].
         pub const MODELS_COUNT: usize = [$(stringify!($m)),*].len();
         /// Every model, in a fixed order; the index is the model id on the GPU.
