@@ -6,10 +6,12 @@
 #define INV_PI 0.31830988618379067154
 
 // GPU material record, 32 words (brdf::RECORD_WORDS): header = (model index, queue slot,
-// flags, reserved); p[] = the model's parameters as its Rust `pack` writes them.
+// flags, reserved); p[] = the model's parameters as its Rust `pack` writes them. The size and
+// the models' record codes are generated (src/brdf/glsl.rs, record_glsl).
+#include "brdf/record.glsl"
 struct Material {
     uvec4 header;
-    vec4 p[7];
+    vec4 p[MATERIAL_PARAMS];
 };
 
 // The result of sampling a BRDF (Rust: brdf::BrdfSample).

@@ -53,6 +53,25 @@ fn close(g: f32, c: f32, scale: f32) -> bool {
     (g - c).abs() <= 2e-3 * g.abs().max(c.abs()) + 1e-5 * scale
 }
 
+/// Every registered model has a material in [`MATERIALS`], so none goes without a GPU parity
+/// check.
+#[test]
+fn the_parity_materials_cover_every_model() {
+    let missing: Vec<&str> = MODELS
+        .iter()
+        .filter(|m| {
+            !MATERIALS
+                .iter()
+                .any(|src| src.starts_with(&format!(r#"model = "{}","#, m.name)))
+        })
+        .map(|m| m.name)
+        .collect();
+    assert!(
+        missing.is_empty(),
+        "tests/brdf_gpu_parity.rs MATERIALS has no material of {missing:?}"
+    );
+}
+
 #[test]
 fn every_model_of_the_survey_is_built_in() {
     let names: Vec<&str> = MODELS.iter().map(|m| m.name).collect();

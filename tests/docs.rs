@@ -421,17 +421,60 @@ fn scene_and_model_tables_are_complete() {
         shipped,
         "scenes/README.md"
     );
-    for doc in ["README.md", "scenes/README.md"] {
+}
+
+/// Every model's parameter documentation is the text generated from its declared parameters
+/// (`brdf::docs`): the table at the top of `src/brdf/<model>.rs`, its row of README.md's model
+/// table and its row of scenes/README.md's table. `BRDFWAVE_WRITE_DOCS=1` rewrites them instead.
+#[test]
+fn model_parameter_tables_are_generated_from_the_declarations() {
+    use brdfwave::brdf::{docs, ModelInfo, MODELS};
+    let write = std::env::var_os("BRDFWAVE_WRITE_DOCS").is_some();
+    let mut failures = Vec::new();
+    type Row = fn(&ModelInfo) -> String;
+    let rows: [(&str, Row); 2] = [
+        ("README.md", docs::readme_row),
+        ("scenes/README.md", docs::scenes_readme_row),
+    ];
+    for (doc, row) in rows {
         let text = read(doc);
-        for m in brdfwave::brdf::MODELS.iter() {
-            assert!(
-                text.lines()
-                    .any(|l| l.starts_with(&format!("| `{}` |", m.name))),
-                "{doc}: no table row for the model {}",
-                m.name
-            );
+        let (want, missing) = docs::update_rows(&text, &MODELS, row);
+        for m in missing {
+            failures.push(format!("{doc}: no table row for the model {m}"));
+        }
+        if want != text {
+            if write {
+                std::fs::write(common::repo().join(doc), &want).unwrap();
+            }
+            for (got, want) in text.lines().zip(want.lines()).filter(|(a, b)| a != b) {
+                failures.push(format!("{doc}: row\n  {got}\nshould be\n  {want}"));
+            }
         }
     }
+    for m in MODELS.iter() {
+        let file = format!("src/brdf/{}.rs", m.name);
+        let text = read(&file);
+        let Some(want) = docs::update_model_file(&text, m) else {
+            failures.push(format!(
+                "{file}: no parameter table (lines starting `//! |`)"
+            ));
+            continue;
+        };
+        if want != text {
+            if write {
+                std::fs::write(common::repo().join(&file), &want).unwrap();
+            }
+            failures.push(format!(
+                "{file}: the parameter table should be\n{}",
+                docs::model_file_table(m)
+            ));
+        }
+    }
+    assert!(
+        failures.is_empty() || write,
+        "{}\n(BRDFWAVE_WRITE_DOCS=1 cargo test --release --test docs rewrites them)",
+        failures.join("\n")
+    );
 }
 
 /// Nothing in the repository cites notes that are not part of it: comments

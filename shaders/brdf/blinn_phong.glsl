@@ -1,8 +1,8 @@
 // Blinn–Phong 1977, survey eq. 5 (half vector) with Phong's eq. 4: `classic`; or Giesen's
 // normalized lobe. Parameters, defaults, ranges, reciprocity/energy notes:
 // src/brdf/blinn_phong.rs.
-// Record: p[0].xyz = kd, p[0].w = exponent, p[1].xyz = ks, p[1].w = form (0 classic,
-// 1 normalized), p[2].x = probability of sampling the specular lobe, p[2].y = k_n.
+// Record: p[0].xyz = kd, p[0].w = exponent, p[1].xyz = ks, p[1].w = form (BLINN_PHONG_CLASSIC,
+// BLINN_PHONG_NORMALIZED: generated from blinn_phong::RECORD_CODES), p[2].x = probability of sampling the specular lobe, p[2].y = k_n.
 #ifndef BRDF_BLINN_PHONG_GLSL
 #define BRDF_BLINN_PHONG_GLSL
 #include "brdf/common.glsl"
@@ -23,7 +23,7 @@ bool blinn_phong_half(vec3 a, vec3 b, out vec3 h, out float x) {
 }
 
 float blinn_phong_sample_exponent(Material m) {
-    return m.p[1].w > 0.5 ? m.p[0].w + 1.0 : m.p[0].w;
+    return m.p[1].w == BLINN_PHONG_NORMALIZED ? m.p[0].w + 1.0 : m.p[0].w;
 }
 
 vec3 blinn_phong_eval(Material m, vec3 wi, vec3 wo) {
@@ -33,7 +33,7 @@ vec3 blinn_phong_eval(Material m, vec3 wi, vec3 wo) {
     float x;
     if (!blinn_phong_half(wi, wo, h, x)) return diffuse;
     float l = pow_one_minus(x, m.p[0].w);
-    float spec = m.p[1].w > 0.5 ? l * m.p[2].y : l / max(wi.z, BLINN_PHONG_COS_FLOOR);
+    float spec = m.p[1].w == BLINN_PHONG_NORMALIZED ? l * m.p[2].y : l / max(wi.z, BLINN_PHONG_COS_FLOOR);
     return diffuse + m.p[1].xyz * spec;
 }
 

@@ -1,34 +1,36 @@
 // Cook–Torrance (1982), survey eqs. 6–9, plus kd/π. Rust twin: src/brdf/cook_torrance.rs
 // (parameter table, defaults, the 4× note on the survey normalisation, sampling).
 // Record: p[0].xyz kd, p[0].w roughness, p[1].xyz ks, p[1].w N (4 survey, 1 walter),
-// p[2].xyz Fresnel A (ior / eta / f0), p[2].w distribution (0 beckmann, 1 ggx),
-// p[3].xyz k, p[3].w geometry (0 v_cavity, 1 smith), p[4].x fresnel (0 diel., 1 cond., 2 schlick).
+// p[2].xyz Fresnel A (ior / eta / f0), p[2].w distribution (CT_BECKMANN, CT_GGX),
+// p[3].xyz k, p[3].w geometry (CT_V_CAVITY, CT_SMITH), p[4].x fresnel (CT_FRESNEL_DIELECTRIC,
+// CT_FRESNEL_CONDUCTOR, CT_FRESNEL_SCHLICK); the codes are generated from
+// cook_torrance::RECORD_CODES.
 #include "brdf/common.glsl"
 
 #define CT_MIRROR_ROUGHNESS 1e-3
 
 vec3 ct_fresnel(Material m, float c) {
-    int kind = int(m.p[4].x + 0.5);
-    if (kind == 0) return vec3(fresnel_dielectric(c, m.p[2].x));
-    if (kind == 1) return fresnel_conductor(c, m.p[2].xyz, m.p[3].xyz);
+    float kind = m.p[4].x;
+    if (kind == CT_FRESNEL_DIELECTRIC) return vec3(fresnel_dielectric(c, m.p[2].x));
+    if (kind == CT_FRESNEL_CONDUCTOR) return fresnel_conductor(c, m.p[2].xyz, m.p[3].xyz);
     return fresnel_schlick(c, m.p[2].xyz);
 }
 
 float ct_ndf(Material m, vec3 h) {
-    if (m.p[2].w < 0.5) return beckmann_d(h, m.p[0].w);
+    if (m.p[2].w == CT_BECKMANN) return beckmann_d(h, m.p[0].w);
     return ggx_d(h, m.p[0].w);
 }
 
 float ct_geometry(Material m, vec3 wi, vec3 wo, vec3 h) {
     float alpha = m.p[0].w;
-    if (m.p[3].w < 0.5) {
+    if (m.p[3].w == CT_V_CAVITY) {
         float c = dot(wo, h);
         if (c <= 0.0) return 0.0;
         float g_mask = 2.0 * h.z * wo.z / c;
         float g_shadow = 2.0 * h.z * wi.z / c;
         return min(min(g_mask, g_shadow), 1.0);
     }
-    if (m.p[2].w < 0.5) return smith_g1_beckmann_walter(wi, alpha) * smith_g1_beckmann_walter(wo, alpha);
+    if (m.p[2].w == CT_BECKMANN) return smith_g1_beckmann_walter(wi, alpha) * smith_g1_beckmann_walter(wo, alpha);
     return smith_g1_ggx(wi, alpha) * smith_g1_ggx(wo, alpha);
 }
 
@@ -73,7 +75,7 @@ bool cook_torrance_sample(Material m, vec3 given, float u_lobe, vec2 u, out Brdf
         if (m.p[0].w < CT_MIRROR_ROUGHNESS) {
             return sample_mirror(given, m.p[1].xyz * ct_fresnel(m, given.z) * (m.p[1].w / ps), s);
         }
-        vec3 h = m.p[2].w < 0.5 ? sample_beckmann_h(u, m.p[0].w) : sample_ggx_h(u, m.p[0].w);
+        vec3 h = m.p[2].w == CT_BECKMANN ? sample_beckmann_h(u, m.p[0].w) : sample_ggx_h(u, m.p[0].w);
         if (!reflect_about(given, h, wi)) return false;
     } else {
         wi = sample_cosine_hemisphere(u);

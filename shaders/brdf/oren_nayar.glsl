@@ -1,6 +1,7 @@
 // Oren–Nayar 1994, survey §2.1.2 (no equation in the survey; the paper's full and qualitative
 // models). Parameters, defaults, ranges, reciprocity/energy notes: src/brdf/oren_nayar.rs.
-// Record: p[0].xyz = albedo, p[0].w = sigma (radians), p[1].x = variant (0 full, 1 qualitative).
+// Record: p[0].xyz = albedo, p[0].w = sigma (radians), p[1].x = variant (OREN_NAYAR_FULL,
+// OREN_NAYAR_QUALITATIVE: generated from oren_nayar::RECORD_CODES).
 #ifndef BRDF_OREN_NAYAR_GLSL
 #define BRDF_OREN_NAYAR_GLSL
 #include "brdf/common.glsl"
@@ -27,7 +28,7 @@ vec3 oren_nayar_eval(Material m, vec3 wi, vec3 wo) {
     float sin_o = length(wo.xy);
     float sxy = wi.x * wo.x + wi.y * wo.y;  // sin(theta_i) sin(theta_o) cos(dphi)
     float cos_beta = max(max(wi.z, wo.z), 1e-6);
-    if (m.p[1].x > 0.5) {
+    if (m.p[1].x == OREN_NAYAR_QUALITATIVE) {
         return albedo * (INV_PI * (a + b * max(sxy, 0.0) / cos_beta));
     }
     float cos_dphi = (sin_i < 1e-4 || sin_o < 1e-4) ? 0.0 : clamp(sxy / (sin_i * sin_o), -1.0, 1.0);

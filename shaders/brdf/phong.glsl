@@ -1,7 +1,7 @@
 // Phong 1975, survey eq. 4 (+ eq. 3 diffuse) or the normalized Lafortune–Willems form.
 // Parameters, defaults, ranges, reciprocity/energy notes: src/brdf/phong.rs.
-// Record: p[0].xyz = kd, p[0].w = exponent, p[1].xyz = ks, p[1].w = form (0 survey,
-// 1 normalized), p[2].x = probability of sampling the specular lobe.
+// Record: p[0].xyz = kd, p[0].w = exponent, p[1].xyz = ks, p[1].w = form (PHONG_SURVEY,
+// PHONG_NORMALIZED: generated from phong::RECORD_CODES), p[2].x = probability of sampling the specular lobe.
 #ifndef BRDF_PHONG_GLSL
 #define BRDF_PHONG_GLSL
 #include "brdf/common.glsl"
@@ -17,7 +17,7 @@ vec3 phong_eval(Material m, vec3 wi, vec3 wo) {
     if (!same_hemisphere_up(wi, wo)) return vec3(0.0);
     float n = m.p[0].w;
     float l = phong_lobe(n, wi, wo);
-    float spec = m.p[1].w > 0.5 ? l * (n + 2.0) * (0.5 * INV_PI)
+    float spec = m.p[1].w == PHONG_NORMALIZED ? l * (n + 2.0) * (0.5 * INV_PI)
                                 : l / max(wi.z, PHONG_COS_FLOOR);
     return m.p[0].xyz * INV_PI + m.p[1].xyz * spec;
 }

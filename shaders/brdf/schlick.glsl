@@ -1,7 +1,8 @@
 // Schlick 1994, single and two-layer materials, survey eqs. 18–26. Rust twin:
 // src/brdf/schlick.rs (parameter table, how each form is read from the survey, corrections).
 // Record: p[0].xyz c, p[0].w r, p[1].xyz c2, p[1].w r2, p[2].x p, p[2].y p2,
-// p[2].z form (0 basic, 1 attenuated, 2 continuum), p[2].w layered, p[3].x cos(rotation),
+// p[2].z form (SCHLICK_BASIC,
+// SCHLICK_ATTENUATED, SCHLICK_CONTINUUM: generated from schlick::RECORD_CODES), p[2].w layered, p[3].x cos(rotation),
 // p[3].y sin(rotation).
 // SCHLICK_LAYERED compiles the second layer, SCHLICK_ANISOTROPIC the azimuth factor A
 // (without it A ≡ 1, exact for p = 1).
@@ -55,10 +56,10 @@ float schlick_glossy(float r, float p, float cs, float sn, vec3 wi, vec3 wo, vec
         / (4.0 * PI * schlick_q(r, wi.z) * schlick_q(r, wo.z));
 }
 
-float schlick_layer_d(int form, float r, float p, float cs, float sn, vec3 wi, vec3 wo, vec3 h) {
+float schlick_layer_d(float form, float r, float p, float cs, float sn, vec3 wi, vec3 wo, vec3 h) {
     float vv = max(wi.z * wo.z, 1e-20);
-    if (form == 0) return schlick_zenith(r, h) * sqrt(schlick_azimuth2(p, cs, sn, h)) / (4.0 * PI * vv);
-    if (form == 1) {
+    if (form == SCHLICK_BASIC) return schlick_zenith(r, h) * sqrt(schlick_azimuth2(p, cs, sn, h)) / (4.0 * PI * vv);
+    if (form == SCHLICK_ATTENUATED) {
         float gg = schlick_shadow_g(r, wi.z) * schlick_shadow_g(r, wo.z);
         precise float re = max(1.0 - gg, 0.0);
         return schlick_glossy(r, p, cs, sn, wi, wo, h) + re / (4.0 * PI * vv);
@@ -73,7 +74,7 @@ vec3 schlick_eval(Material m, vec3 wi, vec3 wo) {
     if (!same_hemisphere_up(wi, wo)) return vec3(0.0);
     float cs = m.p[3].x;
     float sn = m.p[3].y;
-    int form = int(m.p[2].z + 0.5);
+    float form = m.p[2].z;
     vec3 h = normalize(wi + wo);
     float u = dot(wi, h);
     vec3 s1 = schlick_spectral(m.p[0].xyz, u);
@@ -88,9 +89,9 @@ vec3 schlick_eval(Material m, vec3 wi, vec3 wo) {
 }
 
 // (glossy, diffuse-like, delta) weights of one layer.
-vec3 schlick_layer_weights(int form, float r, float s, float mu) {
-    if (form == 0) return vec3(s, 0.0, 0.0);
-    if (form == 1) {
+vec3 schlick_layer_weights(float form, float r, float s, float mu) {
+    if (form == SCHLICK_BASIC) return vec3(s, 0.0, 0.0);
+    if (form == SCHLICK_ATTENUATED) {
         float g = schlick_shadow_g(r, mu);
         return vec3(s * g, s * (1.0 - g), 0.0);
     }
@@ -100,7 +101,7 @@ vec3 schlick_layer_weights(int form, float r, float s, float mu) {
 
 // [glossy layer 1, glossy layer 2, diffuse-like, delta].
 vec4 schlick_lobe_probabilities(Material m, vec3 given) {
-    int form = int(m.p[2].z + 0.5);
+    float form = m.p[2].z;
     vec3 s1 = schlick_spectral(m.p[0].xyz, given.z);
     vec3 w1 = schlick_layer_weights(form, m.p[0].w, luminance(s1), given.z);
     vec3 w2 = vec3(0.0);
@@ -116,7 +117,7 @@ vec4 schlick_lobe_probabilities(Material m, vec3 given) {
 }
 
 vec3 schlick_mirror_reflectance(Material m, vec3 given) {
-    if (int(m.p[2].z + 0.5) != 2) return vec3(0.0);
+    if (m.p[2].z != SCHLICK_CONTINUUM) return vec3(0.0);
     vec3 s1 = schlick_spectral(m.p[0].xyz, given.z);
     vec3 f = s1 * schlick_continuum_coeffs(m.p[0].w).z;
 #ifdef SCHLICK_LAYERED
@@ -170,7 +171,7 @@ float schlick_pdf(Material m, vec3 given, vec3 sampled) {
     if (pr.x > 0.0) p += pr.x * schlick_glossy_pdf(m.p[0].w, m.p[2].x, cs, sn, given, sampled);
     if (pr.y > 0.0) p += pr.y * schlick_glossy_pdf(m.p[1].w, m.p[2].y, cs, sn, given, sampled);
     if (pr.z > 0.0) {
-        float pd = int(m.p[2].z + 0.5) == 1 ? 0.5 * INV_PI : cosine_hemisphere_pdf(sampled.z);
+        float pd = m.p[2].z == SCHLICK_ATTENUATED ? 0.5 * INV_PI : cosine_hemisphere_pdf(sampled.z);
         p += pr.z * pd;
     }
     return p;
@@ -189,7 +190,7 @@ bool schlick_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample
         if (u_lobe < pr.w + pr.x) h = schlick_sample_glossy_h(m.p[0].w, m.p[2].x, cs, sn, u);
         else h = schlick_sample_glossy_h(m.p[1].w, m.p[2].y, cs, sn, u);
         if (!reflect_about(given, h, wi)) return false;
-    } else if (int(m.p[2].z + 0.5) == 1) {
+    } else if (m.p[2].z == SCHLICK_ATTENUATED) {
         wi = schlick_sample_uniform_hemisphere(u);
     } else {
         wi = sample_cosine_hemisphere(u);

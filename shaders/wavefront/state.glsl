@@ -25,8 +25,8 @@ uvec2 light_entry(uint i) { return texelFetch(light_table, int(i)).xy; }
 vec4 emitter(uint i) { return uintBitsToFloat(texelFetch(emitter_data, int(i))); }
 Material load_material(uint i) {
     Material m;
-    m.header = texelFetch(material_words, int(8u * i));
-    for (int k = 0; k < 7; ++k) m.p[k] = uintBitsToFloat(texelFetch(material_words, int(8u * i) + 1 + k));
+    m.header = texelFetch(material_words, int(MATERIAL_TEXELS * i));
+    for (int k = 0; k < MATERIAL_PARAMS; ++k) m.p[k] = uintBitsToFloat(texelFetch(material_words, int(MATERIAL_TEXELS * i) + 1 + k));
     return m;
 }
 

@@ -5,8 +5,8 @@
 //! |---|---|---|---|---|
 //! | `kd` | RGB, unitless | `[0.5, 0.5, 0.5]` | [0, 1] | diffuse coefficient k_d (f_d = k_d/π, eq. 3) |
 //! | `ks` | RGB, unitless | `[0.3, 0.3, 0.3]` | [0, 1] | specular coefficient k_s |
-//! | `exponent` | unitless | `80` | [0, 10⁶] | shininess n (≈ 4× the Phong exponent for a similar highlight) |
-//! | `form` | — | `"classic"` | `classic`, `normalized` | the survey's form or the energy-normalised reciprocal lobe |
+//! | `exponent` | unitless | `80` | [0, 1e6] | shininess n (≈ 4× the Phong exponent for a similar highlight) |
+//! | `form` | — | `"classic"` | `classic`, `normalized` | the survey's form (eq. 5) or the energy-normalised reciprocal lobe |
 //!
 //! * `classic` (default): f = k_d/π + k_s·max(0, N·H)ⁿ / cosθi. The survey defines Blinn–Phong
 //!   as Phong's model (eq. 4) with R·V replaced by N·H (eq. 5), so it keeps eq. 4's 1/(N·L):
@@ -44,7 +44,7 @@ use super::common::{
     diffuse_specular_pdf, expm1_f, luminance, pow_one_minus, reflect_about, same_hemisphere_up,
     sample_cosine_hemisphere,
 };
-use super::{flag, Brdf, BrdfSample, ParamError, ParamReader, Params};
+use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, PI};
 use std::sync::Arc;
@@ -110,11 +110,67 @@ impl BlinnPhong {
     }
 }
 
+const KD: Param = Param::rgb(
+    "kd",
+    "RGB, unitless",
+    [0.5; 3],
+    (0.0, 1.0),
+    "diffuse coefficient k_d (f_d = k_d/π, eq. 3)",
+);
+const KS: Param = Param::rgb(
+    "ks",
+    "RGB, unitless",
+    [0.3; 3],
+    (0.0, 1.0),
+    "specular coefficient k_s",
+);
+const EXPONENT: Param = Param::scalar(
+    "exponent",
+    "unitless",
+    80.0,
+    (0.0, 1e6),
+    "shininess n (≈ 4× the Phong exponent for a similar highlight)",
+);
+const FORM: Param = Param::choice(
+    "form",
+    &["classic", "normalized"],
+    "classic",
+    "the survey's form (eq. 5) or the energy-normalised reciprocal lobe",
+);
+/// The scene-file parameters (the table above is generated from them: `brdf::docs`).
+pub const PARAMS: &[Param] = &[KD, KS, EXPONENT, FORM];
+/// The `brdf report` materials: both forms at one gloss.
+pub const REPRESENTATIVE: &[(&str, &str)] = &[
+    (
+        "blinn_phong (classic)",
+        r#"model = "blinn_phong", kd = 0.0, ks = 0.8, exponent = 200, form = "classic""#,
+    ),
+    (
+        "blinn_phong (normalized)",
+        r#"model = "blinn_phong", kd = 0.0, ks = 0.8, exponent = 200, form = "normalized""#,
+    ),
+];
+/// `p[1].w`: the form.
+pub const RECORD_CODES: &[(&str, f32)] = &[
+    ("BLINN_PHONG_CLASSIC", Form::Classic.code()),
+    ("BLINN_PHONG_NORMALIZED", Form::Normalized.code()),
+];
+
+impl Form {
+    /// The code in the GPU record (GLSL `BLINN_PHONG_<FORM>`).
+    pub const fn code(self) -> f32 {
+        match self {
+            Form::Classic => 0.0,
+            Form::Normalized => 1.0,
+        }
+    }
+}
+
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
-    let kd = r.rgb("kd", Vec3::splat(0.5), 0.0, 1.0)?;
-    let ks = r.rgb("ks", Vec3::splat(0.3), 0.0, 1.0)?;
-    let exponent = r.scalar("exponent", 80.0, 0.0, 1e6)?;
-    let form = match r.choice("form", &["classic", "normalized"], "classic")? {
+    let kd = r.rgb_of(&KD)?;
+    let ks = r.rgb_of(&KS)?;
+    let exponent = r.scalar_of(&EXPONENT)?;
+    let form = match r.choice_of(&FORM)? {
         "normalized" => Form::Normalized,
         _ => Form::Classic,
     };
@@ -200,10 +256,9 @@ pub fn sample(m: &BlinnPhong, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfS
 
 impl_brdf!(BlinnPhong {
     fn pack(&self) -> Params {
-        let normalized = flag(self.form == Form::Normalized);
         Params::from_vec4s([
             self.kd.extend(self.exponent),
-            self.ks.extend(normalized),
+            self.ks.extend(self.form.code()),
             Vec4::new(self.p_spec, self.k_n, 0.0, 0.0),
         ])
     }

@@ -6,13 +6,14 @@
 //! | `kd` | RGB | `[0, 0, 0]` | [0, 1] | Lambertian diffuse albedo (survey: "simply adding" a diffuse part) |
 //! | `ks` | RGB | `[1, 1, 1]` | [0, 1] | scale of the specular lobe |
 //! | `roughness` | rms slope m | `0.3` | [0, 4] | Beckmann m = GGX α; below 1e-3 the lobe is a delta mirror |
-//! | `distribution` | — | `beckmann` | `beckmann` (eq. 6) \| `ggx` | microfacet NDF |
-//! | `geometry` | — | `v_cavity` | `v_cavity` (eq. 8) \| `smith` | masking-shadowing G |
-//! | `fresnel` | — | `dielectric` | `dielectric` \| `conductor` \| `schlick` | Fresnel term at c = wi·h |
+//! | `distribution` | — | `"beckmann"` | `beckmann`, `ggx` | microfacet NDF (`beckmann`: survey eq. 6) |
+//! | `geometry` | — | `"v_cavity"` | `v_cavity`, `smith` | masking-shadowing G (`v_cavity`: survey eq. 8) |
+//! | `fresnel` | — | `"dielectric"` | `dielectric`, `conductor`, `schlick` | Fresnel term at c = wi·h (`dielectric`: survey eq. 7; `conductor`: the exact formula) |
 //! | `ior` | — | `1.5` | [1, 100] | relative index, `fresnel = "dielectric"` (eq. 7) |
-//! | `eta`, `k` | RGB | Au-like `[0.143, 0.375, 1.442]`, `[3.983, 2.386, 1.603]` | η ∈ (0, 100], κ ∈ [0, 100] | complex index η + iκ, `fresnel = "conductor"` (exact formula) |
+//! | `eta` | RGB | `[0.143036, 0.375307, 1.44205]` | (0, 100] | real part η of the complex index η + iκ, `fresnel = "conductor"` (default gold-like) |
+//! | `k` | RGB | `[3.983, 2.38556, 1.60336]` | [0, 100] | imaginary part κ of the complex index, `fresnel = "conductor"` |
 //! | `f0` | RGB | `[0.04, 0.04, 0.04]` | [0, 1] | normal-incidence reflectance, `fresnel = "schlick"` |
-//! | `normalization` | — | `survey` | `survey` (eq. 9) \| `walter` | see below |
+//! | `normalization` | — | `"survey"` | `survey`, `walter` | the specular denominator: `survey` (eq. 9) or `walter`, see below |
 //!
 //! f_r = kd/π + ks · F(wi·h) · D(h) · G · N / (4 cosθi cosθo), with D normalised
 //! (∫ D cosθh dω = 1) and N = 4 for `survey`, N = 1 for `walter`.
@@ -54,7 +55,7 @@ use super::common::{
     ggx_d, luminance, reflect_about, reflected_pdf, same_hemisphere_up, sample_beckmann_h,
     sample_cosine_hemisphere, sample_ggx_h, smith_g1_beckmann_walter, smith_g1_ggx,
 };
-use super::{flag, Brdf, BrdfSample, ParamError, ParamReader, Params};
+use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;
@@ -144,29 +145,167 @@ impl CookTorrance {
     }
 }
 
+const KD: Param = Param::rgb(
+    "kd",
+    "RGB",
+    [0.0; 3],
+    (0.0, 1.0),
+    "Lambertian diffuse albedo (survey: \"simply adding\" a diffuse part)",
+);
+const KS: Param = Param::rgb(
+    "ks",
+    "RGB",
+    [1.0; 3],
+    (0.0, 1.0),
+    "scale of the specular lobe",
+);
+const ROUGHNESS: Param = Param::scalar(
+    "roughness",
+    "rms slope m",
+    0.3,
+    (0.0, 4.0),
+    "Beckmann m = GGX α; below 1e-3 the lobe is a delta mirror",
+);
+const DISTRIBUTION: Param = Param::choice(
+    "distribution",
+    &["beckmann", "ggx"],
+    "beckmann",
+    "microfacet NDF (`beckmann`: survey eq. 6)",
+);
+const GEOMETRY: Param = Param::choice(
+    "geometry",
+    &["v_cavity", "smith"],
+    "v_cavity",
+    "masking-shadowing G (`v_cavity`: survey eq. 8)",
+);
+const FRESNEL: Param = Param::choice(
+    "fresnel",
+    &["dielectric", "conductor", "schlick"],
+    "dielectric",
+    "Fresnel term at c = wi·h (`dielectric`: survey eq. 7; `conductor`: the exact formula)",
+);
+const IOR: Param = Param::scalar(
+    "ior",
+    "—",
+    1.5,
+    (1.0, 100.0),
+    "relative index, `fresnel = \"dielectric\"` (eq. 7)",
+);
+// η > 0 is checked in `parse`.
+const ETA: Param = Param::rgb(
+    "eta",
+    "RGB",
+    [0.143_036, 0.375_307, 1.442_05],
+    (0.0, 100.0),
+    "real part η of the complex index η + iκ, `fresnel = \"conductor\"` (default gold-like)",
+)
+.range_text("(0, 100]");
+const K: Param = Param::rgb(
+    "k",
+    "RGB",
+    [3.983, 2.385_56, 1.603_36],
+    (0.0, 100.0),
+    "imaginary part κ of the complex index, `fresnel = \"conductor\"`",
+);
+const F0: Param = Param::rgb(
+    "f0",
+    "RGB",
+    [0.04; 3],
+    (0.0, 1.0),
+    "normal-incidence reflectance, `fresnel = \"schlick\"`",
+);
+const NORMALIZATION: Param = Param::choice(
+    "normalization",
+    &["survey", "walter"],
+    "survey",
+    "the specular denominator: `survey` (eq. 9) or `walter`, see below",
+);
+/// The scene-file parameters (the table above is generated from them: `brdf::docs`).
+pub const PARAMS: &[Param] = &[
+    KD,
+    KS,
+    ROUGHNESS,
+    DISTRIBUTION,
+    GEOMETRY,
+    FRESNEL,
+    IOR,
+    ETA,
+    K,
+    F0,
+    NORMALIZATION,
+];
+/// The `brdf report` materials: both normalisations at one gloss.
+pub const REPRESENTATIVE: &[(&str, &str)] = &[
+    (
+        "cook_torrance (survey)",
+        r#"model = "cook_torrance", kd = 0.0, ks = 1.0, roughness = 0.2, fresnel = "schlick", f0 = 0.8, normalization = "survey""#,
+    ),
+    (
+        "cook_torrance (walter)",
+        r#"model = "cook_torrance", kd = 0.0, ks = 1.0, roughness = 0.2, fresnel = "schlick", f0 = 0.8, normalization = "walter", geometry = "smith""#,
+    ),
+];
+/// `p[2].w` the distribution, `p[3].w` the geometry, `p[4].x` the Fresnel term
+/// ([`Fresnel::code`]).
+pub const RECORD_CODES: &[(&str, f32)] = &[
+    ("CT_BECKMANN", Distribution::Beckmann.code()),
+    ("CT_GGX", Distribution::Ggx.code()),
+    ("CT_V_CAVITY", Geometry::VCavity.code()),
+    ("CT_SMITH", Geometry::Smith.code()),
+    ("CT_FRESNEL_DIELECTRIC", Fresnel::Dielectric.code()),
+    ("CT_FRESNEL_CONDUCTOR", Fresnel::Conductor.code()),
+    ("CT_FRESNEL_SCHLICK", Fresnel::Schlick.code()),
+];
+
+impl Distribution {
+    /// The code in the GPU record (GLSL `CT_<DISTRIBUTION>`).
+    pub const fn code(self) -> f32 {
+        match self {
+            Distribution::Beckmann => 0.0,
+            Distribution::Ggx => 1.0,
+        }
+    }
+}
+
+impl Geometry {
+    /// The code in the GPU record (GLSL `CT_<GEOMETRY>`).
+    pub const fn code(self) -> f32 {
+        match self {
+            Geometry::VCavity => 0.0,
+            Geometry::Smith => 1.0,
+        }
+    }
+}
+
+impl Fresnel {
+    /// The Fresnel term's code in the GPU record (GLSL `CT_FRESNEL_<NAME>`).
+    pub const fn code(self) -> f32 {
+        match self {
+            Fresnel::Dielectric => 0.0,
+            Fresnel::Conductor => 1.0,
+            Fresnel::Schlick => 2.0,
+        }
+    }
+}
+
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
-    let d = CookTorrance::default();
-    let kd = r.rgb("kd", d.kd, 0.0, 1.0)?;
-    let ks = r.rgb("ks", d.ks, 0.0, 1.0)?;
-    let roughness = r.scalar("roughness", d.roughness, 0.0, 4.0)?;
-    let distribution = match r.choice("distribution", &["beckmann", "ggx"], "beckmann")? {
+    let kd = r.rgb_of(&KD)?;
+    let ks = r.rgb_of(&KS)?;
+    let roughness = r.scalar_of(&ROUGHNESS)?;
+    let distribution = match r.choice_of(&DISTRIBUTION)? {
         "ggx" => Distribution::Ggx,
         _ => Distribution::Beckmann,
     };
-    let geometry = match r.choice("geometry", &["v_cavity", "smith"], "v_cavity")? {
+    let geometry = match r.choice_of(&GEOMETRY)? {
         "smith" => Geometry::Smith,
         _ => Geometry::VCavity,
     };
-    let fresnel = match r.choice(
-        "fresnel",
-        &["dielectric", "conductor", "schlick"],
-        "dielectric",
-    )? {
+    let fresnel = match r.choice_of(&FRESNEL)? {
         "conductor" => Fresnel::Conductor,
         "schlick" => Fresnel::Schlick,
         _ => Fresnel::Dielectric,
     };
-    let normalization = match r.choice("normalization", &["survey", "walter"], "survey")? {
+    let normalization = match r.choice_of(&NORMALIZATION)? {
         "walter" => Normalization::Walter,
         _ => Normalization::Survey,
     };
@@ -186,13 +325,13 @@ pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
             return Err(r.error(key, format!("applies only with fresnel = \"{want}\"")));
         }
     }
-    let ior = r.scalar("ior", d.ior, 1.0, 100.0)?;
-    let eta = r.rgb("eta", d.eta, 0.0, 100.0)?;
+    let ior = r.scalar_of(&IOR)?;
+    let eta = r.rgb_of(&ETA)?;
     if eta.min_element() <= 0.0 {
         return Err(r.error("eta", "must be > 0 in every channel"));
     }
-    let k = r.rgb("k", d.k, 0.0, 100.0)?;
-    let f0 = r.rgb("f0", d.f0, 0.0, 1.0)?;
+    let k = r.rgb_of(&K)?;
+    let f0 = r.rgb_of(&F0)?;
     let m = CookTorrance {
         kd,
         ks,
@@ -344,16 +483,17 @@ pub fn sample(m: &CookTorrance, given: Vec3, u_lobe: f32, u: Vec2) -> Option<Brd
 
 impl_brdf!(CookTorrance {
     fn pack(&self) -> Params {
-        let (fresnel, a) = match self.fresnel {
-            Fresnel::Dielectric => (0.0, Vec3::splat(self.ior)),
-            Fresnel::Conductor => (1.0, self.eta),
-            Fresnel::Schlick => (2.0, self.f0),
+        let fresnel = self.fresnel.code();
+        let a = match self.fresnel {
+            Fresnel::Dielectric => Vec3::splat(self.ior),
+            Fresnel::Conductor => self.eta,
+            Fresnel::Schlick => self.f0,
         };
         Params::from_vec4s([
             self.kd.extend(self.roughness),
             self.ks.extend(self.norm_factor()),
-            a.extend(flag(self.distribution == Distribution::Ggx)),
-            self.k.extend(flag(self.geometry == Geometry::Smith)),
+            a.extend(self.distribution.code()),
+            self.k.extend(self.geometry.code()),
             Vec4::new(fresnel, 0.0, 0.0, 0.0),
         ])
     }

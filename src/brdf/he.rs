@@ -9,11 +9,11 @@
 //! | parameter | unit | default | range | meaning |
 //! |---|---|---|---|---|
 //! | `sigma0` | µm | `0.18` | [0, 50] | rms surface height σ₀ (survey fig. 9: 0.18–0.38 µm) |
-//! | `tau` | µm | `3.0` | (0, 1000] | autocorrelation length τ (survey fig. 9: 3.0 µm) |
+//! | `tau` | µm | `3` | (0, 1000] | autocorrelation length τ (survey fig. 9: 3.0 µm) |
 //! | `ior` | RGB | `[1.37, 0.96, 0.62]` | (0, 100] | real part n(λ) of the complex index |
 //! | `k` | RGB | `[7.62, 6.69, 5.47]` | [0, 100] | imaginary part κ(λ) (defaults: approximate aluminium, the survey's fig. 9 material) |
 //! | `wavelengths` | µm per channel | `[0.65, 0.55, 0.45]` | [0.2, 5] | λ at which each channel is evaluated |
-//! | `diffuse` | RGB albedo | `[0, 0, 0]` | [0, 1] | uniform-diffuse a(λ) as an albedo: f_ud = `diffuse`/π |
+//! | `diffuse` | RGB albedo | `[0, 0, 0]` | [0, 1] | uniform-diffuse a(λ) as an albedo: f_ud = `diffuse`/π (survey eq. 15) |
 //!
 //! **Terms** (v = wi + wo, v_z = cosθi + cosθo, v_xy² = v_x² + v_y², k = 2π/λ):
 //! * f_dd = F(wi·h)·G·S·D / (π cosθi cosθo) (eq. 15), G = (v·v/v_z)² (unpolarised form of He's
@@ -74,7 +74,7 @@ use super::common::{
     beckmann_d, cosine_hemisphere_pdf, erfc, expm1_f, fresnel_conductor, luminance, reflect_about,
     reflected_pdf, same_hemisphere_up, sample_beckmann_h, sample_cosine_hemisphere,
 };
-use super::{flag, Brdf, BrdfSample, ParamError, ParamReader, Params};
+use super::{flag, Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, PI};
 use std::sync::Arc;
@@ -107,25 +107,77 @@ impl Default for He {
     }
 }
 
+const SIGMA0: Param = Param::scalar(
+    "sigma0",
+    "µm",
+    0.18,
+    (0.0, 50.0),
+    "rms surface height σ₀ (survey fig. 9: 0.18–0.38 µm)",
+);
+// τ > 0 is checked in `parse`.
+const TAU: Param = Param::scalar(
+    "tau",
+    "µm",
+    3.0,
+    (f32::NEG_INFINITY, 1000.0),
+    "autocorrelation length τ (survey fig. 9: 3.0 µm)",
+)
+.range_text("(0, 1000]");
+// n > 0 is checked in `parse`.
+const IOR: Param = Param::rgb(
+    "ior",
+    "RGB",
+    [1.37, 0.96, 0.62],
+    (f32::NEG_INFINITY, 100.0),
+    "real part n(λ) of the complex index",
+)
+.range_text("(0, 100]");
+const K: Param = Param::rgb(
+    "k",
+    "RGB",
+    [7.62, 6.69, 5.47],
+    (0.0, 100.0),
+    "imaginary part κ(λ) (defaults: approximate aluminium, the survey's fig. 9 material)",
+);
+const WAVELENGTHS: Param = Param::rgb(
+    "wavelengths",
+    "µm per channel",
+    [0.65, 0.55, 0.45],
+    (0.2, 5.0),
+    "λ at which each channel is evaluated",
+);
+const DIFFUSE: Param = Param::rgb(
+    "diffuse",
+    "RGB albedo",
+    [0.0; 3],
+    (0.0, 1.0),
+    "uniform-diffuse a(λ) as an albedo: f_ud = `diffuse`/π (survey eq. 15)",
+);
+/// The scene-file parameters (the table above is generated from them: `brdf::docs`).
+pub const PARAMS: &[Param] = &[SIGMA0, TAU, IOR, K, WAVELENGTHS, DIFFUSE];
+/// The `brdf report` material.
+pub const REPRESENTATIVE: &[(&str, &str)] = &[("he", r#"model = "he", sigma0 = 0.4, tau = 4.0"#)];
+/// No enum in the record.
+pub const RECORD_CODES: &[(&str, f32)] = &[];
+
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
-    let d = He::default();
-    let sigma0 = r.scalar("sigma0", d.sigma0, 0.0, 50.0)?;
+    let sigma0 = r.scalar_of(&SIGMA0)?;
     // Ranges open at 0: checked here in one message (the range check's "[0, 1000]" said 0 was
     // valid, and then 0 was refused).
-    let tau = r.scalar("tau", d.tau, f32::NEG_INFINITY, 1000.0)?;
+    let tau = r.scalar_of(&TAU)?;
     if tau <= 0.0 {
         return Err(r.error(
             "tau",
             "must be > 0 and at most 1000 (the autocorrelation length, µm)",
         ));
     }
-    let ior = r.rgb("ior", d.ior, f32::NEG_INFINITY, 100.0)?;
+    let ior = r.rgb_of(&IOR)?;
     if ior.min_element() <= 0.0 {
         return Err(r.error("ior", "must be > 0 and at most 100 in every channel"));
     }
-    let k = r.rgb("k", d.k, 0.0, 100.0)?;
-    let wavelengths = r.rgb("wavelengths", d.wavelengths, 0.2, 5.0)?;
-    let diffuse = r.rgb("diffuse", d.diffuse, 0.0, 1.0)?;
+    let k = r.rgb_of(&K)?;
+    let wavelengths = r.rgb_of(&WAVELENGTHS)?;
+    let diffuse = r.rgb_of(&DIFFUSE)?;
     let m = He {
         sigma0,
         tau,

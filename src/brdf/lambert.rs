@@ -2,7 +2,7 @@
 //!
 //! | parameter | unit | default | range | meaning |
 //! |---|---|---|---|---|
-//! | `albedo` | RGB, unitless | `[0.5, 0.5, 0.5]` | [0, 1] | hemispherical reflectance ρ |
+//! | `albedo` | RGB, unitless | `[0.5, 0.5, 0.5]` | [0, 1] | hemispherical reflectance ρ (f_r = ρ/π, survey eq. 3) |
 //!
 //! Reciprocal and energy conserving for ρ ≤ 1; the directional albedo is ρ at every angle
 //! (Lambert 1760; survey eq. 3). Sampling is cosine-weighted, so the sample weight is exactly ρ.
@@ -10,7 +10,7 @@
 //! GPU record: `p[0].xyz` = albedo.
 
 use super::common::{diffuse_pdf, same_hemisphere_up, sample_diffuse};
-use super::{Brdf, BrdfSample, ParamError, ParamReader, Params};
+use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;
@@ -20,8 +20,22 @@ pub struct Lambert {
     pub albedo: Vec3,
 }
 
+const ALBEDO: Param = Param::rgb(
+    "albedo",
+    "RGB, unitless",
+    [0.5; 3],
+    (0.0, 1.0),
+    "hemispherical reflectance ρ (f_r = ρ/π, survey eq. 3)",
+);
+/// The scene-file parameters (the table above is generated from them: `brdf::docs`).
+pub const PARAMS: &[Param] = &[ALBEDO];
+/// The `brdf report` material.
+pub const REPRESENTATIVE: &[(&str, &str)] = &[("lambert", r#"model = "lambert", albedo = 0.8"#)];
+/// No enum in the record.
+pub const RECORD_CODES: &[(&str, f32)] = &[];
+
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
-    let albedo = r.rgb("albedo", Vec3::splat(0.5), 0.0, 1.0)?;
+    let albedo = r.rgb_of(&ALBEDO)?;
     Ok(Arc::new(Lambert { albedo }))
 }
 

@@ -14,7 +14,14 @@
 //!   that sample (the mixture density over all non-delta lobes, times their selection
 //!   probability).
 //!
-//! Adding a model: a Rust file here, a GLSL file in `shaders/brdf/`, one line in [`MODELS`].
+//! Adding a model: a Rust file here (with `parse`, `PARAMS`, `REPRESENTATIVE` and
+//! `RECORD_CODES`, which the registry row reads), a GLSL file in `shaders/brdf/` (with
+//! `<name>_eval`, `<name>_pdf` and `<name>_sample`), one line in the `registry!` list below and
+//! `tests/brdf_<name>.rs`. The megakernel's dispatch and the record codes are generated
+//! ([`glsl`]), the parameter tables too ([`docs`]); what cannot be derived (a GPU parity
+//! material, a stress generator, a sphere in `scenes/lineup.toml`, the README rows) fails a
+//! coverage test that names the model (tests/model_registry.rs, tests/brdf_gpu_parity.rs,
+//! tests/docs.rs).
 
 /// Implements [`Brdf`] for a model type by forwarding `eval`, `pdf` and `sample` to the free
 /// functions of the model's file, which carry the names and arguments of its GLSL twin
@@ -45,21 +52,15 @@ macro_rules! impl_brdf {
     };
 }
 
-pub mod blinn_phong;
 pub mod common;
-pub mod cook_torrance;
-pub mod he;
+pub mod docs;
+pub mod glsl;
 pub mod inline;
-pub mod lambert;
-pub mod oren_nayar;
 pub mod params;
-pub mod phong;
-pub mod schlick;
 pub mod validate;
-pub mod ward;
 
 use glam::{Vec2, Vec3, Vec4};
-pub use params::{Origin, ParamError, ParamReader};
+pub use params::{Kind, Origin, Param, ParamError, ParamReader};
 use std::fmt::Debug;
 use std::sync::Arc;
 
@@ -173,28 +174,62 @@ pub trait Brdf: Debug + Send + Sync {
     }
 }
 
-/// A model of the survey: its scene-file name and how to read its parameters.
+/// A model of the survey: its registry row. Everything a model needs besides its two twin
+/// files and its test file is derived from these rows: the megakernel's dispatch
+/// ([`glsl::any_glsl`]), the record codes GLSL compares against ([`glsl::record_glsl`]), the
+/// parser's defaults and ranges, the documentation tables ([`docs`]), the `brdf report`
+/// materials and the coverage tests.
 pub struct ModelInfo {
-    /// Scene-file `model = "…"` name, Rust module name and GLSL file stem (`shaders/brdf/NAME.glsl`).
+    /// Scene-file `model = "…"` name, Rust module name and GLSL file stem (`shaders/brdf/NAME.glsl`);
+    /// the GLSL functions are `NAME_eval`, `NAME_pdf` and `NAME_sample`.
     pub name: &'static str,
     pub parse: fn(&mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError>,
+    /// The scene-file parameters (the model file's `PARAMS`).
+    pub params: &'static [Param],
+    /// `(label, inline material)` pairs that `brdf report` measures: the model's variants at
+    /// comparable gloss (the model file's `REPRESENTATIVE`).
+    pub representative: &'static [(&'static str, &'static str)],
+    /// The float codes of the enums the model writes into its GPU record, as GLSL `#define`s
+    /// (`WARD_VARIANT_DUER2006`): the model file's `RECORD_CODES`, which its `pack` uses too.
+    pub record_codes: &'static [(&'static str, f32)],
 }
 
-/// Number of models in [`MODELS`].
-pub const MODELS_COUNT: usize = 8;
+/// The registry row of the model whose module (and scene-file name) is `$m`: its `parse`,
+/// `PARAMS`, `REPRESENTATIVE` and `RECORD_CODES`. A model file lacking one fails to compile.
+macro_rules! model {
+    ($m:ident) => {
+        ModelInfo {
+            name: stringify!($m),
+            parse: $m::parse,
+            params: $m::PARAMS,
+            representative: $m::REPRESENTATIVE,
+            record_codes: $m::RECORD_CODES,
+        }
+    };
+}
 
-/// Every model, in a fixed order; the index is the model id on the GPU.
-#[rustfmt::skip]
-pub static MODELS: [ModelInfo; MODELS_COUNT] = [
-    ModelInfo { name: "lambert", parse: lambert::parse },
-    ModelInfo { name: "oren_nayar", parse: oren_nayar::parse },
-    ModelInfo { name: "phong", parse: phong::parse },
-    ModelInfo { name: "blinn_phong", parse: blinn_phong::parse },
-    ModelInfo { name: "cook_torrance", parse: cook_torrance::parse },
-    ModelInfo { name: "he", parse: he::parse },
-    ModelInfo { name: "ward", parse: ward::parse },
-    ModelInfo { name: "schlick", parse: schlick::parse },
-];
+/// Declares the model modules (`pub mod NAME;`, the file `src/brdf/NAME.rs`), [`MODELS`] and
+/// [`MODELS_COUNT`] from the list of model names: a model is one line here.
+macro_rules! registry {
+    ($($m:ident),* $(,)?) => {
+        $(pub mod $m;)*
+        /// Number of models in [`MODELS`].
+        pub const MODELS_COUNT: usize = [$(stringify!($m)),*].len();
+        /// Every model, in a fixed order; the index is the model id on the GPU.
+        pub static MODELS: [ModelInfo; MODELS_COUNT] = [$(model!($m)),*];
+    };
+}
+
+registry!(
+    lambert,
+    oren_nayar,
+    phong,
+    blinn_phong,
+    cook_torrance,
+    he,
+    ward,
+    schlick,
+);
 
 /// A named material instance: which model and its parameters.
 #[derive(Clone, Debug)]
@@ -224,6 +259,7 @@ pub fn parse_material(
         .iter()
         .position(|m| m.name == name)
         .expect("choice returns a known model");
+    reader.declare(MODELS[model].params);
     let brdf = (MODELS[model].parse)(&mut reader)?;
     let warnings = reader.finish()?;
     Ok((Material { model, brdf }, warnings))

@@ -42,7 +42,7 @@
 //! GPU record: `p[0].xyz` = albedo, `p[0].w` = σ, `p[1].x` = variant (0 full, 1 qualitative).
 
 use super::common::{diffuse_pdf, same_hemisphere_up, sample_diffuse};
-use super::{flag, Brdf, BrdfSample, ParamError, ParamReader, Params};
+use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, PI};
 use std::sync::Arc;
@@ -60,9 +60,54 @@ pub struct OrenNayar {
     pub variant: Variant,
 }
 
+const ALBEDO: Param = Param::rgb(
+    "albedo",
+    "RGB, unitless",
+    [0.5; 3],
+    (0.0, 1.0),
+    "facet albedo ρ",
+);
+// The upper end, π/2, is checked in `parse` with a message about degrees.
+const SIGMA: Param = Param::scalar(
+    "sigma",
+    "radians",
+    0.3,
+    (0.0, f32::INFINITY),
+    "std-dev σ of the facet slope angle (σ = 0 is Lambert)",
+)
+.range_text("[0, π/2]");
+const VARIANT: Param = Param::choice(
+    "variant",
+    &["full", "qualitative"],
+    "full",
+    "the paper's full model or its qualitative simplification",
+);
+/// The scene-file parameters (the table above is generated from them: `brdf::docs`).
+pub const PARAMS: &[Param] = &[ALBEDO, SIGMA, VARIANT];
+/// The `brdf report` material.
+pub const REPRESENTATIVE: &[(&str, &str)] = &[(
+    "oren_nayar",
+    r#"model = "oren_nayar", albedo = 0.8, sigma = 0.3"#,
+)];
+/// `p[1].x`: the variant.
+pub const RECORD_CODES: &[(&str, f32)] = &[
+    ("OREN_NAYAR_FULL", Variant::Full.code()),
+    ("OREN_NAYAR_QUALITATIVE", Variant::Qualitative.code()),
+];
+
+impl Variant {
+    /// The code in the GPU record (GLSL `OREN_NAYAR_<VARIANT>`).
+    pub const fn code(self) -> f32 {
+        match self {
+            Variant::Full => 0.0,
+            Variant::Qualitative => 1.0,
+        }
+    }
+}
+
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
-    let albedo = r.rgb("albedo", Vec3::splat(0.5), 0.0, 1.0)?;
-    let sigma = r.scalar("sigma", 0.3, 0.0, f32::INFINITY)?;
+    let albedo = r.rgb_of(&ALBEDO)?;
+    let sigma = r.scalar_of(&SIGMA)?;
     if sigma > FRAC_PI_2 {
         return Err(r.error(
             "sigma",
@@ -73,7 +118,7 @@ pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
             ),
         ));
     }
-    let variant = match r.choice("variant", &["full", "qualitative"], "full")? {
+    let variant = match r.choice_of(&VARIANT)? {
         "qualitative" => Variant::Qualitative,
         _ => Variant::Full,
     };
@@ -161,10 +206,9 @@ pub fn sample(m: &OrenNayar, given: Vec3, _u_lobe: f32, u: Vec2) -> Option<BrdfS
 
 impl_brdf!(OrenNayar {
     fn pack(&self) -> Params {
-        let qualitative = flag(self.variant == Variant::Qualitative);
         Params::from_vec4s([
             self.albedo.extend(self.sigma),
-            Vec4::new(qualitative, 0.0, 0.0, 0.0),
+            Vec4::new(self.variant.code(), 0.0, 0.0, 0.0),
         ])
     }
     fn scatters(&self) -> bool {

@@ -61,11 +61,118 @@ pub fn line_of(source: &str, offset: usize) -> usize {
         + 1
 }
 
+/// What a parameter holds and its default.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Kind {
+    /// `[r, g, b]`, or one number for grey.
+    Rgb([f32; 3]),
+    Scalar(f32),
+    /// One of the options, by name.
+    Choice(&'static [&'static str], &'static str),
+}
+
+/// One parameter of a model, declared once in the model's file (`PARAMS`): the parser reads
+/// its default and range from here ([`ParamReader::rgb_of`], [`ParamReader::scalar_of`],
+/// [`ParamReader::choice_of`]), the "unknown field" message lists the declared names, and the
+/// parameter tables of the model file, README.md and scenes/README.md are generated from it
+/// (`brdf::docs`; tests/docs.rs compares them).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Param {
+    /// The scene-file field name.
+    pub name: &'static str,
+    pub unit: &'static str,
+    pub kind: Kind,
+    /// The range the reader enforces (every channel of an RGB); ±∞ for an open side.
+    pub min: f32,
+    pub max: f32,
+    /// The default as the docs write it, where it is not the plain value (`= alpha_x`): the
+    /// model's `parse` then supplies it.
+    pub default_text: Option<&'static str>,
+    /// The range as the docs write it, where the model's `parse` checks more than
+    /// [`min`, `max`] (an open end, π/2): the model then checks it with its own message.
+    pub range_text: Option<&'static str>,
+    /// One line: what it means, with the equation it enters.
+    pub meaning: &'static str,
+}
+
+impl Param {
+    const fn new(
+        name: &'static str,
+        unit: &'static str,
+        kind: Kind,
+        meaning: &'static str,
+    ) -> Param {
+        Param {
+            name,
+            unit,
+            kind,
+            min: f32::NEG_INFINITY,
+            max: f32::INFINITY,
+            default_text: None,
+            range_text: None,
+            meaning,
+        }
+    }
+    /// An RGB parameter with every channel in [`min`, `max`].
+    pub const fn rgb(
+        name: &'static str,
+        unit: &'static str,
+        default: [f32; 3],
+        (min, max): (f32, f32),
+        meaning: &'static str,
+    ) -> Param {
+        Param {
+            min,
+            max,
+            ..Param::new(name, unit, Kind::Rgb(default), meaning)
+        }
+    }
+    /// A scalar parameter in [`min`, `max`].
+    pub const fn scalar(
+        name: &'static str,
+        unit: &'static str,
+        default: f32,
+        (min, max): (f32, f32),
+        meaning: &'static str,
+    ) -> Param {
+        Param {
+            min,
+            max,
+            ..Param::new(name, unit, Kind::Scalar(default), meaning)
+        }
+    }
+    /// A choice among named options.
+    pub const fn choice(
+        name: &'static str,
+        options: &'static [&'static str],
+        default: &'static str,
+        meaning: &'static str,
+    ) -> Param {
+        Param::new(name, "—", Kind::Choice(options, default), meaning)
+    }
+    /// The docs' default text, for a default the model's `parse` derives.
+    pub const fn default_text(self, text: &'static str) -> Param {
+        Param {
+            default_text: Some(text),
+            ..self
+        }
+    }
+    /// The docs' range text, for a range the model's `parse` checks itself.
+    pub const fn range_text(self, text: &'static str) -> Param {
+        Param {
+            range_text: Some(text),
+            ..self
+        }
+    }
+}
+
 pub struct ParamReader<'a> {
     origin: Origin<'a>,
     fields: BTreeMap<String, Spanned<Value>>,
     used: BTreeSet<String>,
     warnings: Vec<String>,
+    /// The model's declared parameters, once the model is known ([`ParamReader::declare`]).
+    declared: &'static [Param],
 }
 
 impl<'a> ParamReader<'a> {
@@ -77,6 +184,46 @@ impl<'a> ParamReader<'a> {
             fields,
             used,
             warnings: Vec::new(),
+            declared: &[],
+        }
+    }
+
+    /// The model's parameter declarations: the "unknown field" message lists their names.
+    pub fn declare(&mut self, params: &'static [Param]) {
+        self.declared = params;
+    }
+
+    /// An RGB parameter with its declared default and range.
+    pub fn rgb_of(&mut self, p: &Param) -> Result<Vec3, ParamError> {
+        match p.kind {
+            Kind::Rgb(d) => self.rgb(p.name, Vec3::from_array(d), p.min, p.max),
+            _ => panic!("parameter {} is not declared as RGB", p.name),
+        }
+    }
+
+    /// An RGB parameter with its declared range and the default `default` the model derives.
+    pub fn rgb_or(&mut self, p: &Param, default: Vec3) -> Result<Vec3, ParamError> {
+        self.rgb(p.name, default, p.min, p.max)
+    }
+
+    /// A scalar parameter with its declared default and range.
+    pub fn scalar_of(&mut self, p: &Param) -> Result<f32, ParamError> {
+        match p.kind {
+            Kind::Scalar(d) => self.scalar(p.name, d, p.min, p.max),
+            _ => panic!("parameter {} is not declared as a scalar", p.name),
+        }
+    }
+
+    /// A scalar parameter with its declared range and the default `default` the model derives.
+    pub fn scalar_or(&mut self, p: &Param, default: f32) -> Result<f32, ParamError> {
+        self.scalar(p.name, default, p.min, p.max)
+    }
+
+    /// A choice parameter with its declared options and default.
+    pub fn choice_of(&mut self, p: &Param) -> Result<&'static str, ParamError> {
+        match p.kind {
+            Kind::Choice(options, d) => self.choice(p.name, options, d),
+            _ => panic!("parameter {} is not declared as a choice", p.name),
         }
     }
 
@@ -228,10 +375,26 @@ impl<'a> ParamReader<'a> {
         })
     }
 
+    /// The fields the model asked for, sorted (`model` aside): for the check that a model reads
+    /// exactly the parameters it declares.
+    pub fn names_read(&self) -> Vec<&str> {
+        self.used
+            .iter()
+            .map(|s| s.as_str())
+            .filter(|k| *k != "model")
+            .collect()
+    }
+
     /// Reject fields the model did not read; return the warnings collected.
     pub fn finish(self) -> Result<Vec<String>, ParamError> {
         if let Some(k) = self.fields.keys().find(|k| !self.used.contains(*k)) {
-            let mut known: Vec<&str> = self.used.iter().map(|s| s.as_str()).collect();
+            // The declared names, sorted like the names read, which they equal (tests/docs.rs
+            // checks every declared parameter is read).
+            let mut known: Vec<&str> = match self.declared {
+                [] => self.used.iter().map(|s| s.as_str()).collect(),
+                d => d.iter().map(|p| p.name).collect(),
+            };
+            known.sort_unstable();
             known.retain(|k| *k != "model");
             return Err(self.error(
                 k,

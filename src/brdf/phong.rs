@@ -6,7 +6,7 @@
 //! |---|---|---|---|---|
 //! | `kd` | RGB, unitless | `[0.5, 0.5, 0.5]` | [0, 1] | diffuse coefficient k_d (f_d = k_d/π) |
 //! | `ks` | RGB, unitless | `[0.3, 0.3, 0.3]` | [0, 1] | specular coefficient k_s |
-//! | `exponent` | unitless | `20` | [0, 10⁶] | shininess n_s (0: dull, ∞: mirror) |
+//! | `exponent` | unitless | `20` | [0, 1e6] | shininess n_s (0: dull, ∞: mirror) |
 //! | `form` | — | `"survey"` | `survey`, `normalized` | eq. 4 as written, or the energy-normalised reciprocal lobe |
 //!
 //! * `survey` (default, eq. 4 exactly): f = k_d/π + k_s·max(0, R·V)ⁿ / cosθi.
@@ -42,7 +42,7 @@ use super::common::{
     diffuse_specular_pdf, expm1_f, luminance, one_minus_dot, orthonormal_basis, pow_one_minus,
     reflect_z, same_hemisphere_up, sample_cosine_hemisphere,
 };
-use super::{flag, Brdf, BrdfSample, ParamError, ParamReader, Params};
+use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, PI};
 use std::sync::Arc;
@@ -92,11 +92,67 @@ fn spec_albedo_estimate(n: f32, form: Form) -> f32 {
     }
 }
 
+const KD: Param = Param::rgb(
+    "kd",
+    "RGB, unitless",
+    [0.5; 3],
+    (0.0, 1.0),
+    "diffuse coefficient k_d (f_d = k_d/π)",
+);
+const KS: Param = Param::rgb(
+    "ks",
+    "RGB, unitless",
+    [0.3; 3],
+    (0.0, 1.0),
+    "specular coefficient k_s",
+);
+const EXPONENT: Param = Param::scalar(
+    "exponent",
+    "unitless",
+    20.0,
+    (0.0, 1e6),
+    "shininess n_s (0: dull, ∞: mirror)",
+);
+const FORM: Param = Param::choice(
+    "form",
+    &["survey", "normalized"],
+    "survey",
+    "eq. 4 as written, or the energy-normalised reciprocal lobe",
+);
+/// The scene-file parameters (the table above is generated from them: `brdf::docs`).
+pub const PARAMS: &[Param] = &[KD, KS, EXPONENT, FORM];
+/// The `brdf report` materials: both forms at one gloss.
+pub const REPRESENTATIVE: &[(&str, &str)] = &[
+    (
+        "phong (survey)",
+        r#"model = "phong", kd = 0.0, ks = 0.8, exponent = 50, form = "survey""#,
+    ),
+    (
+        "phong (normalized)",
+        r#"model = "phong", kd = 0.0, ks = 0.8, exponent = 50, form = "normalized""#,
+    ),
+];
+/// `p[1].w`: the form.
+pub const RECORD_CODES: &[(&str, f32)] = &[
+    ("PHONG_SURVEY", Form::Survey.code()),
+    ("PHONG_NORMALIZED", Form::Normalized.code()),
+];
+
+impl Form {
+    /// The code in the GPU record (GLSL `PHONG_<FORM>`).
+    pub const fn code(self) -> f32 {
+        match self {
+            Form::Survey => 0.0,
+            Form::Normalized => 1.0,
+        }
+    }
+}
+
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
-    let kd = r.rgb("kd", Vec3::splat(0.5), 0.0, 1.0)?;
-    let ks = r.rgb("ks", Vec3::splat(0.3), 0.0, 1.0)?;
-    let exponent = r.scalar("exponent", 20.0, 0.0, 1e6)?;
-    let form = match r.choice("form", &["survey", "normalized"], "survey")? {
+    let kd = r.rgb_of(&KD)?;
+    let ks = r.rgb_of(&KS)?;
+    let exponent = r.scalar_of(&EXPONENT)?;
+    let form = match r.choice_of(&FORM)? {
         "normalized" => Form::Normalized,
         _ => Form::Survey,
     };
@@ -164,10 +220,9 @@ pub fn sample(m: &Phong, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample
 
 impl_brdf!(Phong {
     fn pack(&self) -> Params {
-        let normalized = flag(self.form == Form::Normalized);
         Params::from_vec4s([
             self.kd.extend(self.exponent),
-            self.ks.extend(normalized),
+            self.ks.extend(self.form.code()),
             Vec4::new(self.p_spec, 0.0, 0.0, 0.0),
         ])
     }

@@ -6,9 +6,11 @@
 //! | `c` | RGB | `[0.8, 0.8, 0.8]` | [0, 1] | C_λ, reflectance at normal incidence (eq. 18's f_λ) |
 //! | `r` | — | `0.2` | [0, 1] | roughness: 0 mirror, 0.5 purely glossy, 1 Lambertian (continuum form) |
 //! | `p` | — | `1` | [0, 1] | isotropy: 1 isotropic, → 0 fully anisotropic (clamped to ≥ 1e-3 inside A) |
-//! | `c2`, `r2`, `p2` | as above | `c2` absent | as above | the second (lower) layer of eq. 22; giving `c2` makes the material heterogeneous (`r2` default 1, `p2` default 1) |
-//! | `form` | — | `continuum` | `basic` \| `attenuated` \| `continuum` | the directional factor D (eqs. 24, 25, 26) |
-//! | `rotation` | degrees | `0` | [−360, 360] | rotation of the anisotropy axis (tangent x) about the normal |
+//! | `c2` | RGB | `[0.5, 0.5, 0.5]` | [0, 1] | C_λ of the second (lower) layer of eq. 22; giving `c2` makes the material heterogeneous |
+//! | `r2` | — | `1` | [0, 1] | roughness of the second layer (needs `c2`) |
+//! | `p2` | — | `1` | [0, 1] | isotropy of the second layer (needs `c2`) |
+//! | `form` | — | `"continuum"` | `basic`, `attenuated`, `continuum` | the directional factor D (eqs. 24, 25, 26) |
+//! | `rotation` | degrees | `0` | [-360, 360] | rotation of the anisotropy axis (tangent x) about the normal |
 //!
 //! The survey gives no numerical defaults; the defaults are a light-grey, fairly glossy
 //! isotropic single material in Schlick's final (eq. 26) form.
@@ -74,7 +76,7 @@ use super::common::{
     cosine_hemisphere_pdf, luminance, reflect_about, reflected_pdf, same_hemisphere_up,
     sample_cosine_hemisphere,
 };
-use super::{flag, Brdf, BrdfSample, ParamError, ParamReader, Params};
+use super::{flag, Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, PI};
 use std::sync::Arc;
@@ -125,11 +127,88 @@ impl Default for Schlick {
     }
 }
 
+const C: Param = Param::rgb(
+    "c",
+    "RGB",
+    [0.8; 3],
+    (0.0, 1.0),
+    "C_λ, reflectance at normal incidence (eq. 18's f_λ)",
+);
+const R: Param = Param::scalar(
+    "r",
+    "—",
+    0.2,
+    (0.0, 1.0),
+    "roughness: 0 mirror, 0.5 purely glossy, 1 Lambertian (continuum form)",
+);
+const P: Param = Param::scalar(
+    "p",
+    "—",
+    1.0,
+    (0.0, 1.0),
+    "isotropy: 1 isotropic, → 0 fully anisotropic (clamped to ≥ 1e-3 inside A)",
+);
+const C2: Param = Param::rgb(
+    "c2",
+    "RGB",
+    [0.5; 3],
+    (0.0, 1.0),
+    "C_λ of the second (lower) layer of eq. 22; giving `c2` makes the material heterogeneous",
+);
+const R2: Param = Param::scalar(
+    "r2",
+    "—",
+    1.0,
+    (0.0, 1.0),
+    "roughness of the second layer (needs `c2`)",
+);
+const P2: Param = Param::scalar(
+    "p2",
+    "—",
+    1.0,
+    (0.0, 1.0),
+    "isotropy of the second layer (needs `c2`)",
+);
+const FORM: Param = Param::choice(
+    "form",
+    &["basic", "attenuated", "continuum"],
+    "continuum",
+    "the directional factor D (eqs. 24, 25, 26)",
+);
+const ROTATION: Param = Param::scalar(
+    "rotation",
+    "degrees",
+    0.0,
+    (-360.0, 360.0),
+    "rotation of the anisotropy axis (tangent x) about the normal",
+);
+/// The scene-file parameters (the table above is generated from them: `brdf::docs`).
+pub const PARAMS: &[Param] = &[C, R, P, C2, R2, P2, FORM, ROTATION];
+/// The `brdf report` material.
+pub const REPRESENTATIVE: &[(&str, &str)] =
+    &[("schlick", r#"model = "schlick", c = 0.8, r = 0.1, p = 1.0"#)];
+/// `p[2].z`: the form ([`Form::code`]).
+pub const RECORD_CODES: &[(&str, f32)] = &[
+    ("SCHLICK_BASIC", Form::Basic.code()),
+    ("SCHLICK_ATTENUATED", Form::Attenuated.code()),
+    ("SCHLICK_CONTINUUM", Form::Continuum.code()),
+];
+
+impl Form {
+    /// The form's code in the GPU record (GLSL `SCHLICK_<FORM>`).
+    pub const fn code(self) -> f32 {
+        match self {
+            Form::Basic => 0.0,
+            Form::Attenuated => 1.0,
+            Form::Continuum => 2.0,
+        }
+    }
+}
+
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
-    let d = Schlick::default();
-    let c = r.rgb("c", d.c, 0.0, 1.0)?;
-    let rough = r.scalar("r", d.r, 0.0, 1.0)?;
-    let p = r.scalar("p", d.p, 0.0, 1.0)?;
+    let c = r.rgb_of(&C)?;
+    let rough = r.scalar_of(&R)?;
+    let p = r.scalar_of(&P)?;
     let layered = r.has("c2");
     for key in ["r2", "p2"] {
         if r.has(key) && !layered {
@@ -139,15 +218,15 @@ pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
             ));
         }
     }
-    let c2 = r.rgb("c2", d.c2, 0.0, 1.0)?;
-    let r2 = r.scalar("r2", d.r2, 0.0, 1.0)?;
-    let p2 = r.scalar("p2", d.p2, 0.0, 1.0)?;
-    let form = match r.choice("form", &["basic", "attenuated", "continuum"], "continuum")? {
+    let c2 = r.rgb_of(&C2)?;
+    let r2 = r.scalar_of(&R2)?;
+    let p2 = r.scalar_of(&P2)?;
+    let form = match r.choice_of(&FORM)? {
         "basic" => Form::Basic,
         "attenuated" => Form::Attenuated,
         _ => Form::Continuum,
     };
-    let rotation = r.scalar("rotation", 0.0, -360.0, 360.0)?;
+    let rotation = r.scalar_of(&ROTATION)?;
     if p < P_MIN || (layered && p2 < P_MIN) {
         let key = if p < P_MIN { "p" } else { "p2" };
         r.warn(
@@ -419,11 +498,7 @@ pub fn sample(m: &Schlick, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSamp
 impl_brdf!(Schlick {
     fn pack(&self) -> Params {
         let (cs, sn) = self.rotation_cs();
-        let form = match self.form {
-            Form::Basic => 0.0,
-            Form::Attenuated => 1.0,
-            Form::Continuum => 2.0,
-        };
+        let form = self.form.code();
         Params::from_vec4s([
             self.c.extend(self.r),
             self.c2.extend(self.r2),

@@ -169,7 +169,7 @@ fn report(out: &Path, no_gpu: bool, device: Option<String>) -> Result<()> {
         Some((ctx, compiler))
     };
     let mut rows = Vec::new();
-    for (label, src) in tools::REPRESENTATIVE {
+    for (label, src) in tools::representative() {
         eprintln!("measuring {label}");
         let (mut row, m) = tools::report_row(label, src)?;
         if let Some((ctx, compiler)) = &gpu {

@@ -104,7 +104,7 @@ impl ShaderCompiler {
         Ok(ShaderCompiler {
             compiler,
             source,
-            extra: Vec::new(),
+            extra: crate::brdf::glsl::sources(),
             cache_dir: default_cache_dir(),
             stats: Mutex::new(CompileStats::default()),
         })

@@ -1,0 +1,198 @@
+//! The parameter documentation, generated from each model's declared parameters
+//! ([`ModelInfo::params`](super::ModelInfo)): the table at the top of the model's Rust file,
+//! its row of README.md's model table and its row of scenes/README.md's per-model table.
+//! tests/docs.rs compares the three texts exactly; [`update_model_file`] and [`update_rows`]
+//! rewrite them (`BRDFWAVE_WRITE_DOCS=1 cargo test --release --test docs` does that).
+
+use super::params::fmt_num;
+use super::{Kind, ModelInfo, Param};
+
+/// A table cell: `|` escaped.
+fn cell(s: &str) -> String {
+    s.replace('|', "\\|")
+}
+
+/// A number as the tables write it: 1e6 rather than 1000000.
+fn num(x: f32) -> String {
+    if x.abs() >= 1e5 && x.is_finite() {
+        format!("{x:e}")
+    } else {
+        fmt_num(x)
+    }
+}
+
+/// The default as the model-file table writes it: `[0.5, 0.5, 0.5]`, `0.3`, `"full"`.
+fn default_text(p: &Param) -> String {
+    if let Some(t) = p.default_text {
+        return t.to_string();
+    }
+    match p.kind {
+        Kind::Rgb(c) => format!("`[{}, {}, {}]`", num(c[0]), num(c[1]), num(c[2])),
+        Kind::Scalar(x) => format!("`{}`", num(x)),
+        Kind::Choice(_, d) => format!("`\"{d}\"`"),
+    }
+}
+
+/// The default as scenes/README.md writes it: a grey RGB as one number.
+fn short_default(p: &Param) -> String {
+    if let Some(t) = p.default_text {
+        return t.to_string();
+    }
+    match p.kind {
+        Kind::Rgb(c) if c[0] == c[1] && c[1] == c[2] => num(c[0]),
+        Kind::Rgb(c) => format!("[{}, {}, {}]", num(c[0]), num(c[1]), num(c[2])),
+        Kind::Scalar(x) => num(x),
+        Kind::Choice(_, d) => d.to_string(),
+    }
+}
+
+fn options(p: &Param, sep: &str) -> String {
+    match p.kind {
+        Kind::Choice(o, _) => o
+            .iter()
+            .map(|o| format!("`{o}`"))
+            .collect::<Vec<_>>()
+            .join(sep),
+        _ => String::new(),
+    }
+}
+
+/// The range as the tables write it: `[0, 1]`, `≥ 0`, or the options.
+fn range_text(p: &Param) -> String {
+    if let Some(t) = p.range_text {
+        return t.to_string();
+    }
+    if let Kind::Choice(..) = p.kind {
+        return options(p, ", ");
+    }
+    match (p.min == f32::NEG_INFINITY, p.max == f32::INFINITY) {
+        (true, true) => "any".to_string(),
+        (false, true) => format!("≥ {}", num(p.min)),
+        (true, false) => format!("≤ {}", num(p.max)),
+        (false, false) => format!("[{}, {}]", num(p.min), num(p.max)),
+    }
+}
+
+/// The parameter table of the model's Rust file, as `//! ` doc lines.
+pub fn model_file_table(m: &ModelInfo) -> String {
+    let mut s = String::from(
+        "//! | parameter | unit | default | range | meaning |\n//! |---|---|---|---|---|\n",
+    );
+    for p in m.params {
+        s += &format!(
+            "//! | `{}` | {} | {} | {} | {} |\n",
+            p.name,
+            cell(p.unit),
+            cell(&default_text(p)),
+            cell(&range_text(p)),
+            cell(p.meaning)
+        );
+    }
+    s
+}
+
+/// The model's row of README.md's model table: the parameter names, and a choice's options.
+pub fn readme_row(m: &ModelInfo) -> String {
+    let params: Vec<String> = m
+        .params
+        .iter()
+        .map(|p| match p.kind {
+            Kind::Choice(..) => format!("`{}` = {}", p.name, options(p, " \\| ")),
+            _ => format!("`{}`", p.name),
+        })
+        .collect();
+    format!("| `{}` | {} |", m.name, params.join(", "))
+}
+
+/// The model's row of scenes/README.md's table: each parameter's default and range.
+pub fn scenes_readme_row(m: &ModelInfo) -> String {
+    let params: Vec<String> = m
+        .params
+        .iter()
+        .map(|p| match p.kind {
+            Kind::Choice(o, d) => {
+                let o: Vec<String> = o
+                    .iter()
+                    .map(|o| match *o == d {
+                        true => format!("`{o}` (default)"),
+                        false => format!("`{o}`"),
+                    })
+                    .collect();
+                format!("`{}` = {}", p.name, o.join(" \\| "))
+            }
+            _ => format!(
+                "`{}` {} ({})",
+                p.name,
+                cell(&short_default(p)),
+                cell(&range_text(p))
+            ),
+        })
+        .collect();
+    format!("| `{}` | {} |", m.name, params.join(", "))
+}
+
+/// `text` (a model's Rust file) with its parameter table (the first block of `//! |` lines)
+/// replaced by [`model_file_table`]; `None` when the file has no such block.
+pub fn update_model_file(text: &str, m: &ModelInfo) -> Option<String> {
+    let lines: Vec<&str> = text.split_inclusive('\n').collect();
+    let start = lines.iter().position(|l| l.starts_with("//! |"))?;
+    let end = start
+        + lines[start..]
+            .iter()
+            .take_while(|l| l.starts_with("//! |"))
+            .count();
+    let mut out: String = lines[..start].concat();
+    out += &model_file_table(m);
+    out += &lines[end..].concat();
+    Some(out)
+}
+
+/// `text` with each model's row (the line that starts with `` | `name` | ``) replaced by
+/// `row(model)`; the names of the models without a row.
+pub fn update_rows(
+    text: &str,
+    models: &[ModelInfo],
+    row: impl Fn(&ModelInfo) -> String,
+) -> (String, Vec<&'static str>) {
+    let mut missing = Vec::new();
+    let mut lines: Vec<String> = text.split('\n').map(String::from).collect();
+    for m in models {
+        let key = format!("| `{}` |", m.name);
+        match lines.iter_mut().find(|l| l.starts_with(&key)) {
+            Some(l) => *l = row(m),
+            None => missing.push(m.name),
+        }
+    }
+    (lines.join("\n"), missing)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::MODELS;
+    use super::*;
+
+    #[test]
+    fn tables_name_every_parameter_once() {
+        for m in MODELS.iter() {
+            let t = model_file_table(m);
+            assert_eq!(t.lines().count(), 2 + m.params.len(), "{}", m.name);
+            for p in m.params {
+                assert!(
+                    readme_row(m).contains(&format!("`{}`", p.name)),
+                    "{}",
+                    p.name
+                );
+                assert!(scenes_readme_row(m).contains(&format!("`{}`", p.name)));
+            }
+        }
+    }
+
+    #[test]
+    fn rows_are_replaced_and_missing_rows_named() {
+        let text = "a\n| `lambert` | old |\nb";
+        let (out, missing) = update_rows(text, &MODELS, readme_row);
+        assert_eq!(out, format!("a\n{}\nb", readme_row(&MODELS[0])));
+        assert_eq!(missing.len(), MODELS.len() - 1);
+        assert!(missing.contains(&"ward"));
+    }
+}
