@@ -62,11 +62,19 @@ fn shaderc_search_dir() -> Option<PathBuf> {
         return Some(PathBuf::from(dir));
     }
     let arch = std::env::var("CARGO_CFG_TARGET_ARCH").unwrap_or_default();
-    let arch = if arch == "x86" { "i386".to_string() } else { arch };
-    [format!("/usr/lib/{arch}-linux-gnu"), "/usr/lib64".into(), "/usr/lib".into()]
-        .into_iter()
-        .map(PathBuf::from)
-        .find(|d| d.is_dir())
+    let arch = if arch == "x86" {
+        "i386".to_string()
+    } else {
+        arch
+    };
+    [
+        format!("/usr/lib/{arch}-linux-gnu"),
+        "/usr/lib64".into(),
+        "/usr/lib".into(),
+    ]
+    .into_iter()
+    .map(PathBuf::from)
+    .find(|d| d.is_dir())
 }
 
 /// Links Debian's glslang static libraries when shaderc-sys will link Debian's
