@@ -460,7 +460,7 @@ pub fn check_wave_paths(wave_paths: u32) -> Result<()> {
 }
 
 /// The number of waves per command buffer doubles while a submission takes less than this.
-const BATCH_SECONDS: f64 = 0.05;
+pub(crate) const BATCH_SECONDS: f64 = 0.05;
 /// Most waves per command buffer.
 const MAX_BATCH: usize = 64;
 

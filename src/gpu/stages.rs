@@ -249,11 +249,12 @@ impl<'a> GpuRenderer<'a> {
         rec = self.ensure_timestamps(rec, 1)?;
         let groups = push.wave_size.div_ceil(LOCAL_SIZE);
         self.dispatch(&mut rec, generate, &push, Dispatch::Groups(groups));
+        let mut check = CheckSchedule::new();
+        let mut progress = ProgressSchedule::new();
         for depth in 1..=max_depth {
             // A deep render stops once every path has ended: the host looks at the queue of the
-            // next segment every SEGMENTS_PER_CHECK segments.
-            if depth > 1 && max_depth > SEGMENTS_PER_CHECK && (depth - 1) % SEGMENTS_PER_CHECK == 0
-            {
+            // next segment after SEGMENTS_PER_CHECK segments, then at doubling intervals.
+            if max_depth > SEGMENTS_PER_CHECK && check.due(depth) {
                 rec = self.resubmit(rec)?;
                 let counters: Vec<u32> = self.ctx.download(self.owned.buffer(Binding::Counters))?;
                 if counters[self.counters.ray_queue(Queue::ray_in(depth))] == 0 {
@@ -269,8 +270,11 @@ impl<'a> GpuRenderer<'a> {
                 self.dispatch(&mut rec, step.kernel, &push, step.how);
             }
             if let Some(report) = report.filter(|_| depth < max_depth) {
-                rec = self.resubmit(rec)?;
-                report(depth as f64 / max_depth as f64);
+                if progress.due() {
+                    rec = self.resubmit(rec)?;
+                    progress.submitted();
+                    report(depth as f64 / max_depth as f64);
+                }
             }
         }
         Ok(rec)
@@ -392,5 +396,99 @@ mod tests {
             };
             assert!(text.contains(size), "{} does not declare {size}", s.file());
         }
+    }
+}
+
+/// Most segments between two looks at the queues in a deep render ([`CheckSchedule`]).
+const MAX_SEGMENTS_PER_CHECK: u32 = 1024;
+
+/// When a deep wave looks whether any path is left: before segment `SEGMENTS_PER_CHECK + 1`,
+/// then after twice as many segments each time, up to [`MAX_SEGMENTS_PER_CHECK`]. Every look is
+/// a submission and a download the host waits for; a look every 16 segments made a path of 2^20
+/// segments wait 65,536 times (most of its time, in the kernel). Segments recorded after the
+/// last path ended have empty queues and change nothing; doubling keeps them fewer than the
+/// segments before the look that found the queue empty.
+struct CheckSchedule {
+    next: u32,
+    interval: u32,
+}
+
+impl CheckSchedule {
+    fn new() -> Self {
+        CheckSchedule {
+            next: SEGMENTS_PER_CHECK + 1,
+            interval: SEGMENTS_PER_CHECK,
+        }
+    }
+
+    /// Whether to look before recording segment `depth` (called for every depth in order).
+    fn due(&mut self, depth: u32) -> bool {
+        if depth != self.next {
+            return false;
+        }
+        self.interval = (self.interval * 2).min(MAX_SEGMENTS_PER_CHECK);
+        self.next = depth.saturating_add(self.interval);
+        true
+    }
+}
+
+/// Most segments per submission while a single wave reports progress ([`ProgressSchedule`]).
+const MAX_SEGMENTS_PER_REPORT: u32 = 1024;
+
+/// How often a single-wave render (a slow device, or a deep path) submits to report progress:
+/// after one segment, then after twice as many segments while a submission took under
+/// [`super::BATCH_SECONDS`] (as the batches of waves grow), so that progress moves several
+/// times a second without a wait for every segment of a deep path.
+struct ProgressSchedule {
+    per_report: u32,
+    pending: u32,
+    since: std::time::Instant,
+}
+
+impl ProgressSchedule {
+    fn new() -> Self {
+        ProgressSchedule {
+            per_report: 1,
+            pending: 0,
+            since: std::time::Instant::now(),
+        }
+    }
+
+    /// Called after each segment: whether to submit and report now.
+    fn due(&mut self) -> bool {
+        self.pending += 1;
+        self.pending >= self.per_report
+    }
+
+    /// Called after the submission: the next interval.
+    fn submitted(&mut self) {
+        if self.since.elapsed().as_secs_f64() < super::BATCH_SECONDS {
+            self.per_report = (self.per_report * 2).min(MAX_SEGMENTS_PER_REPORT);
+        }
+        self.pending = 0;
+        self.since = std::time::Instant::now();
+    }
+}
+
+#[cfg(test)]
+mod schedule_tests {
+    use super::*;
+
+    #[test]
+    fn checks_start_after_the_first_segments_and_double_up_to_the_cap() {
+        let mut c = CheckSchedule::new();
+        let looks: Vec<u32> = (1..=5000).filter(|&d| c.due(d)).collect();
+        assert_eq!(&looks[..5], &[17, 49, 113, 241, 497]);
+        assert!(looks
+            .windows(2)
+            .all(|w| w[1] - w[0] <= MAX_SEGMENTS_PER_CHECK));
+        assert_eq!(
+            looks[looks.len() - 1] - looks[looks.len() - 2],
+            MAX_SEGMENTS_PER_CHECK
+        );
+        // 2^20 segments: a few hundred looks, not 65,536.
+        let mut c = CheckSchedule::new();
+        let n = (1..=1u32 << 20).filter(|&d| c.due(d)).count();
+        assert!(n < 1100, "{n} looks");
     }
 }
