@@ -47,7 +47,7 @@ use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
 use std::time::Instant;
 
 /// The Mitsuba side of the peer configurations (see its docstring for the protocol).
-const MITSUBA_SCRIPT: &str = include_str!("../scripts/mitsuba_peer.py");
+const MITSUBA_SCRIPT: &str = include_str!("../../scripts/mitsuba_peer.py");
 
 /// The CSV header of `bench.csv`, one row per pass.
 pub const CSV_COLUMNS: &str = "config,pass,spp,seconds,paths_per_second,rmse,relmse,flip";
