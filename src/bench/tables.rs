@@ -93,7 +93,6 @@ pub(super) fn summary(
     notes: &[String],
 ) -> String {
     let mut md = String::new();
-    let pixels = sc.width as f64 * sc.height as f64;
     let _ = writeln!(
         md,
         "Scene `{}`, {}x{}, max depth {}, Russian roulette {}; budget {:.0} s shared by {} configurations, taking turns pass by pass; BVH build {:.3} s.\n",
@@ -143,6 +142,22 @@ pub(super) fn summary(
     }
     let _ = writeln!(md);
     equal_spp_tables(&mut md, records, details);
+    detail_notes(&mut md, sc, records, details);
+    for n in notes {
+        let _ = writeln!(md, "- {n}");
+    }
+    md
+}
+
+/// The notes on each configuration's details: the Mitsuba peer's kernel compile and plain warm
+/// render, the GPU time by stage, the queue sizes per segment.
+fn detail_notes(
+    md: &mut String,
+    sc: &Scene,
+    records: &[PassRecord],
+    details: &[(String, Details)],
+) {
+    let pixels = sc.width as f64 * sc.height as f64;
     for (name, d) in details {
         if let (Some(c), Some((spp, s))) = (d.peer_compile, d.peer_plain) {
             let last = records.iter().rfind(|r| &r.config == name);
@@ -191,10 +206,6 @@ pub(super) fn summary(
             parts.join(", ")
         );
     }
-    for n in notes {
-        let _ = writeln!(md, "- {n}");
-    }
-    md
 }
 
 #[cfg(test)]
