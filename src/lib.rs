@@ -24,7 +24,9 @@
 //! * `outfile` — the atomic writer of every file, and the up-front checks of output paths;
 //! * `hash` — the stable hash (FNV-1a) of cache keys and of the scene hash of partial films;
 //! * `errors` — how errors read on the command line;
-//! * `bench`, `plot` — `brdfwave bench`: run time against error, and its log-log chart.
+//! * `bench`, `plot` — `brdfwave bench`: run time against error, and its log-log chart
+//!   (`src/bench/`: the run in `mod.rs`, and `config`, `runner`, `mitsuba` (the Mitsuba 3
+//!   peer), `reference`, `tables` (bench.md's summary), `scaling`).
 
 /// `eprintln!` and `eprint!` that never panic: a message that cannot be written (stderr full or
 /// closed) is dropped and the work goes on. They shadow the std macros in every module below

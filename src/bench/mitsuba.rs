@@ -1,0 +1,269 @@
+//! The Mitsuba 3 peer: [`MitsubaRunner`] drives `scripts/mitsuba_peer.py` (embedded) over
+//! its line protocol; the scene as Mitsuba JSON with its BSDFs; libLLVM discovery for Dr.Jit.
+
+use super::runner::Runner;
+use super::Details;
+use crate::imageio::{self, Image};
+use crate::scene::{Scene, Triangle};
+use anyhow::{anyhow, bail, Context as _, Result};
+use glam::Vec3;
+use std::io::{BufRead, BufReader, Write as _};
+use std::path::{Path, PathBuf};
+use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
+use std::time::Instant;
+
+/// The Mitsuba side of the peer configurations (see its docstring for the protocol).
+const MITSUBA_SCRIPT: &str = include_str!("../../scripts/mitsuba_peer.py");
+
+pub(super) struct MitsubaRunner {
+    child: Child,
+    stdin: ChildStdin,
+    stdout: BufReader<ChildStdout>,
+    last: Option<PathBuf>,
+    variant: String,
+    sampler: String,
+    setup_seconds: f64,
+    compile_seconds: f64,
+    plain: (u32, f64),
+    spp: u32,
+}
+
+impl MitsubaRunner {
+    pub(super) fn start(
+        variant: &str,
+        sampler: &str,
+        scene_json: &Path,
+        dir: &Path,
+    ) -> Result<MitsubaRunner> {
+        let script = dir.join("mitsuba_peer.py");
+        std::fs::write(&script, MITSUBA_SCRIPT)
+            .with_context(|| format!("writing {}", script.display()))?;
+        let mut cmd = Command::new("python3");
+        cmd.arg(&script)
+            .arg(variant)
+            .arg(sampler)
+            .arg(scene_json)
+            .arg(dir)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null());
+        // Dr.Jit's LLVM backend needs LLVM 16 or newer; LLVM 15 (lavapipe's) crashes it.
+        if std::env::var_os("DRJIT_LIBLLVM_PATH").is_none() {
+            if let Some(p) = newest_libllvm() {
+                cmd.env("DRJIT_LIBLLVM_PATH", p);
+            }
+        }
+        let t = Instant::now();
+        let mut child = cmd.spawn().context("starting python3")?;
+        let stdin = child.stdin.take().expect("piped");
+        let mut stdout = BufReader::new(child.stdout.take().expect("piped"));
+        let line = protocol_line(&mut stdout)?;
+        let line = line.trim();
+        if let Some(msg) = line.strip_prefix("error ") {
+            let _ = child.kill();
+            let _ = child.wait();
+            bail!("{msg}");
+        }
+        // `ready COMPILE_SECONDS PLAIN_SPP PLAIN_SECONDS`.
+        let w: Vec<&str> = line.split_whitespace().collect();
+        let ready = match w[..] {
+            ["ready", c, n, s] => c
+                .parse::<f64>()
+                .ok()
+                .zip(n.parse::<u32>().ok().zip(s.parse::<f64>().ok())),
+            _ => None,
+        };
+        let Some((compile_seconds, plain)) = ready else {
+            let _ = child.kill();
+            let _ = child.wait();
+            bail!("the Mitsuba script ended without a word (is python3 with mitsuba installed?)");
+        };
+        Ok(MitsubaRunner {
+            child,
+            stdin,
+            stdout,
+            last: None,
+            variant: variant.to_string(),
+            sampler: sampler.to_string(),
+            setup_seconds: t.elapsed().as_secs_f64(),
+            compile_seconds,
+            plain,
+            spp: 0,
+        })
+    }
+}
+
+impl Runner for MitsubaRunner {
+    fn pass(&mut self, n: u32) -> Result<(u32, f64)> {
+        // A fresh render of all the samples so far (see the module docs).
+        writeln!(self.stdin, "render {}", self.spp + n)?;
+        self.stdin.flush()?;
+        let line = protocol_line(&mut self.stdout)?;
+        let mut w = line.split_whitespace();
+        match (w.next(), w.next(), w.next(), w.next(), w.next()) {
+            (Some("done"), Some(secs), Some(spp), Some(compile), Some(path)) => {
+                self.last = Some(PathBuf::from(path));
+                self.spp = spp.parse()?;
+                self.compile_seconds += compile.parse::<f64>()?;
+                Ok((self.spp, secs.parse()?))
+            }
+            _ => bail!(
+                "Mitsuba ({}, {}) answered '{}'",
+                self.variant,
+                self.sampler,
+                line.trim()
+            ),
+        }
+    }
+    fn image(&mut self) -> Result<Image> {
+        let p = self.last.as_ref().ok_or_else(|| anyhow!("no pass yet"))?;
+        Ok(imageio::read(p)?)
+    }
+    fn details(&mut self) -> Details {
+        Details {
+            device: format!("Mitsuba 3 {}", self.variant),
+            setup_seconds: self.setup_seconds,
+            peer_compile: Some(self.compile_seconds),
+            peer_plain: Some(self.plain),
+            ..Default::default()
+        }
+    }
+}
+
+impl Drop for MitsubaRunner {
+    fn drop(&mut self) {
+        let _ = writeln!(self.stdin, "quit");
+        let _ = self.stdin.flush();
+        let _ = self.child.wait();
+    }
+}
+
+/// The next line of the Mitsuba script's protocol (`ready`, `done` or `error`), skipping any
+/// other output (a log line the script did not silence); "" at the end of its output.
+fn protocol_line(r: &mut impl BufRead) -> Result<String> {
+    for _ in 0..10_000 {
+        let mut line = String::new();
+        if r.read_line(&mut line)? == 0 {
+            return Ok(line);
+        }
+        if ["ready", "done", "error"]
+            .iter()
+            .any(|w| line.split_whitespace().next() == Some(*w))
+        {
+            return Ok(line);
+        }
+    }
+    bail!("the Mitsuba script wrote 10000 lines that are not its protocol")
+}
+
+/// The newest libLLVM of version 16 or later on the system, for Dr.Jit.
+fn newest_libllvm() -> Option<PathBuf> {
+    let dir = Path::new("/usr/lib/x86_64-linux-gnu");
+    (16..=30)
+        .rev()
+        .flat_map(|v| [format!("libLLVM.so.{v}.1"), format!("libLLVM-{v}.so")])
+        .map(|n| dir.join(n))
+        .find(|p| p.exists())
+}
+
+/// A material as a Mitsuba 3 BSDF (`mitsuba_peer.py` builds the plugin), or why it has none:
+/// Lambert is `diffuse`; Cook–Torrance with Walter et al.'s normalisation, a Beckmann or GGX
+/// distribution, Smith shadowing, conductor Fresnel, no diffuse part and a white specular
+/// scale is `roughconductor` (Mitsuba's Smith G1 for Beckmann is exact where ours is Walter et
+/// al. 2007's rational approximation, within 0.35 %). Anything else has no Mitsuba twin.
+fn mitsuba_bsdf(m: &crate::brdf::Material) -> Result<serde_json::Value> {
+    use crate::brdf::cook_torrance::{
+        CookTorrance, Distribution, Fresnel, Geometry, Normalization,
+    };
+    use crate::brdf::lambert::Lambert;
+    let any = m.brdf.as_any();
+    if let Some(l) = any.downcast_ref::<Lambert>() {
+        return Ok(serde_json::json!({"type": "diffuse", "albedo": l.albedo.to_array()}));
+    }
+    if let Some(c) = any.downcast_ref::<CookTorrance>() {
+        if c.kd == Vec3::ZERO
+            && c.ks == Vec3::ONE
+            && c.normalization == Normalization::Walter
+            && c.geometry == Geometry::Smith
+            && c.fresnel == Fresnel::Conductor
+            && c.roughness > 0.0
+        {
+            let distribution = match c.distribution {
+                Distribution::Beckmann => "beckmann",
+                Distribution::Ggx => "ggx",
+            };
+            return Ok(serde_json::json!({
+                "type": "roughconductor",
+                "distribution": distribution,
+                "alpha": c.roughness,
+                "eta": c.eta.to_array(),
+                "k": c.k.to_array(),
+            }));
+        }
+        bail!("the Mitsuba configurations take Cook–Torrance only as a rough conductor (Walter normalisation, Smith G, conductor Fresnel, kd = 0, ks = 1)");
+    }
+    bail!(
+        "the Mitsuba configurations take Lambert and rough-conductor materials only (this scene has {})",
+        m.model_name()
+    )
+}
+
+/// The scene as `mitsuba_peer.py` reads it, or why it cannot be: meshes of triangles grouped
+/// by (material, emitter), each with its BSDF ([`mitsuba_bsdf`]), the camera, the image size,
+/// the depth.
+pub(super) fn mitsuba_scene_json(s: &Scene) -> Result<String> {
+    if !s.spheres.is_empty() {
+        bail!("the Mitsuba configurations take triangle scenes only (this one has spheres)");
+    }
+    let bsdfs = s
+        .materials
+        .iter()
+        .map(mitsuba_bsdf)
+        .collect::<Result<Vec<_>>>()?;
+    // (material, emitter) and the triangles that have them.
+    type Group<'t> = ((u32, Option<u32>), Vec<&'t Triangle>);
+    let mut groups: Vec<Group> = Vec::new();
+    for t in &s.triangles {
+        let key = (t.material, t.emitter);
+        match groups.iter_mut().find(|(k, _)| *k == key) {
+            Some((_, v)) => v.push(t),
+            None => groups.push((key, vec![t])),
+        }
+    }
+    let meshes: Vec<serde_json::Value> = groups
+        .iter()
+        .map(|((mat, em), tris)| {
+            serde_json::json!({
+                "bsdf": bsdfs[*mat as usize],
+                "radiance": em.map(|e| s.emitters[e as usize].radiance.to_array()),
+                "vertices": tris.iter().flat_map(|t| t.v.iter().map(|v| v.to_array())).collect::<Vec<_>>(),
+            })
+        })
+        .collect();
+    let c = &s.camera;
+    Ok(serde_json::json!({
+        "width": s.width,
+        "height": s.height,
+        "max_depth": s.integrator.max_depth,
+        "camera": {
+            "position": c.position.to_array(),
+            "target": c.target.to_array(),
+            "up": c.up.to_array(),
+            "fov_y": c.fov_y_deg,
+        },
+        "environment": s.environment.to_array(),
+        "meshes": meshes,
+    })
+    .to_string())
+}
+
+/// Whether `python3 -c "import mitsuba"` works.
+pub(super) fn mitsuba_installed() -> bool {
+    Command::new("python3")
+        .args(["-c", "import mitsuba"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .map(|s| s.success())
+        .unwrap_or(false)
+}

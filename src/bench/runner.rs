@@ -1,0 +1,113 @@
+//! The runners: one configuration rendering pass by pass; brdfwave's own through
+//! [`crate::render`] ([`RendererRunner`]), Mitsuba's in [`super::mitsuba`].
+
+use super::mitsuba::MitsubaRunner;
+use super::{Config, Details};
+use crate::bvh::Bvh;
+use crate::film::Tile;
+use crate::gpu::GpuOptions;
+use crate::imageio::Image;
+use crate::output::RenderOutput;
+use crate::render::{self, RenderRequest, Renderer};
+use crate::scene::Scene;
+use crate::vk::{Context, ShaderCompiler};
+use anyhow::{anyhow, Result};
+use std::path::Path;
+use std::time::Instant;
+
+pub(super) trait Runner {
+    /// Renders `n` more samples per pixel; returns the samples per pixel of the image now (a
+    /// sampler may round a count up) and the render seconds that image took.
+    fn pass(&mut self, n: u32) -> Result<(u32, f64)>;
+    /// The running mean of all passes so far.
+    fn image(&mut self) -> Result<Image>;
+    fn details(&mut self) -> Details;
+}
+
+/// brdfwave's own configurations, on either backend, through [`crate::render`]: each pass
+/// continues the renderer's sample sequence.
+struct RendererRunner<'a> {
+    renderer: Box<dyn Renderer + 'a>,
+    setup_seconds: f64,
+    done: u32,
+    seconds: f64,
+    /// The image after the last pass, and its counts.
+    last: Option<RenderOutput>,
+}
+
+impl Runner for RendererRunner<'_> {
+    fn pass(&mut self, n: u32) -> Result<(u32, f64)> {
+        let request = RenderRequest::samples(self.done..self.done + n);
+        let r = self.renderer.render(&request, &|_| {})?;
+        self.done += n;
+        self.seconds += r.seconds_samples;
+        self.last = Some(r.output);
+        Ok((self.done, self.seconds))
+    }
+    fn image(&mut self) -> Result<Image> {
+        let out = self.last.as_ref().ok_or_else(|| anyhow!("no pass yet"))?;
+        Ok(out.mean.clone())
+    }
+    fn details(&mut self) -> Details {
+        let d = self.renderer.describe();
+        let setup = d.gpu.map(|g| g.setup).unwrap_or_default();
+        let out = self.last.as_ref();
+        Details {
+            device: d.device,
+            setup_seconds: self.setup_seconds,
+            rays: out.map(|o| o.extension_rays + o.shadow_rays).unwrap_or(0),
+            rays_by_segment: out.map(|o| o.rays_by_segment.clone()).unwrap_or_default(),
+            stage_seconds: out.map(|o| o.stage_seconds.clone()).unwrap_or_default(),
+            pipelines_compile: setup.seconds_shader_compile,
+            pipelines_create: setup.seconds_pipeline_create,
+            ..Default::default()
+        }
+    }
+}
+
+/// The runner of configuration `c`: ours through [`crate::render`] on the scene `sc` as the
+/// configuration renders it (a GPU configuration has its context `ctx`), or the Mitsuba peer
+/// when it could be set up (`mitsuba_ok`).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn runner<'a>(
+    c: &Config,
+    ctx: Option<&'a Context>,
+    sc: &'a Scene,
+    bvh: &'a Bvh,
+    compiler: &'a ShaderCompiler,
+    mitsuba_ok: &Result<()>,
+    mitsuba_json: &Path,
+    out: &Path,
+) -> Result<Box<dyn Runner + 'a>> {
+    match (c, ctx) {
+        (Config::Gpu { .. } | Config::Cpu { .. }, ctx) => {
+            let backend = match (c, ctx) {
+                (Config::Gpu { integrator, .. }, Some(ctx)) => render::Backend::Gpu {
+                    ctx,
+                    compiler,
+                    options: GpuOptions {
+                        integrator: *integrator,
+                        ..GpuOptions::default()
+                    },
+                },
+                (Config::Gpu { .. }, None) => unreachable!("a GPU configuration has a context"),
+                _ => render::Backend::Cpu,
+            };
+            let t = Instant::now();
+            render::open(backend, sc, bvh, Tile::full(sc.width, sc.height)).map(|r| {
+                Box::new(RendererRunner {
+                    renderer: r,
+                    setup_seconds: t.elapsed().as_secs_f64(),
+                    done: 0,
+                    seconds: 0.0,
+                    last: None,
+                }) as Box<dyn Runner>
+            })
+        }
+        (Config::Mitsuba { variant, sampler }, _) => match mitsuba_ok {
+            Ok(()) => MitsubaRunner::start(variant, sampler, mitsuba_json, out)
+                .map(|r| Box::new(r) as Box<dyn Runner>),
+            Err(e) => Err(anyhow!("{e}")),
+        },
+    }
+}
