@@ -155,7 +155,7 @@ fn the_generated_glsl_covers_every_model() {
             assert!(any.contains(&f), "brdf/any.glsl does not call {f}");
             assert!(text.contains(&f), "{file} does not define {f}");
         }
-        for (code, _) in m.record_codes {
+        for (code, _) in m.record_codes() {
             assert!(record.contains(&format!("#define {code} ")), "{code}");
             assert!(
                 text.contains(code),

@@ -49,10 +49,11 @@ use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, PI};
 use std::sync::Arc;
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Form {
-    Classic,
-    Normalized,
+choice_enum! {
+    pub enum Form {
+        Classic = "classic" => "BLINN_PHONG_CLASSIC",
+        Normalized = "normalized" => "BLINN_PHONG_NORMALIZED",
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -133,8 +134,8 @@ const EXPONENT: Param = Param::scalar(
 );
 const FORM: Param = Param::choice(
     "form",
-    &["classic", "normalized"],
-    "classic",
+    Form::NAMES,
+    Form::Classic.name(),
     "the survey's form (eq. 5) or the energy-normalised reciprocal lobe",
 );
 /// The scene-file parameters (the table above is generated from them: `brdf::docs`).
@@ -151,29 +152,13 @@ pub const REPRESENTATIVE: &[(&str, &str)] = &[
     ),
 ];
 /// `p[1].w`: the form.
-pub const RECORD_CODES: &[(&str, f32)] = &[
-    ("BLINN_PHONG_CLASSIC", Form::Classic.code()),
-    ("BLINN_PHONG_NORMALIZED", Form::Normalized.code()),
-];
-
-impl Form {
-    /// The code in the GPU record (GLSL `BLINN_PHONG_<FORM>`).
-    pub const fn code(self) -> f32 {
-        match self {
-            Form::Classic => 0.0,
-            Form::Normalized => 1.0,
-        }
-    }
-}
+pub const RECORD_CODES: &[&[(&str, f32)]] = &[Form::RECORD_CODES];
 
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
     let kd = r.rgb_of(&KD)?;
     let ks = r.rgb_of(&KS)?;
     let exponent = r.scalar_of(&EXPONENT)?;
-    let form = match r.choice_of(&FORM)? {
-        "normalized" => Form::Normalized,
-        _ => Form::Classic,
-    };
+    let form = r.choice_of(&FORM)?;
     let total = (kd + ks * spec_albedo_estimate(exponent, form)).max_element();
     if total > 1.0 {
         let msg = match form {

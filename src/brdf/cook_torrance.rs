@@ -63,38 +63,43 @@ use std::sync::Arc;
 /// Below this rms slope the specular lobe is a delta mirror.
 pub const MIRROR_ROUGHNESS: f32 = 1e-3;
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Distribution {
-    /// Survey eq. 6 (normalised: divided by π).
-    Beckmann,
-    /// GGX / Trowbridge–Reitz.
-    Ggx,
+choice_enum! {
+    pub enum Distribution {
+        /// Survey eq. 6 (normalised: divided by π).
+        Beckmann = "beckmann" => "CT_BECKMANN",
+        /// GGX / Trowbridge–Reitz.
+        Ggx = "ggx" => "CT_GGX",
+    }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Geometry {
-    /// Survey eq. 8, the V-cavity (V-groove) term.
-    VCavity,
-    /// Separable Smith G1(wi)·G1(wo).
-    Smith,
+choice_enum! {
+    pub enum Geometry {
+        /// Survey eq. 8, the V-cavity (V-groove) term.
+        VCavity = "v_cavity" => "CT_V_CAVITY",
+        /// Separable Smith G1(wi)·G1(wo).
+        Smith = "smith" => "CT_SMITH",
+    }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Fresnel {
-    /// Survey eq. 7 with `ior`.
-    Dielectric,
-    /// Exact complex-index formula with `eta`, `k`.
-    Conductor,
-    /// Schlick's approximation with `f0`.
-    Schlick,
+choice_enum! {
+    pub enum Fresnel {
+        /// Survey eq. 7 with `ior`.
+        Dielectric = "dielectric" => "CT_FRESNEL_DIELECTRIC",
+        /// Exact complex-index formula with `eta`, `k`.
+        Conductor = "conductor" => "CT_FRESNEL_CONDUCTOR",
+        /// Schlick's approximation with `f0`.
+        Schlick = "schlick" => "CT_FRESNEL_SCHLICK",
+    }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Normalization {
-    /// Survey eq. 9 as written: 4× the microfacet BRDF.
-    Survey,
-    /// Walter et al. 2007: F·D·G/(4 cosθi cosθo).
-    Walter,
+choice_enum! {
+    /// Not a code in the record: `pack` writes its factor N ([`CookTorrance::norm_factor`]).
+    pub enum Normalization {
+        /// Survey eq. 9 as written: 4× the microfacet BRDF.
+        Survey = "survey",
+        /// Walter et al. 2007: F·D·G/(4 cosθi cosθo).
+        Walter = "walter",
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -168,20 +173,20 @@ const ROUGHNESS: Param = Param::scalar(
 );
 const DISTRIBUTION: Param = Param::choice(
     "distribution",
-    &["beckmann", "ggx"],
-    "beckmann",
+    Distribution::NAMES,
+    Distribution::Beckmann.name(),
     "microfacet NDF (`beckmann`: survey eq. 6)",
 );
 const GEOMETRY: Param = Param::choice(
     "geometry",
-    &["v_cavity", "smith"],
-    "v_cavity",
+    Geometry::NAMES,
+    Geometry::VCavity.name(),
     "masking-shadowing G (`v_cavity`: survey eq. 8)",
 );
 const FRESNEL: Param = Param::choice(
     "fresnel",
-    &["dielectric", "conductor", "schlick"],
-    "dielectric",
+    Fresnel::NAMES,
+    Fresnel::Dielectric.name(),
     "Fresnel term at c = wi·h (`dielectric`: survey eq. 7; `conductor`: the exact formula)",
 );
 const IOR: Param = Param::scalar(
@@ -216,8 +221,8 @@ const F0: Param = Param::rgb(
 );
 const NORMALIZATION: Param = Param::choice(
     "normalization",
-    &["survey", "walter"],
-    "survey",
+    Normalization::NAMES,
+    Normalization::Survey.name(),
     "the specular denominator: `survey` (eq. 9) or `walter`, see below",
 );
 /// The scene-file parameters (the table above is generated from them: `brdf::docs`).
@@ -247,68 +252,20 @@ pub const REPRESENTATIVE: &[(&str, &str)] = &[
 ];
 /// `p[2].w` the distribution, `p[3].w` the geometry, `p[4].x` the Fresnel term
 /// ([`Fresnel::code`]).
-pub const RECORD_CODES: &[(&str, f32)] = &[
-    ("CT_BECKMANN", Distribution::Beckmann.code()),
-    ("CT_GGX", Distribution::Ggx.code()),
-    ("CT_V_CAVITY", Geometry::VCavity.code()),
-    ("CT_SMITH", Geometry::Smith.code()),
-    ("CT_FRESNEL_DIELECTRIC", Fresnel::Dielectric.code()),
-    ("CT_FRESNEL_CONDUCTOR", Fresnel::Conductor.code()),
-    ("CT_FRESNEL_SCHLICK", Fresnel::Schlick.code()),
+pub const RECORD_CODES: &[&[(&str, f32)]] = &[
+    Distribution::RECORD_CODES,
+    Geometry::RECORD_CODES,
+    Fresnel::RECORD_CODES,
 ];
-
-impl Distribution {
-    /// The code in the GPU record (GLSL `CT_<DISTRIBUTION>`).
-    pub const fn code(self) -> f32 {
-        match self {
-            Distribution::Beckmann => 0.0,
-            Distribution::Ggx => 1.0,
-        }
-    }
-}
-
-impl Geometry {
-    /// The code in the GPU record (GLSL `CT_<GEOMETRY>`).
-    pub const fn code(self) -> f32 {
-        match self {
-            Geometry::VCavity => 0.0,
-            Geometry::Smith => 1.0,
-        }
-    }
-}
-
-impl Fresnel {
-    /// The Fresnel term's code in the GPU record (GLSL `CT_FRESNEL_<NAME>`).
-    pub const fn code(self) -> f32 {
-        match self {
-            Fresnel::Dielectric => 0.0,
-            Fresnel::Conductor => 1.0,
-            Fresnel::Schlick => 2.0,
-        }
-    }
-}
 
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
     let kd = r.rgb_of(&KD)?;
     let ks = r.rgb_of(&KS)?;
     let roughness = r.scalar_of(&ROUGHNESS)?;
-    let distribution = match r.choice_of(&DISTRIBUTION)? {
-        "ggx" => Distribution::Ggx,
-        _ => Distribution::Beckmann,
-    };
-    let geometry = match r.choice_of(&GEOMETRY)? {
-        "smith" => Geometry::Smith,
-        _ => Geometry::VCavity,
-    };
-    let fresnel = match r.choice_of(&FRESNEL)? {
-        "conductor" => Fresnel::Conductor,
-        "schlick" => Fresnel::Schlick,
-        _ => Fresnel::Dielectric,
-    };
-    let normalization = match r.choice_of(&NORMALIZATION)? {
-        "walter" => Normalization::Walter,
-        _ => Normalization::Survey,
-    };
+    let distribution = r.choice_of(&DISTRIBUTION)?;
+    let geometry = r.choice_of(&GEOMETRY)?;
+    let fresnel = r.choice_of(&FRESNEL)?;
+    let normalization = r.choice_of(&NORMALIZATION)?;
     // Fresnel parameters apply to one Fresnel choice each.
     let owner = |key: &str| match key {
         "ior" => Fresnel::Dielectric,
@@ -317,11 +274,7 @@ pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
     };
     for key in ["ior", "eta", "k", "f0"] {
         if r.has(key) && owner(key) != fresnel {
-            let want = match owner(key) {
-                Fresnel::Dielectric => "dielectric",
-                Fresnel::Conductor => "conductor",
-                Fresnel::Schlick => "schlick",
-            };
+            let want = owner(key).name();
             return Err(r.error(key, format!("applies only with fresnel = \"{want}\"")));
         }
     }

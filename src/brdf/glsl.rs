@@ -123,7 +123,7 @@ pub fn record_glsl() -> String {
     let _ = writeln!(s, "#define MATERIAL_TEXELS {}u", RECORD_WORDS / 4);
     let _ = writeln!(s, "#define MATERIAL_PARAMS {}", RECORD_PARAMS / 4);
     for m in MODELS.iter() {
-        for (name, code) in m.record_codes {
+        for (name, code) in m.record_codes() {
             let _ = writeln!(s, "#define {name} {}", glsl_float(*code));
         }
     }
@@ -155,7 +155,7 @@ mod tests {
     fn record_codes_are_distinct_names_prefixed_by_their_model() {
         let mut seen = std::collections::BTreeSet::new();
         for m in MODELS.iter() {
-            for (name, code) in m.record_codes {
+            for (name, code) in m.record_codes() {
                 let prefix = format!("{}_", m.name.to_uppercase());
                 let short = m.name.split('_').map(|w| &w[..1]).collect::<String>();
                 assert!(

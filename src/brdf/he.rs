@@ -158,7 +158,7 @@ pub const PARAMS: &[Param] = &[SIGMA0, TAU, IOR, K, WAVELENGTHS, DIFFUSE];
 /// The `brdf report` material.
 pub const REPRESENTATIVE: &[(&str, &str)] = &[("he", r#"model = "he", sigma0 = 0.4, tau = 4.0"#)];
 /// No enum in the record.
-pub const RECORD_CODES: &[(&str, f32)] = &[];
+pub const RECORD_CODES: &[&[(&str, f32)]] = &[];
 
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
     let sigma0 = r.scalar_of(&SIGMA0)?;

@@ -32,7 +32,7 @@ pub const PARAMS: &[Param] = &[ALBEDO];
 /// The `brdf report` material.
 pub const REPRESENTATIVE: &[(&str, &str)] = &[("lambert", r#"model = "lambert", albedo = 0.8"#)];
 /// No enum in the record.
-pub const RECORD_CODES: &[(&str, f32)] = &[];
+pub const RECORD_CODES: &[&[(&str, f32)]] = &[];
 
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
     let albedo = r.rgb_of(&ALBEDO)?;

@@ -56,6 +56,7 @@ pub mod common;
 pub mod docs;
 pub mod glsl;
 pub mod inline;
+#[macro_use]
 pub mod params;
 pub mod validate;
 
@@ -190,8 +191,16 @@ pub struct ModelInfo {
     /// comparable gloss (the model file's `REPRESENTATIVE`).
     pub representative: &'static [(&'static str, &'static str)],
     /// The float codes of the enums the model writes into its GPU record, as GLSL `#define`s
-    /// (`WARD_VARIANT_DUER2006`): the model file's `RECORD_CODES`, which its `pack` uses too.
-    pub record_codes: &'static [(&'static str, f32)],
+    /// (`WARD_VARIANT_DUER2006`): the model file's `RECORD_CODES`, one table per enum (each a
+    /// [`choice_enum!`]'s `RECORD_CODES`, whose `code()` its `pack` uses).
+    pub record_codes: &'static [&'static [(&'static str, f32)]],
+}
+
+impl ModelInfo {
+    /// Every `(GLSL #define name, code)` of the model's record enums.
+    pub fn record_codes(&self) -> impl Iterator<Item = &'static (&'static str, f32)> {
+        self.record_codes.iter().flat_map(|t| t.iter())
+    }
 }
 
 /// The registry row of the model whose module (and scene-file name) is `$m`: its `parse`,

@@ -47,10 +47,11 @@ use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, PI};
 use std::sync::Arc;
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Variant {
-    Full,
-    Qualitative,
+choice_enum! {
+    pub enum Variant {
+        Full = "full" => "OREN_NAYAR_FULL",
+        Qualitative = "qualitative" => "OREN_NAYAR_QUALITATIVE",
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -78,8 +79,8 @@ const SIGMA: Param = Param::scalar(
 .range_text("[0, π/2]");
 const VARIANT: Param = Param::choice(
     "variant",
-    &["full", "qualitative"],
-    "full",
+    Variant::NAMES,
+    Variant::Full.name(),
     "the paper's full model or its qualitative simplification",
 );
 /// The scene-file parameters (the table above is generated from them: `brdf::docs`).
@@ -90,20 +91,7 @@ pub const REPRESENTATIVE: &[(&str, &str)] = &[(
     r#"model = "oren_nayar", albedo = 0.8, sigma = 0.3"#,
 )];
 /// `p[1].x`: the variant.
-pub const RECORD_CODES: &[(&str, f32)] = &[
-    ("OREN_NAYAR_FULL", Variant::Full.code()),
-    ("OREN_NAYAR_QUALITATIVE", Variant::Qualitative.code()),
-];
-
-impl Variant {
-    /// The code in the GPU record (GLSL `OREN_NAYAR_<VARIANT>`).
-    pub const fn code(self) -> f32 {
-        match self {
-            Variant::Full => 0.0,
-            Variant::Qualitative => 1.0,
-        }
-    }
-}
+pub const RECORD_CODES: &[&[(&str, f32)]] = &[Variant::RECORD_CODES];
 
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
     let albedo = r.rgb_of(&ALBEDO)?;
@@ -118,10 +106,7 @@ pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
             ),
         ));
     }
-    let variant = match r.choice_of(&VARIANT)? {
-        "qualitative" => Variant::Qualitative,
-        _ => Variant::Full,
-    };
+    let variant = r.choice_of(&VARIANT)?;
     if albedo.max_element() > 0.97 {
         r.warn(
             "albedo",

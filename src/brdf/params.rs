@@ -61,6 +61,68 @@ pub fn line_of(source: &str, offset: usize) -> usize {
         + 1
 }
 
+/// An enum a scene file names by string ([`Param::choice`], [`ParamReader::choice_of`]),
+/// implemented by [`choice_enum!`].
+pub trait Choice: Copy + 'static {
+    /// Every variant, in declaration order.
+    const ALL: &'static [Self];
+    /// The scene-file name of each variant, in the order of [`Choice::ALL`].
+    const NAMES: &'static [&'static str];
+}
+
+/// Declares an enum whose variants a scene file names by string, from one list of
+/// `Variant = "scene-file name"` rows: the enum, its [`Choice`] impl (the string → variant
+/// lookup of [`ParamReader::choice_of`]), `NAMES` (the options of its [`Param::choice`]) and
+/// `name()`. Rows written `Variant = "name" => "GLSL_NAME"` are for an enum the model writes
+/// into its GPU record: `code()` is then the variant's position in the list (0.0, 1.0, …) and
+/// `RECORD_CODES` pairs each GLSL `#define` name with its code (the model file's
+/// `RECORD_CODES` lists these tables; `brdf::glsl` writes the defines).
+macro_rules! choice_enum {
+    (
+        $(#[$meta:meta])*
+        pub enum $e:ident {
+            $($(#[$vmeta:meta])* $v:ident = $name:literal => $glsl:literal),+ $(,)?
+        }
+    ) => {
+        choice_enum! {
+            $(#[$meta])*
+            pub enum $e { $($(#[$vmeta])* $v = $name),+ }
+        }
+        impl $e {
+            /// The code in the GPU record: the variant's position in the declaration.
+            pub const fn code(self) -> f32 {
+                self as u32 as f32
+            }
+            /// `(GLSL #define name, code)` of every variant.
+            pub const RECORD_CODES: &'static [(&'static str, f32)] = &[$(($glsl, $e::$v.code())),+];
+        }
+    };
+    (
+        $(#[$meta:meta])*
+        pub enum $e:ident {
+            $($(#[$vmeta:meta])* $v:ident = $name:literal),+ $(,)?
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        pub enum $e {
+            $($(#[$vmeta])* $v),+
+        }
+        impl $e {
+            /// The scene-file name of each variant, in declaration order.
+            pub const NAMES: &'static [&'static str] = &[$($name),+];
+            /// The variant's scene-file name.
+            pub const fn name(self) -> &'static str {
+                Self::NAMES[self as usize]
+            }
+        }
+        impl $crate::brdf::params::Choice for $e {
+            const ALL: &'static [Self] = &[$($e::$v),+];
+            const NAMES: &'static [&'static str] = $e::NAMES;
+        }
+    };
+}
+
 /// What a parameter holds and its default.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Kind {
@@ -219,10 +281,24 @@ impl<'a> ParamReader<'a> {
         self.scalar(p.name, default, p.min, p.max)
     }
 
-    /// A choice parameter with its declared options and default.
-    pub fn choice_of(&mut self, p: &Param) -> Result<&'static str, ParamError> {
+    /// A choice parameter with its declared options and default, as the variant of `E` (a
+    /// [`choice_enum!`]) it names; the parameter's options are `E::NAMES`.
+    pub fn choice_of<E: Choice>(&mut self, p: &Param) -> Result<E, ParamError> {
         match p.kind {
-            Kind::Choice(options, d) => self.choice(p.name, options, d),
+            Kind::Choice(options, d) => {
+                assert_eq!(
+                    options,
+                    E::NAMES,
+                    "parameter {}: options are not the enum's",
+                    p.name
+                );
+                let s = self.choice(p.name, options, d)?;
+                let i = E::NAMES
+                    .iter()
+                    .position(|n| *n == s)
+                    .expect("one of the options");
+                Ok(E::ALL[i])
+            }
             _ => panic!("parameter {} is not declared as a choice", p.name),
         }
     }

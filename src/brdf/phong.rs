@@ -47,10 +47,11 @@ use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, PI};
 use std::sync::Arc;
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Form {
-    Survey,
-    Normalized,
+choice_enum! {
+    pub enum Form {
+        Survey = "survey" => "PHONG_SURVEY",
+        Normalized = "normalized" => "PHONG_NORMALIZED",
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -115,8 +116,8 @@ const EXPONENT: Param = Param::scalar(
 );
 const FORM: Param = Param::choice(
     "form",
-    &["survey", "normalized"],
-    "survey",
+    Form::NAMES,
+    Form::Survey.name(),
     "eq. 4 as written, or the energy-normalised reciprocal lobe",
 );
 /// The scene-file parameters (the table above is generated from them: `brdf::docs`).
@@ -133,29 +134,13 @@ pub const REPRESENTATIVE: &[(&str, &str)] = &[
     ),
 ];
 /// `p[1].w`: the form.
-pub const RECORD_CODES: &[(&str, f32)] = &[
-    ("PHONG_SURVEY", Form::Survey.code()),
-    ("PHONG_NORMALIZED", Form::Normalized.code()),
-];
-
-impl Form {
-    /// The code in the GPU record (GLSL `PHONG_<FORM>`).
-    pub const fn code(self) -> f32 {
-        match self {
-            Form::Survey => 0.0,
-            Form::Normalized => 1.0,
-        }
-    }
-}
+pub const RECORD_CODES: &[&[(&str, f32)]] = &[Form::RECORD_CODES];
 
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
     let kd = r.rgb_of(&KD)?;
     let ks = r.rgb_of(&KS)?;
     let exponent = r.scalar_of(&EXPONENT)?;
-    let form = match r.choice_of(&FORM)? {
-        "normalized" => Form::Normalized,
-        _ => Form::Survey,
-    };
+    let form = r.choice_of(&FORM)?;
     let es = spec_albedo_estimate(exponent, form);
     let total = (kd + ks * es).max_element();
     if total > 1.0 {

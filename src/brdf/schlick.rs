@@ -86,14 +86,15 @@ pub const R_MIN: f32 = 1e-4;
 /// Smallest isotropy used inside A.
 pub const P_MIN: f32 = 1e-3;
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Form {
-    /// Eq. 24.
-    Basic,
-    /// Eq. 25.
-    Attenuated,
-    /// Eq. 26.
-    Continuum,
+choice_enum! {
+    pub enum Form {
+        /// Eq. 24.
+        Basic = "basic" => "SCHLICK_BASIC",
+        /// Eq. 25.
+        Attenuated = "attenuated" => "SCHLICK_ATTENUATED",
+        /// Eq. 26.
+        Continuum = "continuum" => "SCHLICK_CONTINUUM",
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -171,8 +172,8 @@ const P2: Param = Param::scalar(
 );
 const FORM: Param = Param::choice(
     "form",
-    &["basic", "attenuated", "continuum"],
-    "continuum",
+    Form::NAMES,
+    Form::Continuum.name(),
     "the directional factor D (eqs. 24, 25, 26)",
 );
 const ROTATION: Param = Param::scalar(
@@ -188,22 +189,7 @@ pub const PARAMS: &[Param] = &[C, R, P, C2, R2, P2, FORM, ROTATION];
 pub const REPRESENTATIVE: &[(&str, &str)] =
     &[("schlick", r#"model = "schlick", c = 0.8, r = 0.1, p = 1.0"#)];
 /// `p[2].z`: the form ([`Form::code`]).
-pub const RECORD_CODES: &[(&str, f32)] = &[
-    ("SCHLICK_BASIC", Form::Basic.code()),
-    ("SCHLICK_ATTENUATED", Form::Attenuated.code()),
-    ("SCHLICK_CONTINUUM", Form::Continuum.code()),
-];
-
-impl Form {
-    /// The form's code in the GPU record (GLSL `SCHLICK_<FORM>`).
-    pub const fn code(self) -> f32 {
-        match self {
-            Form::Basic => 0.0,
-            Form::Attenuated => 1.0,
-            Form::Continuum => 2.0,
-        }
-    }
-}
+pub const RECORD_CODES: &[&[(&str, f32)]] = &[Form::RECORD_CODES];
 
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
     let c = r.rgb_of(&C)?;
@@ -221,11 +207,7 @@ pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
     let c2 = r.rgb_of(&C2)?;
     let r2 = r.scalar_of(&R2)?;
     let p2 = r.scalar_of(&P2)?;
-    let form = match r.choice_of(&FORM)? {
-        "basic" => Form::Basic,
-        "attenuated" => Form::Attenuated,
-        _ => Form::Continuum,
-    };
+    let form = r.choice_of(&FORM)?;
     let rotation = r.scalar_of(&ROTATION)?;
     if p < P_MIN || (layered && p2 < P_MIN) {
         let key = if p < P_MIN { "p" } else { "p2" };
