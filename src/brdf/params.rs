@@ -377,6 +377,19 @@ impl<'a> ParamReader<'a> {
         Ok(())
     }
 
+    /// The field `key` converted by `convert`, or `default` when the field is absent.
+    fn read<T>(
+        &mut self,
+        key: &str,
+        default: T,
+        convert: impl FnOnce(&Self, &Value) -> Result<T, ParamError>,
+    ) -> Result<T, ParamError> {
+        match self.take(key).cloned() {
+            None => Ok(default),
+            Some(v) => convert(self, &v),
+        }
+    }
+
     /// A scalar in `[min, max]`, or `default` when the field is absent.
     pub fn scalar(
         &mut self,
@@ -385,12 +398,11 @@ impl<'a> ParamReader<'a> {
         min: f32,
         max: f32,
     ) -> Result<f32, ParamError> {
-        let x = match self.take(key).cloned() {
-            None => return Ok(default),
-            Some(v) => self.number(key, &v)?,
-        };
-        self.check_range(key, x, min, max)?;
-        Ok(x)
+        self.read(key, default, |r, v| {
+            let x = r.number(key, v)?;
+            r.check_range(key, x, min, max)?;
+            Ok(x)
+        })
     }
 
     /// An RGB triple `[r, g, b]` (a single number means grey) with every channel in
@@ -402,28 +414,26 @@ impl<'a> ParamReader<'a> {
         min: f32,
         max: f32,
     ) -> Result<Vec3, ParamError> {
-        let v = match self.take(key).cloned() {
-            None => return Ok(default),
-            Some(v) => v,
-        };
-        let c = match &v {
-            Value::Array(a) if a.len() == 3 => Vec3::new(
-                self.number(key, &a[0])?,
-                self.number(key, &a[1])?,
-                self.number(key, &a[2])?,
-            ),
-            Value::Array(a) => {
-                return Err(self.error(
-                    key,
-                    format!("expected [r, g, b], found an array of {}", a.len()),
-                ))
+        self.read(key, default, |r, v| {
+            let c = match v {
+                Value::Array(a) if a.len() == 3 => Vec3::new(
+                    r.number(key, &a[0])?,
+                    r.number(key, &a[1])?,
+                    r.number(key, &a[2])?,
+                ),
+                Value::Array(a) => {
+                    return Err(r.error(
+                        key,
+                        format!("expected [r, g, b], found an array of {}", a.len()),
+                    ))
+                }
+                other => Vec3::splat(r.number(key, other)?),
+            };
+            for x in c.to_array() {
+                r.check_range(key, x, min, max)?;
             }
-            other => Vec3::splat(self.number(key, other)?),
-        };
-        for x in c.to_array() {
-            self.check_range(key, x, min, max)?;
-        }
-        Ok(c)
+            Ok(c)
+        })
     }
 
     /// One of `options`, or `default` when the field is absent.
@@ -433,21 +443,19 @@ impl<'a> ParamReader<'a> {
         options: &[&'static str],
         default: &'static str,
     ) -> Result<&'static str, ParamError> {
-        let v = match self.take(key).cloned() {
-            None => return Ok(default),
-            Some(v) => v,
-        };
-        let s = v
-            .as_str()
-            .ok_or_else(|| self.error(key, format!("expected a string, found {}", v.type_str())))?;
-        options.iter().copied().find(|o| *o == s).ok_or_else(|| {
-            self.error(
-                key,
-                format!(
-                    "unknown value \"{s}\": expected one of {}",
-                    options.join(", ")
-                ),
-            )
+        self.read(key, default, |r, v| {
+            let s = v.as_str().ok_or_else(|| {
+                r.error(key, format!("expected a string, found {}", v.type_str()))
+            })?;
+            options.iter().copied().find(|o| *o == s).ok_or_else(|| {
+                r.error(
+                    key,
+                    format!(
+                        "unknown value \"{s}\": expected one of {}",
+                        options.join(", ")
+                    ),
+                )
+            })
         })
     }
 
