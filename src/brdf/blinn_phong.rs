@@ -140,6 +140,8 @@ const FORM: Param = Param::choice(
 );
 /// The scene-file parameters (the table above is generated from them: `brdf::docs`).
 pub const PARAMS: &[Param] = &[KD, KS, EXPONENT, FORM];
+/// Where the survey gives the model (README's model table).
+pub const SURVEY: &str = "§2.1.4, eq. 5";
 /// The `brdf report` materials: both forms at one gloss.
 pub const REPRESENTATIVE: &[(&str, &str)] = &[
     (

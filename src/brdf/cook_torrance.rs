@@ -239,6 +239,8 @@ pub const PARAMS: &[Param] = &[
     F0,
     NORMALIZATION,
 ];
+/// Where the survey gives the model (README's model table).
+pub const SURVEY: &str = "eqs. 6–9";
 /// The `brdf report` materials: both normalisations at one gloss.
 pub const REPRESENTATIVE: &[(&str, &str)] = &[
     (

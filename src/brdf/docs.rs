@@ -91,7 +91,8 @@ pub fn model_file_table(m: &ModelInfo) -> String {
     s
 }
 
-/// The model's row of README.md's model table: the parameter names, and a choice's options.
+/// The model's row of README.md's model table: where the survey gives it, the parameter names,
+/// and a choice's options.
 pub fn readme_row(m: &ModelInfo) -> String {
     let params: Vec<String> = m
         .params
@@ -101,7 +102,7 @@ pub fn readme_row(m: &ModelInfo) -> String {
             _ => format!("`{}`", p.name),
         })
         .collect();
-    format!("| `{}` | {} |", m.name, params.join(", "))
+    format!("| `{}` | {} | {} |", m.name, m.survey, params.join(", "))
 }
 
 /// The model's row of scenes/README.md's table: each parameter's default and range.

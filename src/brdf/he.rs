@@ -155,6 +155,8 @@ const DIFFUSE: Param = Param::rgb(
 );
 /// The scene-file parameters (the table above is generated from them: `brdf::docs`).
 pub const PARAMS: &[Param] = &[SIGMA0, TAU, IOR, K, WAVELENGTHS, DIFFUSE];
+/// Where the survey gives the model (README's model table).
+pub const SURVEY: &str = "eqs. 10–15";
 /// The `brdf report` material.
 pub const REPRESENTATIVE: &[(&str, &str)] = &[("he", r#"model = "he", sigma0 = 0.4, tau = 4.0"#)];
 /// No enum in the record.

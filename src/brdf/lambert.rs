@@ -29,6 +29,8 @@ const ALBEDO: Param = Param::rgb(
 );
 /// The scene-file parameters (the table above is generated from them: `brdf::docs`).
 pub const PARAMS: &[Param] = &[ALBEDO];
+/// Where the survey gives the model (README's model table).
+pub const SURVEY: &str = "eq. 3";
 /// The `brdf report` material.
 pub const REPRESENTATIVE: &[(&str, &str)] = &[("lambert", r#"model = "lambert", albedo = 0.8"#)];
 /// No enum in the record.

@@ -187,6 +187,9 @@ pub struct ModelInfo {
     pub parse: fn(&mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError>,
     /// The scene-file parameters (the model file's `PARAMS`).
     pub params: &'static [Param],
+    /// Where the survey gives the model: section and equation numbers (the model file's
+    /// `SURVEY`).
+    pub survey: &'static str,
     /// `(label, inline material)` pairs that `brdf report` measures: the model's variants at
     /// comparable gloss (the model file's `REPRESENTATIVE`).
     pub representative: &'static [(&'static str, &'static str)],
@@ -211,6 +214,7 @@ macro_rules! model {
             name: stringify!($m),
             parse: $m::parse,
             params: $m::PARAMS,
+            survey: $m::SURVEY,
             representative: $m::REPRESENTATIVE,
             record_codes: $m::RECORD_CODES,
         }

@@ -85,6 +85,8 @@ const VARIANT: Param = Param::choice(
 );
 /// The scene-file parameters (the table above is generated from them: `brdf::docs`).
 pub const PARAMS: &[Param] = &[ALBEDO, SIGMA, VARIANT];
+/// Where the survey gives the model (README's model table).
+pub const SURVEY: &str = "§2.1.2 (Oren & Nayar 1994)";
 /// The `brdf report` material.
 pub const REPRESENTATIVE: &[(&str, &str)] = &[(
     "oren_nayar",

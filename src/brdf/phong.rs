@@ -122,6 +122,8 @@ const FORM: Param = Param::choice(
 );
 /// The scene-file parameters (the table above is generated from them: `brdf::docs`).
 pub const PARAMS: &[Param] = &[KD, KS, EXPONENT, FORM];
+/// Where the survey gives the model (README's model table).
+pub const SURVEY: &str = "§2.1.3, eq. 4";
 /// The `brdf report` materials: both forms at one gloss.
 pub const REPRESENTATIVE: &[(&str, &str)] = &[
     (

@@ -185,6 +185,8 @@ const ROTATION: Param = Param::scalar(
 );
 /// The scene-file parameters (the table above is generated from them: `brdf::docs`).
 pub const PARAMS: &[Param] = &[C, R, P, C2, R2, P2, FORM, ROTATION];
+/// Where the survey gives the model (README's model table).
+pub const SURVEY: &str = "eqs. 18–26";
 /// The `brdf report` material.
 pub const REPRESENTATIVE: &[(&str, &str)] =
     &[("schlick", r#"model = "schlick", c = 0.8, r = 0.1, p = 1.0"#)];

@@ -176,6 +176,8 @@ const ROTATION: Param = Param::scalar(
 );
 /// The scene-file parameters (the table above is generated from them: `brdf::docs`).
 pub const PARAMS: &[Param] = &[KD, KS, ALPHA_X, ALPHA_Y, VARIANT, ROTATION];
+/// Where the survey gives the model (README's model table).
+pub const SURVEY: &str = "§2.4, eqs. 16–17";
 /// The `brdf report` materials: the three normalisations at one gloss.
 pub const REPRESENTATIVE: &[(&str, &str)] = &[
     (
