@@ -16,8 +16,8 @@ use std::f32::consts::PI;
 /// The disk's rim (a coordinate of `u` exactly 0, probability 2^-24 per number, or rounding at
 /// |a| ≈ 1) would give cosθ = 0: a tangent direction of pdf 0, which ends the path. Once in
 /// 10^7 segments is nothing for a shallow path but cut 0.9 % of a white furnace's segments at
-/// depth 2^20 (issue 22). There the point is moved inwards to 1 − |d|² = [`MIN_COS2`], the
-/// value of the innermost cell a 24-bit number can reach; nowhere else does anything change.
+/// depth 2^20 (issue 22). There the point is moved inwards to 1 − |d|² = [`MIN_COS2`], below
+/// the value at the largest radius under 1 that 24-bit numbers reach, so nothing else changes.
 pub fn sample_cosine_hemisphere(u: Vec2) -> Vec3 {
     let a = 2.0 * u - Vec2::ONE;
     let d = if a.x == 0.0 && a.y == 0.0 {
@@ -39,8 +39,9 @@ pub fn sample_cosine_hemisphere(u: Vec2) -> Vec3 {
     Vec3::new(d.x, d.y, z2.sqrt())
 }
 
-/// The least cos²θ of [`sample_cosine_hemisphere`]: 2^-23, 1 − r² for the outermost disk
-/// radius below 1 that 24-bit numbers give (r = 1 − 2^-23 at u = 1 − 2^-24).
+/// The least cos²θ of [`sample_cosine_hemisphere`]: 2^-23, half of 1 − r² ≈ 2^-22 at the
+/// largest disk radius below 1 that 24-bit numbers give (r = 1 − 2^-23 at u = 2^-24 or
+/// 1 − 2^-24), so that only the rim and rounding right at it are moved.
 pub const MIN_COS2: f32 = 1.0 / (1u32 << 23) as f32;
 
 pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {

@@ -405,7 +405,7 @@ const MAX_SEGMENTS_PER_CHECK: u32 = 1024;
 /// When a deep wave looks whether any path is left: before segment `SEGMENTS_PER_CHECK + 1`,
 /// then after twice as many segments each time, up to [`MAX_SEGMENTS_PER_CHECK`]. Every look is
 /// a submission and a download the host waits for; a look every 16 segments made a path of 2^20
-/// segments wait 65,536 times (most of its time, in the kernel). Segments recorded after the
+/// segments wait 65,536 times. Segments recorded after the
 /// last path ended have empty queues and change nothing; doubling keeps them fewer than the
 /// segments before the look that found the queue empty.
 struct CheckSchedule {
