@@ -199,6 +199,18 @@ pub fn offset_ray_origin(p: Vec3, err: Vec3, n: Vec3) -> Vec3 {
     Vec3::new(one(q.x, n.x), one(q.y, n.y), one(q.z, n.z))
 }
 
+/// The value of `#define NAME value` in the GLSL source `glsl` (the file `file`, for the
+/// message): the twin-constant tests of this module and of `bvh` read their shaders with it.
+#[cfg(test)]
+pub(crate) fn glsl_define<'a>(glsl: &'a str, file: &str, name: &str) -> &'a str {
+    let key = format!("#define {name} ");
+    let line = glsl
+        .lines()
+        .find(|l| l.starts_with(&key))
+        .unwrap_or_else(|| panic!("{name} not in {file}"));
+    line[key.len()..].trim()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -294,14 +306,7 @@ mod tests {
     #[test]
     fn glsl_constants_match() {
         let glsl = include_str!("../shaders/robust.glsl");
-        let define = |name: &str| -> &str {
-            let key = format!("#define {name} ");
-            let line = glsl
-                .lines()
-                .find(|l| l.starts_with(&key))
-                .unwrap_or_else(|| panic!("{name} not in robust.glsl"));
-            line[key.len()..].trim()
-        };
+        let define = |name: &str| glsl_define(glsl, "robust.glsl", name);
         for n in [2, 4, 5] {
             let want = format!("uintBitsToFloat({:#010x}u)", gamma(n).to_bits());
             assert_eq!(define(&format!("GAMMA{n}")), want);

@@ -159,14 +159,7 @@ mod tests {
     #[test]
     fn glsl_constants_match() {
         let glsl = include_str!("../../shaders/bvh.glsl");
-        let define = |name: &str| -> &str {
-            let key = format!("#define {name} ");
-            let line = glsl
-                .lines()
-                .find(|l| l.starts_with(&key))
-                .unwrap_or_else(|| panic!("{name} not in bvh.glsl"));
-            line[key.len()..].trim()
-        };
+        let define = |name: &str| crate::robust::glsl_define(glsl, "bvh.glsl", name);
         let bits = |name: &str| -> u32 {
             let v = define(name);
             let hex = v
