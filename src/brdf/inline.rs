@@ -10,6 +10,10 @@ use toml::{Spanned, Value};
 #[derive(serde::Deserialize)]
 struct Wrapped {
     material: BTreeMap<String, Spanned<Value>>,
+    /// Anything beside the material: a `}` in the text closes the wrapping table early and lets
+    /// the rest define other tables, which must be refused, not ignored.
+    #[serde(flatten)]
+    other: BTreeMap<String, Value>,
 }
 
 /// Parse an inline material into a material; warnings go to stderr.
@@ -27,23 +31,15 @@ pub fn parse_inline_from(from: &str, src: &str) -> Result<(Material, Vec<String>
     // Comma-separated fields are the inside of an inline table; newline-separated fields are a
     // table body. Try the first, then the second.
     let wrapped = format!("material = {{ {} }}", src.trim());
-    // A `}` in the text would close the wrapping table early and let the rest define other
-    // tables, which were then ignored: refuse anything beside the one material table.
-    if let Ok(table) = toml::from_str::<toml::Table>(&wrapped) {
-        let extra: Vec<String> = table
-            .keys()
-            .filter(|k| k.as_str() != "material")
-            .map(|k| format!("'{k}'"))
-            .collect();
-        if !extra.is_empty() {
+    let (source, fields) = match toml::from_str::<Wrapped>(&wrapped) {
+        Ok(w) if !w.other.is_empty() => {
+            let extra: Vec<String> = w.other.keys().map(|k| format!("'{k}'")).collect();
             return Err(anyhow!(
                 "{from}: only the material's fields are allowed, but the text also defines {} \
                  (a '}}' in it ends the material's table early)",
                 extra.join(", ")
             ));
         }
-    }
-    let (source, fields) = match toml::from_str::<Wrapped>(&wrapped) {
         Ok(w) => (wrapped.clone(), w.material),
         Err(first) => match toml::from_str::<BTreeMap<String, Spanned<Value>>>(src) {
             Ok(f) => (src.to_string(), f),
