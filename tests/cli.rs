@@ -177,6 +177,53 @@ fn render_json_summary_on_both_backends() {
     assert!(map.exists());
 }
 
+/// `--integrator auto` (the default) takes the megakernel for a wave of at most 2048 paths and
+/// the wavefront above; whichever it takes, the image is the explicit integrator's, bit for bit.
+#[test]
+fn auto_integrator_takes_the_megakernel_for_small_waves_only() {
+    let render = |res: &str, spp: &str, integrator: &str, out: &Path| -> serde_json::Value {
+        let stdout = ok(&[
+            "render",
+            "scenes/cornell-box-glossy.toml",
+            "--res",
+            res,
+            "--spp",
+            spp,
+            "--integrator",
+            integrator,
+            "--out",
+            s(out),
+            "--json",
+        ]);
+        serde_json::from_str(stdout.trim()).unwrap()
+    };
+    // 16×16 pixels × 8 samples = 2048 paths in one wave; 32×32 × 2 = 2048 too; 2049+ is
+    // the wavefront's.
+    for (res, spp, wave, chosen) in [
+        ("16x16", "8", 2048, "megakernel"),
+        ("33x32", "2", 2112, "wavefront"),
+    ] {
+        let auto = tmp(&format!("auto-{res}.exr"));
+        let fixed = tmp(&format!("fixed-{res}.exr"));
+        let j = render(res, spp, "auto", &auto);
+        assert_eq!(j["wave_paths"], wave, "{j}");
+        assert_eq!(j["integrator"], chosen, "{j}");
+        let pipes = j["pipelines"].to_string();
+        assert_eq!(
+            pipes.contains("\"megakernel\""),
+            chosen == "megakernel",
+            "{pipes}"
+        );
+        let k = render(res, spp, chosen, &fixed);
+        assert_eq!(k["integrator"], chosen);
+        assert_eq!(
+            std::fs::read(&auto).unwrap(),
+            std::fs::read(&fixed).unwrap(),
+            "{res}: auto and --integrator {chosen} differ"
+        );
+    }
+}
+
 #[test]
 fn bad_inputs_name_the_file_and_field() {
     // Scene with a bad field value.

@@ -20,6 +20,7 @@ pub enum Backend {
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum IntegratorArg {
+    Auto,
     Wavefront,
     Megakernel,
 }
@@ -27,6 +28,7 @@ pub enum IntegratorArg {
 impl IntegratorArg {
     pub fn gpu(self) -> brdfwave::gpu::Integrator {
         match self {
+            IntegratorArg::Auto => brdfwave::gpu::Integrator::Auto,
             IntegratorArg::Wavefront => brdfwave::gpu::Integrator::Wavefront,
             IntegratorArg::Megakernel => brdfwave::gpu::Integrator::Megakernel,
         }

@@ -74,9 +74,11 @@ pub struct RenderArgs {
     /// depend on it.
     #[arg(long)]
     wave_paths: Option<u32>,
-    /// GPU: how paths are followed: `wavefront` (the stages with queues, the default) or
-    /// `megakernel` (one kernel per wave, the benchmark's baseline). Same image.
-    #[arg(long, value_enum, default_value = "wavefront")]
+    /// GPU: how paths are followed: `wavefront` (the stages with queues), `megakernel` (one
+    /// kernel per wave, the benchmark's baseline) or `auto` (the default: the megakernel for
+    /// waves of at most 2048 paths, where the wavefront's cost per segment dominates, else the
+    /// wavefront). Same image; the summary names the one that ran.
+    #[arg(long, value_enum, default_value = "auto")]
     integrator: IntegratorArg,
     /// Print the summary as one JSON object on stdout.
     #[arg(long)]
@@ -217,7 +219,11 @@ impl std::fmt::Display for RenderSummary {
             } else {
                 ""
             };
-            writeln!(f, "wave           {} paths in flight{sg}", g.wave_paths)?;
+            writeln!(
+                f,
+                "wave           {} paths in flight, {} integrator{sg}",
+                g.wave_paths, g.integrator
+            )?;
         }
         writeln!(
             f,

@@ -288,6 +288,8 @@ fn model_features(scene: &Scene, model: usize) -> BTreeSet<&'static str> {
 
 /// The kernels `integrator` needs and the order they run in: the wavefront stages (fused when
 /// the scene shades one model: `extend_shade`), or the megakernel; both end in `accumulate`.
+/// `integrator` is resolved ([`Integrator::resolve`]) by the caller; an unresolved `Auto`
+/// builds the wavefront.
 /// One shade pipeline per model of the scene (`Scene::shaded_models`).
 pub(super) fn build_kernels<'a>(
     ctx: &'a Context,
@@ -313,7 +315,7 @@ pub(super) fn build_kernels<'a>(
         model,
     };
     let schedule = match integrator {
-        Integrator::Wavefront => {
+        Integrator::Wavefront | Integrator::Auto => {
             let base = WaveKernels {
                 generate: b.stage(Stage::Generate)?,
                 prepare: b.stage(Stage::Prepare)?,

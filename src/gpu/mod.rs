@@ -76,7 +76,7 @@ pub(crate) const SEGMENTS_PER_CHECK: u32 = 16;
 /// Mesa 22.3's gallivm allows an invocation (docs/loops.md); the film's sums do not depend on it.
 pub const MAX_SAMPLES_PER_WAVE: u32 = 8192;
 
-/// How the GPU follows paths.
+/// How the GPU follows paths. Every choice gives the same image, bit for bit.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Integrator {
     /// The wavefront stages above: path state in buffers, one kernel per stage and per model.
@@ -85,13 +85,41 @@ pub enum Integrator {
     /// One kernel per wave that follows every path to its end and switches on the model: the
     /// baseline of `brdfwave bench`. The same random numbers, arithmetic and image.
     Megakernel,
+    /// Whichever of the two is faster for the render's wave size ([`Integrator::resolve`]):
+    /// the command line's default.
+    Auto,
 }
+
+/// Largest wave for which [`Integrator::Auto`] takes the megakernel. A wavefront segment
+/// costs a few dispatches whatever the number of paths in it (on lavapipe about 0.2 ms per
+/// segment, mostly waking and joining its threads), while the megakernel costs that once per
+/// wave but keeps a lane busy until the longest path of its subgroup ends (0.63× the
+/// wavefront's paths/s on the 256×256 Cornell box). Measured on 2 cores, 1 spp, one wave
+/// (seconds of rendering, wavefront / megakernel): Cornell box max depth 8 at 64×64 (4096
+/// paths) 0.030–0.037 / 0.031–0.050, at 256×256 0.18 / 0.20; white furnace 4×4 (16 paths) at
+/// depth 1024 0.216 / 0.020, at 64×64 0.81 / 0.59; 16 paths of 65,536 segments 12.5 / 0.6.
+/// Below about 2,000 paths the per-segment cost dominates every scene measured.
+pub const AUTO_MEGAKERNEL_MAX_WAVE_PATHS: u32 = 2048;
 
 impl Integrator {
     pub fn name(self) -> &'static str {
         match self {
             Integrator::Wavefront => "wavefront",
             Integrator::Megakernel => "megakernel",
+            Integrator::Auto => "auto",
+        }
+    }
+
+    /// The integrator that renders waves of `wave_paths` paths: `Auto` becomes the megakernel
+    /// for waves of at most [`AUTO_MEGAKERNEL_MAX_WAVE_PATHS`] paths, else the wavefront; the
+    /// others stay as they are.
+    pub fn resolve(self, wave_paths: u32) -> Integrator {
+        match self {
+            Integrator::Auto if wave_paths <= AUTO_MEGAKERNEL_MAX_WAVE_PATHS => {
+                Integrator::Megakernel
+            }
+            Integrator::Auto => Integrator::Wavefront,
+            fixed => fixed,
         }
     }
 }
@@ -143,6 +171,7 @@ pub struct GpuRenderer<'a> {
     /// The kernels between a wave's start and `accumulate`, and their order.
     schedule: Schedule,
     accumulate: KernelId,
+    /// The integrator that renders (never `Auto`: resolved for the wave size).
     integrator: Integrator,
     counters: Counters,
     wave_paths: u32,
@@ -208,6 +237,7 @@ impl<'a> GpuRenderer<'a> {
         let wave_paths =
             waves::wave_slots(tile.pixels() as u64, spp, wave_paths, MAX_SAMPLES_PER_WAVE);
         setup.wave_paths = wave_paths;
+        let integrator = integrator.resolve(wave_paths);
         setup.subgroup_queues = ctx.features.subgroup_ballot;
         // One material queue per model of the scene's materials that scatter.
         let counters = Counters {
@@ -312,11 +342,9 @@ impl<'a> GpuRenderer<'a> {
                 let end = start + w.samples as f64 * w.pixels as f64 / pixels as f64;
                 let report = |fraction: f64| progress(start + (end - start) * fraction);
                 let split = batch == 1;
-                rec = match self.integrator {
-                    Integrator::Wavefront => {
-                        self.record_wave(rec, push, split.then_some(&report))?
-                    }
-                    Integrator::Megakernel => self.record_megakernel_wave(rec, push)?,
+                rec = match self.schedule {
+                    Schedule::Megakernel { .. } => self.record_megakernel_wave(rec, push)?,
+                    _ => self.record_wave(rec, push, split.then_some(&report))?,
                 };
                 rec = self.record_accumulate(rec, &push)?;
             }
@@ -334,6 +362,11 @@ impl<'a> GpuRenderer<'a> {
 
     /// The film so far: one block of per-pixel sums over the samples rendered since the last
     /// reset, in f64 (the GPU's sums are f32, in sample order per pixel).
+    /// The integrator that renders: the one asked for, or what `Auto` chose for the wave size.
+    pub fn integrator(&self) -> Integrator {
+        self.integrator
+    }
+
     pub fn film(&self) -> Result<Film> {
         let film: Vec<[f32; 4]> = self.ctx.download(self.owned.buffer(Binding::Film))?;
         let film2: Vec<[f32; 4]> = self.ctx.download(self.owned.buffer(Binding::Film2))?;

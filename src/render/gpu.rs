@@ -33,10 +33,11 @@ impl<'a> GpuBackend<'a> {
             tile: Some(tile),
             ..options
         };
+        let renderer = GpuRenderer::with_options(ctx, scene, bvh, compiler, options)?;
         Ok(GpuBackend {
-            renderer: GpuRenderer::with_options(ctx, scene, bvh, compiler, options)?,
+            integrator: renderer.integrator(),
+            renderer,
             ctx,
-            integrator: options.integrator,
         })
     }
 }
