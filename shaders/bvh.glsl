@@ -15,18 +15,18 @@
 #ifndef BVH_BINDING
 #define BVH_BINDING 0
 #endif
-// Uniform texel buffers (src/gpu/layout.rs says why, and documents their contents), read as raw
-// 32-bit words.
-layout(set = 0, binding = BVH_BINDING + 0) uniform usamplerBuffer bvh_nodes;
-layout(set = 0, binding = BVH_BINDING + 1) uniform usamplerBuffer bvh_prims;
-layout(set = 0, binding = BVH_BINDING + 2) uniform usamplerBuffer tri_data;
-layout(set = 0, binding = BVH_BINDING + 3) uniform usamplerBuffer sphere_data;
+// Read-only storage texel buffers (src/gpu/layout.rs says why, and documents their contents),
+// read as raw 32-bit words.
+layout(set = 0, binding = BVH_BINDING + 0, rgba32ui) uniform readonly restrict uimageBuffer bvh_nodes;
+layout(set = 0, binding = BVH_BINDING + 1, r32ui) uniform readonly restrict uimageBuffer bvh_prims;
+layout(set = 0, binding = BVH_BINDING + 2, rgba32ui) uniform readonly restrict uimageBuffer tri_data;
+layout(set = 0, binding = BVH_BINDING + 3, rgba32ui) uniform readonly restrict uimageBuffer sphere_data;
 #endif
 
-vec4 bvh_node(uint i) { return uintBitsToFloat(texelFetch(bvh_nodes, int(i))); }
-uint bvh_prim(uint i) { return texelFetch(bvh_prims, int(i)).x; }
-vec4 tri_texel(uint i) { return uintBitsToFloat(texelFetch(tri_data, int(i))); }
-vec4 sphere_texel(uint i) { return uintBitsToFloat(texelFetch(sphere_data, int(i))); }
+vec4 bvh_node(uint i) { return uintBitsToFloat(imageLoad(bvh_nodes, int(i))); }
+uint bvh_prim(uint i) { return imageLoad(bvh_prims, int(i)).x; }
+vec4 tri_texel(uint i) { return uintBitsToFloat(imageLoad(tri_data, int(i))); }
+vec4 sphere_texel(uint i) { return uintBitsToFloat(imageLoad(sphere_data, int(i))); }
 
 // Triangle i's three texels: the vertices v0, v1, v2 in .xyz, the material and emitter bits in
 // v0.w and v1.w (layout: src/gpu/layout.rs `Binding::glsl`).

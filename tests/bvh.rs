@@ -885,7 +885,7 @@ fn run_probe(ctx: &Context, spirv: &[u32], s: &Scene, b: &Bvh, rays: &[[f32; 4]]
     let mut bufs = Vec::new();
     let mut views = Vec::new();
     for (binding, bytes) in &scene_data {
-        let Kind::Texels(format) = binding.kind() else {
+        let Kind::ReadImage(format) = binding.kind() else {
             panic!("{binding:?} is a texel buffer in the renderer")
         };
         let buf = ctx
@@ -897,10 +897,10 @@ fn run_probe(ctx: &Context, spirv: &[u32], s: &Scene, b: &Bvh, rays: &[[f32; 4]]
     let kinds = [
         raw::DescriptorType::STORAGE_BUFFER,
         raw::DescriptorType::STORAGE_BUFFER,
-        raw::DescriptorType::UNIFORM_TEXEL_BUFFER,
-        raw::DescriptorType::UNIFORM_TEXEL_BUFFER,
-        raw::DescriptorType::UNIFORM_TEXEL_BUFFER,
-        raw::DescriptorType::UNIFORM_TEXEL_BUFFER,
+        raw::DescriptorType::STORAGE_TEXEL_BUFFER,
+        raw::DescriptorType::STORAGE_TEXEL_BUFFER,
+        raw::DescriptorType::STORAGE_TEXEL_BUFFER,
+        raw::DescriptorType::STORAGE_TEXEL_BUFFER,
     ];
     let p = ctx
         .create_compute_pipeline_with("bvh_probe", spirv, &kinds, 4)

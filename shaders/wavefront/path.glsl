@@ -49,7 +49,7 @@ uint segment_end(uint depth, vec3 o, vec3 d, float prev_pdf, vec3 b, out vec3 e,
         if (finite_or_count(em, counter_nonfinite_extend())) e = em;
     }
     if (depth >= g.max_depth) return NO_QUEUE;
-    return texelFetch(material_words, int(MATERIAL_TEXELS * s.material)).y;
+    return imageLoad(material_words, int(MATERIAL_TEXELS * s.material)).y;
 }
 
 #endif

@@ -19,14 +19,14 @@
 
 #include "bvh.glsl"
 
-// Scene data (uniform texel buffers, raw 32-bit words).
-vec4 tri_attr(uint i) { return uintBitsToFloat(texelFetch(tri_attrs, int(i))); }
-uvec2 light_entry(uint i) { return texelFetch(light_table, int(i)).xy; }
-vec4 emitter(uint i) { return uintBitsToFloat(texelFetch(emitter_data, int(i))); }
+// Scene data (read-only storage texel buffers, raw 32-bit words).
+vec4 tri_attr(uint i) { return uintBitsToFloat(imageLoad(tri_attrs, int(i))); }
+uvec2 light_entry(uint i) { return imageLoad(light_table, int(i)).xy; }
+vec4 emitter(uint i) { return uintBitsToFloat(imageLoad(emitter_data, int(i))); }
 Material load_material(uint i) {
     Material m;
-    m.header = texelFetch(material_words, int(MATERIAL_TEXELS * i));
-    for (int k = 0; k < MATERIAL_PARAMS; ++k) m.p[k] = uintBitsToFloat(texelFetch(material_words, int(MATERIAL_TEXELS * i) + 1 + k));
+    m.header = imageLoad(material_words, int(MATERIAL_TEXELS * i));
+    for (int k = 0; k < MATERIAL_PARAMS; ++k) m.p[k] = uintBitsToFloat(imageLoad(material_words, int(MATERIAL_TEXELS * i) + 1 + k));
     return m;
 }
 

@@ -143,9 +143,10 @@ fn declaration(b: Binding) -> String {
     let (name, about) = b.glsl();
     let at = format!("set = 0, binding = BINDING_{}", b.name().to_uppercase());
     let decl = match b.kind() {
-        Kind::Texels(f) => {
-            let u = if texel_format(f).1 { "u" } else { "" };
-            format!("layout({at}) uniform {u}samplerBuffer {name};")
+        Kind::ReadImage(f) => {
+            let (q, uint) = texel_format(f);
+            let u = if uint { "u" } else { "" };
+            format!("layout({at}, {q}) uniform readonly restrict {u}imageBuffer {name};")
         }
         Kind::Image(f) => {
             let (q, uint) = texel_format(f);

@@ -167,7 +167,7 @@ pub(super) fn create_buffers<'a>(
         };
         owned.buffers.push(buffer);
         let view = match b.kind() {
-            Kind::Texels(format) | Kind::Image(format) => {
+            Kind::ReadImage(format) | Kind::Image(format) => {
                 ctx.create_buffer_view(owned.buffers.last().unwrap(), format)?
             }
             Kind::Uniform | Kind::Storage => vk::BufferView::null(),

@@ -5,12 +5,14 @@
 //!
 //! Why texel buffers: lavapipe (Mesa's llvmpipe) runs 8 invocations as the lanes of one SIMD
 //! vector. A storage-buffer access at a per-lane index becomes a loop over the lanes with a
-//! branch and a bounds check per lane and per component, while a texel fetch is a vector
-//! gather and a uniform-buffer read at a uniform offset is one scalar load. Scene data (read
-//! only, read at every BVH node and triangle) is therefore bound as uniform texel buffers, the
-//! path state and the queues as storage texel buffers, the scene-wide values as a uniform
-//! buffer; counters (atomics), indirect arguments and the film stay storage buffers.
-//! BENCHMARKS.md has the measurements.
+//! branch and a bounds check per lane and per component, while an image load from a storage
+//! texel buffer is a vector gather, inline, and a uniform-buffer read at a uniform offset is one
+//! scalar load. (A `texelFetch` from a uniform texel buffer runs the same gather, but as an
+//! out-of-line call around which every live vector register is spilled: Mesa 22.3 inlines it
+//! only for RGBA8 unorm texels.) Scene data (read only, read at every BVH node and triangle) is
+//! therefore bound as `readonly` storage texel buffers, the path state and the queues as
+//! read-write ones, the scene-wide values as a uniform buffer; counters (atomics), indirect
+//! arguments and the film stay storage buffers. BENCHMARKS.md has the measurements.
 
 use crate::conventions::SEGMENTS_COUNTED;
 use ash::vk;
@@ -20,8 +22,8 @@ use ash::vk;
 pub enum Kind {
     /// `uniform` block (small, read at uniform offsets).
     Uniform,
-    /// `uniform usamplerBuffer` read with `texelFetch`, in this format.
-    Texels(vk::Format),
+    /// `uniform readonly imageBuffer` read with `imageLoad`, in this format (scene data).
+    ReadImage(vk::Format),
     /// `uniform imageBuffer` (read-write with imageLoad / imageStore), in this format.
     Image(vk::Format),
     /// `buffer` block (read-write, atomics).
@@ -126,9 +128,9 @@ impl Binding {
             | Binding::Spheres
             | Binding::TriAttrs
             | Binding::Materials
-            | Binding::Emitters => Kind::Texels(F::R32G32B32A32_UINT),
-            Binding::BvhPrims => Kind::Texels(F::R32_UINT),
-            Binding::Lights => Kind::Texels(F::R32G32_UINT),
+            | Binding::Emitters => Kind::ReadImage(F::R32G32B32A32_UINT),
+            Binding::BvhPrims => Kind::ReadImage(F::R32_UINT),
+            Binding::Lights => Kind::ReadImage(F::R32G32_UINT),
             Binding::Globals => Kind::Uniform,
             Binding::RayO
             | Binding::RayD
@@ -146,7 +148,7 @@ impl Binding {
     pub fn descriptor_type(self) -> vk::DescriptorType {
         match self.kind() {
             Kind::Uniform => vk::DescriptorType::UNIFORM_BUFFER,
-            Kind::Texels(_) => vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
+            Kind::ReadImage(_) => vk::DescriptorType::STORAGE_TEXEL_BUFFER,
             Kind::Image(_) => vk::DescriptorType::STORAGE_TEXEL_BUFFER,
             Kind::Storage => vk::DescriptorType::STORAGE_BUFFER,
         }
@@ -195,7 +197,7 @@ impl Binding {
     pub fn usage(self) -> vk::BufferUsageFlags {
         match self.kind() {
             Kind::Uniform => vk::BufferUsageFlags::UNIFORM_BUFFER,
-            Kind::Texels(_) => vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
+            Kind::ReadImage(_) => vk::BufferUsageFlags::STORAGE_TEXEL_BUFFER,
             Kind::Image(_) => vk::BufferUsageFlags::STORAGE_TEXEL_BUFFER,
             Kind::Storage => vk::BufferUsageFlags::STORAGE_BUFFER,
         }
