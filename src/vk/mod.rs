@@ -4,7 +4,9 @@
 //! [`ComputePipeline`]s with one descriptor set of storage buffers plus push constants, and a
 //! [`Recorder`] for command buffers with barriers, indirect dispatch and timestamps.
 //!
-//! One Vulkan object family per file: `context.rs` (instance, device, teardown), `buffer.rs`,
+//! One Vulkan object family per file: `instance.rs` (loader, instance, validation messages, why
+//! Vulkan could not start), `device.rs` (the physical device choice), `context.rs` (the logical
+//! device, queue, allocator, shared objects and teardown), `buffer.rs`,
 //! `shader.rs` (GLSL → SPIR-V), `pipeline.rs` (pipelines, descriptor sets, pipeline cache),
 //! `commands.rs` (recording, submission, timestamps), `cache.rs` (on-disk cache helpers).
 //!
@@ -30,12 +32,15 @@ mod buffer;
 pub mod cache;
 mod commands;
 mod context;
+mod device;
+mod instance;
 mod pipeline;
 mod shader;
 
 pub use buffer::Buffer;
 pub use commands::Recorder;
-pub use context::{require_validation, Context, ContextOptions, DeviceFeatures, MAX_TIMESTAMPS};
+pub use context::{Context, ContextOptions, DeviceFeatures, MAX_TIMESTAMPS};
+pub use instance::require_validation;
 pub use pipeline::{reflect_local_size, ComputePipeline, Resource};
 pub use shader::{CompileStats, CompiledShader, ShaderCompiler, EMBEDDED_SHADERS, SHADER_DIR_ENV};
 

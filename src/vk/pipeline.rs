@@ -59,17 +59,14 @@ impl Context {
         self.create_compute_pipeline_with(name, spirv, &bindings, push_constant_bytes)
     }
 
-    /// A compute pipeline whose set 0 has the descriptor types `bindings` at bindings 0..n
-    /// (storage buffers, uniform buffers, uniform or storage texel buffers).
-    pub fn create_compute_pipeline_with(
+    /// Refuses a pipeline the device cannot create: more descriptors of a type than its
+    /// per-stage limit, or push constants that are too large or not a multiple of 4.
+    fn check_pipeline_limits(
         &self,
         name: &str,
-        spirv: &[u32],
         bindings: &[vk::DescriptorType],
         push_constant_bytes: u32,
-    ) -> Result<ComputePipeline> {
-        let local_size = reflect_local_size(spirv)
-            .with_context(|| format!("pipeline \"{name}\": reading the SPIR-V"))?;
+    ) -> Result<()> {
         let count = |t: vk::DescriptorType| bindings.iter().filter(|&&b| b == t).count() as u32;
         let l = &self.limits;
         for (t, max, what) in [
@@ -105,6 +102,22 @@ impl Context {
         if push_constant_bytes > max_push || push_constant_bytes % 4 != 0 {
             bail!("pipeline \"{name}\": push constants of {push_constant_bytes} bytes; need a multiple of 4 and at most {max_push}");
         }
+        Ok(())
+    }
+
+    /// A compute pipeline whose set 0 has the descriptor types `bindings` at bindings 0..n
+    /// (storage buffers, uniform buffers, uniform or storage texel buffers); the device's limits are
+    /// checked first ([`Self::check_pipeline_limits`]).
+    pub fn create_compute_pipeline_with(
+        &self,
+        name: &str,
+        spirv: &[u32],
+        bindings: &[vk::DescriptorType],
+        push_constant_bytes: u32,
+    ) -> Result<ComputePipeline> {
+        let local_size = reflect_local_size(spirv)
+            .with_context(|| format!("pipeline \"{name}\": reading the SPIR-V"))?;
+        self.check_pipeline_limits(name, bindings, push_constant_bytes)?;
         let d = &self.device;
         let kinds = bindings;
         let bindings: Vec<_> = kinds
