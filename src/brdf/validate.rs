@@ -176,35 +176,7 @@ pub fn chi2_test_with(
         }
     }
 
-    // Expected counts: ∫cell pdf dω, each cell split into sub × sub parts integrated by the
-    // adaptive Gauss–Legendre rule of the albedo quadrature.
-    let g = |theta: f64, phi: f64| -> DVec3 {
-        let (st, ct) = theta.sin_cos();
-        let w = Vec3::new((st * phi.cos()) as f32, (st * phi.sin()) as f32, ct as f32);
-        let p = b.pdf(given, w) as f64;
-        DVec3::splat(if p.is_finite() && p > 0.0 {
-            p * st
-        } else {
-            0.0
-        })
-    };
-    let abs_density = 1e-7 / (0.5 * PI * 2.0 * PI);
-    let (st, sp) = (dtheta / sub as f64, dphi / sub as f64);
-    let expected: Vec<f64> = (0..nt * np)
-        .into_par_iter()
-        .map(|c| {
-            let (it, ip) = (c / np, c % np);
-            let mut sum = 0.0f64;
-            for a in 0..sub {
-                let t0 = it as f64 * dtheta + a as f64 * st;
-                for k in 0..sub {
-                    let p0 = ip as f64 * dphi + k as f64 * sp;
-                    sum += adaptive_cell(&g, t0, t0 + st, p0, p0 + sp, abs_density, 0).x;
-                }
-            }
-            sum
-        })
-        .collect();
+    let expected = expected_cell_mass(b, given, nt, np, sub);
     let pdf_integral: f64 = expected.iter().sum();
 
     // Cells (expected, observed), plus the "outside" cell.
@@ -227,21 +199,7 @@ pub fn chi2_test_with(
     cells.retain(|(e, _)| *e > 0.0);
     cells.sort_by(|a, b| a.0.total_cmp(&b.0));
 
-    let (mut stat, mut ncells) = (0.0f64, 0usize);
-    let (mut pool_e, mut pool_o) = (0.0f64, 0.0f64);
-    for (e, o) in cells {
-        if e < cfg.min_expected || (pool_e > 0.0 && pool_e < cfg.min_expected) {
-            pool_e += e;
-            pool_o += o;
-        } else {
-            stat += (o - e) * (o - e) / e;
-            ncells += 1;
-        }
-    }
-    if pool_e > 0.0 {
-        stat += (pool_o - pool_e) * (pool_o - pool_e) / pool_e;
-        ncells += 1;
-    }
+    let (stat, ncells) = pooled_statistic(cells, cfg.min_expected);
     let dof = ncells.saturating_sub(1);
     let p_value = if dof == 0 {
         1.0
@@ -256,6 +214,62 @@ pub fn chi2_test_with(
         pdf_integral,
         sample_fraction: inside as f64 / n.max(1.0),
     }
+}
+
+/// The probability mass ∫cell pdf dω of each of the nt × np cells (θ-major), each cell split
+/// into sub × sub parts integrated by the adaptive Gauss–Legendre rule of the albedo quadrature.
+fn expected_cell_mass(b: &dyn Brdf, given: Vec3, nt: usize, np: usize, sub: usize) -> Vec<f64> {
+    let dtheta = 0.5 * PI / nt as f64;
+    let dphi = 2.0 * PI / np as f64;
+    let g = |theta: f64, phi: f64| -> DVec3 {
+        let (st, ct) = theta.sin_cos();
+        let w = Vec3::new((st * phi.cos()) as f32, (st * phi.sin()) as f32, ct as f32);
+        let p = b.pdf(given, w) as f64;
+        DVec3::splat(if p.is_finite() && p > 0.0 {
+            p * st
+        } else {
+            0.0
+        })
+    };
+    let abs_density = 1e-7 / (0.5 * PI * 2.0 * PI);
+    let (st, sp) = (dtheta / sub as f64, dphi / sub as f64);
+    (0..nt * np)
+        .into_par_iter()
+        .map(|c| {
+            let (it, ip) = (c / np, c % np);
+            let mut sum = 0.0f64;
+            for a in 0..sub {
+                let t0 = it as f64 * dtheta + a as f64 * st;
+                for k in 0..sub {
+                    let p0 = ip as f64 * dphi + k as f64 * sp;
+                    sum += adaptive_cell(&g, t0, t0 + st, p0, p0 + sp, abs_density, 0).x;
+                }
+            }
+            sum
+        })
+        .collect()
+}
+
+/// Pearson's statistic over `cells` (expected, observed), sorted by expected count: cells
+/// under `min_expected` are pooled into one (with the cells after them until the pool reaches
+/// it). The statistic and the number of cells it sums.
+fn pooled_statistic(cells: Vec<(f64, f64)>, min_expected: f64) -> (f64, usize) {
+    let (mut stat, mut ncells) = (0.0f64, 0usize);
+    let (mut pool_e, mut pool_o) = (0.0f64, 0.0f64);
+    for (e, o) in cells {
+        if e < min_expected || (pool_e > 0.0 && pool_e < min_expected) {
+            pool_e += e;
+            pool_o += o;
+        } else {
+            stat += (o - e) * (o - e) / e;
+            ncells += 1;
+        }
+    }
+    if pool_e > 0.0 {
+        stat += (pool_o - pool_e) * (pool_o - pool_e) / pool_e;
+        ncells += 1;
+    }
+    (stat, ncells)
 }
 
 /// Šidák-corrected significance level for `tests` independent tests at overall level `alpha`.

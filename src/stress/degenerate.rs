@@ -176,46 +176,43 @@ pub(super) fn case_degenerate(env: &mut Env, seed: u64) -> Result<CaseResult> {
     }
     if nv > 0 {
         // The loader path: the triangles as an OBJ with repeated vertex lines.
-        let dir = tempfile::tempdir()?;
-        std::fs::write(dir.path().join("deg.obj"), format!("{obj}{obj_faces}"))?;
-        let text = "[camera]\nposition = [278.0, 273.0, -800.0]\ntarget = [278.0, 273.0, 0.0]\nfov_y = 40\n\
-             [film]\nwidth = 8\nheight = 8\n[integrator]\nspp = 2\nmax_depth = 3\n\
-             [materials.m]\nmodel = \"lambert\"\nalbedo = 0.5\n\
-             [[shapes]]\nmaterial = \"m\"\nemission = [1.0, 1.0, 1.0]\nobj = \"deg.obj\"\n\
-             [[shapes]]\nmaterial = \"m\"\nemission = [1.0, 1.0, 1.0]\n\
-             triangles = [[[0.0, 0.0, 0.0], [556.0, 0.0, 0.0], [0.0, 0.0, 559.0]]]\n";
-        let path = dir.path().join("deg.toml");
-        std::fs::write(&path, text)?;
-        let loaded = std::panic::catch_unwind(|| crate::scene::load(&path));
-        match loaded {
-            Err(_) => {
-                return Ok(CaseResult::fail(
-                    1.0,
-                    format!("loading an OBJ of {what} panicked"),
-                ))
-            }
-            Ok(Err(e)) if e.to_string().trim().is_empty() => {
-                return Ok(CaseResult::fail(
-                    1.0,
-                    format!("an OBJ of {what} was refused without a message"),
-                ))
-            }
-            Ok(Err(_)) => {}
-            Ok(Ok(s)) => {
-                let out = render_cpu(&s);
-                if out.nonfinite_samples > 0
-                    || !out.mean.data.iter().flatten().all(|v| v.is_finite())
-                {
-                    return Ok(CaseResult::fail(
-                        1.0,
-                        format!(
-                            "an OBJ of {what}: {} non-finite samples",
-                            out.nonfinite_samples
-                        ),
-                    ));
-                }
-            }
+        if let Some(fail) = check_obj_loading(&format!("{obj}{obj_faces}"), &what)? {
+            return Ok(fail);
         }
     }
     Ok(CaseResult::ok(0.0))
+}
+
+/// The degenerate triangles as an OBJ file (`obj`, described by `what`) in a scene: loading
+/// must refuse it with a message or give a scene that renders finite; a failure otherwise.
+fn check_obj_loading(obj: &str, what: &str) -> Result<Option<CaseResult>> {
+    let dir = tempfile::tempdir()?;
+    std::fs::write(dir.path().join("deg.obj"), obj)?;
+    let text =
+        "[camera]\nposition = [278.0, 273.0, -800.0]\ntarget = [278.0, 273.0, 0.0]\nfov_y = 40\n\
+         [film]\nwidth = 8\nheight = 8\n[integrator]\nspp = 2\nmax_depth = 3\n\
+         [materials.m]\nmodel = \"lambert\"\nalbedo = 0.5\n\
+         [[shapes]]\nmaterial = \"m\"\nemission = [1.0, 1.0, 1.0]\nobj = \"deg.obj\"\n\
+         [[shapes]]\nmaterial = \"m\"\nemission = [1.0, 1.0, 1.0]\n\
+         triangles = [[[0.0, 0.0, 0.0], [556.0, 0.0, 0.0], [0.0, 0.0, 559.0]]]\n";
+    let path = dir.path().join("deg.toml");
+    std::fs::write(&path, text)?;
+    let fail = |msg: String| Ok(Some(CaseResult::fail(1.0, msg)));
+    match std::panic::catch_unwind(|| crate::scene::load(&path)) {
+        Err(_) => fail(format!("loading an OBJ of {what} panicked")),
+        Ok(Err(e)) if e.to_string().trim().is_empty() => {
+            fail(format!("an OBJ of {what} was refused without a message"))
+        }
+        Ok(Err(_)) => Ok(None),
+        Ok(Ok(s)) => {
+            let out = render_cpu(&s);
+            if out.nonfinite_samples > 0 || !out.mean.data.iter().flatten().all(|v| v.is_finite()) {
+                return fail(format!(
+                    "an OBJ of {what}: {} non-finite samples",
+                    out.nonfinite_samples
+                ));
+            }
+            Ok(None)
+        }
+    }
 }

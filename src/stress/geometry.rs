@@ -317,34 +317,8 @@ fn geometry_inside_closed_mesh(env: &mut Env, r: &mut Rng, seed: u64) -> Result<
     let mut worst = 0.0f64;
     for gpu in [false, true] {
         let out = render_on(env, &scene, gpu)?;
-        let mut bad = None;
-        for (i, p) in out.mean.data.iter().enumerate() {
-            let p = Vec3::from_array(*p);
-            // Emitting: every sample is Le itself (a camera ray always hits the shell's front
-            // and the black surface ends the path), so the mean is Le up to the rounding of
-            // summing `spp` equal values (a few ulps).
-            let d = ((p - want).abs() / want.max(Vec3::splat(1e-30))).max_element() as f64;
-            let d = if emitting {
-                d / 1e-5
-            } else if p == Vec3::ZERO {
-                0.0
-            } else {
-                // Any light at all is a leak: no tolerance (2 marks it as a failure).
-                2.0
-            };
-            if !p.is_finite() {
-                bad = Some(format!("pixel {i} = {p}"));
-            }
-            if d.is_finite() {
-                worst = worst.max(d);
-            }
-            if (d.is_nan() || d > 1.0) && bad.is_none() {
-                bad = Some(format!("pixel {i} = {p}, expected {want}"));
-            }
-        }
-        if out.nonfinite_samples > 0 {
-            bad = Some(format!("{} non-finite samples", out.nonfinite_samples));
-        }
+        let (w, bad) = shell_pixels_check(&out, want, emitting);
+        worst = worst.max(w);
         if let Some(b) = bad {
             return Ok(CaseResult::fail(
                 worst,
@@ -360,6 +334,46 @@ fn geometry_inside_closed_mesh(env: &mut Env, r: &mut Rng, seed: u64) -> Result<
         }
     }
     Ok(CaseResult::ok(worst))
+}
+
+/// The pixels of a render from inside a closed shell against what they must be: `want` (the
+/// shell's emission) within a few ulps when it emits, else exactly black (any light is a leak).
+/// The worst deviation in units of the tolerance, and the first bad pixel.
+fn shell_pixels_check(
+    out: &crate::output::RenderOutput,
+    want: Vec3,
+    emitting: bool,
+) -> (f64, Option<String>) {
+    let mut worst = 0.0f64;
+    let mut bad = None;
+    for (i, p) in out.mean.data.iter().enumerate() {
+        let p = Vec3::from_array(*p);
+        // Emitting: every sample is Le itself (a camera ray always hits the shell's front
+        // and the black surface ends the path), so the mean is Le up to the rounding of
+        // summing `spp` equal values (a few ulps).
+        let d = ((p - want).abs() / want.max(Vec3::splat(1e-30))).max_element() as f64;
+        let d = if emitting {
+            d / 1e-5
+        } else if p == Vec3::ZERO {
+            0.0
+        } else {
+            // Any light at all is a leak: no tolerance (2 marks it as a failure).
+            2.0
+        };
+        if !p.is_finite() {
+            bad = Some(format!("pixel {i} = {p}"));
+        }
+        if d.is_finite() {
+            worst = worst.max(d);
+        }
+        if (d.is_nan() || d > 1.0) && bad.is_none() {
+            bad = Some(format!("pixel {i} = {p}, expected {want}"));
+        }
+    }
+    if out.nonfinite_samples > 0 {
+        bad = Some(format!("{} non-finite samples", out.nonfinite_samples));
+    }
+    (worst, bad)
 }
 
 /// Icosphere triangles (outward winding) with exactly shared vertices.

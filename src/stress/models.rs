@@ -154,18 +154,7 @@ pub(super) fn case_models(env: &mut Env, seed: u64) -> Result<CaseResult> {
         Err(_) => return Ok(CaseResult::ok(0.0)),
     };
     let b: &dyn Brdf = m.brdf.as_ref();
-    let mut pairs = Vec::new();
-    let mut samples = Vec::new();
-    for k in 0..64 {
-        let wi = random_direction(&mut r);
-        let wo = match k % 4 {
-            0 => Vec3::new(-wi.x, -wi.y, wi.z), // mirror
-            1 => wi,                            // retro-reflection
-            _ => random_direction(&mut r),
-        };
-        pairs.push((wi, wo));
-        samples.push((wi, r.f(), Vec2::new(r.f(), r.f())));
-    }
+    let (pairs, samples) = random_queries(&mut r);
     let fail = |msg: String| Ok(CaseResult::fail(0.0, format!("{src}: {msg}")));
     for &(wi, wo) in &pairs {
         let f = b.eval(wi, wo);
@@ -178,69 +167,123 @@ pub(super) fn case_models(env: &mut Env, seed: u64) -> Result<CaseResult> {
         }
     }
     for &(g, ul, u) in &samples {
-        let Some(s) = b.sample(g, ul, u) else {
-            continue;
-        };
-        let at = format!("sample({g}, {ul}, {u})");
-        if let Some(e) = check_vec(&format!("{at} weight"), s.weight) {
+        if let Err(e) = check_sample(b, g, ul, u) {
             return fail(e);
-        }
-        if !(s.wi.is_finite() && (s.wi.length() - 1.0).abs() < 1e-3 && s.wi.z >= 0.0) {
-            return fail(format!("{at}: direction {}", s.wi));
-        }
-        // A delta lobe's sample carries pdf 0 by convention (the integrator then counts the
-        // emission it reaches with weight 1); any other returned sample needs pdf > 0.
-        if !(s.pdf.is_finite() && (s.pdf > 0.0 || (s.delta && s.pdf == 0.0))) {
-            return fail(format!(
-                "{at}: returned a sample with pdf {} (delta {})",
-                s.pdf, s.delta
-            ));
-        }
-        if !s.delta {
-            // The weight is f·cos/pdf of the sampled direction. A model may compute it in its
-            // own (rotated) frame, so the comparison allows the spread of f·cos/pdf over
-            // directions moved by a few float roundings (sharp lobes at grazing angles are
-            // that sensitive: 20 % for α = 1e-3 at cos θ = 5e-4).
-            let ratio = |wi: Vec3, g: Vec3| b.eval(wi, g) * (wi.z / b.pdf(g, wi));
-            let p = b.pdf(g, s.wi);
-            if !(p > 0.0 && p.is_finite()) {
-                return fail(format!(
-                    "{at}: sampled with pdf {}, but pdf() there is {p}",
-                    s.pdf
-                ));
-            }
-            let (mut lo, mut hi) = (ratio(s.wi, g), ratio(s.wi, g));
-            for k in 0..8 {
-                let e = 3e-7 * if k % 2 == 0 { 1.0 } else { -1.0 };
-                let dv = [Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE][k / 2] * e;
-                for (wi, gg) in [((s.wi + dv).normalize(), g), (s.wi, (g + dv).normalize())] {
-                    if wi.z > 0.0 && gg.z > 0.0 {
-                        let r = ratio(wi, gg);
-                        if r.is_finite() {
-                            lo = lo.min(r);
-                            hi = hi.max(r);
-                        }
-                    }
-                }
-            }
-            // Where the spread is wide the problem is ill-conditioned (a rounding of 6e-8 can
-            // move the value by more than moves of 3e-7 bracket): allow twice the spread beyond.
-            let spread = (hi - lo).max_element();
-            let tol = |v: Vec3| 1e-3 * v.max_element() + 1e-6 + 2.0 * spread;
-            let below = (lo - s.weight).max_element() > tol(lo);
-            let above = (s.weight - hi).max_element() > tol(hi);
-            if lo.is_finite() && hi.is_finite() && (below || above) {
-                return fail(format!(
-                    "{at}: weight {} but f·cos/pdf = {} (from {lo} to {hi} over rounding-size moves)",
-                    s.weight,
-                    ratio(s.wi, g)
-                ));
-            }
         }
     }
     // GPU parity.
     let (ctx, compiler) = env.gpu()?;
     let gpu_eval = crate::gpu::brdf_probe::eval(ctx, compiler, &m, &pairs)?;
+    let worst = match gpu_parity(b, &pairs, &gpu_eval) {
+        Ok(worst) => worst,
+        Err((rel, msg)) => return Ok(CaseResult::fail(rel, format!("{src}: {msg}"))),
+    };
+    let gpu_samples = crate::gpu::brdf_probe::sample(ctx, compiler, &m, &samples)?;
+    for (&(g, ul, u), gs) in samples.iter().zip(&gpu_samples) {
+        if let Some(s) = gs {
+            let pdf_ok = s.pdf.is_finite() && (s.pdf > 0.0 || (s.delta && s.pdf == 0.0));
+            if !(s.weight.is_finite() && s.weight.min_element() >= 0.0 && pdf_ok) {
+                return fail(format!(
+                    "GPU sample({g}, {ul}, {u}): weight {}, pdf {}",
+                    s.weight, s.pdf
+                ));
+            }
+        }
+    }
+    Ok(CaseResult::ok(worst))
+}
+
+/// 64 direction pairs (every fourth a mirror pair, every fourth a retro-reflection) and 64
+/// sample queries (given direction, lobe number, direction numbers).
+#[allow(clippy::type_complexity)]
+fn random_queries(r: &mut Rng) -> (Vec<(Vec3, Vec3)>, Vec<(Vec3, f32, Vec2)>) {
+    let mut pairs = Vec::new();
+    let mut samples = Vec::new();
+    for k in 0..64 {
+        let wi = random_direction(r);
+        let wo = match k % 4 {
+            0 => Vec3::new(-wi.x, -wi.y, wi.z), // mirror
+            1 => wi,                            // retro-reflection
+            _ => random_direction(r),
+        };
+        pairs.push((wi, wo));
+        samples.push((wi, r.f(), Vec2::new(r.f(), r.f())));
+    }
+    (pairs, samples)
+}
+
+/// A sample of `b` given `g`: a unit direction above the surface, a finite weight, a pdf > 0
+/// (0 only for a delta lobe), and a weight that is f·cos/pdf of the direction.
+fn check_sample(b: &dyn Brdf, g: Vec3, ul: f32, u: Vec2) -> Result<(), String> {
+    let Some(s) = b.sample(g, ul, u) else {
+        return Ok(());
+    };
+    let at = format!("sample({g}, {ul}, {u})");
+    if let Some(e) = check_vec(&format!("{at} weight"), s.weight) {
+        return Err(e);
+    }
+    if !(s.wi.is_finite() && (s.wi.length() - 1.0).abs() < 1e-3 && s.wi.z >= 0.0) {
+        return Err(format!("{at}: direction {}", s.wi));
+    }
+    // A delta lobe's sample carries pdf 0 by convention (the integrator then counts the
+    // emission it reaches with weight 1); any other returned sample needs pdf > 0.
+    if !(s.pdf.is_finite() && (s.pdf > 0.0 || (s.delta && s.pdf == 0.0))) {
+        return Err(format!(
+            "{at}: returned a sample with pdf {} (delta {})",
+            s.pdf, s.delta
+        ));
+    }
+    if !s.delta {
+        // The weight is f·cos/pdf of the sampled direction. A model may compute it in its
+        // own (rotated) frame, so the comparison allows the spread of f·cos/pdf over
+        // directions moved by a few float roundings (sharp lobes at grazing angles are
+        // that sensitive: 20 % for α = 1e-3 at cos θ = 5e-4).
+        let ratio = |wi: Vec3, g: Vec3| b.eval(wi, g) * (wi.z / b.pdf(g, wi));
+        let p = b.pdf(g, s.wi);
+        if !(p > 0.0 && p.is_finite()) {
+            return Err(format!(
+                "{at}: sampled with pdf {}, but pdf() there is {p}",
+                s.pdf
+            ));
+        }
+        let (mut lo, mut hi) = (ratio(s.wi, g), ratio(s.wi, g));
+        for k in 0..8 {
+            let e = 3e-7 * if k % 2 == 0 { 1.0 } else { -1.0 };
+            let dv = [Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE][k / 2] * e;
+            for (wi, gg) in [((s.wi + dv).normalize(), g), (s.wi, (g + dv).normalize())] {
+                if wi.z > 0.0 && gg.z > 0.0 {
+                    let r = ratio(wi, gg);
+                    if r.is_finite() {
+                        lo = lo.min(r);
+                        hi = hi.max(r);
+                    }
+                }
+            }
+        }
+        // Where the spread is wide the problem is ill-conditioned (a rounding of 6e-8 can
+        // move the value by more than moves of 3e-7 bracket): allow twice the spread beyond.
+        let spread = (hi - lo).max_element();
+        let tol = |v: Vec3| 1e-3 * v.max_element() + 1e-6 + 2.0 * spread;
+        let below = (lo - s.weight).max_element() > tol(lo);
+        let above = (s.weight - hi).max_element() > tol(hi);
+        if lo.is_finite() && hi.is_finite() && (below || above) {
+            return Err(format!(
+                "{at}: weight {} but f·cos/pdf = {} (from {lo} to {hi} over rounding-size moves)",
+                s.weight,
+                ratio(s.wi, g)
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The GPU's f and pdf on `pairs` against the CPU's: the worst relative difference of the
+/// values that matter, or the first pair beyond the tolerance and its relative difference.
+fn gpu_parity(
+    b: &dyn Brdf,
+    pairs: &[(Vec3, Vec3)],
+    gpu_eval: &[(Vec3, f32)],
+) -> std::result::Result<f64, (f64, String)> {
     let scale = pairs
         .iter()
         .map(|&(wi, wo)| b.eval(wi, wo).max_element())
@@ -250,7 +293,7 @@ pub(super) fn case_models(env: &mut Env, seed: u64) -> Result<CaseResult> {
     // A GPU may flush subnormal results to zero (Vulkan allows it): compare them as zero.
     let flush = |x: f32| if x.abs() < f32::MIN_POSITIVE { 0.0 } else { x };
     let flush3 = |v: Vec3| Vec3::new(flush(v.x), flush(v.y), flush(v.z));
-    for (&(wi, wo), (gf, gp)) in pairs.iter().zip(&gpu_eval) {
+    for (&(wi, wo), (gf, gp)) in pairs.iter().zip(gpu_eval) {
         let (cf, cp) = (flush3(b.eval(wi, wo)), flush(b.pdf(wi, wo)));
         let (gf, gp) = (&flush3(*gf), &flush(*gp));
         // pdf: relative to the largest pdf on the pairs, as f to the largest f.
@@ -270,9 +313,9 @@ pub(super) fn case_models(env: &mut Env, seed: u64) -> Result<CaseResult> {
             // tests/brdf_gpu_parity.rs's rule, and values below 1e-30 count as equal (a GPU's
             // exp and pow of large arguments underflow differently).
             if d > 2e-3 * g.abs().max(c.abs()) as f64 + 1e-5 * sc as f64 + 1e-30 {
-                return Ok(CaseResult::fail(
+                return Err((
                     rel,
-                    format!("{src}: GPU eval/pdf({wi}, {wo}) = {gf}, {gp}; CPU {cf}, {cp}"),
+                    format!("GPU eval/pdf({wi}, {wo}) = {gf}, {gp}; CPU {cf}, {cp}"),
                 ));
             }
             if c.abs().max(g.abs()) > 1e-4 * sc {
@@ -280,17 +323,5 @@ pub(super) fn case_models(env: &mut Env, seed: u64) -> Result<CaseResult> {
             }
         }
     }
-    let gpu_samples = crate::gpu::brdf_probe::sample(ctx, compiler, &m, &samples)?;
-    for (&(g, ul, u), gs) in samples.iter().zip(&gpu_samples) {
-        if let Some(s) = gs {
-            let pdf_ok = s.pdf.is_finite() && (s.pdf > 0.0 || (s.delta && s.pdf == 0.0));
-            if !(s.weight.is_finite() && s.weight.min_element() >= 0.0 && pdf_ok) {
-                return fail(format!(
-                    "GPU sample({g}, {ul}, {u}): weight {}, pdf {}",
-                    s.weight, s.pdf
-                ));
-            }
-        }
-    }
-    Ok(CaseResult::ok(worst))
+    Ok(worst)
 }
