@@ -19,6 +19,7 @@
 //! * `conventions` — what both renderers agree on (e.g. the ray counts by segment);
 //! * `film` — per-pixel sample sums, partial films of split renders, and their exact merge;
 //! * `brdf_tools` — `brdfwave brdf eval | plot | report`;
+//! * `measured` — measured reflectance tables: the MERL BRDF database's files (`merl`);
 //! * `imageio`, `metrics` — image files and image comparison;
 //! * `memory` — the memory left for a large allocation, asked before making it;
 //! * `outfile` — the atomic writer of every file, and the up-front checks of output paths;
@@ -57,6 +58,7 @@ pub mod gpu;
 pub mod hash;
 pub mod imageio;
 pub mod lights;
+pub mod measured;
 pub mod memory;
 pub mod metrics;
 pub mod outfile;
