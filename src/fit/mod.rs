@@ -39,9 +39,15 @@
 //! Candidates are built through the model's own parser, so every bound and constraint of the
 //! scene format holds for the result; a candidate the parser refuses has infinite loss. The
 //! models are fitted in parallel (rayon), the starts of a model too, on the CPU models.
+//!
+//! Outputs: [`report`] (`fit.md`, `fit.csv`, `materials.toml`, the lineup scene) and [`plots`]
+//! (the plane of incidence at θi = 0/30/60/75°, the θh × θd error slices); the command is
+//! `src/cmd/fit.rs`.
 
 pub mod loss;
 pub mod nelder_mead;
+pub mod plots;
+pub mod report;
 pub mod space;
 
 use crate::brdf::Brdf;
