@@ -19,6 +19,9 @@
 //! * `conventions` — what both renderers agree on (e.g. the ray counts by segment);
 //! * `film` — per-pixel sample sums, partial films of split renders, and their exact merge;
 //! * `brdf_tools` — `brdfwave brdf eval | plot | report`;
+//! * `measured` — measured reflectance tables: the MERL BRDF database's files (`merl`);
+//! * `fit` — `brdfwave brdf fit`: the survey's models fitted to a measured table (loss, domain,
+//!   parameter space from the registry, Nelder–Mead);
 //! * `imageio`, `metrics` — image files and image comparison;
 //! * `memory` — the memory left for a large allocation, asked before making it;
 //! * `outfile` — the atomic writer of every file, and the up-front checks of output paths;
@@ -53,10 +56,12 @@ pub mod conventions;
 pub mod cpu;
 pub mod errors;
 pub mod film;
+pub mod fit;
 pub mod gpu;
 pub mod hash;
 pub mod imageio;
 pub mod lights;
+pub mod measured;
 pub mod memory;
 pub mod metrics;
 pub mod outfile;

@@ -1,6 +1,6 @@
-//! A small log-log line chart (the benchmark's error against time), drawn into an RGB image
-//! with the `font8x8` bitmap font: decade grid, tick labels, one coloured curve with markers
-//! per series and a legend.
+//! Small line charts drawn into an RGB image with the `font8x8` bitmap font: log-log (the
+//! benchmark's error against time) and linear-log (`brdf fit`'s lobes against the angle);
+//! decade grid, tick labels, one coloured curve with markers per series and a legend.
 
 use font8x8::UnicodeFonts;
 use image::{Rgb, RgbImage};
@@ -31,12 +31,45 @@ const PALETTE: [[u8; 3]; 8] = [
 
 /// Draws `series` on log-log axes spanning whole decades around their points.
 pub fn log_log(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> RgbImage {
+    chart(title, x_label, y_label, XAxis::Log, series)
+}
+
+/// Draws `series` with a linear x axis over [`lo`, `hi`] (a grid line and label every `step`)
+/// and a log y axis spanning whole decades around the points (the lobes of `brdf fit`).
+pub fn lin_log(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    (lo, hi, step): (f64, f64, f64),
+    series: &[Series],
+) -> RgbImage {
+    chart(
+        title,
+        x_label,
+        y_label,
+        XAxis::Linear { lo, hi, step },
+        series,
+    )
+}
+
+/// The x axis of a chart.
+#[derive(Clone, Copy)]
+enum XAxis {
+    Log,
+    Linear { lo: f64, hi: f64, step: f64 },
+}
+
+fn chart(title: &str, x_label: &str, y_label: &str, xaxis: XAxis, series: &[Series]) -> RgbImage {
     let mut img = RgbImage::from_pixel(W, H, Rgb([255, 255, 255]));
-    let ok = |v: f64| v.is_finite() && v > 0.0;
+    let x_ok = |v: f64| match xaxis {
+        XAxis::Log => v.is_finite() && v > 0.0,
+        XAxis::Linear { lo, hi, .. } => v.is_finite() && (lo..=hi).contains(&v),
+    };
+    let y_ok = |v: f64| v.is_finite() && v > 0.0;
     let pts: Vec<(f64, f64)> = series
         .iter()
         .flat_map(|s| s.points.iter().copied())
-        .filter(|&(x, y)| ok(x) && ok(y))
+        .filter(|&(x, y)| x_ok(x) && y_ok(y))
         .collect();
     let range = |vals: Vec<f64>| -> (i32, i32) {
         let lo = vals.iter().copied().fold(f64::INFINITY, f64::min);
@@ -50,35 +83,53 @@ pub fn log_log(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> 
     let (x0, x1) = range(pts.iter().map(|p| p.0).collect());
     let (y0, y1) = range(pts.iter().map(|p| p.1).collect());
     let (pw, ph) = (W as i32 - LEFT - RIGHT, H as i32 - TOP - BOTTOM);
-    let px =
-        |x: f64| LEFT + ((x.log10() - x0 as f64) / (x1 - x0) as f64 * pw as f64).round() as i32;
+    let px = |x: f64| {
+        let t = match xaxis {
+            XAxis::Log => (x.log10() - x0 as f64) / (x1 - x0) as f64,
+            XAxis::Linear { lo, hi, .. } => (x - lo) / (hi - lo),
+        };
+        LEFT + (t * pw as f64).round() as i32
+    };
     let py =
         |y: f64| TOP + ph - ((y.log10() - y0 as f64) / (y1 - y0) as f64 * ph as f64).round() as i32;
     let grid = Rgb([225, 225, 225]);
     let minor = Rgb([242, 242, 242]);
     let black = Rgb([0, 0, 0]);
-    // Grid: decades, and 2..9 within each.
-    for d in x0..x1 {
-        for k in 2..10 {
-            let x = px(k as f64 * 10f64.powi(d));
-            line(&mut img, x, TOP, x, TOP + ph, minor, 1);
+    // Grid: decades, and 2..9 within each (x: every step on a linear axis).
+    let x_ticks: Vec<(f64, String)> = match xaxis {
+        XAxis::Log => {
+            for d in x0..x1 {
+                for k in 2..10 {
+                    let x = px(k as f64 * 10f64.powi(d));
+                    line(&mut img, x, TOP, x, TOP + ph, minor, 1);
+                }
+            }
+            (x0..=x1)
+                .map(|d| (10f64.powi(d), decade_label(d)))
+                .collect()
         }
-    }
+        XAxis::Linear { lo, hi, step } => {
+            let n = ((hi - lo) / step).floor().max(0.0) as i32;
+            (0..=n)
+                .map(|k| lo + k as f64 * step)
+                .map(|x| (x, format!("{x}")))
+                .collect()
+        }
+    };
     for d in y0..y1 {
         for k in 2..10 {
             let y = py(k as f64 * 10f64.powi(d));
             line(&mut img, LEFT, y, LEFT + pw, y, minor, 1);
         }
     }
-    for d in x0..=x1 {
-        let x = px(10f64.powi(d));
+    for (xv, label) in &x_ticks {
+        let x = px(*xv);
         line(&mut img, x, TOP, x, TOP + ph, grid, 1);
-        let label = decade_label(d);
         text(
             &mut img,
             x - 4 * label.len() as i32,
             TOP + ph + 8,
-            &label,
+            label,
             black,
         );
     }
@@ -114,7 +165,7 @@ pub fn log_log(title: &str, x_label: &str, y_label: &str, series: &[Series]) -> 
         let p: Vec<(i32, i32)> = s
             .points
             .iter()
-            .filter(|&&(x, y)| ok(x) && ok(y))
+            .filter(|&&(x, y)| x_ok(x) && y_ok(y))
             .map(|&(x, y)| (px(x), py(y)))
             .collect();
         for w in p.windows(2) {
@@ -173,7 +224,7 @@ fn line(img: &mut RgbImage, x0: i32, y0: i32, x1: i32, y1: i32, c: Rgb<u8>, widt
 }
 
 /// Text in the 8x8 bitmap font, top-left at (x, y).
-fn text(img: &mut RgbImage, x: i32, y: i32, s: &str, c: Rgb<u8>) {
+pub fn text(img: &mut RgbImage, x: i32, y: i32, s: &str, c: Rgb<u8>) {
     for (i, ch) in s.chars().enumerate() {
         let glyph = font8x8::BASIC_FONTS
             .get(ch)

@@ -1,4 +1,5 @@
-//! `brdfwave brdf eval | plot | report` (`brdfwave::brdf_tools`).
+//! `brdfwave brdf eval | plot | report` (`brdfwave::brdf_tools`), `brdf merl` (a synthetic MERL
+//! file, `brdfwave::measured::merl`) and `brdf fit` (`super::fit`).
 
 use super::{parse_device, warn_gpu_only, Backend};
 use anyhow::{bail, Context as _, Result};
@@ -59,6 +60,19 @@ pub enum BrdfCommand {
         #[arg(long, value_parser = parse_device)]
         device: Option<String>,
     },
+    /// Write a synthetic MERL .binary file: the material sampled at every cell centre (for
+    /// trying `brdf fit` without measured data, which MERL distributes).
+    Merl {
+        /// The material as an inline TOML table, as for `brdf eval`.
+        #[arg(long)]
+        material: String,
+        /// Output .binary file (34992012 bytes); missing directories are created.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Fit the survey's models to a measured material (a MERL .binary file): fit.md, fit.csv,
+    /// materials.toml, plots and a lineup scene.
+    Fit(super::fit::FitArgs),
 }
 
 pub fn run(cmd: BrdfCommand) -> Result<()> {
@@ -80,6 +94,8 @@ pub fn run(cmd: BrdfCommand) -> Result<()> {
             no_gpu,
             device,
         } => report(&out, no_gpu, device),
+        BrdfCommand::Merl { material, out } => merl(&material, &out),
+        BrdfCommand::Fit(args) => super::fit::run(args),
     }
 }
 
@@ -149,6 +165,24 @@ fn plot(material: &str, theta_i: f32, out: &Path) -> Result<()> {
     let m = parse_inline(material)?;
     tools::write_plot(out, &tools::plot_lobe(m.brdf.as_ref(), theta_i))?;
     outln!("wrote {}", out.display())?;
+    Ok(())
+}
+
+/// `brdf merl`: a synthetic MERL file of the material.
+fn merl(material: &str, out: &Path) -> Result<()> {
+    outfile::prepare(&[Output {
+        option: "--out",
+        path: out,
+    }])?;
+    let m = parse_inline(material)?;
+    let table = brdfwave::measured::merl::MerlTable::from_brdf(m.brdf.as_ref());
+    table.write(out)?;
+    outln!(
+        "wrote {} ({} of the {} values below the horizon, marked missing)",
+        out.display(),
+        table.missing(),
+        3 * brdfwave::measured::merl::CELLS
+    )?;
     Ok(())
 }
 

@@ -5,6 +5,7 @@ pub mod bench;
 pub mod brdf;
 pub mod devices;
 pub mod diff;
+pub mod fit;
 pub mod merge;
 pub mod render;
 pub mod stress;

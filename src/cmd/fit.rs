@@ -1,0 +1,151 @@
+//! `brdfwave brdf fit`: the survey's models fitted to a measured MERL material
+//! (`brdfwave::fit`), and the tables, materials, plots and lineup scene of the result.
+
+use anyhow::{bail, Result};
+use brdfwave::brdf::MODELS;
+use brdfwave::brdf_tools::write_plot;
+use brdfwave::fit::{self, plots, report, space::ModelSpec, FitOptions};
+use brdfwave::measured::merl::MerlTable;
+use brdfwave::outfile::{self, Output};
+use clap::Args;
+use std::path::{Path, PathBuf};
+
+#[derive(Args)]
+pub struct FitArgs {
+    /// The measured material: a MERL BRDF database `.binary` file.
+    #[arg(long)]
+    measured: PathBuf,
+    /// The models to fit, comma-separated (default: all eight). An entry may fix fields of
+    /// the model after its name, as TOML; then separate the entries with ';':
+    /// 'ward variant = "duer2006"; cook_torrance fresnel = "schlick"'.
+    #[arg(long)]
+    models: Option<String>,
+    /// Directory for fit.md, fit.csv, materials.toml, lineup.toml and the plots (created if
+    /// missing).
+    #[arg(long)]
+    out: PathBuf,
+    /// About how many MERL cells the error compares (a strided subset of the 1458000).
+    #[arg(long, default_value_t = FitOptions::default().samples)]
+    samples: usize,
+    /// Grazing cut-off in degrees: cells with θi or θo beyond it are left out.
+    #[arg(long, default_value_t = FitOptions::default().max_theta_deg)]
+    max_theta: f32,
+    /// Nelder–Mead starts per model (the best of the screened points).
+    #[arg(long, default_value_t = FitOptions::default().starts)]
+    starts: usize,
+}
+
+/// The model entries of `--models`.
+fn parse_models(list: Option<&str>) -> Result<Vec<ModelSpec>> {
+    let Some(list) = list else {
+        return MODELS.iter().map(|m| ModelSpec::parse(m.name)).collect();
+    };
+    let sep = if list.contains(';') { ';' } else { ',' };
+    let specs: Vec<ModelSpec> = list
+        .split(sep)
+        .filter(|e| !e.trim().is_empty())
+        .map(ModelSpec::parse)
+        .collect::<Result<_>>()?;
+    if specs.is_empty() {
+        bail!("--models: the list is empty");
+    }
+    Ok(specs)
+}
+
+/// The files written into `--out`.
+const TEXT_FILES: [&str; 4] = ["fit.md", "fit.csv", "materials.toml", "lineup.toml"];
+
+pub fn run(args: FitArgs) -> Result<()> {
+    if !(1.0..=89.0).contains(&args.max_theta) {
+        bail!(
+            "--max-theta must be in [1, 89] degrees, got {}",
+            args.max_theta
+        );
+    }
+    if !(100..=1_458_000).contains(&args.samples) {
+        bail!("--samples must be in [100, 1458000], got {}", args.samples);
+    }
+    if !(1..=64).contains(&args.starts) {
+        bail!("--starts must be in [1, 64], got {}", args.starts);
+    }
+    if args.out.exists() && !args.out.is_dir() {
+        bail!(
+            "--out {}: is a file; brdf fit needs a directory",
+            args.out.display()
+        );
+    }
+    let specs = parse_models(args.models.as_deref())?;
+    let text_paths: Vec<PathBuf> = TEXT_FILES.iter().map(|f| args.out.join(f)).collect();
+    let outputs: Vec<Output> = text_paths
+        .iter()
+        .map(|p| Output {
+            option: "--out",
+            path: p,
+        })
+        .collect();
+    outfile::refuse_inputs(&outputs, &[("--measured file", &args.measured)])?;
+    outfile::prepare(&outputs)?;
+    let table = MerlTable::read(&args.measured)?;
+    let opt = FitOptions {
+        samples: args.samples,
+        max_theta_deg: args.max_theta,
+        starts: args.starts,
+        ..FitOptions::default()
+    };
+    eprintln!(
+        "fitting {} model(s) to {} ({} missing values)",
+        specs.len(),
+        args.measured.display(),
+        table.missing()
+    );
+    let fits = fit::fit_all(&table, &specs, &opt)?;
+    let samples =
+        fit::loss::samples(&table, fit::loss::strides(opt.samples), opt.max_theta_deg).len();
+    let measured = args.measured.display().to_string();
+    let ctx = report::Context {
+        measured: &measured,
+        samples,
+        missing: table.missing(),
+        options: &opt,
+    };
+    let md = report::markdown(&fits, &ctx);
+    let texts = [
+        md.clone(),
+        report::csv(&fits),
+        report::materials_toml(&fits, &ctx),
+        report::lineup_scene(&fits, &ctx),
+    ];
+    let paths: Vec<&Path> = text_paths.iter().map(|p| p.as_path()).collect();
+    outfile::write_each(&paths, |i, p| Ok(outfile::write(p, texts[i].as_bytes())?))?;
+    write_pictures(&args.out, &table, &fits, &opt)?;
+    out!("{md}")?;
+    outln!(
+        "\nwrote {}/fit.md, fit.csv, materials.toml, lineup.toml, plane_*.png and error_*.png",
+        args.out.display()
+    )?;
+    Ok(())
+}
+
+/// `plane_<name>.png` and `error_<name>.png` per fit (each error picture on the scale of its
+/// own largest error, which its title gives).
+fn write_pictures(
+    dir: &Path,
+    table: &MerlTable,
+    fits: &[fit::ModelFit],
+    opt: &FitOptions,
+) -> Result<()> {
+    let names = report::material_names(fits);
+    for (f, name) in fits.iter().zip(&names) {
+        let slug = name.trim_start_matches("fit_");
+        let scale = plots::max_slice_error(table, f.brdf.as_ref(), opt.max_theta_deg);
+        write_plot(
+            &dir.join(format!("plane_{slug}.png")),
+            &plots::incidence(table, f),
+        )?;
+        write_plot(
+            &dir.join(format!("error_{slug}.png")),
+            &plots::error_slices(table, f, opt.max_theta_deg, scale),
+        )?;
+    }
+    Ok(())
+}

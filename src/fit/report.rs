@@ -1,0 +1,205 @@
+//! The text outputs of `brdf fit`: `fit.md`, `fit.csv`, `materials.toml` and the lineup scene.
+
+use super::{FitOptions, ModelFit};
+use std::fmt::Write as _;
+
+/// The fits in rank order (lowest error first), as indices into `fits`.
+pub fn ranking(fits: &[ModelFit]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..fits.len()).collect();
+    order.sort_by(|&a, &b| fits[a].error.total_cmp(&fits[b].error));
+    order
+}
+
+/// Scene-file material names, `fit_<model>` (with `_2`, `_3`, … for a model fitted twice).
+pub fn material_names(fits: &[ModelFit]) -> Vec<String> {
+    let mut names: Vec<String> = Vec::new();
+    for f in fits {
+        let base = format!("fit_{}", f.space.spec.model.name);
+        let mut name = base.clone();
+        let mut k = 2;
+        while names.contains(&name) {
+            name = format!("{base}_{k}");
+            k += 1;
+        }
+        names.push(name);
+    }
+    names
+}
+
+/// What the run compared, for the heads of the files.
+pub struct Context<'a> {
+    pub measured: &'a str,
+    pub samples: usize,
+    pub missing: usize,
+    pub options: &'a FitOptions,
+}
+
+fn relative(f: &ModelFit, best: f64) -> f64 {
+    if best > 0.0 {
+        f.error / best
+    } else if f.error > 0.0 {
+        f64::INFINITY
+    } else {
+        1.0
+    }
+}
+
+/// `fit.md`: the summary table in rank order, then a table of parameters per model.
+pub fn markdown(fits: &[ModelFit], ctx: &Context) -> String {
+    let order = ranking(fits);
+    let best = order.first().map(|&i| fits[i].error).unwrap_or(0.0);
+    let mut s = String::new();
+    let _ = writeln!(s, "# brdf fit: {}\n", ctx.measured);
+    let _ = writeln!(
+        s,
+        "Error: the weighted RMS of ∛(f_fit cosθi) − ∛(f_measured cosθi) over {} MERL cells \
+         with θi, θo ≤ {}° ({} missing values in the file); lower is better. \"× best\" is the \
+         error relative to the best fit. Times are wall-clock, the models fitted in parallel.\n",
+        ctx.samples, ctx.options.max_theta_deg, ctx.missing
+    );
+    s.push_str("| rank | model | error | × best | evaluations | time (s) |\n");
+    s.push_str("|---|---|---|---|---|---|\n");
+    for (rank, &i) in order.iter().enumerate() {
+        let f = &fits[i];
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.4e} | {:.2} | {} | {:.2} |",
+            rank + 1,
+            f.space.spec.label(),
+            f.error,
+            relative(f, best),
+            f.evals,
+            f.seconds
+        );
+    }
+    for &i in &order {
+        let f = &fits[i];
+        let _ = writeln!(s, "\n## {}\n", f.space.spec.label());
+        s.push_str("| parameter | value | searched in |\n|---|---|---|\n");
+        for ((name, value), b) in f.space.fields(&f.values).iter().zip(&f.space.bounds) {
+            let scale = if b.log { ", log scale" } else { "" };
+            let _ = writeln!(s, "| `{name}` | `{value}` | [{}, {}]{scale} |", b.lo, b.hi);
+        }
+        if !f.space.spec.fixed.is_empty() {
+            let _ = writeln!(s, "\nFixed: `{}`.", f.space.spec.fixed);
+        }
+    }
+    s
+}
+
+/// A CSV field, quoted when it holds a comma or a quote.
+fn csv_field(v: &str) -> String {
+    if v.contains([',', '"', '\n']) {
+        format!("\"{}\"", v.replace('"', "\"\""))
+    } else {
+        v.to_string()
+    }
+}
+
+/// `fit.csv`: one row per model in rank order; `material` is the fitted material's TOML.
+pub fn csv(fits: &[ModelFit]) -> String {
+    let order = ranking(fits);
+    let best = order.first().map(|&i| fits[i].error).unwrap_or(0.0);
+    let mut s = String::from("rank,model,error,relative_to_best,evaluations,seconds,material\n");
+    for (rank, &i) in order.iter().enumerate() {
+        let f = &fits[i];
+        let _ = writeln!(
+            s,
+            "{},{},{:e},{},{},{:.3},{}",
+            rank + 1,
+            csv_field(&f.space.spec.label()),
+            f.error,
+            relative(f, best),
+            f.evals,
+            f.seconds,
+            csv_field(&f.material_text())
+        );
+    }
+    s
+}
+
+/// One `[materials.NAME]` table per fit.
+fn material_tables(fits: &[ModelFit], names: &[String]) -> String {
+    let mut s = String::new();
+    for &i in &ranking(fits) {
+        let f = &fits[i];
+        let _ = writeln!(s, "# {}: error {:.4e}", f.space.spec.label(), f.error);
+        let _ = writeln!(s, "[materials.{}]", names[i]);
+        let _ = writeln!(s, "model = \"{}\"", f.space.spec.model.name);
+        if !f.space.spec.fixed.is_empty() {
+            // The fixed fields as the user gave them, one per line.
+            let table: toml::Table =
+                toml::from_str(&format!("m = {{ {} }}", f.space.spec.fixed)).unwrap_or_default();
+            if let Some(t) = table.get("m").and_then(|m| m.as_table()) {
+                for (k, v) in t {
+                    let _ = writeln!(s, "{k} = {v}");
+                }
+            }
+        }
+        for (name, value) in f.space.fields(&f.values) {
+            let _ = writeln!(s, "{name} = {value}");
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// `materials.toml`: the fitted materials, ready to paste into a scene.
+pub fn materials_toml(fits: &[ModelFit], ctx: &Context) -> String {
+    format!(
+        "# The survey's models fitted to {} by `brdfwave brdf fit`, best first.\n# Paste a \
+         table into a scene file and name it in a shape's `material`.\n\n{}",
+        ctx.measured,
+        material_tables(fits, &material_names(fits))
+    )
+}
+
+/// `lineup.toml`: one sphere per fitted model in rank order, best on the left, under the light
+/// and environment of `scenes/lineup.toml`.
+pub fn lineup_scene(fits: &[ModelFit], ctx: &Context) -> String {
+    let names = material_names(fits);
+    let order = ranking(fits);
+    let n = order.len().max(1);
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# The survey's models fitted to {} by `brdfwave brdf fit`, one sphere each, best fit on \
+         the left:\n# {}.\n# The measured material itself is not in the lineup: brdfwave does not \
+         render measured tables yet\n# (there is no `measured` model); compare these spheres \
+         with each other and the plots.\n",
+        ctx.measured,
+        order
+            .iter()
+            .map(|&i| fits[i].space.spec.label())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    let _ = writeln!(
+        s,
+        "[camera]\nposition = [0.0, 2.2, -{:.1}]\ntarget = [0.0, 0.45, 0.0]\nup = [0.0, 1.0, 0.0]\n\
+         fov_y = 22.0\n\n[film]\nwidth = {}\nheight = 200\n\n[integrator]\nspp = 32\nmax_depth = 6\n\
+         seed = 0\n\n[environment]\nradiance = [0.08, 0.09, 0.1]\n\n[materials.floor]\n\
+         model = \"lambert\"\nalbedo = [0.4, 0.4, 0.4]\n\n[materials.light]\nmodel = \"lambert\"\n\
+         albedo = [0.0, 0.0, 0.0]\n",
+        (9.0 * n as f32 / 8.0).max(4.0),
+        (80 * n as u32).clamp(240, 1280)
+    );
+    s.push_str(&material_tables(fits, &names));
+    s.push_str(
+        "[[shapes]]\nname = \"floor\"\nmaterial = \"floor\"\nquads = [[[-20.0, 0.0, -20.0], \
+         [-20.0, 0.0, 20.0], [20.0, 0.0, 20.0], [20.0, 0.0, -20.0]]]\n\n[[shapes]]\n\
+         name = \"light\"\nmaterial = \"light\"\nemission = [6.0, 6.0, 6.0]\nquads = [[[-5.0, \
+         6.0, -4.0], [5.0, 6.0, -4.0], [5.0, 6.0, 1.0], [-5.0, 6.0, 1.0]]]\n",
+    );
+    for (k, &i) in order.iter().enumerate() {
+        // Image x runs to the camera's right, which is world −x here: the best fit at +x.
+        let x = (n as f32 - 1.0) / 2.0 - k as f32;
+        let _ = writeln!(
+            s,
+            "\n[[shapes]]\nname = \"{0}\"\nmaterial = \"{0}\"\nsphere = {{ center = [{x:.1}, \
+             0.45, 0.0], radius = 0.45 }}",
+            names[i]
+        );
+    }
+    s
+}

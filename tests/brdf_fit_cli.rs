@@ -1,0 +1,181 @@
+//! `brdfwave brdf merl` and `brdfwave brdf fit` on the command line, on synthetic files.
+
+mod common;
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn brdfwave(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_brdfwave"))
+        .args(args)
+        .output()
+        .expect("run brdfwave")
+}
+
+fn fails_with(args: &[&str], wanted: &[&str]) {
+    let out = brdfwave(args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{args:?} succeeded");
+    assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+    for w in wanted {
+        assert!(err.contains(w), "{args:?}: expected '{w}' in:\n{err}");
+    }
+}
+
+fn write_ward(dir: &Path) -> String {
+    let file = dir.join("ward.binary");
+    let f = file.to_str().unwrap();
+    let out = brdfwave(&[
+        "brdf",
+        "merl",
+        "--material",
+        r#"model = "ward", kd = [0.1, 0.15, 0.2], ks = 0.25, alpha_x = 0.08"#,
+        "--out",
+        f,
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    f.to_string()
+}
+
+#[test]
+fn fit_writes_tables_materials_plots_and_a_lineup_that_loads() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = write_ward(tmp.path());
+    let dir = tmp.path().join("fit");
+    let d = dir.to_str().unwrap();
+    let out = brdfwave(&[
+        "brdf",
+        "fit",
+        "--measured",
+        &file,
+        "--models",
+        "lambert,ward,blinn_phong",
+        "--samples",
+        "1500",
+        "--out",
+        d,
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for f in ["fit.md", "fit.csv", "materials.toml", "lineup.toml"] {
+        assert!(dir.join(f).is_file(), "{f}");
+    }
+    for m in ["lambert", "ward", "blinn_phong"] {
+        for kind in ["plane", "error"] {
+            let p = dir.join(format!("{kind}_{m}.png"));
+            let img = image::open(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+            assert!(img.width() > 100 && img.height() > 100);
+        }
+    }
+    // Ward's data: Ward first in the CSV, with a tiny error.
+    let csv = std::fs::read_to_string(dir.join("fit.csv")).unwrap();
+    let first = csv.lines().nth(1).unwrap();
+    assert!(first.starts_with("1,ward,"), "{csv}");
+    let err: f64 = first.split(',').nth(2).unwrap().parse().unwrap();
+    assert!(err < 1e-3, "{csv}");
+    // The lineup is a scene: it loads, with one sphere per fitted model, and renders.
+    let lineup = dir.join("lineup.toml");
+    let scene = brdfwave::scene::load(&lineup).unwrap();
+    assert_eq!(scene.spheres.len(), 3);
+    let text = std::fs::read_to_string(&lineup).unwrap();
+    assert!(text.contains("The measured material itself is not in the lineup"));
+    let png = tmp.path().join("lineup.png");
+    let mut args = vec![
+        "render",
+        lineup.to_str().unwrap(),
+        "--out",
+        png.to_str().unwrap(),
+    ];
+    args.extend(common::QUICK_RENDER);
+    let out = brdfwave(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // materials.toml's tables are scene materials.
+    let m = std::fs::read_to_string(dir.join("materials.toml")).unwrap();
+    assert!(
+        m.contains("[materials.fit_ward]") && m.contains("alpha_x = 0.08"),
+        "{m}"
+    );
+}
+
+#[test]
+fn bad_inputs_fail_cleanly() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let out = d.join("out");
+    let o = out.to_str().unwrap();
+    let short = d.join("short.binary");
+    std::fs::write(&short, [90u8, 0, 0, 0, 90, 0, 0, 0, 180, 0, 0, 0, 1, 2, 3]).unwrap();
+    let s = short.to_str().unwrap();
+    fails_with(
+        &["brdf", "fit", "--measured", s, "--out", o],
+        &[s, "truncated: 15 bytes", "bytes are missing"],
+    );
+    let absent = d.join("absent.binary");
+    fails_with(
+        &[
+            "brdf",
+            "fit",
+            "--measured",
+            absent.to_str().unwrap(),
+            "--out",
+            o,
+        ],
+        &["absent.binary", "cannot open"],
+    );
+    let file = write_ward(d);
+    fails_with(
+        &[
+            "brdf",
+            "fit",
+            "--measured",
+            &file,
+            "--models",
+            "ward,warp",
+            "--out",
+            o,
+        ],
+        &["unknown model 'warp'", "cook_torrance"],
+    );
+    fails_with(
+        &[
+            "brdf",
+            "fit",
+            "--measured",
+            &file,
+            "--models",
+            "ward alpha = ",
+            "--out",
+            o,
+        ],
+        &["--models"],
+    );
+    fails_with(
+        &[
+            "brdf",
+            "fit",
+            "--measured",
+            &file,
+            "--max-theta",
+            "90",
+            "--out",
+            o,
+        ],
+        &["--max-theta must be in [1, 89]"],
+    );
+    fails_with(
+        &["brdf", "fit", "--measured", &file, "--out", &file],
+        &["is a file"],
+    );
+    // Nothing was written by the failed runs.
+    assert!(!out.join("fit.md").exists());
+}
