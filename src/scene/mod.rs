@@ -8,7 +8,8 @@
 //! The loader's files depend on each other as a tree: `load` (the entry points) uses `schema`
 //! (the raw serde form), `spanned` (values with their lines) and `assemble` (checks and
 //! flattening); `assemble` uses `obj` (OBJ meshes); both use `geometry` (the shape transform and
-//! the triangle checks); every step reports an `error::SceneError`.
+//! the triangle checks); every step reports an `error::SceneError`. A file that is not TOML is
+//! named by `sniff` ("this looks like a pbrt scene").
 
 mod assemble;
 mod error;
@@ -17,6 +18,7 @@ pub mod load;
 mod obj;
 mod schema;
 pub mod shapes;
+pub mod sniff;
 mod spanned;
 
 use crate::brdf::Material;
