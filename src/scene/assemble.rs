@@ -268,7 +268,7 @@ fn materials(
 /// The error of a scene without primitives: none given, or shapes whose geometry came to
 /// nothing.
 fn no_primitives(cx: &Cx, shapes: &[Sp<RawShape>]) -> SceneError {
-    // With shapes present, their geometry came to nothing (OBJ files without faces, with
+    // With shapes present, their geometry came to nothing (OBJ or PLY files without faces, with
     // lines only, or only zero-area triangles): the warnings say which and why.
     let msg = if shapes.is_empty() {
         "the scene has no primitives: add a [[shapes]] table with geometry".to_string()
@@ -276,7 +276,7 @@ fn no_primitives(cx: &Cx, shapes: &[Sp<RawShape>]) -> SceneError {
         let why: Vec<String> = cx
             .warnings
             .iter()
-            .filter(|w| w.contains("OBJ"))
+            .filter(|w| w.contains("OBJ") || w.contains("PLY"))
             .map(|w| format!("\n  {w}"))
             .collect();
         format!(
@@ -371,6 +371,7 @@ pub(super) fn shape_primitives(
             .as_ref()
             .map(|q| ("sphere", q.span().or(q.value.radius.span()))),
         s.obj.as_ref().map(|q| ("obj", q.span())),
+        s.ply.as_ref().map(|q| ("ply", q.span())),
     ]
     .into_iter()
     .flatten()
@@ -378,7 +379,7 @@ pub(super) fn shape_primitives(
     match kinds.as_slice() {
         [] => {
             let msg = format!(
-                "{label} has no geometry: give exactly one of quads, triangles, sphere, obj"
+                "{label} has no geometry: give exactly one of quads, triangles, sphere, obj, ply"
             );
             return Err(cx.err(shape.span().or(s.material.span()), f, msg));
         }
@@ -390,8 +391,8 @@ pub(super) fn shape_primitives(
         }
     }
     if let Some(t) = &s.transform {
-        if s.obj.is_none() {
-            let msg = "transform applies only to obj shapes (write quads, triangles and spheres in world space)";
+        if s.obj.is_none() && s.ply.is_none() {
+            let msg = "transform applies only to obj and ply shapes (write quads, triangles and spheres in world space)";
             let span = t.span().or(shape.span());
             return Err(cx.err(span, &format!("{f}.transform"), msg));
         }
@@ -489,6 +490,19 @@ pub(super) fn shape_primitives(
             emitter,
             inward: r.inward,
         });
+    }
+    if let Some(ply) = &s.ply {
+        let xf = match &s.transform {
+            Some(t) => transform(cx, f, &t.value)?,
+            None => Transform::identity(),
+        };
+        let mesh = ObjShape {
+            field: format!("{f}.ply"),
+            label: label.clone(),
+            material,
+            emitter,
+        };
+        super::ply_shape::ply_triangles(cx, &mesh, ply, &xf, &mut out.triangles)?;
     }
     if let Some(obj) = &s.obj {
         let xf = match &s.transform {

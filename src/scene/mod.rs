@@ -7,7 +7,8 @@
 //!
 //! The loader's files depend on each other as a tree: `load` (the entry points) uses `schema`
 //! (the raw serde form), `spanned` (values with their lines) and `assemble` (checks and
-//! flattening); `assemble` uses `obj` (OBJ meshes); both use `geometry` (the shape transform and
+//! flattening); `assemble` uses `obj` (OBJ meshes) and `ply_shape`
+//! (PLY meshes, read by `ply`); both use `geometry` (the shape transform and
 //! the triangle checks); every step reports an `error::SceneError`. A file that is not TOML is
 //! named by `sniff` ("this looks like a pbrt scene").
 
@@ -16,6 +17,8 @@ mod error;
 mod geometry;
 pub mod load;
 mod obj;
+pub mod ply;
+mod ply_shape;
 mod schema;
 pub mod shapes;
 pub mod sniff;

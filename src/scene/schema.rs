@@ -71,6 +71,7 @@ pub(super) struct RawShape {
     pub(super) triangles: Option<Sp<Tris>>,
     pub(super) sphere: Option<Sp<RawSphere>>,
     pub(super) obj: Option<Sp<String>>,
+    pub(super) ply: Option<Sp<String>>,
     pub(super) transform: Option<Sp<RawTransform>>,
 }
 
