@@ -163,7 +163,8 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
     if out.triangles.is_empty() && out.spheres.is_empty() {
         return Err(no_primitives(cx, &raw.shapes));
     }
-    if out.emitters.is_empty() && environment == Vec3::ZERO {
+    let lights = super::delta_lights::delta_lights(cx, &raw.lights)?;
+    if out.emitters.is_empty() && lights.is_empty() && environment == Vec3::ZERO {
         cx.warnings.push(format!(
             "warning: {}: the scene has no emitter and a black environment: every image will be black",
             cx.file
@@ -181,6 +182,7 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
         emitters: out.emitters,
         triangles: out.triangles,
         spheres: out.spheres,
+        lights,
         environment,
         warnings: std::mem::take(&mut cx.warnings),
     })
