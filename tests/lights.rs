@@ -18,15 +18,25 @@ const ALBEDO: f32 = 0.6;
 /// A Lambertian floor (y = 0, facing +y, larger than the view) seen from above, lit by `lights` (TOML), with
 /// `extra` shapes; direct light only (two segments).
 fn floor_scene(lights: &str, extra: &str) -> Scene {
+    floor_scene_from(4.0, "", lights, extra)
+}
+
+/// [`floor_scene`] with the camera at height `y` and more fields of the floor's material.
+fn floor_scene_from(y: f32, floor: &str, lights: &str, extra: &str) -> Scene {
     let src = format!(
-        "[camera]\nposition = [0, 4, 0]\ntarget = [0, 0, 0]\nup = [0, 0, 1]\nfov_y = 30\n\
+        "[camera]\nposition = [0, {y}, 0]\ntarget = [0, 0, 0]\nup = [0, 0, 1]\nfov_y = 30\n\
          [film]\nwidth = 16\nheight = 12\n[integrator]\nspp = 16\nmax_depth = 2\nseed = 3\n\
-         [materials.floor]\nmodel = \"lambert\"\nalbedo = {ALBEDO}\n\
+         [materials.floor]\nmodel = \"lambert\"\nalbedo = {ALBEDO}\n{floor}\n\
          [[shapes]]\nmaterial = \"floor\"\n\
          quads = [[[-3, 0, -3], [-3, 0, 3], [3, 0, 3], [3, 0, -3]]]\n{extra}\n{lights}\n"
     );
     let s = load_str(&src, Path::new("lights.toml")).unwrap_or_else(|e| panic!("{e}"));
-    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    // Without lights the loader warns of a black image (a test then adds emission).
+    assert!(
+        s.warnings.is_empty() || lights.is_empty(),
+        "{:?}",
+        s.warnings
+    );
     s
 }
 
@@ -66,6 +76,7 @@ fn check(s: &Scene, tol: f32, expected: impl Fn(Vec3) -> Vec3) {
         for y in 0..s.height {
             for x in 0..s.width {
                 let want = expected(floor_point(s, x, y));
+                let want = want.max(Vec3::ZERO);
                 let got = Vec3::from_array(r.mean.get(x, y));
                 let err = ((got - want).abs() / want.max(Vec3::splat(1e-6))).max_element();
                 worst = worst.max(err);
@@ -155,6 +166,41 @@ fn delta_and_area_lights_mix_with_the_same_choices_on_both_backends() {
             all[c]
         );
     }
+}
+
+/// A two-sided floor seen and lit from below shades like its front: the same inverse-square
+/// radiance as from above; a one-sided floor is black from below. An emitter stays one-sided:
+/// a two-sided emitting floor seen from below reflects the light but emits nothing there.
+#[test]
+fn a_two_sided_floor_shades_its_back_like_its_front() {
+    let (pos, intensity) = (Vec3::new(0.7, -1.5, -0.4), Vec3::new(10.0, 5.0, 2.0));
+    let light =
+        "[[lights]]\ntype = \"point\"\nposition = [0.7, -1.5, -0.4]\nintensity = [10, 5, 2]\n";
+    let analytic = |p: Vec3| {
+        let to = pos - p;
+        let r2 = to.length_squared();
+        ALBEDO / PI * intensity * (-to.y / r2.sqrt()) / r2
+    };
+    let s = floor_scene_from(-4.0, "twosided = true", light, "");
+    check(&s, 0.01, analytic);
+    let s = floor_scene_from(-4.0, "twosided = false", light, "");
+    check(&s, 0.0, |_| Vec3::ZERO);
+    // Emission only from the front (+y), two-sided or not: black from below, 7 from above.
+    for (y, want) in [(-4.0, 0.0), (4.0, 7.0)] {
+        let mut s = floor_scene_from(y, "twosided = true", "", "");
+        s.emitters.push(brdfwave::scene::Emitter {
+            radiance: Vec3::splat(7.0),
+        });
+        for t in &mut s.triangles {
+            t.emitter = Some(0);
+        }
+        check(&s, 1e-6, |_| Vec3::splat(want));
+    }
+    let e = light_error("[materials.t]\nmodel = \"lambert\"\ntwosided = 1\n");
+    assert!(
+        e.contains("material 't', field 'twosided': expected true or false, found 1"),
+        "{e}"
+    );
 }
 
 fn light_error(lights: &str) -> String {

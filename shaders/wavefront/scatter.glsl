@@ -37,6 +37,15 @@ Scatter shade_vertex(uint path, uint depth, Surface s, vec3 d, vec3 b, uint c) {
     r.beta = vec3(0.0);
     r.pdf = 0.0;
     Material m = load_material(s.material);
+#ifdef SCENE_TWOSIDED
+    // A two-sided material seen from behind: its back is shaded as a front, the geometric and
+    // shading normals turned to the side the ray came from (header.z: src/gpu/scene_buffers.rs).
+    if (m.header.z != 0u && !s.front) {
+        s.ng = -s.ng;
+        s.frame.n = -s.frame.n;
+        s.frame.b = -s.frame.b;
+    }
+#endif
     vec3 wo = to_local(s.frame, -d);
     if (wo.z <= 0.0) return r;
     vec3 origin = offset_ray_origin(s.p, s.p_err, s.ng);

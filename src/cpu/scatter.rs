@@ -53,6 +53,15 @@ impl CpuRenderer<'_> {
         };
         let material = &s.materials[si.material as usize];
         let brdf: &dyn Brdf = material.brdf.as_ref();
+        // A two-sided material seen from behind: its back is shaded as a front, the geometric
+        // and shading normals turned to the side the ray came from.
+        let back;
+        let si = if material.twosided && !si.front {
+            back = si.turned();
+            &back
+        } else {
+            si
+        };
         let wo = si.frame.to_local(-d);
         if wo.z <= 0.0 {
             return r;

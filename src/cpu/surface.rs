@@ -63,6 +63,22 @@ pub struct Surface {
     pub emitter: Option<u32>,
 }
 
+impl Surface {
+    /// The same surface seen as a front from behind: both normals reversed (the tangent kept,
+    /// the frame right-handed), for two-sided materials.
+    pub fn turned(&self) -> Surface {
+        Surface {
+            ng: -self.ng,
+            frame: Frame {
+                t: self.frame.t,
+                b: -self.frame.b,
+                n: -self.frame.n,
+            },
+            ..*self
+        }
+    }
+}
+
 /// Reconstruct the hit surface from the BVH hit record (position from barycentrics, not o + t·d).
 pub fn surface_at(scene: &Scene, hit: &Hit, o: Vec3, d: Vec3) -> Surface {
     if hit.prim & SPHERE_BIT != 0 {

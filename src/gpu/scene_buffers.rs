@@ -91,6 +91,7 @@ fn records(materials: &[Material], queue_slot: &[u32]) -> Vec<[u32; RECORD_WORDS
             let mut r = [0u32; RECORD_WORDS];
             r[0] = m.model as u32;
             r[1] = slot;
+            r[2] = m.twosided as u32;
             for (k, p) in m.brdf.pack().0.iter().enumerate() {
                 r[4 + k] = p.to_bits();
             }

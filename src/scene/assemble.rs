@@ -242,7 +242,21 @@ fn materials(
     let mut material_spans = Vec::new();
     for (name, span, table) in defs {
         let mut fields = BTreeMap::new();
+        let mut twosided = false;
         for (key, v) in table {
+            if key == "twosided" {
+                // A flag of the scene's surface, not a model parameter.
+                match &v.value {
+                    toml::Value::Boolean(b) => twosided = *b,
+                    other => {
+                        let msg = format!(
+                            "material '{name}', field 'twosided': expected true or false, found {other}"
+                        );
+                        return Err(cx.err(v.span(), &format!("materials.{name}.twosided"), msg));
+                    }
+                }
+                continue;
+            }
             let Some(s) = v.span() else {
                 let msg = format!(
                     "material '{name}': a parameter cannot be a table (dotted key '{key}.…')"
@@ -258,7 +272,8 @@ fn materials(
             material: &name,
             span: table_span,
         };
-        let (m, w) = brdf::parse_material(origin, fields)?;
+        let (mut m, w) = brdf::parse_material(origin, fields)?;
+        m.twosided = twosided;
         cx.warnings.extend(w);
         materials.push(m);
         material_names.push(name);
