@@ -13,9 +13,35 @@
 //! about 8.5e37, where 1/W is a denormal that the GPU flushes to zero (next-event estimation
 //! then silently did nothing). GLSL twin: `sample_light` and `light_pdf` in
 //! `shaders/wavefront/surface.glsl`.
+//!
+//! Point and directional lights ([`DeltaLight`]) join the same table after the emissive
+//! primitives, with the weight of the same unit, power/π: area·lum(Le) for an emitter
+//! (power π·A·Le), 4·lum(I) for a point light (power 4π·I) and R²·lum(E) for a directional
+//! light, R the radius of the scene's bounding sphere (power π·R²·E, pbrt-v4's
+//! `DistantLight::Phi`). W then includes them, and so does every emitter's lum(Le)/W. Without
+//! such lights the table is built exactly as before, bit for bit. A delta light's entry is
+//! [`DELTA_TAG`] | its first texel in the GPU's emitter data ([`LightTable::delta_base`]).
 
 use crate::bvh::SPHERE_BIT;
-use crate::scene::Scene;
+use crate::scene::{DeltaLight, Scene};
+use glam::Vec3;
+
+/// The tag of a delta light's entry in [`LightTable::prims`] (both high bits; a sphere entry
+/// has only [`SPHERE_BIT`], and no scene has 2^30 spheres). GLSL twin: `DELTA_TAG`.
+pub const DELTA_TAG: u32 = 0xC000_0000;
+
+/// A point or directional light as both renderers sample it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DeltaEntry {
+    /// The light is directional (else a point light).
+    pub directional: bool,
+    /// The position of a point light; the unit direction towards a directional one.
+    pub v: Vec3,
+    /// Intensity (point) or irradiance (directional).
+    pub value: Vec3,
+    /// The probability that next-event estimation chooses this light, its weight / W.
+    pub select_prob: f32,
+}
 
 /// Rec. 709 luminance, the light-selection weight (one definition for the whole crate).
 pub use crate::brdf::common::luminance;
@@ -29,6 +55,12 @@ pub struct LightTable {
     /// lum(Le)/W for each of the scene's emitters (by emitter index; 0 when there are no
     /// lights): the light-selection density per unit area.
     pub select_density: Vec<f32>,
+    /// The delta lights with non-zero weight, in scene order; entry `j` of them is
+    /// `DELTA_TAG | (delta_base + 2j)` in `prims`.
+    pub delta: Vec<DeltaEntry>,
+    /// The index of the first delta light's texels in the GPU's emitter data: the number of
+    /// emitters (each emitter one texel, each delta light two after them).
+    pub delta_base: u32,
 }
 
 impl LightTable {
@@ -54,7 +86,48 @@ impl LightTable {
                 }
             }
         }
+        let mut delta = Vec::new();
+        let delta_base = scene.emitters.len() as u32;
+        if !scene.lights.is_empty() {
+            let r2 = bounding_radius(scene).powi(2);
+            for l in &scene.lights {
+                let (directional, v, value, w) = match *l {
+                    DeltaLight::Point {
+                        position,
+                        intensity,
+                    } => (
+                        false,
+                        position,
+                        intensity,
+                        4.0 * luminance(intensity) as f64,
+                    ),
+                    DeltaLight::Directional {
+                        direction,
+                        irradiance,
+                    } => (
+                        true,
+                        -direction,
+                        irradiance,
+                        r2 * luminance(irradiance) as f64,
+                    ),
+                };
+                if w > 0.0 && w.is_finite() {
+                    prims.push(DELTA_TAG | (delta_base + 2 * delta.len() as u32));
+                    weights.push(w);
+                    delta.push(DeltaEntry {
+                        directional,
+                        v,
+                        value,
+                        select_prob: 0.0,
+                    });
+                }
+            }
+        }
         let total: f64 = weights.iter().sum();
+        let n_area = weights.len() - delta.len();
+        for (d, w) in delta.iter_mut().zip(&weights[n_area..]) {
+            d.select_prob = (w / total) as f32;
+        }
         let mut acc = 0.0;
         let mut cdf: Vec<f32> = weights
             .iter()
@@ -81,7 +154,18 @@ impl LightTable {
             prims,
             cdf,
             select_density,
+            delta,
+            delta_base,
         }
+    }
+
+    /// The delta light of a `prims` entry, if it is one.
+    pub fn delta_at(&self, prim: u32) -> Option<&DeltaEntry> {
+        if prim & DELTA_TAG != DELTA_TAG {
+            return None;
+        }
+        let k = (prim & !DELTA_TAG).checked_sub(self.delta_base)?;
+        self.delta.get(k as usize / 2)
     }
 
     pub fn is_empty(&self) -> bool {
@@ -101,5 +185,75 @@ impl LightTable {
             }
         }
         lo
+    }
+}
+
+/// The radius of the bounding sphere of the scene's primitives (half the diagonal of their
+/// box), in f64; at least 1e-3 so that a directional light over a point-sized scene keeps a
+/// weight.
+fn bounding_radius(scene: &Scene) -> f64 {
+    let mut lo = glam::DVec3::splat(f64::INFINITY);
+    let mut hi = glam::DVec3::splat(f64::NEG_INFINITY);
+    let d = |v: Vec3| v.as_dvec3();
+    for t in &scene.triangles {
+        for v in t.v {
+            lo = lo.min(d(v));
+            hi = hi.max(d(v));
+        }
+    }
+    for s in &scene.spheres {
+        let r = glam::DVec3::splat(s.radius as f64);
+        lo = lo.min(d(s.center) - r);
+        hi = hi.max(d(s.center) + r);
+    }
+    let r = 0.5 * (hi - lo).length();
+    if r.is_finite() {
+        r.max(1e-3)
+    } else {
+        1e-3
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn glsl_delta_tag_matches() {
+        let glsl = include_str!("../shaders/wavefront/surface.glsl");
+        let tag = crate::robust::glsl_define(glsl, "surface.glsl", "DELTA_TAG");
+        assert_eq!(tag, format!("{DELTA_TAG:#010X}u").replace("0X", "0x"));
+    }
+
+    /// Weights by power/π: a unit-area emitter of radiance 1 (π), a point light of intensity
+    /// 1/4 (π) and a directional light of irradiance 1/R² (π) are chosen equally often.
+    #[test]
+    fn lights_are_chosen_by_power() {
+        // The emitter quad spans [0, 1]² at z = 0 and the sphere [0, 2]² × [-1, 1]: the
+        // bounding box is 2 wide on each axis, R = √3, R² = 3.
+        let src = "[camera]\nposition = [0, 0, 5]\ntarget = [0, 0, 0]\nfov_y = 30\n\
+            [film]\nwidth = 4\nheight = 4\n[materials.m]\nmodel = \"lambert\"\n\
+            [[shapes]]\nmaterial = \"m\"\nemission = 1\n\
+            quads = [[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]]\n\
+            [[shapes]]\nmaterial = \"m\"\nsphere = { center = [1, 1, 0], radius = 1 }\n\
+            [[lights]]\ntype = \"point\"\nposition = [0, 0, 1]\nintensity = 0.25\n\
+            [[lights]]\ntype = \"directional\"\ndirection = [0, 0, -1]\nirradiance = 0.3333333333333333\n";
+        let s = crate::scene::load_str(src, std::path::Path::new("t.toml")).unwrap();
+        let t = LightTable::build(&s);
+        assert_eq!(t.prims.len(), 4);
+        assert_eq!(t.delta_base, 1);
+        assert_eq!(t.prims[2], DELTA_TAG | 1);
+        assert_eq!(t.prims[3], DELTA_TAG | 3);
+        let expect = [1.0 / 6.0, 1.0 / 3.0, 2.0 / 3.0, 1.0];
+        for (c, e) in t.cdf.iter().zip(&expect) {
+            assert!((c - e).abs() < 1e-6, "{:?}", t.cdf);
+        }
+        for d in &t.delta {
+            assert!((d.select_prob - 1.0 / 3.0).abs() < 1e-6, "{d:?}");
+        }
+        assert!(t.delta[1].directional && t.delta[1].v == Vec3::Z);
+        assert_eq!(t.delta_at(t.prims[3]), Some(&t.delta[1]));
+        assert_eq!(t.delta_at(t.prims[0]), None);
+        assert!((t.select_density[0] - 1.0 / 3.0).abs() < 1e-6);
     }
 }

@@ -377,6 +377,20 @@ fn example_materials_and_scenes_load_without_warnings() {
                 .collect();
             run(&args, &common::repo());
             scenes += 1;
+        } else if body.starts_with("[[lights]]") {
+            // Lights: added to a small lit-by-nothing-else scene, which must then load cleanly.
+            let src = format!(
+                "[camera]\nposition = [0, 0, 5]\ntarget = [0, 0, 0]\nfov_y = 30\n[film]\nwidth = 4\n\
+                 height = 4\n[materials.m]\nmodel = \"lambert\"\n[[shapes]]\nmaterial = \"m\"\n\
+                 sphere = {{ center = [0, 0, 0], radius = 1 }}\n{body}"
+            );
+            let s = brdfwave::scene::load_str(&src, Path::new("lights-example.toml"))
+                .unwrap_or_else(|e| panic!("scenes/README.md: the lights example: {e}"));
+            assert!(
+                s.warnings.is_empty() && !s.lights.is_empty(),
+                "{:?}",
+                s.warnings
+            );
         } else {
             let mut lines = body.lines();
             let header = lines.next().unwrap_or_default();

@@ -27,8 +27,8 @@ void camera_ray(uint path, out vec3 o, out vec3 d) {
 // d or 0): the emitted light seen there, MIS-weighted against next-event estimation, or the
 // environment on a miss, goes to `e` (zero when none; a non-finite value is counted at the
 // extend counter and dropped). Returns the material queue slot when the path goes on from a
-// surface (whose interaction is `s`, for shading), NO_QUEUE when it ends (miss, back face, the
-// depth limit, a black surface).
+// surface (whose interaction is `s`, for shading), NO_QUEUE when it ends (miss, back face unless
+// two-sided, the depth limit, a black surface).
 uint segment_end(uint depth, vec3 o, vec3 d, float prev_pdf, vec3 b, out vec3 e, out Hit hit, out Surface s) {
     e = vec3(0.0);
     if (!trace_closest(o, d, 3.402823e38, hit)) {
@@ -37,7 +37,15 @@ uint segment_end(uint depth, vec3 o, vec3 d, float prev_pdf, vec3 b, out vec3 e,
         return NO_QUEUE;
     }
     s = surface_at(hit.prim, hit.bary, hit.t, o, d);
-    if (!s.front) return NO_QUEUE;
+    if (!s.front) {
+#ifdef SCENE_TWOSIDED
+        // The back of a two-sided material scatters (shade_vertex turns it to the front) but
+        // emits nothing.
+        uvec4 h = texelFetch(material_words, int(MATERIAL_TEXELS * s.material));
+        if (h.z != 0u && depth < g.max_depth) return h.y;
+#endif
+        return NO_QUEUE;
+    }
     if (s.emitter != NO_EMITTER) {
         vec3 le = emitter(s.emitter).xyz;
         float w = 1.0;

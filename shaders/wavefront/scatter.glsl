@@ -37,6 +37,15 @@ Scatter shade_vertex(uint path, uint depth, Surface s, vec3 d, vec3 b, uint c) {
     r.beta = vec3(0.0);
     r.pdf = 0.0;
     Material m = load_material(s.material);
+#ifdef SCENE_TWOSIDED
+    // A two-sided material seen from behind: its back is shaded as a front, the geometric and
+    // shading normals turned to the side the ray came from (header.z: src/gpu/scene_buffers.rs).
+    if (m.header.z != 0u && !s.front) {
+        s.ng = -s.ng;
+        s.frame.n = -s.frame.n;
+        s.frame.b = -s.frame.b;
+    }
+#endif
     vec3 wo = to_local(s.frame, -d);
     if (wo.z <= 0.0) return r;
     vec3 origin = offset_ray_origin(s.p, s.p_err, s.ng);
@@ -44,6 +53,29 @@ Scatter shade_vertex(uint path, uint depth, Surface s, vec3 d, vec3 b, uint c) {
     vec2 u_choice = rand2(path, depth, DIM_LIGHT_SELECT);
 
     // Next-event estimation.
+#ifdef SCENE_DELTA_LIGHTS
+    uint light_prim = g.num_lights > 0u ? light_entry(select_light(u_choice.x)).x : 0u;
+    if (g.num_lights > 0u && (light_prim & DELTA_TAG) == DELTA_TAG) {
+        // A delta light: no MIS (BSDF sampling can never find it).
+        DeltaSample ds;
+        if (sample_delta_light(light_prim, origin, ds)) {
+            vec3 wi_local = to_local(s.frame, ds.wi);
+            if (dot(ds.wi, s.ng) > 0.0 && wi_local.z > 0.0) {
+                vec3 f = BRDF_EVAL(m, wi_local, wo);
+                if (f.x != 0.0 || f.y != 0.0 || f.z != 0.0) {
+                    vec3 contrib = b * f * wi_local.z * ds.li;
+                    if (finite_or_count(contrib, c)) {
+                        r.shadow = true;
+                        r.shadow_o = origin;
+                        r.shadow_d = ds.wi;
+                        r.shadow_tmax = ds.tmax;
+                        r.shadow_l = contrib;
+                    }
+                }
+            }
+        }
+    } else
+#endif
     if (g.num_lights > 0u) {
         vec2 u_light = rand2(path, depth, DIM_LIGHT_U);
         LightSample ls = sample_light(u_choice.x, u_light.x, u_light.y);

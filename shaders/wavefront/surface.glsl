@@ -181,6 +181,42 @@ LightSample sample_light(float u_sel, float u1, float u2) {
 #endif
 }
 
+#ifdef SCENE_DELTA_LIGHTS
+// Point and directional lights (src/lights.rs): a light-table entry DELTA_TAG | k, whose
+// emitter texels are k = (position, or the unit direction towards the light; 1 when
+// directional, else 0) and k + 1 = (intensity or irradiance, selection probability).
+#define DELTA_TAG 0xC0000000u
+
+// The direction to a delta light, the shadow-ray length and the incident radiance divided by
+// the selection probability: I / (r² p_sel) (point) or E / p_sel (directional). False when the
+// origin is at the point light. Rust twin: sample_delta_light in src/cpu/surface.rs.
+struct DeltaSample { vec3 wi; float tmax; vec3 li; };
+
+bool sample_delta_light(uint prim, vec3 origin, out DeltaSample ds) {
+    uint k = prim & ~DELTA_TAG;
+    vec4 a = emitter(k);
+    vec4 v = emitter(k + 1u);
+    ds.wi = vec3(0.0);
+    ds.tmax = 0.0;
+    ds.li = vec3(0.0);
+    if (v.w <= 0.0) return false;
+    if (a.w != 0.0) {
+        ds.wi = a.xyz;
+        ds.tmax = 3.402823e38;
+        ds.li = v.xyz / v.w;
+        return true;
+    }
+    vec3 to_light = a.xyz - origin;
+    float dist2 = dot(to_light, to_light);
+    if (!(dist2 > 0.0)) return false;
+    float dist = sqrt(dist2);
+    ds.wi = to_light / dist;
+    ds.tmax = dist * (1.0 - SHADOW_EPSILON);
+    ds.li = v.xyz / (dist2 * v.w);
+    return true;
+}
+#endif
+
 // Solid-angle density of next-event estimation choosing this point (src/lights.rs). The
 // density lum(Le)/W comes from the host: lum(Le)·(1/W) here flushed to 0 on an NVIDIA GPU when
 // 1/W was a denormal.

@@ -250,6 +250,9 @@ pub struct Material {
     /// Index into [`MODELS`].
     pub model: usize,
     pub brdf: Arc<dyn Brdf>,
+    /// The back side shades like the front (a scene material's `twosided = true`, read by the
+    /// scene loader, not by the model): see `scenes/README.md`.
+    pub twosided: bool,
 }
 
 impl Material {
@@ -275,7 +278,15 @@ pub fn parse_material(
     reader.declare(MODELS[model].params);
     let brdf = (MODELS[model].parse)(&mut reader)?;
     let warnings = reader.finish()?;
-    Ok((Material { model, brdf }, warnings))
+    let twosided = false;
+    Ok((
+        Material {
+            model,
+            brdf,
+            twosided,
+        },
+        warnings,
+    ))
 }
 
 pub fn model_names() -> Vec<&'static str> {

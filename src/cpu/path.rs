@@ -59,6 +59,12 @@ impl CpuRenderer<'_> {
         };
         let si = surface_at(s, &hit, o, d);
         if !si.front {
+            // The back of a two-sided material scatters (shade_vertex turns it to the front)
+            // but emits nothing.
+            let m = &s.materials[si.material as usize];
+            if m.twosided && depth < s.integrator.max_depth && m.brdf.scatters() {
+                end.surface = Some(si);
+            }
             return end;
         }
         if let Some(e) = si.emitter {

@@ -1,7 +1,7 @@
 //! Shading one path vertex: a light sample and a BRDF sample. GLSL twin (independent code, same
 //! conventions and random-number keys): `shade_vertex` in `shaders/wavefront/scatter.glsl`.
 
-use super::surface::{light_pdf, power_heuristic, sample_light, Surface};
+use super::surface::{light_pdf, power_heuristic, sample_delta_light, sample_light, Surface};
 use super::{CpuRenderer, PathStats};
 use crate::brdf::Brdf;
 use crate::rng::{dim, PathRng};
@@ -53,6 +53,15 @@ impl CpuRenderer<'_> {
         };
         let material = &s.materials[si.material as usize];
         let brdf: &dyn Brdf = material.brdf.as_ref();
+        // A two-sided material seen from behind: its back is shaded as a front, the geometric
+        // and shading normals turned to the side the ray came from.
+        let back;
+        let si = if material.twosided && !si.front {
+            back = si.turned();
+            &back
+        } else {
+            si
+        };
         let wo = si.frame.to_local(-d);
         if wo.z <= 0.0 {
             return r;
@@ -62,7 +71,34 @@ impl CpuRenderer<'_> {
         let u_choice = rng.get2(depth, dim::LIGHT_SELECT);
 
         // Next-event estimation.
-        if !self.lights.is_empty() {
+        let delta = (!s.lights.is_empty() && !self.lights.is_empty())
+            .then(|| {
+                self.lights
+                    .delta_at(self.lights.prims[self.lights.select(u_choice.x)])
+            })
+            .flatten();
+        if let Some(l) = delta {
+            // A delta light: no MIS (BSDF sampling can never find it).
+            if let Some(ds) = sample_delta_light(l, origin) {
+                let wi_local = si.frame.to_local(ds.wi);
+                if ds.wi.dot(si.ng) > 0.0 && wi_local.z > 0.0 {
+                    let f = brdf.eval(wi_local, wo);
+                    if f != Vec3::ZERO {
+                        let contrib = beta * f * wi_local.z * ds.li;
+                        if !contrib.is_finite() {
+                            stats.nonfinite_shade[material.model] += 1;
+                        } else {
+                            r.shadow = Some(ShadowRay {
+                                o: origin,
+                                d: ds.wi,
+                                tmax: ds.tmax,
+                                l: contrib,
+                            });
+                        }
+                    }
+                }
+            }
+        } else if !self.lights.is_empty() {
             let u_light = rng.get2(depth, dim::LIGHT_U);
             let ls = sample_light(s, &self.lights, u_choice.x, u_light.x, u_light.y);
             let target = robust::offset_ray_origin(ls.p, ls.p_err, ls.n);

@@ -2,7 +2,7 @@
 //! GLSL twin: `shaders/wavefront/surface.glsl` (surfaces and light sampling).
 
 use crate::bvh::{Hit, SPHERE_BIT};
-use crate::lights::LightTable;
+use crate::lights::{DeltaEntry, LightTable};
 use crate::robust::{pull_inside, sphere_point, triangle_point};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
@@ -61,6 +61,22 @@ pub struct Surface {
     pub frame: Frame,
     pub material: u32,
     pub emitter: Option<u32>,
+}
+
+impl Surface {
+    /// The same surface seen as a front from behind: both normals reversed (the tangent kept,
+    /// the frame right-handed), for two-sided materials.
+    pub fn turned(&self) -> Surface {
+        Surface {
+            ng: -self.ng,
+            frame: Frame {
+                t: self.frame.t,
+                b: -self.frame.b,
+                n: -self.frame.n,
+            },
+            ..*self
+        }
+    }
 }
 
 /// Reconstruct the hit surface from the BVH hit record (position from barycentrics, not o + t·d).
@@ -176,6 +192,40 @@ pub fn sample_light(
             density: lights.select_density[e as usize],
         }
     }
+}
+
+/// Next-event estimation towards a delta light from `origin`: the direction to it, the length
+/// of the shadow ray and the incident radiance divided by the light's selection probability
+/// and the (Dirac) density, `I / (r² p_sel)` for a point light and `E / p_sel` for a
+/// directional one. `None` when the origin is at the point light.
+pub struct DeltaSample {
+    pub wi: Vec3,
+    pub tmax: f32,
+    pub li: Vec3,
+}
+
+pub fn sample_delta_light(l: &DeltaEntry, origin: Vec3) -> Option<DeltaSample> {
+    if l.select_prob <= 0.0 {
+        return None;
+    }
+    if l.directional {
+        return Some(DeltaSample {
+            wi: l.v,
+            tmax: f32::MAX,
+            li: l.value / l.select_prob,
+        });
+    }
+    let to_light = l.v - origin;
+    let dist2 = to_light.length_squared();
+    if !(dist2 > 0.0) {
+        return None;
+    }
+    let dist = dist2.sqrt();
+    Some(DeltaSample {
+        wi: to_light / dist,
+        tmax: dist * (1.0 - crate::robust::SHADOW_EPSILON),
+        li: l.value / (dist2 * l.select_prob),
+    })
 }
 
 /// Solid-angle density of NEE choosing a point of an emitter with selection density `density`

@@ -379,7 +379,8 @@ pub(super) fn build_kernels<'a>(
 
 /// The `#define`s that compile in only what the scene has: the primitive kinds (BVH_TRIANGLES,
 /// BVH_SPHERES), the emitter kinds (LIGHT_TRIANGLES, LIGHT_SPHERES), per-vertex shading normals
-/// and texture coordinates (SCENE_SHADING_NORMALS, SCENE_UVS), Russian roulette
+/// and texture coordinates (SCENE_SHADING_NORMALS, SCENE_UVS), point and directional lights
+/// (SCENE_DELTA_LIGHTS), two-sided materials (SCENE_TWOSIDED), Russian roulette
 /// (RUSSIAN_ROULETTE). On lavapipe both sides of every branch run for all lanes, so code for
 /// something the scene lacks is not free.
 pub fn scene_features(scene: &Scene) -> Vec<&'static str> {
@@ -403,6 +404,12 @@ pub fn scene_features(scene: &Scene) -> Vec<&'static str> {
     }
     if scene.triangles.iter().any(|t| t.uv.is_some()) {
         f.push("SCENE_UVS");
+    }
+    if !scene.lights.is_empty() {
+        f.push("SCENE_DELTA_LIGHTS");
+    }
+    if scene.materials.iter().any(|m| m.twosided) {
+        f.push("SCENE_TWOSIDED");
     }
     if scene.integrator.russian_roulette {
         f.push("RUSSIAN_ROULETTE");

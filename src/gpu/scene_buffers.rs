@@ -91,6 +91,7 @@ fn records(materials: &[Material], queue_slot: &[u32]) -> Vec<[u32; RECORD_WORDS
             let mut r = [0u32; RECORD_WORDS];
             r[0] = m.model as u32;
             r[1] = slot;
+            r[2] = m.twosided as u32;
             for (k, p) in m.brdf.pack().0.iter().enumerate() {
                 r[4 + k] = p.to_bits();
             }
@@ -108,13 +109,22 @@ pub fn light_data(lights: &LightTable) -> Vec<[u32; 2]> {
         .collect()
 }
 
+/// One texel per emitter, (radiance, lum(Le)/W); then two per delta light
+/// ([`LightTable::delta`]): (position or direction to the light, 1 if directional else 0) and
+/// (intensity or irradiance, selection probability).
 pub fn emitter_data(scene: &Scene, lights: &LightTable) -> Vec<[f32; 4]> {
-    scene
+    let mut data: Vec<[f32; 4]> = scene
         .emitters
         .iter()
         .zip(&lights.select_density)
         .map(|(e, d)| [e.radiance.x, e.radiance.y, e.radiance.z, *d])
-        .collect()
+        .collect();
+    for l in &lights.delta {
+        let kind = if l.directional { 1.0 } else { 0.0 };
+        data.push([l.v.x, l.v.y, l.v.z, kind]);
+        data.push([l.value.x, l.value.y, l.value.z, l.select_prob]);
+    }
+    data
 }
 
 /// The scene-wide values the kernels read (`Globals`, declared once in `gpu::interface`).

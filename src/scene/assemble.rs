@@ -163,7 +163,8 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
     if out.triangles.is_empty() && out.spheres.is_empty() {
         return Err(no_primitives(cx, &raw.shapes));
     }
-    if out.emitters.is_empty() && environment == Vec3::ZERO {
+    let lights = super::delta_lights::delta_lights(cx, &raw.lights)?;
+    if out.emitters.is_empty() && lights.is_empty() && environment == Vec3::ZERO {
         cx.warnings.push(format!(
             "warning: {}: the scene has no emitter and a black environment: every image will be black",
             cx.file
@@ -181,6 +182,7 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
         emitters: out.emitters,
         triangles: out.triangles,
         spheres: out.spheres,
+        lights,
         environment,
         warnings: std::mem::take(&mut cx.warnings),
     })
@@ -240,7 +242,21 @@ fn materials(
     let mut material_spans = Vec::new();
     for (name, span, table) in defs {
         let mut fields = BTreeMap::new();
+        let mut twosided = false;
         for (key, v) in table {
+            if key == "twosided" {
+                // A flag of the scene's surface, not a model parameter.
+                match &v.value {
+                    toml::Value::Boolean(b) => twosided = *b,
+                    other => {
+                        let msg = format!(
+                            "material '{name}', field 'twosided': expected true or false, found {other}"
+                        );
+                        return Err(cx.err(v.span(), &format!("materials.{name}.twosided"), msg));
+                    }
+                }
+                continue;
+            }
             let Some(s) = v.span() else {
                 let msg = format!(
                     "material '{name}': a parameter cannot be a table (dotted key '{key}.…')"
@@ -256,7 +272,8 @@ fn materials(
             material: &name,
             span: table_span,
         };
-        let (m, w) = brdf::parse_material(origin, fields)?;
+        let (mut m, w) = brdf::parse_material(origin, fields)?;
+        m.twosided = twosided;
         cx.warnings.extend(w);
         materials.push(m);
         material_names.push(name);
@@ -268,7 +285,7 @@ fn materials(
 /// The error of a scene without primitives: none given, or shapes whose geometry came to
 /// nothing.
 fn no_primitives(cx: &Cx, shapes: &[Sp<RawShape>]) -> SceneError {
-    // With shapes present, their geometry came to nothing (OBJ files without faces, with
+    // With shapes present, their geometry came to nothing (OBJ or PLY files without faces, with
     // lines only, or only zero-area triangles): the warnings say which and why.
     let msg = if shapes.is_empty() {
         "the scene has no primitives: add a [[shapes]] table with geometry".to_string()
@@ -276,7 +293,7 @@ fn no_primitives(cx: &Cx, shapes: &[Sp<RawShape>]) -> SceneError {
         let why: Vec<String> = cx
             .warnings
             .iter()
-            .filter(|w| w.contains("OBJ"))
+            .filter(|w| w.contains("OBJ") || w.contains("PLY"))
             .map(|w| format!("\n  {w}"))
             .collect();
         format!(
@@ -371,6 +388,7 @@ pub(super) fn shape_primitives(
             .as_ref()
             .map(|q| ("sphere", q.span().or(q.value.radius.span()))),
         s.obj.as_ref().map(|q| ("obj", q.span())),
+        s.ply.as_ref().map(|q| ("ply", q.span())),
     ]
     .into_iter()
     .flatten()
@@ -378,7 +396,7 @@ pub(super) fn shape_primitives(
     match kinds.as_slice() {
         [] => {
             let msg = format!(
-                "{label} has no geometry: give exactly one of quads, triangles, sphere, obj"
+                "{label} has no geometry: give exactly one of quads, triangles, sphere, obj, ply"
             );
             return Err(cx.err(shape.span().or(s.material.span()), f, msg));
         }
@@ -390,8 +408,8 @@ pub(super) fn shape_primitives(
         }
     }
     if let Some(t) = &s.transform {
-        if s.obj.is_none() {
-            let msg = "transform applies only to obj shapes (write quads, triangles and spheres in world space)";
+        if s.obj.is_none() && s.ply.is_none() {
+            let msg = "transform applies only to obj and ply shapes (write quads, triangles and spheres in world space)";
             let span = t.span().or(shape.span());
             return Err(cx.err(span, &format!("{f}.transform"), msg));
         }
@@ -489,6 +507,19 @@ pub(super) fn shape_primitives(
             emitter,
             inward: r.inward,
         });
+    }
+    if let Some(ply) = &s.ply {
+        let xf = match &s.transform {
+            Some(t) => transform(cx, f, &t.value)?,
+            None => Transform::identity(),
+        };
+        let mesh = ObjShape {
+            field: format!("{f}.ply"),
+            label: label.clone(),
+            material,
+            emitter,
+        };
+        super::ply_shape::ply_triangles(cx, &mesh, ply, &xf, &mut out.triangles)?;
     }
     if let Some(obj) = &s.obj {
         let xf = match &s.transform {

@@ -20,12 +20,41 @@ use std::path::Path;
 pub use super::assemble::MAX_FILM_SIZE;
 
 /// Read and load a scene file. Relative OBJ paths are resolved against the file's directory.
+///
+/// A file that is not TOML but looks like another format (a pbrt scene, an OBJ or PLY mesh,
+/// JSON, XML: [`super::sniff::describe`]) is refused with a message that says so.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
-    let source = crate::errors::read_utf8(path).map_err(|source| SceneError::Read {
-        file: path.display().to_string(),
-        source,
+    let source = crate::errors::read_utf8(path).map_err(|source| {
+        // Binary content (a binary PLY mesh, say) fails as UTF-8 before it can fail as TOML.
+        let bytes = std::fs::read(path).unwrap_or_default();
+        match wrong_format(&bytes, path) {
+            Some(e) => e,
+            None => SceneError::Read {
+                file: path.display().to_string(),
+                source,
+            },
+        }
     })?;
     load_str(&source, path)
+}
+
+/// The error for a file that looks like another format, if it does.
+fn wrong_format(bytes: &[u8], path: &Path) -> Option<SceneError> {
+    let kind = super::sniff::describe(bytes)?;
+    let mesh = if kind.ends_with("mesh") {
+        " (a mesh goes into a scene as a shape: `obj = \"mesh.obj\"` in a [[shapes]] table)"
+    } else {
+        ""
+    };
+    Some(SceneError::Invalid {
+        file: path.display().to_string(),
+        line: None,
+        field: None,
+        message: format!(
+            "this looks like {kind}, not a scene file: {}{mesh}",
+            super::sniff::READS
+        ),
+    })
 }
 
 /// Load a scene from its text. `path` names the scene in messages and its parent directory
@@ -40,6 +69,7 @@ pub fn load_str(source: &str, path: &Path) -> Result<Scene, SceneError> {
         dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
         warnings: Vec::new(),
     };
-    let raw: RawScene = toml::from_str(source).map_err(|e| cx.toml_error(&e))?;
+    let raw: RawScene = toml::from_str(source)
+        .map_err(|e| wrong_format(source.as_bytes(), path).unwrap_or_else(|| cx.toml_error(&e)))?;
     build(&mut cx, raw, path)
 }

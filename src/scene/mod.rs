@@ -7,16 +7,22 @@
 //!
 //! The loader's files depend on each other as a tree: `load` (the entry points) uses `schema`
 //! (the raw serde form), `spanned` (values with their lines) and `assemble` (checks and
-//! flattening); `assemble` uses `obj` (OBJ meshes); both use `geometry` (the shape transform and
-//! the triangle checks); every step reports an `error::SceneError`.
+//! flattening); `assemble` uses `obj` (OBJ meshes) and `ply_shape`
+//! (PLY meshes, read by `ply`); both use `geometry` (the shape transform and
+//! the triangle checks); every step reports an `error::SceneError`. A file that is not TOML is
+//! named by `sniff` ("this looks like a pbrt scene").
 
 mod assemble;
+mod delta_lights;
 mod error;
 mod geometry;
 pub mod load;
 mod obj;
+pub mod ply;
+mod ply_shape;
 mod schema;
 pub mod shapes;
+pub mod sniff;
 mod spanned;
 
 use crate::brdf::Material;
@@ -64,6 +70,18 @@ pub struct Emitter {
     pub radiance: Vec3,
 }
 
+/// A light without area (`[[lights]]` in `scenes/README.md`): no ray can hit it, so it is
+/// reached only by next-event estimation (never weighted against BSDF sampling).
+#[derive(Clone, Debug, PartialEq)]
+pub enum DeltaLight {
+    /// Radiant intensity `intensity` (per steradian, the same in every direction) from
+    /// `position`: irradiance `intensity · cos θ / r²` at distance r.
+    Point { position: Vec3, intensity: Vec3 },
+    /// Irradiance `irradiance` on a surface facing the light, arriving from infinitely far
+    /// along the unit `direction` (the way the light travels, as in Mitsuba).
+    Directional { direction: Vec3, irradiance: Vec3 },
+}
+
 /// One triangle. Positions are in world space; the geometric normal is
 /// `normalize(cross(v1 - v0, v2 - v0))` and defines the front side.
 #[derive(Clone, Debug, PartialEq)]
@@ -102,6 +120,8 @@ pub struct Scene {
     pub emitters: Vec<Emitter>,
     pub triangles: Vec<Triangle>,
     pub spheres: Vec<Sphere>,
+    /// Point and directional lights.
+    pub lights: Vec<DeltaLight>,
     /// Constant environment radiance seen by rays that leave the scene.
     pub environment: Vec3,
     /// Legal but suspicious content found while loading (unused materials, skipped
@@ -138,4 +158,5 @@ impl Triangle {
 }
 
 pub use error::SceneError;
+
 pub use load::{load, load_str};

@@ -26,6 +26,21 @@ pub(super) struct RawScene {
     pub(super) materials: BTreeMap<String, Sp<MaterialTable>>,
     #[serde(default)]
     pub(super) shapes: Vec<Sp<RawShape>>,
+    #[serde(default)]
+    pub(super) lights: Vec<Sp<RawLight>>,
+}
+
+/// A `[[lights]]` table: a point or directional light ([`super::delta_lights`] checks which
+/// fields its type takes).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawLight {
+    #[serde(rename = "type")]
+    pub(super) kind: Sp<String>,
+    pub(super) position: Option<V3>,
+    pub(super) intensity: Option<Sp<Triple>>,
+    pub(super) direction: Option<V3>,
+    pub(super) irradiance: Option<Sp<Triple>>,
 }
 
 #[derive(Deserialize)]
@@ -71,6 +86,7 @@ pub(super) struct RawShape {
     pub(super) triangles: Option<Sp<Tris>>,
     pub(super) sphere: Option<Sp<RawSphere>>,
     pub(super) obj: Option<Sp<String>>,
+    pub(super) ply: Option<Sp<String>>,
     pub(super) transform: Option<Sp<RawTransform>>,
 }
 
