@@ -5,9 +5,7 @@
 use super::error::SceneError;
 use super::geometry::{degenerate, edge_overflow, Transform};
 use super::obj::{obj_triangles, ObjShape};
-use super::schema::{
-    MaterialTable, RawCamera, RawIntegrator, RawScene, RawShape, RawTransform, Triple, V3,
-};
+use super::schema::{MaterialTable, RawCamera, RawIntegrator, RawScene, RawShape, Triple, V3};
 use super::spanned::{Cx, Sp};
 use super::{Camera, Emitter, Integrator, Scene, Sphere, Triangle};
 use crate::brdf::params::fmt_num;
@@ -239,6 +237,10 @@ fn materials(
     let mut material_names = Vec::new();
     let mut material_spans = Vec::new();
     for (name, span, table) in defs {
+        // The spans are made relative to the file that holds the table (one of several for
+        // a Mitsuba scene with includes).
+        let table_span = span.clone().unwrap_or(0..0);
+        let (file, source, at) = cx.part_of(table_span.start);
         let mut fields = BTreeMap::new();
         for (key, v) in table {
             let Some(s) = v.span() else {
@@ -247,14 +249,13 @@ fn materials(
                 );
                 return Err(cx.err(span, &format!("materials.{name}.{key}"), msg));
             };
-            fields.insert(key, toml::Spanned::new(s, v.value));
+            fields.insert(key, toml::Spanned::new(s.start - at..s.end - at, v.value));
         }
-        let table_span = span.clone().unwrap_or(0..0);
         let origin = Origin {
-            file: &cx.file,
-            source: cx.source,
+            file,
+            source,
             material: &name,
-            span: table_span,
+            span: table_span.start - at..table_span.end - at,
         };
         let (m, w) = brdf::parse_material(origin, fields)?;
         cx.warnings.extend(w);
@@ -389,13 +390,21 @@ pub(super) fn shape_primitives(
             return Err(cx.err(span.clone(), &format!("{f}.{b}"), msg));
         }
     }
-    if let Some(t) = &s.transform {
-        if s.obj.is_none() {
-            let msg = "transform applies only to obj shapes (write quads, triangles and spheres in world space)";
-            let span = t.span().or(shape.span());
-            return Err(cx.err(span, &format!("{f}.transform"), msg));
+    let xf = match &s.transform {
+        Some(t) => Some(super::transform::transform(cx, f, t)?),
+        None => None,
+    };
+    // A point of a quad or triangle, placed by the shape's transform and still finite.
+    let place = |cx: &Cx, span: Option<Range<usize>>, field: &str, v: [f64; 3]| {
+        let p = cx.vec3(span.clone(), field, v)?;
+        let Some(xf) = &xf else { return Ok(p) };
+        let q = xf.point(p);
+        if !q.is_finite() {
+            let msg = format!("the transform moves vertex {p} out of the single-precision range");
+            return Err(cx.err(span, field, msg));
         }
-    }
+        Ok(q)
+    };
 
     let emitter = match &s.emission {
         Some(e) => {
@@ -426,7 +435,7 @@ pub(super) fn shape_primitives(
             let fq = format!("{f}.quads[{k}]");
             let mut p = [Vec3::ZERO; 4];
             for (j, v) in q.value.iter().enumerate() {
-                p[j] = cx.vec3(q.span(), &fq, v.0)?;
+                p[j] = place(cx, q.span(), &fq, v.0)?;
             }
             for (half, idx) in [[0, 1, 2], [0, 2, 3]].iter().enumerate() {
                 let t = [p[idx[0]], p[idx[1]], p[idx[2]]];
@@ -457,7 +466,7 @@ pub(super) fn shape_primitives(
             let ft = format!("{f}.triangles[{k}]");
             let mut t = [Vec3::ZERO; 3];
             for (j, v) in q.value.iter().enumerate() {
-                t[j] = cx.vec3(q.span(), &ft, v.0)?;
+                t[j] = place(cx, q.span(), &ft, v.0)?;
             }
             if let Some(msg) = edge_overflow(&t) {
                 return Err(cx.err(q.span(), &ft, format!("{label}, triangle {k}: {msg}")));
@@ -472,15 +481,18 @@ pub(super) fn shape_primitives(
     }
     if let Some(sp) = &s.sphere {
         let r = &sp.value;
-        let center = cx.v3(&r.center, &format!("{f}.sphere.center"))?;
+        let mut center = cx.v3(&r.center, &format!("{f}.sphere.center"))?;
         let fr = format!("{f}.sphere.radius");
-        let radius = cx.finite(r.radius.span(), &fr, r.radius.value)?;
+        let mut radius = cx.finite(r.radius.span(), &fr, r.radius.value)?;
         if radius <= 0.0 {
             let msg = format!(
                 "{} is out of range: the radius must be > 0",
                 fmt_num(radius)
             );
             return Err(cx.err(r.radius.span(), &fr, msg));
+        }
+        if let (Some(xf), Some(t)) = (&xf, &s.transform) {
+            (center, radius) = transformed_sphere(cx, f, t.span(), xf, center, radius)?;
         }
         out.spheres.push(Sphere {
             center,
@@ -491,10 +503,7 @@ pub(super) fn shape_primitives(
         });
     }
     if let Some(obj) = &s.obj {
-        let xf = match &s.transform {
-            Some(t) => transform(cx, f, &t.value)?,
-            None => Transform::identity(),
-        };
+        let xf = xf.unwrap_or_else(Transform::identity);
         let mesh = ObjShape {
             field: format!("{f}.obj"),
             label,
@@ -506,27 +515,23 @@ pub(super) fn shape_primitives(
     Ok(())
 }
 
-pub(super) fn transform(cx: &Cx, f: &str, t: &RawTransform) -> Result<Transform, SceneError> {
-    let mut xf = Transform::identity();
-    if let Some(v) = &t.translate {
-        xf.translate = cx.v3(v, &format!("{f}.transform.translate"))?;
+/// A sphere under a transform: only a similarity keeps it a sphere.
+fn transformed_sphere(
+    cx: &Cx,
+    f: &str,
+    span: Option<Range<usize>>,
+    xf: &Transform,
+    center: Vec3,
+    radius: f32,
+) -> Result<(Vec3, f32), SceneError> {
+    let Some(s) = xf.similarity_scale() else {
+        let msg = "a sphere's transform must be a similarity (rotation, uniform scale, translation): any other map makes an ellipsoid";
+        return Err(cx.err(span, &format!("{f}.transform"), msg));
+    };
+    let (c, r) = (xf.point(center), (radius as f64 * s) as f32);
+    if !(c.is_finite() && r.is_finite() && r > 0.0) {
+        let msg = "the transform moves the sphere out of the single-precision range";
+        return Err(cx.err(span, &format!("{f}.transform"), msg));
     }
-    if let Some(s) = &t.scale {
-        let fs = format!("{f}.transform.scale");
-        xf.scale = cx.vec3(s.span(), &fs, s.value.0)?;
-        if xf.scale.min_element() <= 0.0 {
-            let msg = format!(
-                "{} is out of range: every scale factor must be > 0 (a mirror would turn the mesh inside out)",
-                fmt_vec(xf.scale)
-            );
-            return Err(cx.err(s.span(), &fs, msg));
-        }
-    }
-    if let Some(a) = &t.rotate_y_deg {
-        let deg = cx.finite(a.span(), &format!("{f}.transform.rotate_y_deg"), a.value)?;
-        let rad = (deg as f64).to_radians();
-        xf.cos = rad.cos() as f32;
-        xf.sin = rad.sin() as f32;
-    }
-    Ok(xf)
+    Ok((c, r))
 }

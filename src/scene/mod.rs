@@ -14,10 +14,12 @@ mod assemble;
 mod error;
 mod geometry;
 pub mod load;
+pub mod mitsuba;
 mod obj;
 mod schema;
 pub mod shapes;
 mod spanned;
+mod transform;
 
 use crate::brdf::Material;
 use glam::{Vec2, Vec3};
@@ -138,4 +140,4 @@ impl Triangle {
 }
 
 pub use error::SceneError;
-pub use load::{load, load_str};
+pub use load::{load, load_str, load_with};

@@ -89,6 +89,16 @@ pub(super) struct RawTransform {
     pub(super) translate: Option<V3>,
     pub(super) scale: Option<Sp<Triple>>,
     pub(super) rotate_y_deg: Option<Sp<f64>>,
+    pub(super) rotate: Option<Sp<RawRotate>>,
+    /// A row-major 4×4 affine matrix; alone, without the other fields.
+    pub(super) matrix: Option<Sp<Arr<Arr<f64, 4>, 4>>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawRotate {
+    pub(super) axis: V3,
+    pub(super) angle_deg: Sp<f64>,
 }
 
 /// A number (meaning the same value three times) or an array of three numbers.

@@ -1,0 +1,1 @@
+//! The Mitsuba 3 XML writer.
