@@ -124,7 +124,8 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
         }
     }
 
-    let (materials, material_names, material_spans) = materials(cx, raw.materials)?;
+    let (materials, material_names, material_spans, material_params) =
+        materials(cx, raw.materials)?;
     let index: HashMap<&str, usize> = material_names
         .iter()
         .enumerate()
@@ -176,6 +177,7 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
         integrator,
         materials,
         material_names,
+        material_params,
         emitters: out.emitters,
         triangles: out.triangles,
         spheres: out.spheres,
@@ -215,11 +217,20 @@ fn integrator(cx: &Cx, raw: Option<&RawIntegrator>) -> Result<Integrator, SceneE
 
 /// The materials, in file order (the map is sorted by name; the spans give the order): each
 /// parsed by its model, with its name and the span of its table.
+/// Also each material's parameters as written (`Scene::material_params`).
 #[allow(clippy::type_complexity)]
 fn materials(
     cx: &mut Cx,
     raw: BTreeMap<String, Sp<MaterialTable>>,
-) -> Result<(Vec<brdf::Material>, Vec<String>, Vec<Option<Range<usize>>>), SceneError> {
+) -> Result<
+    (
+        Vec<brdf::Material>,
+        Vec<String>,
+        Vec<Option<Range<usize>>>,
+        Vec<BTreeMap<String, toml::Value>>,
+    ),
+    SceneError,
+> {
     let mut defs: Vec<(String, Option<Range<usize>>, MaterialTable)> = Vec::new();
     for (name, table) in raw {
         // A table made by dotted keys has no span of its own: use its first field's.
@@ -236,6 +247,7 @@ fn materials(
     let mut materials = Vec::new();
     let mut material_names = Vec::new();
     let mut material_spans = Vec::new();
+    let mut params = Vec::new();
     for (name, span, table) in defs {
         // The spans are made relative to the file that holds the table (one of several for
         // a Mitsuba scene with includes).
@@ -251,6 +263,7 @@ fn materials(
             };
             fields.insert(key, toml::Spanned::new(s.start - at..s.end - at, v.value));
         }
+        params.push(fields.iter().map(|(k, v)| (k.clone(), v.get_ref().clone())).collect());
         let origin = Origin {
             file,
             source,
@@ -263,7 +276,7 @@ fn materials(
         material_names.push(name);
         material_spans.push(span);
     }
-    Ok((materials, material_names, material_spans))
+    Ok((materials, material_names, material_spans, params))
 }
 
 /// The error of a scene without primitives: none given, or shapes whose geometry came to
@@ -503,7 +516,11 @@ pub(super) fn shape_primitives(
         });
     }
     if let Some(obj) = &s.obj {
-        let xf = xf.unwrap_or_else(Transform::identity);
+        let xf = match xf {
+            Some(xf) => xf,
+            None if s.as_written => Transform::AsWritten,
+            None => Transform::identity(),
+        };
         let mesh = ObjShape {
             field: format!("{f}.obj"),
             label,

@@ -24,6 +24,10 @@ pub(super) enum Transform {
         /// The translation `t`.
         t: DVec3,
     },
+    /// No transform at all (a Mitsuba mesh without `to_world`): points as written, and normals
+    /// as written when they are unit to single precision (so that the OBJ files `brdfwave
+    /// convert` writes give back the very same normals), else normalised.
+    AsWritten,
 }
 
 fn d(v: Vec3) -> DVec3 {
@@ -72,6 +76,7 @@ impl Transform {
                 (r * DMat3::from_diagonal(d(scale)), d(translate))
             }
             Transform::Affine { a, t } => (a, t),
+            Transform::AsWritten => (DMat3::IDENTITY, DVec3::ZERO),
         }
     }
     /// Rotation about +y, counter-clockwise seen from above (+z turns toward +x).
@@ -87,6 +92,7 @@ impl Transform {
                 sin,
             } => *translate + Self::rot(*cos, *sin, *scale * p),
             Transform::Affine { a, t } => f(*a * d(p) + *t),
+            Transform::AsWritten => p,
         }
     }
     pub(super) fn normal(&self, n: Vec3) -> Vec3 {
@@ -97,6 +103,8 @@ impl Transform {
             Transform::Affine { a, .. } => {
                 f((a.inverse().transpose() * d(n)).normalize_or_zero())
             }
+            Transform::AsWritten if (n.length_squared() - 1.0).abs() <= 4.0 * f32::EPSILON => n,
+            Transform::AsWritten => n.normalize_or_zero(),
         }
     }
     /// The uniform scale factor `s` when the map is a similarity (`AᵀA = s² I` to within

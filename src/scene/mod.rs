@@ -101,6 +101,9 @@ pub struct Scene {
     pub materials: Vec<Material>,
     /// Material names, parallel to `materials`.
     pub material_names: Vec<String>,
+    /// Each material's parameters as the scene file gave them (`model` included), parallel to
+    /// `materials`: what `brdfwave convert` writes for the models Mitsuba lacks.
+    pub material_params: Vec<std::collections::BTreeMap<String, toml::Value>>,
     pub emitters: Vec<Emitter>,
     pub triangles: Vec<Triangle>,
     pub spheres: Vec<Sphere>,

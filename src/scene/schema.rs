@@ -72,6 +72,10 @@ pub(super) struct RawShape {
     pub(super) sphere: Option<Sp<RawSphere>>,
     pub(super) obj: Option<Sp<String>>,
     pub(super) transform: Option<Sp<RawTransform>>,
+    /// Set by the Mitsuba reader for an OBJ without `to_world`: its vertices are world space
+    /// as written, taken bit for bit ([`super::geometry::Transform::AsWritten`]).
+    #[serde(skip)]
+    pub(super) as_written: bool,
 }
 
 #[derive(Deserialize)]

@@ -452,6 +452,7 @@ pub(super) fn raw_shape(el: &El, material: Sp<String>) -> RawShape {
         sphere: None,
         obj: None,
         transform: None,
+        as_written: false,
     }
 }
 

@@ -127,6 +127,7 @@ pub(super) fn shape(
         }
     }
     raw.transform = shape_transform(cx, to_world)?;
+    raw.as_written = raw.transform.is_none();
     p.finish(cx, supported)?;
     Ok(sp(el, raw))
 }
