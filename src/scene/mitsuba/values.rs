@@ -79,6 +79,7 @@ impl Cx<'_> {
 
 /// A composed `to_world`: the matrix, and the lookat's (origin, target, up) when the
 /// transform is exactly one `<lookat>` (a camera then keeps the written points exactly).
+#[derive(Debug)]
 pub(super) struct ToWorld {
     pub(super) m: DMat4,
     pub(super) lookat: Option<[[f64; 3]; 3]>,

@@ -45,7 +45,7 @@ pub fn to_mitsuba(s: &Scene, mesh_dir: &str, opts: Options) -> Result<Converted,
     let _ = writeln!(
         x,
         "<!-- Written by `brdfwave convert` from {}. -->",
-        attr(&s.path.display().to_string()).replace("--", "- -")
+        attr(&s.path.file_name().unwrap_or_default().to_string_lossy()).replace("--", "- -")
     );
     x.push_str("<scene version=\"3.0.0\">\n");
     integrator(&mut x, s);
