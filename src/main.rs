@@ -54,6 +54,8 @@ struct Cli {
 enum Command {
     /// Render a scene file to one or more images (.exr linear, .png sRGB).
     Render(cmd::render::RenderArgs),
+    /// Write a scene in another renderer's format: Mitsuba 3 XML, with its meshes as OBJ files.
+    Convert(cmd::convert::ConvertArgs),
     /// Merge partial films (.bwfilm outputs of `render`) into one image: the parts must come
     /// from the same scene, settings and program version and cover every pixel and sample once.
     Merge(cmd::merge::MergeArgs),
@@ -93,6 +95,7 @@ fn main() {
     };
     let result = match cli.command {
         Command::Render(args) => cmd::render::run(args),
+        Command::Convert(args) => cmd::convert::run(args),
         Command::Merge(args) => cmd::merge::run(args),
         Command::Diff(args) => cmd::diff::run(args),
         Command::Bench(args) => cmd::bench::run(args),

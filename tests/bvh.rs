@@ -48,6 +48,7 @@ fn scene(tris: Vec<[Vec3; 3]>, spheres: Vec<(Vec3, f32, bool)>) -> Scene {
         integrator: Integrator::default(),
         materials: Vec::new(),
         material_names: Vec::new(),
+        material_params: Vec::new(),
         emitters: Vec::new(),
         triangles: tris
             .into_iter()

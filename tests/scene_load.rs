@@ -524,12 +524,93 @@ fn transform_fields_are_checked() {
         "{}",
         ok.triangles[0].v[1]
     );
-    // Transforms belong to OBJ shapes only.
+    // A sphere takes a similarity: scale 2 doubles its radius; a non-uniform scale would make
+    // an ellipsoid.
     let src = with(
         "radius = 1.0 }",
         "radius = 1.0 }\ntransform = { scale = 2.0 }",
     );
-    expect_error(&src, "transform", "shapes[0].transform", "only to obj");
+    let s = load_str(&src, &path).unwrap();
+    assert!((s.spheres[0].radius - 2.0).abs() < 1e-6);
+    let src = with(
+        "radius = 1.0 }",
+        "radius = 1.0 }\ntransform = { scale = [2.0, 1.0, 1.0] }",
+    );
+    expect_error(&src, "transform", "shapes[0].transform", "similarity");
+}
+
+/// The general transforms: a row-major 4×4 `matrix` and `rotate` about any axis, on every
+/// geometry kind, against hand-computed values; each bad one refused with its field.
+#[test]
+fn general_transforms() {
+    let tri = |t: &str| {
+        format!(
+            "{BASE}\n[[shapes]]\nmaterial = \"m\"\ntriangles = [[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]]\ntransform = {t}\n"
+        )
+    };
+    let path = Path::new("dir/t.toml");
+    let v = |t: &str| load_str(&tri(t), path).unwrap().triangles[0].v;
+    // Rotation by 90° about +z: x → y, y → -x, z stays; then translated by (0, 0, 5).
+    let r = v("{ rotate = { axis = [0.0, 0.0, 2.0], angle_deg = 90.0 }, translate = [0.0, 0.0, 5.0] }");
+    for (got, want) in r.iter().zip([
+        Vec3::new(0.0, 1.0, 5.0),
+        Vec3::new(-1.0, 0.0, 5.0),
+        Vec3::new(0.0, 0.0, 6.0),
+    ]) {
+        assert!((*got - want).length() < 1e-6, "{got} vs {want}");
+    }
+    // 120° about (1, 1, 1) permutes the axes x → y → z → x.
+    let r = v("{ rotate = { axis = [1.0, 1.0, 1.0], angle_deg = 120.0 } }");
+    assert!((r[0] - Vec3::Y).length() < 1e-6 && (r[1] - Vec3::Z).length() < 1e-6);
+    // A matrix, row by row: x' = 2x + 7, y' = -z + 8, z' = y + 9.
+    let m = v("{ matrix = [[2.0, 0.0, 0.0, 7.0], [0.0, 0.0, -1.0, 8.0], [0.0, 1.0, 0.0, 9.0], [0.0, 0.0, 0.0, 1.0]] }");
+    assert_eq!(m, [Vec3::new(9.0, 8.0, 9.0), Vec3::new(7.0, 8.0, 10.0), Vec3::new(7.0, 7.0, 9.0)]);
+
+    let check = |t: &str, field: &str, what: &str| {
+        let src = tri(t);
+        let msg = load_str(&src, path).expect_err("must fail").to_string();
+        let line = line_of(&src, "transform");
+        assert!(msg.starts_with(&format!("dir/t.toml:{line}: ")), "{msg}");
+        assert!(msg.contains(&format!("field '{field}'")) && msg.contains(what), "{msg}");
+    };
+    let f = "shapes[1].transform";
+    check(
+        "{ matrix = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 1.0, 1.0]] }",
+        &format!("{f}.matrix"),
+        "projective",
+    );
+    check(
+        "{ matrix = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]] }",
+        &format!("{f}.matrix"),
+        "singular",
+    );
+    check(
+        "{ matrix = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0]] }",
+        &format!("{f}.matrix"),
+        "array of 4 elements",
+    );
+    check(
+        "{ matrix = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]], scale = 2.0 }",
+        &format!("{f}.matrix"),
+        "matrix stands alone",
+    );
+    check(
+        "{ rotate = { axis = [0.0, 0.0, 0.0], angle_deg = 3.0 } }",
+        &format!("{f}.rotate.axis"),
+        "zero length",
+    );
+    check(
+        "{ rotate = { axis = [0.0, 1.0, 0.0], angle_deg = 3.0 }, rotate_y_deg = 3.0 }",
+        &format!("{f}.rotate_y_deg"),
+        "not both",
+    );
+    // A mirror is legal with a warning: the winding, and so the front side, turns over.
+    let s = load_str(
+        &tri("{ matrix = [[-1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]] }"),
+        path,
+    )
+    .unwrap();
+    assert!(s.warnings.iter().any(|w| w.contains("mirrors")), "{:?}", s.warnings);
 }
 
 #[test]

@@ -3,6 +3,7 @@
 
 pub mod bench;
 pub mod brdf;
+pub mod convert;
 pub mod devices;
 pub mod diff;
 pub mod fit;
@@ -43,6 +44,19 @@ pub fn parse_sampler(s: &str) -> std::result::Result<brdfwave::rng::Sampler, Str
             brdfwave::rng::Sampler::names()
         )
     })
+}
+
+/// `NAME=VALUE` of `-D` (a Mitsuba scene parameter).
+pub fn parse_define(s: &str) -> std::result::Result<(String, String), String> {
+    let (name, value) = s
+        .split_once('=')
+        .ok_or_else(|| format!("'{s}' is not NAME=VALUE"))?;
+    if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+        return Err(format!(
+            "'{name}' is not a parameter name (letters, digits and underscores)"
+        ));
+    }
+    Ok((name.to_string(), value.to_string()))
 }
 
 pub fn parse_res(s: &str) -> std::result::Result<(u32, u32), String> {

@@ -23,8 +23,12 @@ use std::time::Instant;
 /// The options of `brdfwave render`.
 #[derive(clap::Args)]
 pub struct RenderArgs {
-    /// The scene file (TOML; scenes/README.md documents the format).
+    /// The scene file: TOML, or Mitsuba 3 XML when it ends in .xml (scenes/README.md
+    /// documents both).
     scene: PathBuf,
+    /// Set a parameter of a Mitsuba XML scene (overrides its `<default>`), like Mitsuba's -D.
+    #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = super::parse_define)]
+    define: Vec<(String, String)>,
     /// Renderer: the Vulkan wavefront path tracer or the CPU reference.
     #[arg(long, value_enum, default_value = "gpu")]
     backend: Backend,
@@ -355,7 +359,7 @@ impl Outputs {
 
 pub fn run(a: RenderArgs) -> Result<()> {
     let t0 = Instant::now();
-    let mut sc = scene::load(&a.scene)?;
+    let mut sc = scene::load_with(&a.scene, &a.define)?;
     for w in &sc.warnings {
         eprintln!("{w}");
     }

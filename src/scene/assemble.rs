@@ -5,9 +5,7 @@
 use super::error::SceneError;
 use super::geometry::{degenerate, edge_overflow, Transform};
 use super::obj::{obj_triangles, ObjShape};
-use super::schema::{
-    MaterialTable, RawCamera, RawIntegrator, RawScene, RawShape, RawTransform, Triple, V3,
-};
+use super::schema::{MaterialTable, RawCamera, RawIntegrator, RawScene, RawShape, Triple, V3};
 use super::spanned::{Cx, Sp};
 use super::{Camera, Emitter, Integrator, Scene, Sphere, Triangle};
 use crate::brdf::params::fmt_num;
@@ -126,7 +124,8 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
         }
     }
 
-    let (materials, material_names, material_spans) = materials(cx, raw.materials)?;
+    let (materials, material_names, material_spans, material_params) =
+        materials(cx, raw.materials)?;
     let index: HashMap<&str, usize> = material_names
         .iter()
         .enumerate()
@@ -179,6 +178,7 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
         integrator,
         materials,
         material_names,
+        material_params,
         emitters: out.emitters,
         triangles: out.triangles,
         spheres: out.spheres,
@@ -219,11 +219,20 @@ fn integrator(cx: &Cx, raw: Option<&RawIntegrator>) -> Result<Integrator, SceneE
 
 /// The materials, in file order (the map is sorted by name; the spans give the order): each
 /// parsed by its model, with its name and the span of its table.
+/// Also each material's parameters as written (`Scene::material_params`).
 #[allow(clippy::type_complexity)]
 fn materials(
     cx: &mut Cx,
     raw: BTreeMap<String, Sp<MaterialTable>>,
-) -> Result<(Vec<brdf::Material>, Vec<String>, Vec<Option<Range<usize>>>), SceneError> {
+) -> Result<
+    (
+        Vec<brdf::Material>,
+        Vec<String>,
+        Vec<Option<Range<usize>>>,
+        Vec<BTreeMap<String, toml::Value>>,
+    ),
+    SceneError,
+> {
     let mut defs: Vec<(String, Option<Range<usize>>, MaterialTable)> = Vec::new();
     for (name, table) in raw {
         // A table made by dotted keys has no span of its own: use its first field's.
@@ -240,7 +249,12 @@ fn materials(
     let mut materials = Vec::new();
     let mut material_names = Vec::new();
     let mut material_spans = Vec::new();
+    let mut params = Vec::new();
     for (name, span, table) in defs {
+        // The spans are made relative to the file that holds the table (one of several for
+        // a Mitsuba scene with includes).
+        let table_span = span.clone().unwrap_or(0..0);
+        let (file, source, at) = cx.part_of(table_span.start);
         let mut fields = BTreeMap::new();
         let mut twosided = false;
         for (key, v) in table {
@@ -263,14 +277,14 @@ fn materials(
                 );
                 return Err(cx.err(span, &format!("materials.{name}.{key}"), msg));
             };
-            fields.insert(key, toml::Spanned::new(s, v.value));
+            fields.insert(key, toml::Spanned::new(s.start - at..s.end - at, v.value));
         }
-        let table_span = span.clone().unwrap_or(0..0);
+        params.push(fields.iter().map(|(k, v)| (k.clone(), v.get_ref().clone())).collect());
         let origin = Origin {
-            file: &cx.file,
-            source: cx.source,
+            file,
+            source,
             material: &name,
-            span: table_span,
+            span: table_span.start - at..table_span.end - at,
         };
         let (mut m, w) = brdf::parse_material(origin, fields)?;
         m.twosided = twosided;
@@ -279,7 +293,7 @@ fn materials(
         material_names.push(name);
         material_spans.push(span);
     }
-    Ok((materials, material_names, material_spans))
+    Ok((materials, material_names, material_spans, params))
 }
 
 /// The error of a scene without primitives: none given, or shapes whose geometry came to
@@ -407,13 +421,21 @@ pub(super) fn shape_primitives(
             return Err(cx.err(span.clone(), &format!("{f}.{b}"), msg));
         }
     }
-    if let Some(t) = &s.transform {
-        if s.obj.is_none() && s.ply.is_none() {
-            let msg = "transform applies only to obj and ply shapes (write quads, triangles and spheres in world space)";
-            let span = t.span().or(shape.span());
-            return Err(cx.err(span, &format!("{f}.transform"), msg));
+    let xf = match &s.transform {
+        Some(t) => Some(super::transform::transform(cx, f, t)?),
+        None => None,
+    };
+    // A point of a quad or triangle, placed by the shape's transform and still finite.
+    let place = |cx: &Cx, span: Option<Range<usize>>, field: &str, v: [f64; 3]| {
+        let p = cx.vec3(span.clone(), field, v)?;
+        let Some(xf) = &xf else { return Ok(p) };
+        let q = xf.point(p);
+        if !q.is_finite() {
+            let msg = format!("the transform moves vertex {p} out of the single-precision range");
+            return Err(cx.err(span, field, msg));
         }
-    }
+        Ok(q)
+    };
 
     let emitter = match &s.emission {
         Some(e) => {
@@ -444,7 +466,7 @@ pub(super) fn shape_primitives(
             let fq = format!("{f}.quads[{k}]");
             let mut p = [Vec3::ZERO; 4];
             for (j, v) in q.value.iter().enumerate() {
-                p[j] = cx.vec3(q.span(), &fq, v.0)?;
+                p[j] = place(cx, q.span(), &fq, v.0)?;
             }
             for (half, idx) in [[0, 1, 2], [0, 2, 3]].iter().enumerate() {
                 let t = [p[idx[0]], p[idx[1]], p[idx[2]]];
@@ -475,7 +497,7 @@ pub(super) fn shape_primitives(
             let ft = format!("{f}.triangles[{k}]");
             let mut t = [Vec3::ZERO; 3];
             for (j, v) in q.value.iter().enumerate() {
-                t[j] = cx.vec3(q.span(), &ft, v.0)?;
+                t[j] = place(cx, q.span(), &ft, v.0)?;
             }
             if let Some(msg) = edge_overflow(&t) {
                 return Err(cx.err(q.span(), &ft, format!("{label}, triangle {k}: {msg}")));
@@ -490,15 +512,18 @@ pub(super) fn shape_primitives(
     }
     if let Some(sp) = &s.sphere {
         let r = &sp.value;
-        let center = cx.v3(&r.center, &format!("{f}.sphere.center"))?;
+        let mut center = cx.v3(&r.center, &format!("{f}.sphere.center"))?;
         let fr = format!("{f}.sphere.radius");
-        let radius = cx.finite(r.radius.span(), &fr, r.radius.value)?;
+        let mut radius = cx.finite(r.radius.span(), &fr, r.radius.value)?;
         if radius <= 0.0 {
             let msg = format!(
                 "{} is out of range: the radius must be > 0",
                 fmt_num(radius)
             );
             return Err(cx.err(r.radius.span(), &fr, msg));
+        }
+        if let (Some(xf), Some(t)) = (&xf, &s.transform) {
+            (center, radius) = transformed_sphere(cx, f, t.span(), xf, center, radius)?;
         }
         out.spheres.push(Sphere {
             center,
@@ -508,24 +533,25 @@ pub(super) fn shape_primitives(
             inward: r.inward,
         });
     }
+    // A mesh's vertices: placed by the transform, or taken as written (a Mitsuba XML twin's
+    // exact geometry), else as they are.
+    let mesh_xf = match xf {
+        Some(xf) => xf,
+        None if s.as_written => Transform::AsWritten,
+        None => Transform::identity(),
+    };
     if let Some(ply) = &s.ply {
-        let xf = match &s.transform {
-            Some(t) => transform(cx, f, &t.value)?,
-            None => Transform::identity(),
-        };
+        let xf = &mesh_xf;
         let mesh = ObjShape {
             field: format!("{f}.ply"),
             label: label.clone(),
             material,
             emitter,
         };
-        super::ply_shape::ply_triangles(cx, &mesh, ply, &xf, &mut out.triangles)?;
+        super::ply_shape::ply_triangles(cx, &mesh, ply, xf, &mut out.triangles)?;
     }
     if let Some(obj) = &s.obj {
-        let xf = match &s.transform {
-            Some(t) => transform(cx, f, &t.value)?,
-            None => Transform::identity(),
-        };
+        let xf = mesh_xf;
         let mesh = ObjShape {
             field: format!("{f}.obj"),
             label,
@@ -537,27 +563,23 @@ pub(super) fn shape_primitives(
     Ok(())
 }
 
-pub(super) fn transform(cx: &Cx, f: &str, t: &RawTransform) -> Result<Transform, SceneError> {
-    let mut xf = Transform::identity();
-    if let Some(v) = &t.translate {
-        xf.translate = cx.v3(v, &format!("{f}.transform.translate"))?;
+/// A sphere under a transform: only a similarity keeps it a sphere.
+fn transformed_sphere(
+    cx: &Cx,
+    f: &str,
+    span: Option<Range<usize>>,
+    xf: &Transform,
+    center: Vec3,
+    radius: f32,
+) -> Result<(Vec3, f32), SceneError> {
+    let Some(s) = xf.similarity_scale() else {
+        let msg = "a sphere's transform must be a similarity (rotation, uniform scale, translation): any other map makes an ellipsoid";
+        return Err(cx.err(span, &format!("{f}.transform"), msg));
+    };
+    let (c, r) = (xf.point(center), (radius as f64 * s) as f32);
+    if !(c.is_finite() && r.is_finite() && r > 0.0) {
+        let msg = "the transform moves the sphere out of the single-precision range";
+        return Err(cx.err(span, &format!("{f}.transform"), msg));
     }
-    if let Some(s) = &t.scale {
-        let fs = format!("{f}.transform.scale");
-        xf.scale = cx.vec3(s.span(), &fs, s.value.0)?;
-        if xf.scale.min_element() <= 0.0 {
-            let msg = format!(
-                "{} is out of range: every scale factor must be > 0 (a mirror would turn the mesh inside out)",
-                fmt_vec(xf.scale)
-            );
-            return Err(cx.err(s.span(), &fs, msg));
-        }
-    }
-    if let Some(a) = &t.rotate_y_deg {
-        let deg = cx.finite(a.span(), &format!("{f}.transform.rotate_y_deg"), a.value)?;
-        let rad = (deg as f64).to_radians();
-        xf.cos = rad.cos() as f32;
-        xf.sin = rad.sin() as f32;
-    }
-    Ok(xf)
+    Ok((c, r))
 }

@@ -1,39 +1,138 @@
 //! The geometry that both the shape assembly ([`super::assemble`]) and the OBJ reader
 //! ([`super::obj`]) apply: the shape transform and the triangle checks.
 
-use glam::Vec3;
+use glam::{DMat3, DVec3, Vec3};
 
-/// `p' = translate + R_y(angle) · (scale ⊙ p)`; normals `n' = normalize(R_y · (n / scale))`.
-pub(super) struct Transform {
-    pub(super) translate: Vec3,
-    pub(super) scale: Vec3,
-    pub(super) cos: f32,
-    pub(super) sin: f32,
+/// A shape's placement. Two forms:
+/// * [`Transform::Trs`], the original TOML form `translate + R_y(angle) · (scale ⊙ p)`,
+///   evaluated in f32 exactly as it always was (the shipped scenes' vertices stay bit for bit);
+/// * [`Transform::Affine`], any invertible affine map `p' = A p + t` (a TOML `matrix`, a
+///   rotation about any axis, a Mitsuba `to_world`), evaluated in f64 and rounded once to f32.
+///
+/// Normals go through the inverse transpose and are renormalised.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) enum Transform {
+    Trs {
+        translate: Vec3,
+        scale: Vec3,
+        cos: f32,
+        sin: f32,
+    },
+    Affine {
+        /// The linear part `A`.
+        a: DMat3,
+        /// The translation `t`.
+        t: DVec3,
+    },
+    /// No transform at all (a Mitsuba mesh without `to_world`): points as written, and normals
+    /// as written when they are unit to single precision (so that the OBJ files `brdfwave
+    /// convert` writes give back the very same normals), else normalised.
+    AsWritten,
+}
+
+fn d(v: Vec3) -> DVec3 {
+    DVec3::new(v.x as f64, v.y as f64, v.z as f64)
+}
+
+fn f(v: DVec3) -> Vec3 {
+    Vec3::new(v.x as f32, v.y as f32, v.z as f32)
 }
 
 impl Transform {
     pub(super) fn identity() -> Self {
-        Transform {
+        Transform::Trs {
             translate: Vec3::ZERO,
             scale: Vec3::ONE,
             cos: 1.0,
             sin: 0.0,
         }
     }
+    /// The affine map of a row-major 4×4 matrix whose last row is `[0, 0, 0, 1]`.
+    pub(super) fn from_rows(m: &[[f64; 4]; 4]) -> Self {
+        Transform::Affine {
+            a: DMat3::from_cols(
+                DVec3::new(m[0][0], m[1][0], m[2][0]),
+                DVec3::new(m[0][1], m[1][1], m[2][1]),
+                DVec3::new(m[0][2], m[1][2], m[2][2]),
+            ),
+            t: DVec3::new(m[0][3], m[1][3], m[2][3]),
+        }
+    }
+    /// The same map as an [`Transform::Affine`] (in f64).
+    pub(super) fn affine(&self) -> (DMat3, DVec3) {
+        match *self {
+            Transform::Trs {
+                translate,
+                scale,
+                cos,
+                sin,
+            } => {
+                let (c, s) = (cos as f64, sin as f64);
+                let r = DMat3::from_cols(
+                    DVec3::new(c, 0.0, -s),
+                    DVec3::Y,
+                    DVec3::new(s, 0.0, c),
+                );
+                (r * DMat3::from_diagonal(d(scale)), d(translate))
+            }
+            Transform::Affine { a, t } => (a, t),
+            Transform::AsWritten => (DMat3::IDENTITY, DVec3::ZERO),
+        }
+    }
     /// Rotation about +y, counter-clockwise seen from above (+z turns toward +x).
-    fn rot(&self, p: Vec3) -> Vec3 {
-        Vec3::new(
-            self.cos * p.x + self.sin * p.z,
-            p.y,
-            -self.sin * p.x + self.cos * p.z,
-        )
+    fn rot(cos: f32, sin: f32, p: Vec3) -> Vec3 {
+        Vec3::new(cos * p.x + sin * p.z, p.y, -sin * p.x + cos * p.z)
     }
     pub(super) fn point(&self, p: Vec3) -> Vec3 {
-        self.translate + self.rot(self.scale * p)
+        match self {
+            Transform::Trs {
+                translate,
+                scale,
+                cos,
+                sin,
+            } => *translate + Self::rot(*cos, *sin, *scale * p),
+            Transform::Affine { a, t } => f(*a * d(p) + *t),
+            Transform::AsWritten => p,
+        }
     }
     pub(super) fn normal(&self, n: Vec3) -> Vec3 {
-        self.rot(n / self.scale).normalize_or_zero()
+        match self {
+            Transform::Trs {
+                scale, cos, sin, ..
+            } => Self::rot(*cos, *sin, n / *scale).normalize_or_zero(),
+            Transform::Affine { a, .. } => {
+                f((a.inverse().transpose() * d(n)).normalize_or_zero())
+            }
+            Transform::AsWritten if (n.length_squared() - 1.0).abs() <= 4.0 * f32::EPSILON => n,
+            Transform::AsWritten => n.normalize_or_zero(),
+        }
     }
+    /// The uniform scale factor `s` when the map is a similarity (`AᵀA = s² I` to within
+    /// 1e-6 relative: a rotation, a uniform scale, a translation), else `None`.
+    pub(super) fn similarity_scale(&self) -> Option<f64> {
+        let (a, _) = self.affine();
+        let ata = a.transpose() * a;
+        let s2 = (ata.x_axis.x + ata.y_axis.y + ata.z_axis.z) / 3.0;
+        let dev = (ata - DMat3::from_diagonal(DVec3::splat(s2)))
+            .to_cols_array()
+            .iter()
+            .fold(0.0f64, |m, x| m.max(x.abs()));
+        (s2 > 0.0 && s2.is_finite() && dev <= 1e-6 * s2).then(|| s2.sqrt())
+    }
+}
+
+/// The rotation by `deg` degrees about `axis` (any non-zero vector), counter-clockwise when
+/// the axis points at the viewer (the right-hand rule, as Mitsuba's `rotate`): Rodrigues'
+/// formula in f64.
+pub(super) fn axis_rotation(axis: DVec3, deg: f64) -> DMat3 {
+    let k = axis.normalize();
+    let (s, c) = deg.to_radians().sin_cos();
+    let kx = DMat3::from_cols(
+        DVec3::new(0.0, k.z, -k.y),
+        DVec3::new(-k.z, 0.0, k.x),
+        DVec3::new(k.y, -k.x, 0.0),
+    );
+    DMat3::IDENTITY * c + kx * s + DMat3::from_cols(k * k.x, k * k.y, k * k.z) * (1.0 - c)
 }
 
 /// Zero-area test: the two edges from `v0` are parallel or empty to within single precision,
@@ -68,19 +167,59 @@ mod tests {
 
     #[test]
     fn transform_rotates_counter_clockwise_from_above() {
-        let mut xf = Transform::identity();
-        xf.cos = 0.0;
-        xf.sin = 1.0;
+        let xf = Transform::Trs {
+            translate: Vec3::ZERO,
+            scale: Vec3::ONE,
+            cos: 0.0,
+            sin: 1.0,
+        };
         assert!((xf.point(Vec3::Z) - Vec3::X).length() < 1e-6);
-        xf.scale = Vec3::new(2.0, 1.0, 1.0);
         // A normal of a plane x = y stretched in x: the normal tilts toward y.
-        let n = Transform {
+        let n = Transform::Trs {
+            translate: Vec3::ZERO,
+            scale: Vec3::new(2.0, 1.0, 1.0),
             cos: 1.0,
             sin: 0.0,
-            ..xf
         }
         .normal(Vec3::new(1.0, -1.0, 0.0));
         assert!((n - Vec3::new(1.0, -2.0, 0.0).normalize()).length() < 1e-6);
+    }
+
+    /// Both forms of one map agree: scale 2, 90° about y, then a translation.
+    #[test]
+    fn affine_form_matches_the_trs_form() {
+        let trs = Transform::Trs {
+            translate: Vec3::new(1.0, 2.0, 3.0),
+            scale: Vec3::new(2.0, 3.0, 4.0),
+            cos: 0.0,
+            sin: 1.0,
+        };
+        let (a, t) = trs.affine();
+        let aff = Transform::Affine { a, t };
+        for p in [Vec3::X, Vec3::Y, Vec3::new(0.5, -2.0, 7.0)] {
+            assert!((trs.point(p) - aff.point(p)).length() < 1e-5);
+            assert!((trs.normal(p) - aff.normal(p)).length() < 1e-6);
+        }
+        assert_eq!(trs.similarity_scale(), None);
+        let uniform = Transform::Affine {
+            a: axis_rotation(DVec3::new(1.0, 1.0, 0.0), 33.0) * 2.5,
+            t: DVec3::ZERO,
+        };
+        assert!((uniform.similarity_scale().unwrap() - 2.5).abs() < 1e-12);
+    }
+
+    /// Rodrigues against hand-computed rotations: 90° about +z takes +x to +y; 120° about
+    /// (1, 1, 1) permutes the axes x → y → z → x.
+    #[test]
+    fn axis_rotation_follows_the_right_hand_rule() {
+        let r = axis_rotation(DVec3::Z, 90.0);
+        assert!((r * DVec3::X - DVec3::Y).length() < 1e-15);
+        let r = axis_rotation(DVec3::ONE, 120.0);
+        assert!((r * DVec3::X - DVec3::Y).length() < 1e-15);
+        assert!((r * DVec3::Y - DVec3::Z).length() < 1e-15);
+        // About y the right-hand rule turns +z toward +x, as rotate_y_deg does.
+        let r = axis_rotation(DVec3::Y, 90.0);
+        assert!((r * DVec3::Z - DVec3::X).length() < 1e-15);
     }
 
     #[test]

@@ -1,4 +1,5 @@
-//! The scene file loader: TOML text → [`Scene`].
+//! The scene file loader: TOML text → [`Scene`] (and the dispatch to the Mitsuba 3 XML
+//! reader, [`super::mitsuba`], for `.xml` files).
 //!
 //! The format is documented field by field in `scenes/README.md`. Loading happens in two
 //! steps, each in its own file: serde reads the text into the raw form of
@@ -19,11 +20,19 @@ use std::path::Path;
 
 pub use super::assemble::MAX_FILM_SIZE;
 
-/// Read and load a scene file. Relative OBJ paths are resolved against the file's directory.
+/// Read and load a scene file: a Mitsuba 3 XML scene when its name ends in `.xml`
+/// ([`super::mitsuba`]), else TOML. Relative OBJ paths are resolved against the file's
+/// directory.
 ///
 /// A file that is not TOML but looks like another format (a pbrt scene, an OBJ or PLY mesh,
 /// JSON, XML: [`super::sniff::describe`]) is refused with a message that says so.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
+    load_with(path, &[])
+}
+
+/// [`load`] with the command line's `-D name=value` parameters of a Mitsuba XML scene (they
+/// override its `<default>`s); a TOML scene takes none.
+pub fn load_with(path: &Path, defines: &[(String, String)]) -> Result<Scene, SceneError> {
     let source = crate::errors::read_utf8(path).map_err(|source| {
         // Binary content (a binary PLY mesh, say) fails as UTF-8 before it can fail as TOML.
         let bytes = std::fs::read(path).unwrap_or_default();
@@ -35,7 +44,35 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
             },
         }
     })?;
-    load_str(&source, path)
+    load_str_with(&source, path, defines)
+}
+
+/// Whether `path` names a Mitsuba XML scene (by its extension, `.xml` in any case).
+pub fn is_xml(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("xml"))
+}
+
+/// [`load_str`] with `-D name=value` parameters (Mitsuba XML scenes only).
+pub fn load_str_with(
+    source: &str,
+    path: &Path,
+    defines: &[(String, String)],
+) -> Result<Scene, SceneError> {
+    if is_xml(path) {
+        return super::mitsuba::load_str(source, path, defines);
+    }
+    if let Some((name, _)) = defines.first() {
+        return Err(SceneError::Invalid {
+            file: path.display().to_string(),
+            line: None,
+            field: None,
+            message: format!(
+                "-D {name}=…: parameters apply to Mitsuba XML scenes only (this is a TOML scene)"
+            ),
+        });
+    }
+    load_str(source, path)
 }
 
 /// The error for a file that looks like another format, if it does.
@@ -63,11 +100,15 @@ fn wrong_format(bytes: &[u8], path: &Path) -> Option<SceneError> {
 /// Legal but suspicious content (unused materials, skipped zero-area OBJ triangles, ignored
 /// MTL files, …) is reported in [`Scene::warnings`].
 pub fn load_str(source: &str, path: &Path) -> Result<Scene, SceneError> {
+    if is_xml(path) {
+        return super::mitsuba::load_str(source, path, &[]);
+    }
     let mut cx = Cx {
         file: path.display().to_string(),
         source,
         dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
         warnings: Vec::new(),
+        parts: Vec::new(),
     };
     let raw: RawScene = toml::from_str(source)
         .map_err(|e| wrong_format(source.as_bytes(), path).unwrap_or_else(|| cx.toml_error(&e)))?;

@@ -17,6 +17,7 @@ mod delta_lights;
 mod error;
 mod geometry;
 pub mod load;
+pub mod mitsuba;
 mod obj;
 pub mod ply;
 mod ply_shape;
@@ -24,6 +25,7 @@ mod schema;
 pub mod shapes;
 pub mod sniff;
 mod spanned;
+mod transform;
 
 use crate::brdf::Material;
 use glam::{Vec2, Vec3};
@@ -117,6 +119,9 @@ pub struct Scene {
     pub materials: Vec<Material>,
     /// Material names, parallel to `materials`.
     pub material_names: Vec<String>,
+    /// Each material's parameters as the scene file gave them (`model` included), parallel to
+    /// `materials`: what `brdfwave convert` writes for the models Mitsuba lacks.
+    pub material_params: Vec<std::collections::BTreeMap<String, toml::Value>>,
     pub emitters: Vec<Emitter>,
     pub triangles: Vec<Triangle>,
     pub spheres: Vec<Sphere>,
@@ -158,5 +163,4 @@ impl Triangle {
 }
 
 pub use error::SceneError;
-
-pub use load::{load, load_str};
+pub use load::{load, load_str, load_with};

@@ -88,6 +88,10 @@ pub(super) struct RawShape {
     pub(super) obj: Option<Sp<String>>,
     pub(super) ply: Option<Sp<String>>,
     pub(super) transform: Option<Sp<RawTransform>>,
+    /// Set by the Mitsuba reader for an OBJ without `to_world`: its vertices are world space
+    /// as written, taken bit for bit ([`super::geometry::Transform::AsWritten`]).
+    #[serde(skip)]
+    pub(super) as_written: bool,
 }
 
 #[derive(Deserialize)]
@@ -105,6 +109,16 @@ pub(super) struct RawTransform {
     pub(super) translate: Option<V3>,
     pub(super) scale: Option<Sp<Triple>>,
     pub(super) rotate_y_deg: Option<Sp<f64>>,
+    pub(super) rotate: Option<Sp<RawRotate>>,
+    /// A row-major 4×4 affine matrix; alone, without the other fields.
+    pub(super) matrix: Option<Sp<Arr<Arr<f64, 4>, 4>>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawRotate {
+    pub(super) axis: V3,
+    pub(super) angle_deg: Sp<f64>,
 }
 
 /// A number (meaning the same value three times) or an array of three numbers.

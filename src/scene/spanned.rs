@@ -142,18 +142,33 @@ pub(super) struct Cx<'a> {
     pub(super) source: &'a str,
     pub(super) dir: PathBuf,
     pub(super) warnings: Vec<String>,
+    /// A scene read from several files (Mitsuba XML with `include`s) has their texts
+    /// concatenated in `source`: `(start offset, file name)` of each after the first, ascending.
+    pub(super) parts: Vec<(usize, String)>,
 }
 
 impl Cx<'_> {
+    /// The file that holds byte `offset` of `source`, its text, and the offset where it starts.
+    pub(super) fn part_of(&self, offset: usize) -> (&str, &str, usize) {
+        let i = self.parts.partition_point(|(start, _)| *start <= offset);
+        let (start, file) = match i {
+            0 => (0, self.file.as_str()),
+            _ => (self.parts[i - 1].0, self.parts[i - 1].1.as_str()),
+        };
+        let end = self.parts.get(i).map_or(self.source.len(), |p| p.0);
+        (file, &self.source[start..end], start)
+    }
+
     pub(super) fn err(
         &self,
         span: Option<Range<usize>>,
         field: &str,
         msg: impl fmt::Display,
     ) -> SceneError {
+        let (file, text, start) = self.part_of(span.as_ref().map_or(0, |s| s.start));
         SceneError::Invalid {
-            file: self.file.clone(),
-            line: span.map(|s| line_of(self.source, s.start)),
+            file: file.to_string(),
+            line: span.map(|s| line_of(text, s.start - start)),
             field: Some(field.to_string()),
             message: msg.to_string(),
         }

@@ -1,0 +1,283 @@
+//! The document layer of the Mitsuba reader: XML text → a tree of owned elements ([`El`]),
+//! with `include`s spliced in, `<default>`s recorded and every `$name` in an attribute
+//! substituted, in document order (as Mitsuba does). Each element keeps its byte span in the
+//! concatenation of all the files read, so that [`super::super::spanned::Cx`] names the right
+//! file and line for it later; errors found here (malformed XML, a bad `$name`, a missing or
+//! cyclic include) are located directly.
+
+use crate::brdf::params::line_of;
+use crate::scene::error::SceneError;
+use std::collections::HashMap;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+/// Deepest accepted nesting of includes (a chain, not a cycle, which is refused at once).
+const MAX_INCLUDE_DEPTH: usize = 32;
+
+/// One XML element, owned, with `$name`s substituted.
+#[derive(Debug)]
+pub(super) struct El {
+    pub(super) tag: String,
+    pub(super) attrs: Vec<(String, String)>,
+    pub(super) children: Vec<El>,
+    /// Byte span of the element in [`Files::source`].
+    pub(super) span: Range<usize>,
+    /// Where the element is, for messages: `scene/shape[2]/bsdf`.
+    pub(super) path: String,
+    /// The directory of the file it was written in (relative file names resolve there).
+    pub(super) dir: PathBuf,
+}
+
+impl El {
+    pub(super) fn attr(&self, name: &str) -> Option<&str> {
+        self.attrs
+            .iter()
+            .find(|(k, _)| k == name)
+            .map(|(_, v)| v.as_str())
+    }
+    /// `<tag type="…">` or `<tag>` for messages.
+    pub(super) fn describe(&self) -> String {
+        match self.attr("type") {
+            Some(t) => format!("<{} type=\"{t}\">", self.tag),
+            None => match self.attr("name") {
+                Some(n) => format!("<{} name=\"{n}\">", self.tag),
+                None => format!("<{}>", self.tag),
+            },
+        }
+    }
+}
+
+/// Every file read for one scene: their texts concatenated (`source`), where each starts
+/// (`parts`, after the first), and the scene's top-level elements.
+pub(super) struct Files {
+    pub(super) source: String,
+    pub(super) parts: Vec<(usize, String)>,
+    pub(super) elements: Vec<El>,
+}
+
+struct Reader {
+    source: String,
+    parts: Vec<(usize, String)>,
+    /// Parameters: `-D name=value` first (they win), then each `<default>` not given there.
+    params: HashMap<String, String>,
+    /// The files being read, outermost first (a cycle is an include of one of them).
+    stack: Vec<PathBuf>,
+}
+
+fn invalid(file: &str, line: Option<usize>, field: Option<&str>, msg: String) -> SceneError {
+    SceneError::Invalid {
+        file: file.to_string(),
+        line,
+        field: field.map(str::to_string),
+        message: msg,
+    }
+}
+
+/// Read the scene file `path` (text `text`) and everything it includes.
+pub(super) fn read(path: &Path, text: &str, defines: &[(String, String)]) -> Result<Files, SceneError> {
+    let mut r = Reader {
+        source: String::new(),
+        parts: Vec::new(),
+        params: defines.iter().cloned().collect(),
+        stack: Vec::new(),
+    };
+    let elements = r.file(path, text)?;
+    Ok(Files {
+        source: r.source,
+        parts: r.parts,
+        elements,
+    })
+}
+
+impl Reader {
+    /// One file: its `<scene>`'s children, includes spliced in.
+    fn file(&mut self, path: &Path, text: &str) -> Result<Vec<El>, SceneError> {
+        let file = path.display().to_string();
+        let offset = self.source.len();
+        if offset > 0 {
+            self.parts.push((offset, file.clone()));
+        }
+        self.source.push_str(text);
+        // A separator, so that a span never ends exactly where the next file starts.
+        self.source.push('\n');
+        self.stack.push(std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf()));
+        let doc = roxmltree::Document::parse(text).map_err(|e| {
+            let line = e.pos().row as usize;
+            invalid(&file, Some(line), None, format!("malformed XML: {e}"))
+        })?;
+        let root = doc.root_element();
+        let at = |n: roxmltree::Node| line_of(text, n.range().start);
+        if root.tag_name().name() != "scene" {
+            let msg = format!(
+                "the root element is <{}>: a Mitsuba 3 scene file starts with <scene version=\"3.x.y\">",
+                root.tag_name().name()
+            );
+            return Err(invalid(&file, Some(at(root)), Some("scene"), msg));
+        }
+        match root.attribute("version") {
+            Some(v) if v.split('.').next() == Some("3") => {}
+            Some(v) => {
+                let msg = format!("version \"{v}\": only Mitsuba 3 scenes (version=\"3.x.y\") are read");
+                return Err(invalid(&file, Some(at(root)), Some("scene"), msg));
+            }
+            None => {
+                let msg = "the <scene> element has no version: write <scene version=\"3.0.0\">";
+                return Err(invalid(&file, Some(at(root)), Some("scene"), msg.to_string()));
+            }
+        }
+        let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let cx = FileCx { file: &file, text, offset, dir: &dir };
+        let mut out = Vec::new();
+        let mut counts: HashMap<String, usize> = HashMap::new();
+        for node in root.children() {
+            if let Some(el) = self.node(&cx, node, "scene", &mut counts)? {
+                match el.tag.as_str() {
+                    "include" => out.extend(self.include(&cx, &el)?),
+                    "default" => {}
+                    _ => out.push(el),
+                }
+            }
+        }
+        self.stack.pop();
+        Ok(out)
+    }
+
+    /// An `<include filename="…"/>`: the included scene's elements.
+    fn include(&mut self, cx: &FileCx, el: &El) -> Result<Vec<El>, SceneError> {
+        let line = Some(line_of(cx.text, el.span.start - cx.offset));
+        let Some(name) = el.attr("filename") else {
+            let msg = "<include> needs a filename attribute".to_string();
+            return Err(invalid(cx.file, line, Some(&el.path), msg));
+        };
+        let full = cx.dir.join(name);
+        let canon = std::fs::canonicalize(&full).unwrap_or_else(|_| full.clone());
+        if self.stack.contains(&canon) {
+            let chain: Vec<String> = self.stack.iter().map(|p| p.display().to_string()).collect();
+            let msg = format!(
+                "cyclic include: '{}' is already being read ({} → {})",
+                full.display(),
+                chain.join(" → "),
+                canon.display()
+            );
+            return Err(invalid(cx.file, line, Some(&el.path), msg));
+        }
+        if self.stack.len() >= MAX_INCLUDE_DEPTH {
+            let msg = format!("includes nest deeper than {MAX_INCLUDE_DEPTH} files");
+            return Err(invalid(cx.file, line, Some(&el.path), msg));
+        }
+        let text = crate::errors::read_utf8(&full).map_err(|e| {
+            let msg = format!("cannot read the included file '{}': {e}", full.display());
+            invalid(cx.file, line, Some(&el.path), msg)
+        })?;
+        self.file(&full, &text)
+    }
+
+    /// One node: `None` for comments, processing instructions and white space; text is an error.
+    fn node(
+        &mut self,
+        cx: &FileCx,
+        node: roxmltree::Node,
+        parent: &str,
+        counts: &mut HashMap<String, usize>,
+    ) -> Result<Option<El>, SceneError> {
+        let line = || Some(line_of(cx.text, node.range().start));
+        if node.is_text() {
+            let t = node.text().unwrap_or_default().trim();
+            if t.is_empty() {
+                return Ok(None);
+            }
+            let msg = format!("unexpected text '{t}' in <{}>: values are attributes", parent.rsplit('/').next().unwrap_or(parent));
+            return Err(invalid(cx.file, line(), Some(parent), msg));
+        }
+        if !node.is_element() {
+            return Ok(None);
+        }
+        let tag = node.tag_name().name().to_string();
+        let n = counts.entry(tag.clone()).or_insert(0);
+        let path = format!("{parent}/{tag}[{n}]");
+        *n += 1;
+        let mut attrs = Vec::new();
+        for a in node.attributes() {
+            let v = self.substitute(a.value()).map_err(|msg| invalid(cx.file, line(), Some(&path), msg))?;
+            attrs.push((a.name().to_string(), v));
+        }
+        let span = cx.offset + node.range().start..cx.offset + node.range().end;
+        let mut el = El {
+            tag,
+            attrs,
+            children: Vec::new(),
+            span,
+            path,
+            dir: cx.dir.to_path_buf(),
+        };
+        if el.tag == "default" {
+            let (Some(name), Some(value)) = (node.attribute("name"), el.attr("value")) else {
+                let msg = "<default> needs name and value attributes".to_string();
+                return Err(invalid(cx.file, line(), Some(&el.path), msg));
+            };
+            if parent != "scene" {
+                let msg = "<default> is allowed only directly inside <scene>".to_string();
+                return Err(invalid(cx.file, line(), Some(&el.path), msg));
+            }
+            self.params.entry(name.to_string()).or_insert_with(|| value.to_string());
+        }
+        let mut inner: HashMap<String, usize> = HashMap::new();
+        for c in node.children() {
+            if let Some(child) = self.node(cx, c, &el.path.clone(), &mut inner)? {
+                if child.tag == "include" || child.tag == "default" {
+                    let msg = format!("<{}> is allowed only directly inside <scene>", child.tag);
+                    let l = Some(line_of(cx.text, child.span.start - cx.offset));
+                    return Err(invalid(cx.file, l, Some(&child.path), msg));
+                }
+                el.children.push(child);
+            }
+        }
+        Ok(Some(el))
+    }
+
+    /// Replace every `$name` by its parameter's value (Mitsuba's rule: a name is letters,
+    /// digits and underscores).
+    fn substitute(&self, v: &str) -> Result<String, String> {
+        if !v.contains('$') {
+            return Ok(v.to_string());
+        }
+        let mut out = String::new();
+        let mut rest = v;
+        while let Some(i) = rest.find('$') {
+            out.push_str(&rest[..i]);
+            let after = &rest[i + 1..];
+            let len = after
+                .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+                .unwrap_or(after.len());
+            let name = &after[..len];
+            if name.is_empty() {
+                return Err(format!("'{v}': a '$' must be followed by a parameter name"));
+            }
+            match self.params.get(name) {
+                Some(value) => out.push_str(value),
+                None => {
+                    let mut known: Vec<&str> = self.params.keys().map(String::as_str).collect();
+                    known.sort_unstable();
+                    let known = if known.is_empty() {
+                        "none is defined".to_string()
+                    } else {
+                        format!("defined: {}", known.join(", "))
+                    };
+                    return Err(format!(
+                        "'{v}': unknown parameter ${name} ({known}); define it with <default name=\"{name}\" value=\"…\"/> or on the command line with -D {name}=…"
+                    ));
+                }
+            }
+            rest = &after[len..];
+        }
+        out.push_str(rest);
+        Ok(out)
+    }
+}
+
+struct FileCx<'a> {
+    file: &'a str,
+    text: &'a str,
+    offset: usize,
+    dir: &'a Path,
+}

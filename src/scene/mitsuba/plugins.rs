@@ -1,0 +1,469 @@
+//! The plugin mapping: each supported Mitsuba element turned into the raw form of a TOML scene
+//! ([`crate::scene::schema`]), every value spanned with its element, so that the one
+//! assembly ([`crate::scene::assemble`]) checks and flattens both formats. The table of what
+//! maps to what is in `scenes/README.md` ("Mitsuba 3 XML scenes").
+
+use super::data;
+use super::doc::El;
+use super::values::{rows, to_world};
+use crate::scene::error::SceneError;
+use crate::scene::schema::{
+    Arr, MaterialTable, RawEnvironment, RawIntegrator, RawScene, RawShape, RawSphere,
+    RawTransform, Triple,
+};
+use crate::scene::spanned::{Cx, Sp};
+use std::collections::BTreeMap;
+use toml::Value;
+
+/// The features another branch adds (PLY meshes, point and directional lights, two-sided
+/// BSDFs): each is parsed up to here and refused in this one place, to be wired up there.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Pending {
+    Ply,
+    PointEmitter,
+    DirectionalEmitter,
+    TwoSided,
+}
+
+pub(super) fn pending(cx: &Cx, el: &El, what: Pending) -> SceneError {
+    let name = match what {
+        Pending::Ply => "PLY meshes (<shape type=\"ply\">)",
+        Pending::PointEmitter => "point lights (<emitter type=\"point\">)",
+        Pending::DirectionalEmitter => "directional lights (<emitter type=\"directional\">)",
+        Pending::TwoSided => "two-sided BSDFs (<bsdf type=\"twosided\">)",
+    };
+    cx.el_err(el, format!("{name} are not supported yet"))
+}
+
+/// The children of a plugin element by their `name` attribute, each taken at most once; what
+/// is left over is an error ([`Props::finish`]), never dropped.
+pub(super) struct Props<'e> {
+    el: &'e El,
+    named: Vec<(&'e El, bool)>,
+}
+
+impl<'e> Props<'e> {
+    pub(super) fn new(cx: &Cx, el: &'e El) -> Result<Props<'e>, SceneError> {
+        let mut named: Vec<(&El, bool)> = Vec::new();
+        for c in &el.children {
+            if let Some(n) = c.attr("name") {
+                if named.iter().any(|(o, _)| o.attr("name") == Some(n)) {
+                    let msg = format!("{}: parameter '{n}' given twice", el.describe());
+                    return Err(cx.el_err(c, msg));
+                }
+            }
+            named.push((c, false));
+        }
+        Ok(Props { el, named })
+    }
+    /// The child named `name`, if any.
+    pub(super) fn take(&mut self, name: &str) -> Option<&'e El> {
+        let e = self.named.iter_mut().find(|(c, _)| c.attr("name") == Some(name))?;
+        e.1 = true;
+        Some(e.0)
+    }
+    /// The children with tag `tag` (and any name), e.g. `bsdf`, `ref`, `emitter`.
+    pub(super) fn take_tag(&mut self, tag: &str) -> Vec<&'e El> {
+        let mut out = Vec::new();
+        for e in self.named.iter_mut().filter(|(c, used)| !used && c.tag == tag) {
+            e.1 = true;
+            out.push(e.0);
+        }
+        out
+    }
+    /// Refuse whatever was not taken, naming what the element supports.
+    pub(super) fn finish(self, cx: &Cx, supported: &str) -> Result<(), SceneError> {
+        if let Some((c, _)) = self.named.iter().find(|(_, used)| !used) {
+            let what = match c.attr("name") {
+                Some(n) => format!("parameter {} '{n}'", c.tag),
+                None => c.describe(),
+            };
+            let msg = format!(
+                "{} does not take {what} (supported: {supported})",
+                self.el.describe()
+            );
+            return Err(cx.el_err(c, msg));
+        }
+        Ok(())
+    }
+}
+
+pub(super) fn sp<T>(el: &El, value: T) -> Sp<T> {
+    Sp {
+        span: Some(el.span.clone()),
+        value,
+    }
+}
+
+impl Cx<'_> {
+    fn want_tag(&self, el: &El, tags: &[&str]) -> Result<(), SceneError> {
+        if tags.contains(&el.tag.as_str()) {
+            return Ok(());
+        }
+        let msg = format!(
+            "parameter '{}' is a <{}>: expected {}",
+            el.attr("name").unwrap_or_default(),
+            el.tag,
+            tags.iter().map(|t| format!("<{t}>")).collect::<Vec<_>>().join(" or ")
+        );
+        Err(self.el_err(el, msg))
+    }
+    pub(super) fn float(&self, el: &El) -> Result<f64, SceneError> {
+        self.want_tag(el, &["float", "integer"])?;
+        self.number(el, self.attr(el, "value")?)
+    }
+    fn integer(&self, el: &El) -> Result<i64, SceneError> {
+        self.want_tag(el, &["integer"])?;
+        let t = self.attr(el, "value")?.trim();
+        t.parse()
+            .map_err(|_| self.el_err(el, format!("<integer>: '{t}' is not a whole number")))
+    }
+    pub(super) fn bool_of(&self, el: &El) -> Result<bool, SceneError> {
+        self.want_tag(el, &["boolean"])?;
+        match self.attr(el, "value")?.trim() {
+            "true" => Ok(true),
+            "false" => Ok(false),
+            v => Err(self.el_err(el, format!("<boolean>: '{v}' is neither true nor false"))),
+        }
+    }
+    fn string<'e>(&self, el: &'e El) -> Result<&'e str, SceneError> {
+        self.want_tag(el, &["string"])?;
+        self.attr(el, "value")
+    }
+    /// An RGB colour: `<rgb value="r, g, b">` (or one number), or a grey `<float>`.
+    pub(super) fn color_of(&self, el: &El) -> Result<[f64; 3], SceneError> {
+        self.want_tag(el, &["rgb", "float", "spectrum"])?;
+        let v = self.numbers(el, self.attr(el, "value")?)?;
+        match (el.tag.as_str(), v.as_slice()) {
+            (_, [x]) => Ok([*x; 3]),
+            ("rgb", [r, g, b]) => Ok([*r, *g, *b]),
+            ("spectrum", _) => Err(self.el_err(el, "<spectrum> is read only as one constant value: write an <rgb> colour")),
+            _ => Err(self.el_err(el, format!("{}: a colour needs 1 or 3 numbers, found {}", el.describe(), v.len()))),
+        }
+    }
+    fn color_value(&self, el: &El) -> Result<Sp<Value>, SceneError> {
+        let c = self.color_of(el)?;
+        Ok(sp(el, Value::Array(c.iter().map(|x| Value::Float(*x)).collect())))
+    }
+}
+
+/// The scene's top-level elements → the raw scene. `width`/`height` default to Mitsuba's
+/// 768 × 576, `sample_count` to its 4.
+pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
+    let mut camera = None;
+    let mut film = None;
+    let mut integrator = RawIntegrator {
+        spp: None,
+        max_depth: None,
+        seed: None,
+        russian_roulette: None,
+        rr_start_depth: None,
+        sampler: None,
+    };
+    let mut environment = None;
+    let mut materials: BTreeMap<String, Sp<MaterialTable>> = BTreeMap::new();
+    let mut shapes = Vec::new();
+    let mut saw_integrator = false;
+    for el in top {
+        match (el.tag.as_str(), el.attr("type")) {
+            ("sensor", _) => {
+                if camera.is_some() {
+                    return Err(cx.el_err(el, "a second <sensor>: brdfwave renders one camera"));
+                }
+                let (c, f) = super::sensor::sensor(cx, el, &mut integrator)?;
+                camera = Some(c);
+                film = Some(f);
+            }
+            ("integrator", _) => {
+                saw_integrator = true;
+                super::sensor::integrator(cx, el, &mut integrator)?;
+            }
+            ("bsdf", _) => {
+                let Some(id) = el.attr("id") else {
+                    return Err(cx.el_err(el, "a top-level <bsdf> needs an id (shapes refer to it with <ref id=\"…\"/>)"));
+                };
+                let table = bsdf(cx, el)?;
+                if materials.insert(id.to_string(), sp(el, table)).is_some() {
+                    return Err(cx.el_err(el, format!("a second <bsdf> with id '{id}'")));
+                }
+            }
+            ("emitter", Some("constant")) => {
+                if environment.is_some() {
+                    return Err(cx.el_err(el, "a second <emitter type=\"constant\">: brdfwave has one environment"));
+                }
+                let mut p = Props::new(cx, el)?;
+                let Some(r) = p.take("radiance") else {
+                    return Err(cx.el_err(el, "<emitter type=\"constant\"> needs a radiance"));
+                };
+                let radiance = sp(r, Triple(cx.color_of(r)?));
+                p.finish(cx, "radiance")?;
+                environment = Some(RawEnvironment {
+                    radiance: Some(radiance),
+                });
+            }
+            ("emitter", _) => return Err(emitter_error(cx, el, false)),
+            ("shape", _) => shapes.push(super::shapes::shape(cx, el, shapes.len(), &mut materials)?),
+            _ => {
+                let msg = format!(
+                    "{} is not supported at the top level (supported: sensor, integrator, bsdf, shape, emitter type=\"constant\", include, default)",
+                    el.describe()
+                );
+                return Err(cx.el_err(el, msg));
+            }
+        }
+    }
+    let (Some(camera), Some(film)) = (camera, film) else {
+        return Err(cx.err(None, "scene", "the scene has no <sensor type=\"perspective\">"));
+    };
+    if !saw_integrator {
+        super::sensor::default_depth(cx, &mut integrator);
+    }
+    Ok(RawScene {
+        camera,
+        film,
+        integrator: Some(integrator),
+        environment,
+        materials,
+        shapes,
+    })
+}
+
+/// Why an emitter is refused: a type brdfwave lacks, or an `area` emitter outside a shape.
+pub(super) fn emitter_error(cx: &Cx, el: &El, in_shape: bool) -> SceneError {
+    match el.attr("type") {
+        Some("point") => pending(cx, el, Pending::PointEmitter),
+        Some("directional") => pending(cx, el, Pending::DirectionalEmitter),
+        Some("area") if !in_shape => cx.el_err(el, "an <emitter type=\"area\"> belongs inside a <shape>"),
+        Some("constant") if in_shape => cx.el_err(el, "an <emitter type=\"constant\"> belongs at the top level, not in a <shape>"),
+        _ => cx.el_err(
+            el,
+            format!(
+                "{} is not supported (supported: area inside a shape, constant at the top level)",
+                el.describe()
+            ),
+        ),
+    }
+}
+
+/// A BSDF element → the material table `brdf::parse_material` reads.
+pub(super) fn bsdf(cx: &Cx, el: &El) -> Result<MaterialTable, SceneError> {
+    let kind = cx.attr(el, "type")?;
+    let mut p = Props::new(cx, el)?;
+    let mut t = MaterialTable::new();
+    let model = |name: &str| sp(el, Value::String(name.to_string()));
+    match kind {
+        "diffuse" => {
+            t.insert("model".into(), model("lambert"));
+            if let Some(r) = p.take("reflectance") {
+                t.insert("albedo".into(), cx.color_value(r)?);
+            }
+            p.finish(cx, "reflectance")?;
+        }
+        "conductor" | "roughconductor" => {
+            conductor(cx, el, kind == "roughconductor", &mut p, &mut t)?;
+            p.finish(cx, "material, eta, k, specular_reflectance, and for roughconductor distribution, alpha (or equal alpha_u, alpha_v), sample_visible")?;
+        }
+        "plastic" | "roughplastic" => {
+            plastic(cx, el, kind == "roughplastic", &mut p, &mut t)?;
+            p.finish(cx, "diffuse_reflectance, specular_reflectance, int_ior, ext_ior, nonlinear = false, and for roughplastic distribution, alpha, sample_visible")?;
+        }
+        "twosided" => return Err(pending(cx, el, Pending::TwoSided)),
+        name if crate::brdf::MODELS.iter().any(|m| m.name == name) => {
+            // One of the survey's models by our name: the parameters as the model names them.
+            t.insert("model".into(), model(name));
+            for c in &el.children {
+                let Some(n) = c.attr("name") else {
+                    let msg = format!("{}: {} needs a name (the model's parameter)", el.describe(), c.describe());
+                    return Err(cx.el_err(c, msg));
+                };
+                let v = match c.tag.as_str() {
+                    "float" => sp(c, Value::Float(cx.float(c)?)),
+                    "integer" => sp(c, Value::Integer(cx.integer(c)?)),
+                    "boolean" => sp(c, Value::Boolean(cx.bool_of(c)?)),
+                    "string" => sp(c, Value::String(cx.string(c)?.to_string())),
+                    "rgb" => cx.color_value(c)?,
+                    _ => {
+                        let msg = format!("{}: parameter '{n}' is a {}: expected float, integer, boolean, string or rgb", el.describe(), c.describe());
+                        return Err(cx.el_err(c, msg));
+                    }
+                };
+                t.insert(n.to_string(), v);
+            }
+        }
+        other => {
+            let msg = format!(
+                "<bsdf type=\"{other}\"> is not supported (supported: diffuse, conductor, roughconductor, plastic, roughplastic, and the survey's models by name: {})",
+                crate::brdf::model_names().join(", ")
+            );
+            return Err(cx.el_err(el, msg));
+        }
+    }
+    Ok(t)
+}
+
+fn put(t: &mut MaterialTable, el: &El, k: &str, v: Value) {
+    t.insert(k.into(), sp(el, v));
+}
+
+/// The microfacet settings every Mitsuba plugin shares: `distribution` (Beckmann, GGX) and
+/// `alpha` (Mitsuba's Beckmann α is the rms slope m, its GGX α ours), with `alpha_u`/`alpha_v`
+/// only when equal (our Cook–Torrance is isotropic); a smooth plugin is a delta mirror.
+fn microfacet(cx: &Cx, el: &El, rough: bool, p: &mut Props, t: &mut MaterialTable) -> Result<(), SceneError> {
+    put(t, el, "model", Value::String("cook_torrance".into()));
+    put(t, el, "geometry", Value::String("smith".into()));
+    put(t, el, "normalization", Value::String("walter".into()));
+    if !rough {
+        put(t, el, "roughness", Value::Float(0.0));
+        return Ok(());
+    }
+    if let Some(d) = p.take("distribution") {
+        let name = cx.string(d)?;
+        if !["beckmann", "ggx"].contains(&name) {
+            return Err(cx.el_err(d, format!("distribution '{name}' is not supported (supported: beckmann, ggx)")));
+        }
+        put(t, d, "distribution", Value::String(name.into()));
+    }
+    let alpha = match (p.take("alpha"), p.take("alpha_u"), p.take("alpha_v")) {
+        (Some(a), None, None) => Some((a, cx.float(a)?)),
+        (None, Some(u), Some(v)) => {
+            let (au, av) = (cx.float(u)?, cx.float(v)?);
+            if au != av {
+                return Err(cx.el_err(v, format!("alpha_u {au} ≠ alpha_v {av}: anisotropic roughness is not supported (Cook–Torrance is isotropic; <bsdf type=\"ward\"> is anisotropic)")));
+            }
+            Some((u, au))
+        }
+        (None, None, None) => None,
+        (_, Some(e), _) | (_, _, Some(e)) => {
+            return Err(cx.el_err(e, "give either alpha, or both alpha_u and alpha_v"));
+        }
+    };
+    match alpha {
+        Some((a, x)) => put(t, a, "roughness", Value::Float(x)),
+        // Mitsuba's default α.
+        None => put(t, el, "roughness", Value::Float(0.1)),
+    }
+    if let Some(s) = p.take("sample_visible") {
+        cx.bool_of(s)?;
+    }
+    Ok(())
+}
+
+fn conductor(cx: &Cx, el: &El, rough: bool, p: &mut Props, t: &mut MaterialTable) -> Result<(), SceneError> {
+    microfacet(cx, el, rough, p, t)?;
+    put(t, el, "kd", Value::Float(0.0));
+    if let Some(s) = p.take("specular_reflectance") {
+        t.insert("ks".into(), cx.color_value(s)?);
+    }
+    let rgb = |v: [f32; 3]| Value::Array(v.iter().map(|x| Value::Float(*x as f64)).collect());
+    match (p.take("material"), p.take("eta"), p.take("k")) {
+        (Some(m), None, None) => match cx.string(m)? {
+            "none" => {
+                put(t, m, "fresnel", Value::String("schlick".into()));
+                put(t, m, "f0", Value::Float(1.0));
+            }
+            name => {
+                let Some((eta, k)) = data::metal(name) else {
+                    let msg = format!("unknown conductor material '{name}' (known: none, {})", data::metal_names());
+                    return Err(cx.el_err(m, msg));
+                };
+                put(t, m, "fresnel", Value::String("conductor".into()));
+                put(t, m, "eta", rgb(eta));
+                put(t, m, "k", rgb(k));
+            }
+        },
+        (None, Some(eta), Some(k)) => {
+            put(t, el, "fresnel", Value::String("conductor".into()));
+            t.insert("eta".into(), cx.color_value(eta)?);
+            t.insert("k".into(), cx.color_value(k)?);
+        }
+        // Mitsuba's default: material="none", a perfect mirror (F = 1).
+        (None, None, None) => {
+            put(t, el, "fresnel", Value::String("schlick".into()));
+            put(t, el, "f0", Value::Float(1.0));
+        }
+        (_, Some(e), _) | (_, _, Some(e)) => {
+            return Err(cx.el_err(e, "give either material, or both eta and k"));
+        }
+    }
+    Ok(())
+}
+
+fn plastic(cx: &Cx, el: &El, rough: bool, p: &mut Props, t: &mut MaterialTable) -> Result<(), SceneError> {
+    microfacet(cx, el, rough, p, t)?;
+    put(t, el, "fresnel", Value::String("dielectric".into()));
+    match p.take("diffuse_reflectance") {
+        Some(d) => {
+            t.insert("kd".into(), cx.color_value(d)?);
+        }
+        None => put(t, el, "kd", Value::Float(0.5)),
+    }
+    if let Some(s) = p.take("specular_reflectance") {
+        t.insert("ks".into(), cx.color_value(s)?);
+    }
+    fn ior<'e>(cx: &Cx, name: &str, default: f64, p: &mut Props<'e>) -> Result<(f64, Option<&'e El>), SceneError> {
+        let Some(e) = p.take(name) else { return Ok((default, None)) };
+        let v = match e.tag.as_str() {
+            "string" => {
+                let n = cx.string(e)?;
+                data::ior(n).ok_or_else(|| {
+                    let known: Vec<&str> = data::IORS.iter().map(|x| x.0).collect();
+                    cx.el_err(e, format!("unknown index of refraction '{n}' (known: {})", known.join(", ")))
+                })?
+            }
+            _ => cx.float(e)?,
+        };
+        Ok((v, Some(e)))
+    }
+    let (int, int_el) = ior(cx, "int_ior", 1.49, p)?;
+    let (ext, _) = ior(cx, "ext_ior", 1.000277, p)?;
+    put(t, int_el.unwrap_or(el), "ior", Value::Float((int / ext) as f32 as f64));
+    if let Some(n) = p.take("nonlinear") {
+        if cx.bool_of(n)? {
+            return Err(cx.el_err(n, "nonlinear = true is not supported (the diffuse part is plain Lambert)"));
+        }
+    }
+    Ok(())
+}
+
+/// The raw transform of a shape's `to_world` (`None` without one): its matrix.
+pub(super) fn shape_transform(cx: &Cx, t: Option<&El>) -> Result<Option<Sp<RawTransform>>, SceneError> {
+    let Some(t) = t else { return Ok(None) };
+    let matrix = Arr(rows(&to_world(cx, t)?.m).map(Arr));
+    Ok(Some(sp(
+        t,
+        RawTransform {
+            translate: None,
+            scale: None,
+            rotate_y_deg: None,
+            rotate: None,
+            matrix: Some(sp(t, matrix)),
+        },
+    )))
+}
+
+/// A raw shape with nothing set but its name and material.
+pub(super) fn raw_shape(el: &El, material: Sp<String>) -> RawShape {
+    RawShape {
+        name: el.attr("id").map(str::to_string),
+        material,
+        emission: None,
+        quads: None,
+        triangles: None,
+        sphere: None,
+        obj: None,
+        transform: None,
+        as_written: false,
+    }
+}
+
+pub(super) fn raw_sphere(el: &El, center: [f64; 3], radius: f64, inward: bool) -> Sp<RawSphere> {
+    sp(
+        el,
+        RawSphere {
+            center: sp(el, Arr(center)),
+            radius: sp(el, radius),
+            inward,
+        },
+    )
+}
+

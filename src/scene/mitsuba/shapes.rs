@@ -1,0 +1,192 @@
+//! `<shape>` → a raw shape: its geometry (`obj`; `rectangle`, `cube` and `disk` as quads or
+//! triangles in their local frame; `sphere` analytic), its `to_world` as the shape's matrix
+//! transform, its BSDF (inline, `<ref>`, or Mitsuba's default diffuse 0.5) and its `area`
+//! emitter.
+//!
+//! Mitsuba's local shapes: `rectangle` is [−1, 1]² at z = 0 facing +z, `cube` is [−1, 1]³ facing
+//! out, `disk` the unit disk at z = 0 facing +z (here a fan of [`DISK_SEGMENTS`] triangles:
+//! its area is 0.99990 × π), `sphere` `center` (default 0) and `radius` (default 1), kept
+//! analytic when `to_world` is a similarity. `flip_normals` turns a sphere inward and reverses
+//! the winding of the generated shapes.
+
+use super::doc::El;
+use super::plugins::{bsdf, emitter_error, pending, raw_shape, raw_sphere, shape_transform, sp, Pending, Props};
+use crate::scene::error::SceneError;
+use crate::scene::schema::{Arr, MaterialTable, RawShape, Triple};
+use crate::scene::spanned::{Cx, Sp};
+use std::collections::BTreeMap;
+
+/// Triangles of a `disk`.
+pub(super) const DISK_SEGMENTS: usize = 256;
+
+/// The name of the material of shapes without a BSDF (Mitsuba's default diffuse, 0.5).
+const DEFAULT_MATERIAL: &str = "(default diffuse)";
+
+pub(super) fn shape(
+    cx: &mut Cx,
+    el: &El,
+    index: usize,
+    materials: &mut BTreeMap<String, Sp<MaterialTable>>,
+) -> Result<Sp<RawShape>, SceneError> {
+    let kind = cx.attr(el, "type")?.to_string();
+    let mut p = Props::new(cx, el)?;
+    let label = match el.attr("id") {
+        Some(id) => format!("shape '{id}'"),
+        None => format!("shape {index}"),
+    };
+    let material = material(cx, el, &label, &mut p, materials)?;
+    let mut raw = raw_shape(el, material);
+    let emitters = p.take_tag("emitter");
+    match emitters.as_slice() {
+        [] => {}
+        [e] if e.attr("type") == Some("area") => {
+            let mut ep = Props::new(cx, e)?;
+            let Some(r) = ep.take("radiance") else {
+                return Err(cx.el_err(e, "<emitter type=\"area\"> needs a radiance"));
+            };
+            let c = Sp {
+                span: Some(r.span.clone()),
+                value: Triple(cx.color_of(r)?),
+            };
+            ep.finish(cx, "radiance")?;
+            raw.emission = Some(c);
+        }
+        [e] => return Err(emitter_error(cx, e, true)),
+        [_, e, ..] => return Err(cx.el_err(e, "a second emitter: a shape has at most one")),
+    }
+    let to_world = p.take("to_world");
+    let flip = match p.take("flip_normals") {
+        Some(f) => cx.bool_of(f)?,
+        None => false,
+    };
+    let mut supported = "bsdf or ref, emitter type=\"area\", to_world, flip_normals";
+    match kind.as_str() {
+        "obj" => {
+            let Some(f) = p.take("filename") else {
+                return Err(cx.el_err(el, "<shape type=\"obj\"> needs a <string name=\"filename\">"));
+            };
+            let name = cx.attr(f, "value")?;
+            raw.obj = Some(sp(f, el.dir.join(name).display().to_string()));
+            if let Some(n) = p.take("face_normals") {
+                cx.bool_of(n)?;
+            }
+            if flip {
+                return Err(cx.el_err(el, "flip_normals on an obj mesh is not supported (reverse the faces' winding in the file)"));
+            }
+            supported = "filename, face_normals, bsdf or ref, emitter type=\"area\", to_world";
+        }
+        "ply" => return Err(pending(cx, el, Pending::Ply)),
+        "sphere" => {
+            let center = match p.take("center") {
+                Some(c) => cx.xyz(c, 0.0)?,
+                None => [0.0; 3],
+            };
+            let radius = match p.take("radius") {
+                Some(r) => cx.float(r)?,
+                None => 1.0,
+            };
+            raw.sphere = Some(raw_sphere(el, center, radius, flip));
+            supported = "center, radius, bsdf or ref, emitter type=\"area\", to_world, flip_normals";
+        }
+        "rectangle" | "cube" => {
+            let faces: Vec<[[f64; 3]; 4]> = if kind == "rectangle" {
+                vec![face([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])]
+            } else {
+                CUBE_FACES.iter().map(|(n, u, v)| face(*n, *u, *v)).collect()
+            };
+            let quads = faces
+                .into_iter()
+                .map(|mut q| {
+                    if flip {
+                        q.reverse();
+                    }
+                    sp(el, Arr(q.map(Arr)))
+                })
+                .collect();
+            raw.quads = Some(sp(el, quads));
+        }
+        "disk" => {
+            let at = |i: usize| {
+                let a = std::f64::consts::TAU * (i % DISK_SEGMENTS) as f64 / DISK_SEGMENTS as f64;
+                [a.cos(), a.sin(), 0.0]
+            };
+            let tris = (0..DISK_SEGMENTS)
+                .map(|i| {
+                    let mut t = [[0.0; 3], at(i), at(i + 1)];
+                    if flip {
+                        t.swap(1, 2);
+                    }
+                    sp(el, Arr(t.map(Arr)))
+                })
+                .collect();
+            raw.triangles = Some(sp(el, tris));
+        }
+        other => {
+            let msg = format!("<shape type=\"{other}\"> is not supported (supported: obj, rectangle, cube, sphere, disk)");
+            return Err(cx.el_err(el, msg));
+        }
+    }
+    raw.transform = shape_transform(cx, to_world)?;
+    raw.as_written = raw.transform.is_none();
+    p.finish(cx, supported)?;
+    Ok(sp(el, raw))
+}
+
+/// The outward faces of [−1, 1]³: (normal, u, v) with u × v = normal.
+const CUBE_FACES: [([f64; 3], [f64; 3], [f64; 3]); 6] = [
+    ([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]),
+    ([-1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]),
+    ([0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]),
+    ([0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]),
+    ([0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
+    ([0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]),
+];
+
+/// The quad `c − u − v, c + u − v, c + u + v, c − u + v`, facing u × v.
+fn face(c: [f64; 3], u: [f64; 3], v: [f64; 3]) -> [[f64; 3]; 4] {
+    let p = |su: f64, sv: f64| [0, 1, 2].map(|i| c[i] + su * u[i] + sv * v[i]);
+    [p(-1.0, -1.0), p(1.0, -1.0), p(1.0, 1.0), p(-1.0, 1.0)]
+}
+
+/// The shape's material name: a `<ref>` to a top-level BSDF, an inline `<bsdf>` (added under
+/// the name `LABEL bsdf`), or Mitsuba's default diffuse.
+fn material(
+    cx: &Cx,
+    el: &El,
+    label: &str,
+    p: &mut Props,
+    materials: &mut BTreeMap<String, Sp<MaterialTable>>,
+) -> Result<Sp<String>, SceneError> {
+    let refs = p.take_tag("ref");
+    let inline = p.take_tag("bsdf");
+    match (refs.as_slice(), inline.as_slice()) {
+        ([], []) => {
+            if !materials.contains_key(DEFAULT_MATERIAL) {
+                let mut t = MaterialTable::new();
+                t.insert("model".into(), sp(el, toml::Value::String("lambert".into())));
+                materials.insert(DEFAULT_MATERIAL.into(), sp(el, t));
+            }
+            Ok(sp(el, DEFAULT_MATERIAL.to_string()))
+        }
+        ([r], []) => {
+            let id = cx.attr(r, "id")?;
+            if !materials.contains_key(id) {
+                let mut known: Vec<&str> = materials.keys().map(String::as_str).filter(|k| *k != DEFAULT_MATERIAL).collect();
+                known.sort_unstable();
+                let msg = format!(
+                    "<ref id=\"{id}\">: no <bsdf id=\"{id}\"> before it (defined: {})",
+                    if known.is_empty() { "none".to_string() } else { known.join(", ") }
+                );
+                return Err(cx.el_err(r, msg));
+            }
+            Ok(sp(r, id.to_string()))
+        }
+        ([], [b]) => {
+            let name = format!("{label} bsdf");
+            let table = bsdf(cx, b)?;
+            materials.insert(name.clone(), sp(b, table));
+            Ok(sp(b, name))
+        }
+        _ => Err(cx.el_err(el, "a shape has one BSDF: give one <bsdf> or one <ref>")),
+    }
+}

@@ -1,0 +1,359 @@
+//! The Mitsuba 3 XML writer behind `brdfwave convert SCENE --to mitsuba OUT.xml`: a loaded
+//! [`Scene`] as an XML file and the OBJ meshes beside it.
+//!
+//! **Exact geometry.** The triangles are written as they are after loading (world space, in
+//! their order), each run of triangles with the same material and emitter one OBJ file, every
+//! number with `{}` of its f32 (the shortest text that reads back to the same f32); the reader
+//! takes an OBJ without `to_world` as written, so the XML file loads to the very same
+//! triangles, normals and texture coordinates. Spheres, the camera (a `lookat` with
+//! `fov_axis = "y"`), colours and parameters are written the same way, shapes in an order
+//! that keeps the emitters' numbering. So a scene and its conversion render bit-identical
+//! images (tests/mitsuba_xml.rs).
+//!
+//! **Materials.** Lambert is `diffuse`; Cook–Torrance with Walter et al.'s normalisation and
+//! Smith shadowing is `roughconductor` (conductor Fresnel, or Schlick with f0 = 1 as
+//! `material="none"`, kd = 0) or `roughplastic` (dielectric Fresnel), `conductor`/`plastic`
+//! when it is a mirror. Every other material has no Mitsuba twin and is refused, unless
+//! `brdfwave_plugins` is set: it is then written under brdfwave's own plugin name
+//! (`<bsdf type="ward">`) with its parameters as the scene gave them, which only brdfwave reads.
+
+use crate::brdf::cook_torrance::{CookTorrance, Distribution, Fresnel, Geometry, Normalization};
+use crate::brdf::lambert::Lambert;
+use crate::scene::{Scene, Sphere, Triangle};
+use glam::Vec3;
+use std::fmt::Write as _;
+
+/// How to write what Mitsuba lacks.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Options {
+    /// Write the models Mitsuba lacks under brdfwave's own plugin names instead of refusing.
+    pub brdfwave_plugins: bool,
+}
+
+/// The converted scene: the XML text and the OBJ files it refers to, `(name, text)` with names
+/// relative to the XML file's directory.
+pub struct Converted {
+    pub xml: String,
+    pub meshes: Vec<(String, String)>,
+}
+
+/// `s` as Mitsuba 3 XML; `mesh_dir` is the directory (relative to the XML file) the OBJ files
+/// go to. The error says which material Mitsuba cannot express.
+pub fn to_mitsuba(s: &Scene, mesh_dir: &str, opts: Options) -> Result<Converted, String> {
+    let mut x = String::new();
+    let _ = writeln!(x, "<?xml version=\"1.0\" encoding=\"utf-8\"?>");
+    let _ = writeln!(
+        x,
+        "<!-- Written by `brdfwave convert` from {}. -->",
+        attr(&s.path.file_name().unwrap_or_default().to_string_lossy()).replace("--", "- -")
+    );
+    x.push_str("<scene version=\"3.0.0\">\n");
+    integrator(&mut x, s);
+    sensor(&mut x, s);
+    for (i, m) in s.materials.iter().enumerate() {
+        let name = &s.material_names[i];
+        x.push_str(&bsdf(m, name, s.material_params.get(i), opts)?);
+    }
+    if s.environment != Vec3::ZERO {
+        let _ = writeln!(
+            x,
+            "    <emitter type=\"constant\">\n        <rgb name=\"radiance\" value=\"{}\"/>\n    </emitter>",
+            rgb(s.environment)
+        );
+    }
+    let mut meshes = Vec::new();
+    for shape in ordered_shapes(s) {
+        match shape {
+            Shape::Mesh(tris) => {
+                let file = format!("{mesh_dir}/mesh-{}.obj", meshes.len());
+                let t = tris[0];
+                let _ = writeln!(x, "    <shape type=\"obj\">");
+                let _ = writeln!(x, "        <string name=\"filename\" value=\"{}\"/>", attr(&file));
+                shape_tail(&mut x, s, t.material, t.emitter);
+                meshes.push((file, obj_text(&tris)));
+            }
+            Shape::Sphere(sp) => {
+                let _ = writeln!(x, "    <shape type=\"sphere\">");
+                let c = sp.center;
+                let _ = writeln!(
+                    x,
+                    "        <point name=\"center\" x=\"{}\" y=\"{}\" z=\"{}\"/>",
+                    c.x, c.y, c.z
+                );
+                let _ = writeln!(x, "        <float name=\"radius\" value=\"{}\"/>", sp.radius);
+                if sp.inward {
+                    let _ = writeln!(x, "        <boolean name=\"flip_normals\" value=\"true\"/>");
+                }
+                shape_tail(&mut x, s, sp.material, sp.emitter);
+            }
+        }
+    }
+    x.push_str("</scene>\n");
+    Ok(Converted { xml: x, meshes })
+}
+
+/// Text safe inside a double-quoted XML attribute.
+fn attr(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+fn rgb(c: Vec3) -> String {
+    format!("{}, {}, {}", c.x, c.y, c.z)
+}
+
+fn integrator(x: &mut String, s: &Scene) {
+    let i = &s.integrator;
+    // Mitsuba's roulette is always on from rr_depth: off is an rr_depth it never reaches.
+    let rr = if i.russian_roulette {
+        i.rr_start_depth
+    } else {
+        i.max_depth
+    };
+    let _ = writeln!(
+        x,
+        "    <integrator type=\"path\">\n        <integer name=\"max_depth\" value=\"{}\"/>\n        <integer name=\"rr_depth\" value=\"{rr}\"/>\n    </integrator>",
+        i.max_depth
+    );
+}
+
+fn sensor(x: &mut String, s: &Scene) {
+    let c = &s.camera;
+    let sampler = match s.integrator.sampler {
+        crate::rng::Sampler::Independent => "independent",
+        _ => "ldsampler",
+    };
+    let _ = write!(
+        x,
+        "    <sensor type=\"perspective\">
+        <float name=\"fov\" value=\"{}\"/>
+        <string name=\"fov_axis\" value=\"y\"/>
+        <transform name=\"to_world\">
+            <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>
+        </transform>
+        <sampler type=\"{sampler}\">
+            <integer name=\"sample_count\" value=\"{}\"/>
+            <integer name=\"seed\" value=\"{}\"/>
+        </sampler>
+        <film type=\"hdrfilm\">
+            <integer name=\"width\" value=\"{}\"/>
+            <integer name=\"height\" value=\"{}\"/>
+            <rfilter type=\"box\"/>
+        </film>
+    </sensor>
+",
+        c.fov_y_deg,
+        rgb(c.position),
+        rgb(c.target),
+        rgb(c.up),
+        s.integrator.spp,
+        s.integrator.seed,
+        s.width,
+        s.height
+    );
+}
+
+/// A top-level `<bsdf id="NAME">`.
+fn bsdf(
+    m: &crate::brdf::Material,
+    name: &str,
+    params: Option<&std::collections::BTreeMap<String, toml::Value>>,
+    opts: Options,
+) -> Result<String, String> {
+    let id = attr(name);
+    let any = m.brdf.as_any();
+    if let Some(l) = any.downcast_ref::<Lambert>() {
+        return Ok(format!(
+            "    <bsdf type=\"diffuse\" id=\"{id}\">\n        <rgb name=\"reflectance\" value=\"{}\"/>\n    </bsdf>\n",
+            rgb(l.albedo)
+        ));
+    }
+    if let Some(c) = any.downcast_ref::<CookTorrance>() {
+        if let Some(b) = cook_torrance(c, &id) {
+            return Ok(b);
+        }
+    }
+    let why = format!(
+        "material '{name}' ({}) has no Mitsuba 3 twin: Mitsuba takes Lambert (diffuse) and Cook–Torrance \
+         with normalization = \"walter\" and geometry = \"smith\" (roughconductor: conductor Fresnel, or \
+         schlick with f0 = 1, and kd = 0; roughplastic: dielectric Fresnel); --brdfwave-plugins writes \
+         it under brdfwave's own plugin name, which only brdfwave reads",
+        m.model_name()
+    );
+    if !opts.brdfwave_plugins {
+        return Err(why);
+    }
+    let Some(params) = params else {
+        return Err(format!("material '{name}': its parameters are not known"));
+    };
+    let mut b = format!("    <bsdf type=\"{}\" id=\"{id}\">\n", m.model_name());
+    for (k, v) in params.iter().filter(|(k, _)| *k != "model") {
+        let k = attr(k);
+        let line = match v {
+            toml::Value::Float(f) => format!("<float name=\"{k}\" value=\"{}\"/>", *f as f32),
+            toml::Value::Integer(i) => format!("<integer name=\"{k}\" value=\"{i}\"/>"),
+            toml::Value::Boolean(t) => format!("<boolean name=\"{k}\" value=\"{t}\"/>"),
+            toml::Value::String(t) => format!("<string name=\"{k}\" value=\"{}\"/>", attr(t)),
+            toml::Value::Array(a) if a.len() == 3 => {
+                let n: Vec<String> = a
+                    .iter()
+                    .map(|e| match e {
+                        toml::Value::Float(f) => format!("{}", *f as f32),
+                        toml::Value::Integer(i) => format!("{}", *i as f32),
+                        _ => String::new(),
+                    })
+                    .collect();
+                if n.iter().any(String::is_empty) {
+                    return Err(format!("material '{name}', '{k}': not an RGB colour"));
+                }
+                format!("<rgb name=\"{k}\" value=\"{}\"/>", n.join(", "))
+            }
+            _ => return Err(format!("material '{name}', '{k}': this value cannot be written as XML")),
+        };
+        let _ = writeln!(b, "        {line}");
+    }
+    b.push_str("    </bsdf>\n");
+    Ok(b)
+}
+
+/// Cook–Torrance as `(rough)conductor` or `(rough)plastic`, when it is one.
+fn cook_torrance(c: &CookTorrance, id: &str) -> Option<String> {
+    if c.normalization != Normalization::Walter || c.geometry != Geometry::Smith {
+        return None;
+    }
+    // A rough plugin with α = 0 would divide by zero in Mitsuba: zero is the smooth plugin.
+    let rough = c.roughness > 0.0;
+    let mut p = String::new();
+    if rough {
+        let d = match c.distribution {
+            Distribution::Beckmann => "beckmann",
+            Distribution::Ggx => "ggx",
+        };
+        let _ = writeln!(p, "        <string name=\"distribution\" value=\"{d}\"/>");
+        let _ = writeln!(p, "        <float name=\"alpha\" value=\"{}\"/>", c.roughness);
+    }
+    if c.ks != Vec3::ONE {
+        let _ = writeln!(p, "        <rgb name=\"specular_reflectance\" value=\"{}\"/>", rgb(c.ks));
+    }
+    let kind = match c.fresnel {
+        Fresnel::Conductor if c.kd == Vec3::ZERO => {
+            let _ = writeln!(p, "        <rgb name=\"eta\" value=\"{}\"/>", rgb(c.eta));
+            let _ = writeln!(p, "        <rgb name=\"k\" value=\"{}\"/>", rgb(c.k));
+            "conductor"
+        }
+        Fresnel::Schlick if c.kd == Vec3::ZERO && c.f0 == Vec3::ONE => {
+            let _ = writeln!(p, "        <string name=\"material\" value=\"none\"/>");
+            "conductor"
+        }
+        Fresnel::Dielectric => {
+            let _ = writeln!(p, "        <rgb name=\"diffuse_reflectance\" value=\"{}\"/>", rgb(c.kd));
+            let _ = writeln!(p, "        <float name=\"int_ior\" value=\"{}\"/>", c.ior);
+            let _ = writeln!(p, "        <float name=\"ext_ior\" value=\"1\"/>");
+            "plastic"
+        }
+        _ => return None,
+    };
+    let kind = if rough { format!("rough{kind}") } else { kind.to_string() };
+    Some(format!("    <bsdf type=\"{kind}\" id=\"{id}\">\n{p}    </bsdf>\n"))
+}
+
+/// A shape's `<ref>`, emitter and end tag.
+fn shape_tail(x: &mut String, s: &Scene, material: u32, emitter: Option<u32>) {
+    let name = s.material_names.get(material as usize).map_or("", String::as_str);
+    let _ = writeln!(x, "        <ref id=\"{}\"/>", attr(name));
+    if let Some(e) = emitter.and_then(|e| s.emitters.get(e as usize)) {
+        let _ = writeln!(
+            x,
+            "        <emitter type=\"area\">\n            <rgb name=\"radiance\" value=\"{}\"/>\n        </emitter>",
+            rgb(e.radiance)
+        );
+    }
+    x.push_str("    </shape>\n");
+}
+
+enum Shape<'s> {
+    Mesh(Vec<&'s Triangle>),
+    Sphere(&'s Sphere),
+}
+
+/// The shapes to write: runs of triangles with one material and emitter (and all or none with normals, texture
+/// coordinates), and the spheres, in
+/// an order that keeps the triangles' order, the spheres' order and the emitters' numbering
+/// (the loader numbers emitters in shape order).
+fn ordered_shapes(s: &Scene) -> Vec<Shape<'_>> {
+    // An OBJ object's vertices all have normals (texture coordinates) or none do.
+    let key = |t: &Triangle| (t.material, t.emitter, t.n.is_some(), t.uv.is_some());
+    let mut runs: Vec<Vec<&Triangle>> = Vec::new();
+    for t in &s.triangles {
+        match runs.last_mut() {
+            Some(r) if key(r[0]) == key(t) => r.push(t),
+            _ => runs.push(vec![t]),
+        }
+    }
+    let (mut runs, mut spheres) = (runs.into_iter().peekable(), s.spheres.iter().peekable());
+    let mut out = Vec::new();
+    loop {
+        let next_run = runs.peek().map(|r| r[0].emitter);
+        let next_sphere = spheres.peek().map(|sp| sp.emitter);
+        let take_run = match (next_run, next_sphere) {
+            (None, None) => break,
+            (Some(_), None) => true,
+            (None, Some(_)) => false,
+            (Some(None), _) => true,
+            (_, Some(None)) => false,
+            (Some(Some(a)), Some(Some(b))) => a < b,
+        };
+        if take_run {
+            out.extend(runs.next().map(Shape::Mesh));
+        } else {
+            out.extend(spheres.next().map(Shape::Sphere));
+        }
+    }
+    out
+}
+
+/// An OBJ of the triangles, each with its own three vertices (and normals, texture
+/// coordinates), every number exact.
+fn obj_text(tris: &[&Triangle]) -> String {
+    let mut o = String::from("# Written by `brdfwave convert`: world space, exact f32 values.\n");
+    for t in tris {
+        for v in t.v {
+            let _ = writeln!(o, "v {} {} {}", v.x, v.y, v.z);
+        }
+        if let Some(n) = t.n {
+            for v in n {
+                let _ = writeln!(o, "vn {} {} {}", v.x, v.y, v.z);
+            }
+        }
+        if let Some(uv) = t.uv {
+            for v in uv {
+                let _ = writeln!(o, "vt {} {}", v.x, v.y);
+            }
+        }
+    }
+    let (mut vi, mut ni, mut ti) = (1usize, 1usize, 1usize);
+    for t in tris {
+        let mut f = String::from("f");
+        for _ in 0..3 {
+            let idx = match (t.uv.is_some(), t.n.is_some()) {
+                (false, false) => format!(" {vi}"),
+                (true, false) => format!(" {vi}/{ti}"),
+                (false, true) => format!(" {vi}//{ni}"),
+                (true, true) => format!(" {vi}/{ti}/{ni}"),
+            };
+            f.push_str(&idx);
+            vi += 1;
+            if t.n.is_some() {
+                ni += 1;
+            }
+            if t.uv.is_some() {
+                ti += 1;
+            }
+        }
+        o.push_str(&f);
+        o.push('\n');
+    }
+    o
+}
