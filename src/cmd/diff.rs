@@ -1,13 +1,15 @@
 //! `brdfwave diff`: RMSE, relMSE and FLIP of a test image against a reference
-//! (`brdfwave::metrics`).
+//! (`brdfwave::metrics`), and a verdict for CI: thresholds on the metrics (`--max`) and the
+//! per-pixel statistical test of means (`--z-test`). A failed check exits with status 1.
 
 use anyhow::{bail, Context as _, Result};
 use brdfwave::{
-    imageio, metrics,
+    imageio::{self, Image},
+    metrics::{self, Metric, Threshold, VarianceModel, ZTestOptions, ZTestReport},
     outfile::{self, Output},
 };
 use serde_json::json;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
 pub struct DiffArgs {
@@ -21,35 +23,140 @@ pub struct DiffArgs {
     /// Print the metrics as one JSON object on stdout.
     #[arg(long)]
     json: bool,
+    /// Fail (exit status 1) when METRIC is over VALUE; may be given several times. METRIC is
+    /// rmse, mse, relmse, flip, max_abs or over (the fraction of pixels off by more than
+    /// --tolerance / --rel-tolerance in any channel), e.g. `--max relmse=1e-3 --max flip=0.05`.
+    #[arg(long = "max", value_name = "METRIC=VALUE", value_parser = parse_threshold)]
+    max: Vec<Threshold>,
+    /// `--max over=…`: a pixel-channel is over when |t - r| > ABS + REL * max(|t|, |r|); this
+    /// is ABS (default 0).
+    #[arg(long, value_name = "ABS", value_parser = parse_tolerance)]
+    tolerance: Option<f64>,
+    /// `--max over=…`: the relative part REL of the tolerance (default 0).
+    #[arg(long, value_name = "REL", value_parser = parse_tolerance)]
+    rel_tolerance: Option<f64>,
+    /// The per-pixel two-sample test of means (Mitsuba 3 style): the two images are
+    /// independent renders, each with its per-pixel variance of one sample and its sample
+    /// count; fails when they differ by more than their noise explains.
+    #[arg(long)]
+    z_test: bool,
+    /// --z-test: the test image's variance of one sample (default: its EXR variance layer).
+    #[arg(long, requires = "z_test")]
+    test_variance: Option<PathBuf>,
+    /// --z-test: the test image's samples per pixel (default: its EXR metadata).
+    #[arg(long, requires = "z_test", value_parser = clap::value_parser!(u64).range(1..))]
+    test_spp: Option<u64>,
+    /// --z-test: the reference's variance of one sample (default: its EXR variance layer).
+    #[arg(long, requires = "z_test")]
+    reference_variance: Option<PathBuf>,
+    /// --z-test: the reference's samples per pixel (default: its EXR metadata).
+    #[arg(long, requires = "z_test", value_parser = clap::value_parser!(u64).range(1..))]
+    reference_spp: Option<u64>,
+    /// --z-test: the family-wise false-alarm rate, in (0, 1).
+    #[arg(long, requires = "z_test", default_value_t = 0.01, value_parser = parse_alpha)]
+    alpha: f64,
+    /// --z-test: the variance of the difference of means: `pooled` (both sides run the same
+    /// estimator: two seeds, GPU against CPU), `welch` (different estimators, or an exact
+    /// reference with zero variance), or `auto` (the default: pooled, welch when one side's
+    /// variance is zero everywhere). The two agree when both sides have the same spp.
+    #[arg(long, requires = "z_test", value_enum, default_value = "auto")]
+    variance_model: VarianceArg,
+    /// --z-test: write the per-pixel-channel p-values as an image (.exr keeps them exact).
+    #[arg(long, requires = "z_test")]
+    p_map: Option<PathBuf>,
 }
 
-pub fn run(a: DiffArgs) -> Result<()> {
-    let (test, reference, error_map, json_out) =
-        (&a.test, &a.reference, a.error_map.as_deref(), a.json);
-    if let Some(p) = error_map {
-        imageio::Format::from_path(p).context("--error-map")?;
-        for (name, input) in [("TEST", test), ("REFERENCE", reference)] {
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum VarianceArg {
+    Auto,
+    Pooled,
+    Welch,
+}
+
+fn parse_threshold(s: &str) -> std::result::Result<Threshold, String> {
+    Threshold::parse(s).map_err(|e| e.to_string())
+}
+
+fn parse_tolerance(s: &str) -> std::result::Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!("'{s}' is not a finite number >= 0")),
+    }
+}
+
+fn parse_alpha(s: &str) -> std::result::Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v > 0.0 && v < 1.0 => Ok(v),
+        _ => Err(format!("'{s}' is not a number in (0, 1)")),
+    }
+}
+
+/// The images the command may write, each checked before anything is computed.
+fn prepare_outputs(a: &DiffArgs) -> Result<()> {
+    let mut planned = Vec::new();
+    for (option, path) in [("--error-map", &a.error_map), ("--p-map", &a.p_map)] {
+        let Some(p) = path else { continue };
+        imageio::Format::from_path(p).context(option)?;
+        for (name, input) in [("TEST", &a.test), ("REFERENCE", &a.reference)] {
             if outfile::resolve(p) == outfile::resolve(input) {
                 bail!(
-                    "--error-map {} is the {name} image: it would be overwritten; give the error \
-                     map its own path",
-                    p.display()
+                    "{option} {} is the {name} image: it would be overwritten; give the {} its \
+                     own path",
+                    p.display(),
+                    &option[2..].replace('-', " ")
                 );
             }
         }
-        outfile::prepare(&[Output {
-            option: "--error-map",
-            path: p,
-        }])?;
+        planned.push(Output { option, path: p });
     }
-    let a = imageio::read(test)?;
-    let b = imageio::read(reference)?;
-    let report = metrics::diff(&a, &b)?;
-    if let Some(p) = error_map {
-        imageio::write(p, &metrics::error_map(&a, &b)?)?;
+    outfile::prepare(&planned)?;
+    Ok(())
+}
+
+pub fn run(a: DiffArgs) -> Result<()> {
+    let uses_over = a.max.iter().any(|t| t.metric == Metric::Over);
+    if !uses_over && (a.tolerance.is_some() || a.rel_tolerance.is_some()) {
+        bail!("--tolerance and --rel-tolerance apply to `--max over=FRACTION` only, which is not given");
     }
-    if json_out {
-        let j = json!({
+    prepare_outputs(&a)?;
+    let test = imageio::read(&a.test)?;
+    let reference = imageio::read(&a.reference)?;
+    let report = metrics::diff(&test, &reference)?;
+    let over = if uses_over {
+        let agree = metrics::fraction_within(
+            &test,
+            &reference,
+            a.rel_tolerance.unwrap_or(0.0),
+            a.tolerance.unwrap_or(0.0),
+        )?;
+        1.0 - agree.pixel_fraction
+    } else {
+        0.0
+    };
+    let verdicts: Vec<metrics::Verdict> = a
+        .max
+        .iter()
+        .map(|t| t.judge(t.metric.value(&report, over)))
+        .collect();
+    let z = if a.z_test {
+        Some(z_test(&a, &test, &reference)?)
+    } else {
+        None
+    };
+    if let Some(p) = &a.error_map {
+        imageio::write(p, &metrics::error_map(&test, &reference)?)?;
+    }
+    if let (Some(p), Some(z)) = (&a.p_map, &z) {
+        imageio::write(p, &z.p_map)?;
+    }
+    let failed: Vec<String> = verdicts
+        .iter()
+        .filter(|v| !v.pass)
+        .map(|v| v.to_string())
+        .chain(z.as_ref().filter(|z| !z.pass).map(|_| "FAIL z-test".to_string()))
+        .collect();
+    if a.json {
+        let mut j = json!({
             "width": report.width,
             "height": report.height,
             "mse": report.mse,
@@ -62,9 +169,30 @@ pub fn run(a: DiffArgs) -> Result<()> {
             "nonfinite_test": report.nonfinite_test,
             "nonfinite_reference": report.nonfinite_reference,
         });
+        if uses_over {
+            j["over"] = json!(over);
+        }
+        if !verdicts.is_empty() {
+            j["verdicts"] = json!(verdicts);
+        }
+        if let Some(z) = &z {
+            j["z_test"] = z_json(z);
+        }
+        if !verdicts.is_empty() || z.is_some() {
+            j["pass"] = json!(failed.is_empty());
+        }
         outln!("{j}")?;
     } else {
         out!("{report}")?;
+        if uses_over {
+            outln!("over        {over:.6e} of the pixels")?;
+        }
+        for v in &verdicts {
+            outln!("{v}")?;
+        }
+        if let Some(z) = &z {
+            out!("{z}")?;
+        }
     }
     // The metrics leave non-finite values out (two all-NaN images scored RMSE 0, FLIP 0): such
     // images do not compare, whatever the numbers above say.
@@ -72,10 +200,122 @@ pub fn run(a: DiffArgs) -> Result<()> {
         bail!(
             "the images hold non-finite values ({} in {}, {} in {}), which the metrics leave out: they do not compare",
             report.nonfinite_test,
-            test.display(),
+            a.test.display(),
             report.nonfinite_reference,
-            reference.display()
+            a.reference.display()
+        );
+    }
+    if !failed.is_empty() {
+        bail!(
+            "{} fails against {}: {}",
+            a.test.display(),
+            a.reference.display(),
+            failed.join("; ")
         );
     }
     Ok(())
+}
+
+/// One side of the z-test: its variance image and sample count.
+struct Side {
+    variance: Image,
+    spp: u64,
+}
+
+/// The variance and spp of the image at `path`: the options, else what the EXR carries.
+fn side(
+    name: &str,
+    path: &Path,
+    variance: Option<&Path>,
+    spp: Option<u64>,
+    option: &str,
+) -> Result<Side> {
+    let variance = match variance {
+        Some(v) => imageio::read(v).with_context(|| format!("--{option}-variance"))?,
+        None => bail!(
+            "--z-test needs the variance of the {name} image {}: give --{option}-variance FILE",
+            path.display()
+        ),
+    };
+    let spp = match spp {
+        Some(n) => n,
+        None => bail!(
+            "--z-test needs the samples per pixel of the {name} image {}: give --{option}-spp N",
+            path.display()
+        ),
+    };
+    Ok(Side { variance, spp })
+}
+
+fn z_test(a: &DiffArgs, test: &Image, reference: &Image) -> Result<ZTestReport> {
+    let t = side(
+        "test",
+        &a.test,
+        a.test_variance.as_deref(),
+        a.test_spp,
+        "test",
+    )?;
+    let r = side(
+        "reference",
+        &a.reference,
+        a.reference_variance.as_deref(),
+        a.reference_spp,
+        "reference",
+    )?;
+    let all_zero = |v: &Image| v.data.iter().all(|p| p.iter().all(|&c| c == 0.0));
+    let variance = match a.variance_model {
+        VarianceArg::Pooled => VarianceModel::Pooled,
+        VarianceArg::Welch => VarianceModel::Welch,
+        VarianceArg::Auto if all_zero(&t.variance) || all_zero(&r.variance) => {
+            VarianceModel::Welch
+        }
+        VarianceArg::Auto => VarianceModel::Pooled,
+    };
+    let opts = ZTestOptions {
+        alpha: a.alpha,
+        variance,
+        ..ZTestOptions::default()
+    };
+    metrics::z_test_with(
+        test,
+        &t.variance,
+        t.spp,
+        reference,
+        &r.variance,
+        r.spp,
+        &opts,
+    )
+    .context("--z-test")
+}
+
+fn z_json(z: &ZTestReport) -> serde_json::Value {
+    let worst: Vec<_> = z
+        .worst
+        .iter()
+        .map(|o| {
+            json!({"x": o.x, "y": o.y, "channel": o.channel, "test": o.mean_a,
+                   "reference": o.mean_b, "z": o.z, "p": o.p})
+        })
+        .collect();
+    json!({
+        "pass": z.pass,
+        "alpha": z.alpha,
+        "alpha_sidak": z.alpha_sidak,
+        "variance_model": match z.variance {
+            VarianceModel::Welch => "welch",
+            VarianceModel::Pooled => "pooled",
+        },
+        "tests": z.tests,
+        "outliers": z.outliers,
+        "max_outliers": z.max_outliers,
+        "outlier_rule_pass": z.outlier_rule_pass,
+        "rejected_pixels": z.rejected_pixels,
+        "expected_rejected_pixels": z.expected_rejected_pixels,
+        "excess_p": z.excess_p,
+        "excess_rule_pass": z.excess_rule_pass,
+        "nonfinite": z.nonfinite,
+        "min_p": z.min_p,
+        "mean_z": z.mean_z,
+        "worst": worst,
+    })
 }

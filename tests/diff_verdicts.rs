@@ -1,0 +1,160 @@
+//! `brdfwave diff` as a CI check: thresholds on the metrics (`--max`) and the statistical test
+//! of two renders (`--z-test`) give exit status 1 and a FAIL line on a regression, 0 otherwise.
+
+mod common;
+
+use brdfwave::imageio::{self, Image};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn run(args: &[&str]) -> Output {
+    let out = Command::new(env!("CARGO_BIN_EXE_brdfwave"))
+        .args(args)
+        .current_dir(common::repo())
+        .env("BRDFWAVE_CACHE_DIR", tmp("cache"))
+        .output()
+        .expect("run brdfwave");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{args:?} panicked:\n{stderr}");
+    out
+}
+
+/// Runs `args`; asserts the exit status; returns stdout and stderr.
+#[track_caller]
+fn status(args: &[&str], code: i32) -> (String, String) {
+    let out = run(args);
+    let (o, e) = (
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    );
+    assert_eq!(out.status.code(), Some(code), "{args:?}\nstdout:\n{o}\nstderr:\n{e}");
+    (o, e)
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("brdfwave-diff-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d.join(name)
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// A reference of 0.5 everywhere and a test 0.1 brighter in the left quarter of the columns:
+/// RMSE 0.05, max |t-r| 0.1, a quarter of the pixels over a tolerance below 0.1.
+fn pair() -> (PathBuf, PathBuf) {
+    let (t, r) = (tmp("test.exr"), tmp("reference.exr"));
+    imageio::write(&r, &Image::filled(16, 16, [0.5; 3])).unwrap();
+    let test = Image::from_fn(16, 16, |x, _| [if x < 4 { 0.6 } else { 0.5 }; 3]);
+    imageio::write(&t, &test).unwrap();
+    (t, r)
+}
+
+#[test]
+fn thresholds_pass_below_and_fail_above_naming_the_metric() {
+    let (t, r) = pair();
+    let (t, r) = (s(&t), s(&r));
+    let (o, _) = status(
+        &["diff", t, r, "--max", "rmse=0.06", "--max", "max_abs=0.11"],
+        0,
+    );
+    assert!(o.contains("PASS rmse 5.000e-2 <= 0.06"), "{o}");
+    assert!(o.contains("PASS max_abs"), "{o}");
+    let (o, e) = status(
+        &["diff", t, r, "--max", "rmse=0.04", "--max", "max_abs=0.11", "--max", "relmse=1e-3"],
+        1,
+    );
+    assert!(o.contains("FAIL rmse 5.000e-2 > 0.04"), "{o}");
+    assert!(o.contains("FAIL relmse"), "{o}");
+    assert!(o.contains("PASS max_abs"), "{o}");
+    assert!(e.contains("FAIL rmse 5.000e-2 > 0.04; FAIL relmse"), "{e}");
+    // A quarter of the pixels are over a tolerance of 0.05, none over 0.2.
+    let over = ["diff", t, r, "--max", "over=0.2", "--tolerance"];
+    let (o, _) = status(&[&over[..], &["0.05"]].concat(), 1);
+    assert!(o.contains("FAIL over 2.500e-1 > 0.2"), "{o}");
+    status(&[&over[..], &["0.2"]].concat(), 0);
+    // The relative tolerance: 0.1 <= 0.2 * 0.6.
+    status(&[&over[..], &["0", "--rel-tolerance", "0.2"]].concat(), 0);
+    // JSON carries the verdicts and the overall one.
+    let (o, _) = status(&["diff", t, r, "--json", "--max", "flip=1e-9"], 1);
+    let j: serde_json::Value = serde_json::from_str(o.trim()).unwrap();
+    assert_eq!(j["pass"], false);
+    assert_eq!(j["verdicts"][0]["metric"], "flip");
+    assert_eq!(j["verdicts"][0]["pass"], false);
+    // The same image passes every threshold at 0.
+    let zero: Vec<&str> = ["rmse", "mse", "relmse", "flip", "max_abs", "over"]
+        .iter()
+        .flat_map(|m| ["--max", Box::leak(format!("{m}=0").into_boxed_str())])
+        .collect();
+    status(&[&["diff", r, r][..], &zero].concat(), 0);
+}
+
+#[test]
+fn bad_thresholds_are_refused_with_the_reason() {
+    let (t, r) = pair();
+    let (t, r) = (s(&t), s(&r));
+    for (arg, needle) in [
+        ("psnr=30", "unknown metric 'psnr'"),
+        ("relmse", "is not METRIC=VALUE"),
+        ("relmse=abc", "not a number"),
+        ("rmse=-1", "must be finite and >= 0"),
+        ("over=2", "at most 1"),
+    ] {
+        let (_, e) = status(&["diff", t, r, "--max", arg], 2);
+        assert!(e.contains(needle) && e.contains("--max"), "{arg}: {e}");
+    }
+    let (_, e) = status(&["diff", t, r, "--tolerance", "0.1"], 1);
+    assert!(e.contains("--max over"), "{e}");
+    let (_, e) = status(&["diff", t, r, "--z-test"], 1);
+    assert!(e.contains("--test-variance"), "{e}");
+}
+
+/// Renders `scene` small on the CPU with the independent sampler (whose per-sample variance is
+/// what the z-test assumes) to `name`.exr and its variance to `name`-var.exr.
+fn render(scene: &Path, seed: &str, name: &str) -> (PathBuf, PathBuf) {
+    let (out, var) = (tmp(&format!("{name}.exr")), tmp(&format!("{name}-var.exr")));
+    let args = [
+        "render", s(scene), "--backend", "cpu", "--res", "32x32", "--spp", "256",
+        "--sampler", "independent", "--seed", seed, "--out", s(&out), "--variance-out", s(&var),
+    ];
+    status(&args, 0);
+    (out, var)
+}
+
+fn z_diff(a: &(PathBuf, PathBuf), b: &(PathBuf, PathBuf), code: i32, extra: &[&str]) -> String {
+    let args = [
+        "diff", s(&a.0), s(&b.0), "--z-test", "--test-variance", s(&a.1), "--test-spp", "256",
+        "--reference-variance", s(&b.1), "--reference-spp", "256",
+    ];
+    status(&[&args[..], extra].concat(), code).0
+}
+
+#[test]
+fn z_test_passes_on_two_seeds_and_fails_on_a_changed_wall() {
+    let scene = common::repo().join("scenes/cornell-box.toml");
+    let text = std::fs::read_to_string(&scene).unwrap();
+    // The red wall 10% brighter.
+    let red = "albedo = [0.63, 0.065, 0.05]";
+    assert_eq!(text.matches(red).count(), 1);
+    let changed = tmp("changed.toml");
+    std::fs::write(&changed, text.replace(red, "albedo = [0.693, 0.0715, 0.055]")).unwrap();
+    let a = render(&scene, "1", "seed1");
+    let b = render(&scene, "2", "seed2");
+    let c = render(&changed, "2", "changed");
+    let p_map = tmp("p.exr");
+    let o = z_diff(&a, &b, 0, &["--p-map", s(&p_map)]);
+    assert!(o.contains("z-test PASS"), "{o}");
+    let p = imageio::read(&p_map).unwrap();
+    assert_eq!((p.width, p.height), (32, 32));
+    assert!(p.data.iter().flatten().all(|&v| (0.0..=1.0).contains(&v)));
+    let o = z_diff(&c, &a, 1, &[]);
+    assert!(o.contains("z-test FAIL") && o.contains("excess rule FAIL"), "{o}");
+    // The worst pixels are on the red wall, the left of the image.
+    let j: serde_json::Value = serde_json::from_str(z_diff(&c, &a, 1, &["--json"]).trim()).unwrap();
+    assert_eq!(j["pass"], false);
+    assert_eq!(j["z_test"]["pass"], false);
+    assert!(j["z_test"]["worst"][0]["x"].as_u64().unwrap() < 8, "{j}");
+    let j: serde_json::Value = serde_json::from_str(z_diff(&a, &b, 0, &["--json"]).trim()).unwrap();
+    assert_eq!((j["pass"].clone(), j["z_test"]["variance_model"].clone()), (true.into(), "pooled".into()));
+}
