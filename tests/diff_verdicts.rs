@@ -27,7 +27,11 @@ fn status(args: &[&str], code: i32) -> (String, String) {
         String::from_utf8_lossy(&out.stdout).into_owned(),
         String::from_utf8_lossy(&out.stderr).into_owned(),
     );
-    assert_eq!(out.status.code(), Some(code), "{args:?}\nstdout:\n{o}\nstderr:\n{e}");
+    assert_eq!(
+        out.status.code(),
+        Some(code),
+        "{args:?}\nstdout:\n{o}\nstderr:\n{e}"
+    );
     (o, e)
 }
 
@@ -62,7 +66,17 @@ fn thresholds_pass_below_and_fail_above_naming_the_metric() {
     assert!(o.contains("PASS rmse 5.000e-2 <= 0.06"), "{o}");
     assert!(o.contains("PASS max_abs"), "{o}");
     let (o, e) = status(
-        &["diff", t, r, "--max", "rmse=0.04", "--max", "max_abs=0.11", "--max", "relmse=1e-3"],
+        &[
+            "diff",
+            t,
+            r,
+            "--max",
+            "rmse=0.04",
+            "--max",
+            "max_abs=0.11",
+            "--max",
+            "relmse=1e-3",
+        ],
         1,
     );
     assert!(o.contains("FAIL rmse 5.000e-2 > 0.04"), "{o}");
@@ -115,8 +129,22 @@ fn bad_thresholds_are_refused_with_the_reason() {
 fn render(scene: &Path, seed: &str, name: &str) -> (PathBuf, PathBuf) {
     let (out, var) = (tmp(&format!("{name}.exr")), tmp(&format!("{name}-var.exr")));
     let args = [
-        "render", s(scene), "--backend", "cpu", "--res", "32x32", "--spp", "256",
-        "--sampler", "independent", "--seed", seed, "--out", s(&out), "--variance-out", s(&var),
+        "render",
+        s(scene),
+        "--backend",
+        "cpu",
+        "--res",
+        "32x32",
+        "--spp",
+        "256",
+        "--sampler",
+        "independent",
+        "--seed",
+        seed,
+        "--out",
+        s(&out),
+        "--variance-out",
+        s(&var),
     ];
     status(&args, 0);
     (out, var)
@@ -124,8 +152,18 @@ fn render(scene: &Path, seed: &str, name: &str) -> (PathBuf, PathBuf) {
 
 fn z_diff(a: &(PathBuf, PathBuf), b: &(PathBuf, PathBuf), code: i32, extra: &[&str]) -> String {
     let args = [
-        "diff", s(&a.0), s(&b.0), "--z-test", "--test-variance", s(&a.1), "--test-spp", "256",
-        "--reference-variance", s(&b.1), "--reference-spp", "256",
+        "diff",
+        s(&a.0),
+        s(&b.0),
+        "--z-test",
+        "--test-variance",
+        s(&a.1),
+        "--test-spp",
+        "256",
+        "--reference-variance",
+        s(&b.1),
+        "--reference-spp",
+        "256",
     ];
     status(&[&args[..], extra].concat(), code).0
 }
@@ -138,7 +176,11 @@ fn z_test_passes_on_two_seeds_and_fails_on_a_changed_wall() {
     let red = "albedo = [0.63, 0.065, 0.05]";
     assert_eq!(text.matches(red).count(), 1);
     let changed = tmp("changed.toml");
-    std::fs::write(&changed, text.replace(red, "albedo = [0.693, 0.0715, 0.055]")).unwrap();
+    std::fs::write(
+        &changed,
+        text.replace(red, "albedo = [0.693, 0.0715, 0.055]"),
+    )
+    .unwrap();
     let a = render(&scene, "1", "seed1");
     let b = render(&scene, "2", "seed2");
     let c = render(&changed, "2", "changed");
@@ -149,12 +191,18 @@ fn z_test_passes_on_two_seeds_and_fails_on_a_changed_wall() {
     assert_eq!((p.width, p.height), (32, 32));
     assert!(p.data.iter().flatten().all(|&v| (0.0..=1.0).contains(&v)));
     let o = z_diff(&c, &a, 1, &[]);
-    assert!(o.contains("z-test FAIL") && o.contains("excess rule FAIL"), "{o}");
+    assert!(
+        o.contains("z-test FAIL") && o.contains("excess rule FAIL"),
+        "{o}"
+    );
     // The worst pixels are on the red wall, the left of the image.
     let j: serde_json::Value = serde_json::from_str(z_diff(&c, &a, 1, &["--json"]).trim()).unwrap();
     assert_eq!(j["pass"], false);
     assert_eq!(j["z_test"]["pass"], false);
     assert!(j["z_test"]["worst"][0]["x"].as_u64().unwrap() < 8, "{j}");
     let j: serde_json::Value = serde_json::from_str(z_diff(&a, &b, 0, &["--json"]).trim()).unwrap();
-    assert_eq!((j["pass"].clone(), j["z_test"]["variance_model"].clone()), (true.into(), "pooled".into()));
+    assert_eq!(
+        (j["pass"].clone(), j["z_test"]["variance_model"].clone()),
+        (true.into(), "pooled".into())
+    );
 }

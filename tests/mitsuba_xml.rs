@@ -78,12 +78,30 @@ fn xml_twins_load_to_the_same_scene() {
         assert_eq!(t.material_names, x.material_names, "{name}: material names");
         for (a, b) in t.materials.iter().zip(&x.materials) {
             assert_eq!(a.model, b.model, "{name}");
-            assert_eq!(a.brdf.pack(), b.brdf.pack(), "{name}: {:?} vs {:?}", a.brdf, b.brdf);
+            assert_eq!(
+                a.brdf.pack(),
+                b.brdf.pack(),
+                "{name}: {:?} vs {:?}",
+                a.brdf,
+                b.brdf
+            );
         }
         let (ti, xi) = (&t.integrator, &x.integrator);
         assert_eq!(
-            (ti.spp, ti.max_depth, ti.seed, ti.sampler, ti.russian_roulette),
-            (xi.spp, xi.max_depth, xi.seed, xi.sampler, xi.russian_roulette),
+            (
+                ti.spp,
+                ti.max_depth,
+                ti.seed,
+                ti.sampler,
+                ti.russian_roulette
+            ),
+            (
+                xi.spp,
+                xi.max_depth,
+                xi.seed,
+                xi.sampler,
+                xi.russian_roulette
+            ),
             "{name}: integrator"
         );
         assert!(x.warnings.is_empty(), "{name}: {:?}", x.warnings);
@@ -115,7 +133,10 @@ fn xml_twins_render_bit_identical_images_on_both_backends() {
         let (t, x) = load_pair(&name);
         let (t, x) = (small(t), small(x));
         let (ct, cx) = (render_cpu(&t), render_cpu(&x));
-        assert!(bits(&ct).iter().any(|b| *b != 0), "{name}: a black image proves nothing");
+        assert!(
+            bits(&ct).iter().any(|b| *b != 0),
+            "{name}: a black image proves nothing"
+        );
         assert_eq!(bits(&ct), bits(&cx), "{name}: CPU images differ");
         let ((gt, _), (gx, _)) = (render_gpu(&ctx, &t), render_gpu(&ctx, &x));
         assert_eq!(bits(&gt), bits(&gx), "{name}: GPU images differ");
@@ -142,7 +163,9 @@ fn load_xml(body: &str) -> Result<Scene, String> {
 }
 
 fn line_of(text: &str, needle: &str) -> usize {
-    let at = text.find(needle).unwrap_or_else(|| panic!("'{needle}' not in the text"));
+    let at = text
+        .find(needle)
+        .unwrap_or_else(|| panic!("'{needle}' not in the text"));
     text[..at].matches('\n').count() + 1
 }
 
@@ -153,7 +176,10 @@ fn expect_error(body: &str, needle: &str, what: &str) {
         .expect_err("must fail")
         .to_string();
     let line = line_of(&text, needle);
-    assert!(msg.starts_with(&format!("dir/s.xml:{line}: ")), "line {line}: {msg}");
+    assert!(
+        msg.starts_with(&format!("dir/s.xml:{line}: ")),
+        "line {line}: {msg}"
+    );
     assert!(msg.contains(what), "{msg}");
 }
 
@@ -216,7 +242,11 @@ fn sensor_fov_axis_and_matrix_camera() {
         "<float name=\"fov\" value=\"90\"/>",
     );
     let s = load_str(&text, Path::new("s.xml")).unwrap();
-    assert!((s.camera.fov_y_deg - 53.130_1).abs() < 1e-3, "{}", s.camera.fov_y_deg);
+    assert!(
+        (s.camera.fov_y_deg - 53.130_1).abs() < 1e-3,
+        "{}",
+        s.camera.fov_y_deg
+    );
     let text = xml("<shape type=\"sphere\"/>").replace(
         "<lookat origin=\"0, 0, -5\" target=\"0, 0, 0\" up=\"0, 1, 0\"/>",
         "<rotate y=\"1\" angle=\"90\"/><translate x=\"-5\"/>",
@@ -266,7 +296,10 @@ fn bsdfs_map_to_the_survey_models() {
     assert_eq!(plastic.ior, 1.5046);
     assert_eq!(plastic.kd, Vec3::new(0.2, 0.3, 0.4));
     // Mitsuba's default roughplastic: Beckmann, alpha 0.1.
-    assert_eq!((plastic.distribution, plastic.roughness), (Distribution::Beckmann, 0.1));
+    assert_eq!(
+        (plastic.distribution, plastic.roughness),
+        (Distribution::Beckmann, 0.1)
+    );
     assert_eq!(s.materials[2].model_name(), "ward");
     assert_eq!(s.materials[3].model_name(), "lambert");
     assert_eq!(s.material_names[3], "shape 3 bsdf");
@@ -298,19 +331,30 @@ fn malformed_xml_names_its_line() {
     let e = load_str("<scene version=\"2.1.0\"/>", Path::new("m.xml"))
         .unwrap_err()
         .to_string();
-    assert!(e.starts_with("m.xml:1: ") && e.contains("only Mitsuba 3"), "{e}");
+    assert!(
+        e.starts_with("m.xml:1: ") && e.contains("only Mitsuba 3"),
+        "{e}"
+    );
 }
 
 #[test]
 fn unsupported_elements_are_refused_where_they_are() {
-    expect_error(r#"<shape type="hair"/>"#, "hair", "<shape type=\"hair\"> is not supported (supported: obj");
+    expect_error(
+        r#"<shape type="hair"/>"#,
+        "hair",
+        "<shape type=\"hair\"> is not supported (supported: obj",
+    );
     expect_error(
         r#"<bsdf type="dielectric" id="glass"/>"#,
         "dielectric",
         "supported: diffuse, conductor, roughconductor, plastic, roughplastic, and the survey's models by name: lambert",
     );
     expect_error(r#"<emitter type="envmap"/>"#, "envmap", "is not supported");
-    expect_error(r#"<texture type="bitmap"/>"#, "bitmap", "not supported at the top level");
+    expect_error(
+        r#"<texture type="bitmap"/>"#,
+        "bitmap",
+        "not supported at the top level",
+    );
     expect_error(
         r#"<shape type="sphere"><float name="radiu" value="1"/></shape>"#,
         "radiu",
@@ -333,8 +377,16 @@ fn unsupported_elements_are_refused_where_they_are() {
         "name=\"roughness\"",
         "roughness",
     );
-    expect_error(r#"<shape type="sphere"><ref id="nope"/></shape>"#, "nope", "no <bsdf id=\"nope\"> before it");
-    expect_error(r#"<shape type="sphere"><float name="radius" value="$rr"/></shape>"#, "$rr", "unknown parameter $rr");
+    expect_error(
+        r#"<shape type="sphere"><ref id="nope"/></shape>"#,
+        "nope",
+        "no <bsdf id=\"nope\"> before it",
+    );
+    expect_error(
+        r#"<shape type="sphere"><float name="radius" value="$rr"/></shape>"#,
+        "$rr",
+        "unknown parameter $rr",
+    );
     expect_error(
         r#"<shape type="sphere"><float name="radius" value="-1"/></shape>"#,
         "value=\"-1\"",
@@ -342,17 +394,130 @@ fn unsupported_elements_are_refused_where_they_are() {
     );
 }
 
-/// The features of another branch are parsed and refused in one marked place each.
+/// PLY meshes, point and directional emitters and `twosided` BSDFs load as their TOML forms:
+/// `ply`, `[[lights]]` and `twosided = true`.
 #[test]
-fn pending_features_say_not_supported_yet() {
-    for (body, needle) in [
-        (r#"<shape type="ply"><string name="filename" value="a.ply"/></shape>"#, "ply"),
-        (r#"<emitter type="point"/>"#, "point\""),
-        (r#"<emitter type="directional"/>"#, "directional"),
-        (r#"<bsdf type="twosided" id="t"/>"#, "twosided"),
-    ] {
-        expect_error(body, needle, "are not supported yet");
+fn ply_delta_lights_and_twosided_map_to_their_toml_forms() {
+    use brdfwave::scene::DeltaLight;
+    let d = tempfile::tempdir().unwrap();
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+               property float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+               end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    write(d.path(), "t.ply", ply);
+    let main = write(
+        d.path(),
+        "s.xml",
+        &xml(
+            r#"<bsdf type="twosided" id="two"><bsdf type="diffuse"><rgb name="reflectance" value="0.3"/></bsdf></bsdf>
+<shape type="ply"><string name="filename" value="t.ply"/><ref id="two"/></shape>
+<emitter type="point"><point name="position" x="1" y="2" z="3"/><rgb name="intensity" value="4, 5, 6"/></emitter>
+<emitter type="directional"><vector name="direction" x="0" y="-2" z="0"/><float name="irradiance" value="2"/></emitter>
+<emitter type="point"><transform name="to_world"><translate x="7"/></transform></emitter>"#,
+        ),
+    );
+    let s = load(&main).unwrap();
+    assert_eq!(s.triangles.len(), 1);
+    assert_eq!(s.triangles[0].v, [Vec3::ZERO, Vec3::X, Vec3::Y]);
+    let m = &s.materials[s.triangles[0].material as usize];
+    assert!(m.twosided, "the twosided bsdf's material is two-sided");
+    assert_eq!(
+        s.lights,
+        [
+            DeltaLight::Point {
+                position: Vec3::new(1.0, 2.0, 3.0),
+                intensity: Vec3::new(4.0, 5.0, 6.0)
+            },
+            DeltaLight::Directional {
+                direction: Vec3::new(0.0, -1.0, 0.0),
+                irradiance: Vec3::splat(2.0)
+            },
+            DeltaLight::Point {
+                position: Vec3::new(7.0, 0.0, 0.0),
+                intensity: Vec3::ONE
+            },
+        ]
+    );
+    // What has no brdfwave form is refused where it is.
+    expect_error(
+        r#"<bsdf type="twosided" id="t"><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#,
+        "twosided",
+        "exactly one nested <bsdf>",
+    );
+    expect_error(
+        r#"<emitter type="point"><point name="position" x="1"/><transform name="to_world"><translate x="1"/></transform></emitter>"#,
+        "type=\"point\"",
+        "either position or to_world",
+    );
+    expect_error(
+        r#"<shape type="sphere"><emitter type="point"/></shape>"#,
+        "type=\"point\"",
+        "belongs at the top level",
+    );
+}
+
+/// `convert` keeps delta lights and two-sided materials: the XML it writes loads back to the
+/// same lights and the same flag.
+#[test]
+fn convert_keeps_delta_lights_and_twosided() {
+    let toml = r#"
+[camera]
+position = [0.0, 1.0, -3.0]
+target = [0.0, 0.0, 0.0]
+fov_y = 40.0
+[film]
+width = 8
+height = 8
+[materials.back]
+model = "lambert"
+albedo = 0.25
+twosided = true
+[[shapes]]
+material = "back"
+quads = [[[-1.0, 0.0, -1.0], [1.0, 0.0, -1.0], [1.0, 0.0, 1.0], [-1.0, 0.0, 1.0]]]
+[[lights]]
+type = "point"
+position = [0.0, 2.0, 0.0]
+intensity = [1.0, 2.0, 3.0]
+[[lights]]
+type = "directional"
+direction = [0.0, -1.0, 0.5]
+irradiance = 0.5
+"#;
+    let s = load_str(toml, Path::new("t.toml")).unwrap();
+    let c = to_mitsuba(&s, "m", Options::default()).unwrap();
+    assert!(
+        c.xml.contains("<bsdf type=\"twosided\" id=\"back\">"),
+        "{}",
+        c.xml
+    );
+    let d = tempfile::tempdir().unwrap();
+    std::fs::create_dir(d.path().join("m")).unwrap();
+    for (file, text) in &c.meshes {
+        write(d.path(), file, text);
     }
+    let back = load(&write(d.path(), "t.xml", &c.xml)).unwrap();
+    // The direction is normalised again on loading (in double precision, then rounded): equal
+    // up to its last bits.
+    use brdfwave::scene::DeltaLight::{Directional, Point};
+    match (&back.lights[..], &s.lights[..]) {
+        (
+            [p @ Point { .. }, Directional {
+                direction: a,
+                irradiance: ea,
+            }],
+            [q @ Point { .. }, Directional {
+                direction: b,
+                irradiance: eb,
+            }],
+        ) => {
+            assert_eq!(p, q);
+            assert!((*a - *b).abs().max_element() < 3e-7, "{a} vs {b}");
+            assert_eq!(ea, eb);
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(back.materials[0].twosided);
+    assert_eq!(back.triangles, s.triangles);
 }
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
@@ -375,7 +540,9 @@ fn includes_missing_and_cyclic() {
     let main = write(
         dir,
         "main.xml",
-        &xml("<include filename=\"bsdfs.xml\"/>\n<shape type=\"sphere\"><ref id=\"grey\"/></shape>"),
+        &xml(
+            "<include filename=\"bsdfs.xml\"/>\n<shape type=\"sphere\"><ref id=\"grey\"/></shape>",
+        ),
     );
     let s = load(&main).unwrap();
     assert_eq!(s.material_names, ["grey"]);
@@ -400,11 +567,22 @@ fn includes_missing_and_cyclic() {
     let main = write(dir, "main3.xml", &text);
     let e = load(&main).unwrap_err().to_string();
     let line = line_of(&text, "missing.xml");
-    assert!(e.starts_with(&format!("{}:{line}: ", main.display())), "{e}");
+    assert!(
+        e.starts_with(&format!("{}:{line}: ", main.display())),
+        "{e}"
+    );
     assert!(e.contains("cannot read the included file"), "{e}");
 
-    let a = write(dir, "a.xml", "<scene version=\"3.0.0\">\n<include filename=\"b.xml\"/>\n</scene>\n");
-    write(dir, "b.xml", "<scene version=\"3.0.0\">\n\n<include filename=\"a.xml\"/>\n</scene>\n");
+    let a = write(
+        dir,
+        "a.xml",
+        "<scene version=\"3.0.0\">\n<include filename=\"b.xml\"/>\n</scene>\n",
+    );
+    write(
+        dir,
+        "b.xml",
+        "<scene version=\"3.0.0\">\n\n<include filename=\"a.xml\"/>\n</scene>\n",
+    );
     let e = load(&a).unwrap_err().to_string();
     assert!(
         e.starts_with(&format!("{}:3: ", dir.join("b.xml").display())),

@@ -21,8 +21,9 @@ fn other_formats_are_named() {
             b"LookAt 0 0 5 0 0 0 0 1 0\nCamera \"perspective\" \"float fov\" [45]\nWorldBegin\n",
             "a pbrt scene",
         ),
+        // Named `.xml`, a Mitsuba scene is read as one; under another name it is recognised.
         (
-            "s.xml",
+            "s.scene",
             b"<scene version=\"3.0.0\">\n  <shape type=\"sphere\"/>\n</scene>\n",
             "a Mitsuba scene (XML)",
         ),

@@ -41,7 +41,7 @@ uint segment_end(uint depth, vec3 o, vec3 d, float prev_pdf, vec3 b, out vec3 e,
 #ifdef SCENE_TWOSIDED
         // The back of a two-sided material scatters (shade_vertex turns it to the front) but
         // emits nothing.
-        uvec4 h = texelFetch(material_words, int(MATERIAL_TEXELS * s.material));
+        uvec4 h = imageLoad(material_words, int(MATERIAL_TEXELS * s.material));
         if (h.z != 0u && depth < g.max_depth) return h.y;
 #endif
         return NO_QUEUE;

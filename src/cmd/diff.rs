@@ -153,7 +153,11 @@ pub fn run(a: DiffArgs) -> Result<()> {
         .iter()
         .filter(|v| !v.pass)
         .map(|v| v.to_string())
-        .chain(z.as_ref().filter(|z| !z.pass).map(|_| "FAIL z-test".to_string()))
+        .chain(
+            z.as_ref()
+                .filter(|z| !z.pass)
+                .map(|_| "FAIL z-test".to_string()),
+        )
         .collect();
     if a.json {
         let mut j = json!({
@@ -266,9 +270,7 @@ fn z_test(a: &DiffArgs, test: &Image, reference: &Image) -> Result<ZTestReport> 
     let variance = match a.variance_model {
         VarianceArg::Pooled => VarianceModel::Pooled,
         VarianceArg::Welch => VarianceModel::Welch,
-        VarianceArg::Auto if all_zero(&t.variance) || all_zero(&r.variance) => {
-            VarianceModel::Welch
-        }
+        VarianceArg::Auto if all_zero(&t.variance) || all_zero(&r.variance) => VarianceModel::Welch,
         VarianceArg::Auto => VarianceModel::Pooled,
     };
     let opts = ZTestOptions {

@@ -7,7 +7,7 @@
 //! keep its own, located, message.
 
 /// What brdfwave reads, appended to every "this looks like …" message.
-pub(super) const READS: &str = "brdfwave reads TOML scenes (the format is in scenes/README.md)";
+pub(super) const READS: &str = "brdfwave reads TOML scenes and, from files named *.xml, Mitsuba 3 XML scenes (both in scenes/README.md)";
 
 /// How many meaningful (non-blank, non-comment) lines the line-based formats are judged on.
 const LINES: usize = 20;

@@ -8,32 +8,12 @@ use super::doc::El;
 use super::values::{rows, to_world};
 use crate::scene::error::SceneError;
 use crate::scene::schema::{
-    Arr, MaterialTable, RawEnvironment, RawIntegrator, RawScene, RawShape, RawSphere,
+    Arr, MaterialTable, RawEnvironment, RawIntegrator, RawLight, RawScene, RawShape, RawSphere,
     RawTransform, Triple,
 };
 use crate::scene::spanned::{Cx, Sp};
 use std::collections::BTreeMap;
 use toml::Value;
-
-/// The features another branch adds (PLY meshes, point and directional lights, two-sided
-/// BSDFs): each is parsed up to here and refused in this one place, to be wired up there.
-#[derive(Clone, Copy, Debug)]
-pub(super) enum Pending {
-    Ply,
-    PointEmitter,
-    DirectionalEmitter,
-    TwoSided,
-}
-
-pub(super) fn pending(cx: &Cx, el: &El, what: Pending) -> SceneError {
-    let name = match what {
-        Pending::Ply => "PLY meshes (<shape type=\"ply\">)",
-        Pending::PointEmitter => "point lights (<emitter type=\"point\">)",
-        Pending::DirectionalEmitter => "directional lights (<emitter type=\"directional\">)",
-        Pending::TwoSided => "two-sided BSDFs (<bsdf type=\"twosided\">)",
-    };
-    cx.el_err(el, format!("{name} are not supported yet"))
-}
 
 /// The children of a plugin element by their `name` attribute, each taken at most once; what
 /// is left over is an error ([`Props::finish`]), never dropped.
@@ -58,14 +38,21 @@ impl<'e> Props<'e> {
     }
     /// The child named `name`, if any.
     pub(super) fn take(&mut self, name: &str) -> Option<&'e El> {
-        let e = self.named.iter_mut().find(|(c, _)| c.attr("name") == Some(name))?;
+        let e = self
+            .named
+            .iter_mut()
+            .find(|(c, _)| c.attr("name") == Some(name))?;
         e.1 = true;
         Some(e.0)
     }
     /// The children with tag `tag` (and any name), e.g. `bsdf`, `ref`, `emitter`.
     pub(super) fn take_tag(&mut self, tag: &str) -> Vec<&'e El> {
         let mut out = Vec::new();
-        for e in self.named.iter_mut().filter(|(c, used)| !used && c.tag == tag) {
+        for e in self
+            .named
+            .iter_mut()
+            .filter(|(c, used)| !used && c.tag == tag)
+        {
             e.1 = true;
             out.push(e.0);
         }
@@ -104,7 +91,10 @@ impl Cx<'_> {
             "parameter '{}' is a <{}>: expected {}",
             el.attr("name").unwrap_or_default(),
             el.tag,
-            tags.iter().map(|t| format!("<{t}>")).collect::<Vec<_>>().join(" or ")
+            tags.iter()
+                .map(|t| format!("<{t}>"))
+                .collect::<Vec<_>>()
+                .join(" or ")
         );
         Err(self.el_err(el, msg))
     }
@@ -137,13 +127,26 @@ impl Cx<'_> {
         match (el.tag.as_str(), v.as_slice()) {
             (_, [x]) => Ok([*x; 3]),
             ("rgb", [r, g, b]) => Ok([*r, *g, *b]),
-            ("spectrum", _) => Err(self.el_err(el, "<spectrum> is read only as one constant value: write an <rgb> colour")),
-            _ => Err(self.el_err(el, format!("{}: a colour needs 1 or 3 numbers, found {}", el.describe(), v.len()))),
+            ("spectrum", _) => Err(self.el_err(
+                el,
+                "<spectrum> is read only as one constant value: write an <rgb> colour",
+            )),
+            _ => Err(self.el_err(
+                el,
+                format!(
+                    "{}: a colour needs 1 or 3 numbers, found {}",
+                    el.describe(),
+                    v.len()
+                ),
+            )),
         }
     }
     fn color_value(&self, el: &El) -> Result<Sp<Value>, SceneError> {
         let c = self.color_of(el)?;
-        Ok(sp(el, Value::Array(c.iter().map(|x| Value::Float(*x)).collect())))
+        Ok(sp(
+            el,
+            Value::Array(c.iter().map(|x| Value::Float(*x)).collect()),
+        ))
     }
 }
 
@@ -163,6 +166,7 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
     let mut environment = None;
     let mut materials: BTreeMap<String, Sp<MaterialTable>> = BTreeMap::new();
     let mut shapes = Vec::new();
+    let mut lights = Vec::new();
     let mut saw_integrator = false;
     for el in top {
         match (el.tag.as_str(), el.attr("type")) {
@@ -180,7 +184,10 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
             }
             ("bsdf", _) => {
                 let Some(id) = el.attr("id") else {
-                    return Err(cx.el_err(el, "a top-level <bsdf> needs an id (shapes refer to it with <ref id=\"…\"/>)"));
+                    return Err(cx.el_err(
+                        el,
+                        "a top-level <bsdf> needs an id (shapes refer to it with <ref id=\"…\"/>)",
+                    ));
                 };
                 let table = bsdf(cx, el)?;
                 if materials.insert(id.to_string(), sp(el, table)).is_some() {
@@ -189,7 +196,10 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
             }
             ("emitter", Some("constant")) => {
                 if environment.is_some() {
-                    return Err(cx.el_err(el, "a second <emitter type=\"constant\">: brdfwave has one environment"));
+                    return Err(cx.el_err(
+                        el,
+                        "a second <emitter type=\"constant\">: brdfwave has one environment",
+                    ));
                 }
                 let mut p = Props::new(cx, el)?;
                 let Some(r) = p.take("radiance") else {
@@ -201,8 +211,11 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
                     radiance: Some(radiance),
                 });
             }
+            ("emitter", Some("point" | "directional")) => lights.push(delta_light(cx, el)?),
             ("emitter", _) => return Err(emitter_error(cx, el, false)),
-            ("shape", _) => shapes.push(super::shapes::shape(cx, el, shapes.len(), &mut materials)?),
+            ("shape", _) => {
+                shapes.push(super::shapes::shape(cx, el, shapes.len(), &mut materials)?)
+            }
             _ => {
                 let msg = format!(
                     "{} is not supported at the top level (supported: sensor, integrator, bsdf, shape, emitter type=\"constant\", include, default)",
@@ -213,7 +226,11 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
         }
     }
     let (Some(camera), Some(film)) = (camera, film) else {
-        return Err(cx.err(None, "scene", "the scene has no <sensor type=\"perspective\">"));
+        return Err(cx.err(
+            None,
+            "scene",
+            "the scene has no <sensor type=\"perspective\">",
+        ));
     };
     if !saw_integrator {
         super::sensor::default_depth(cx, &mut integrator);
@@ -225,20 +242,68 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
         environment,
         materials,
         shapes,
+        lights,
     })
+}
+
+/// A top-level `point` or `directional` emitter → a `[[lights]]` table. A point light's
+/// `position` (or its `to_world`'s origin) and `intensity`; a directional light's `direction`
+/// (or its `to_world`'s +z) and `irradiance`, as in Mitsuba 3. Missing values are Mitsuba's
+/// defaults: at the origin, along +z, of intensity / irradiance 1.
+fn delta_light(cx: &Cx, el: &El) -> Result<Sp<RawLight>, SceneError> {
+    let kind = cx.attr(el, "type")?;
+    let mut p = Props::new(cx, el)?;
+    let xf = match p.take("to_world") {
+        Some(t) => Some(to_world(cx, t)?.m),
+        None => None,
+    };
+    let (place, power, place_el) = match kind {
+        "point" => ("position", "intensity", p.take("position")),
+        _ => ("direction", "irradiance", p.take("direction")),
+    };
+    if place_el.is_some() && xf.is_some() {
+        let msg = format!("<emitter type=\"{kind}\">: give either {place} or to_world, not both");
+        return Err(cx.el_err(el, msg));
+    }
+    let v = match (place_el, xf) {
+        (Some(e), _) => cx.xyz(e, 0.0)?,
+        (None, Some(m)) if kind == "point" => m.transform_point3(glam::DVec3::ZERO).into(),
+        (None, Some(m)) => m.transform_vector3(glam::DVec3::Z).into(),
+        (None, None) if kind == "point" => [0.0; 3],
+        (None, None) => [0.0, 0.0, 1.0],
+    };
+    let power_value = match p.take(power) {
+        Some(e) => sp(e, Triple(cx.color_of(e)?)),
+        None => sp(el, Triple([1.0; 3])),
+    };
+    p.finish(cx, &format!("{place}, {power}, to_world"))?;
+    let at = |x: [f64; 3]| Some(sp(el, Arr(x)));
+    let (position, direction, intensity, irradiance) = match kind {
+        "point" => (at(v), None, Some(power_value), None),
+        _ => (None, at(v), None, Some(power_value)),
+    };
+    Ok(sp(
+        el,
+        RawLight {
+            kind: sp(el, kind.to_string()),
+            position,
+            intensity,
+            direction,
+            irradiance,
+        },
+    ))
 }
 
 /// Why an emitter is refused: a type brdfwave lacks, or an `area` emitter outside a shape.
 pub(super) fn emitter_error(cx: &Cx, el: &El, in_shape: bool) -> SceneError {
     match el.attr("type") {
-        Some("point") => pending(cx, el, Pending::PointEmitter),
-        Some("directional") => pending(cx, el, Pending::DirectionalEmitter),
+        Some("point" | "directional") if in_shape => cx.el_err(el, format!("an <emitter type=\"{}\"> belongs at the top level, not in a <shape>", el.attr("type").unwrap_or_default())),
         Some("area") if !in_shape => cx.el_err(el, "an <emitter type=\"area\"> belongs inside a <shape>"),
         Some("constant") if in_shape => cx.el_err(el, "an <emitter type=\"constant\"> belongs at the top level, not in a <shape>"),
         _ => cx.el_err(
             el,
             format!(
-                "{} is not supported (supported: area inside a shape, constant at the top level)",
+                "{} is not supported (supported: area inside a shape; constant, point and directional at the top level)",
                 el.describe()
             ),
         ),
@@ -267,13 +332,34 @@ pub(super) fn bsdf(cx: &Cx, el: &El) -> Result<MaterialTable, SceneError> {
             plastic(cx, el, kind == "roughplastic", &mut p, &mut t)?;
             p.finish(cx, "diffuse_reflectance, specular_reflectance, int_ior, ext_ior, nonlinear = false, and for roughplastic distribution, alpha, sample_visible")?;
         }
-        "twosided" => return Err(pending(cx, el, Pending::TwoSided)),
+        "twosided" => {
+            // One nested BSDF for both sides: the `twosided` flag of a brdfwave material.
+            // Mitsuba's second nested BSDF (a different back side) has no brdfwave form.
+            let inner = p.take_tag("bsdf");
+            let [inner] = inner.as_slice() else {
+                let msg = format!(
+                    "<bsdf type=\"twosided\"> needs exactly one nested <bsdf> (found {}): brdfwave shades both sides with one material",
+                    inner.len()
+                );
+                return Err(cx.el_err(el, msg));
+            };
+            if inner.attr("type") == Some("twosided") {
+                return Err(cx.el_err(inner, "a <bsdf type=\"twosided\"> inside another one"));
+            }
+            t = bsdf(cx, inner)?;
+            t.insert("twosided".into(), sp(el, Value::Boolean(true)));
+            p.finish(cx, "one nested bsdf")?;
+        }
         name if crate::brdf::MODELS.iter().any(|m| m.name == name) => {
             // One of the survey's models by our name: the parameters as the model names them.
             t.insert("model".into(), model(name));
             for c in &el.children {
                 let Some(n) = c.attr("name") else {
-                    let msg = format!("{}: {} needs a name (the model's parameter)", el.describe(), c.describe());
+                    let msg = format!(
+                        "{}: {} needs a name (the model's parameter)",
+                        el.describe(),
+                        c.describe()
+                    );
                     return Err(cx.el_err(c, msg));
                 };
                 let v = match c.tag.as_str() {
@@ -308,7 +394,13 @@ fn put(t: &mut MaterialTable, el: &El, k: &str, v: Value) {
 /// The microfacet settings every Mitsuba plugin shares: `distribution` (Beckmann, GGX) and
 /// `alpha` (Mitsuba's Beckmann α is the rms slope m, its GGX α ours), with `alpha_u`/`alpha_v`
 /// only when equal (our Cook–Torrance is isotropic); a smooth plugin is a delta mirror.
-fn microfacet(cx: &Cx, el: &El, rough: bool, p: &mut Props, t: &mut MaterialTable) -> Result<(), SceneError> {
+fn microfacet(
+    cx: &Cx,
+    el: &El,
+    rough: bool,
+    p: &mut Props,
+    t: &mut MaterialTable,
+) -> Result<(), SceneError> {
     put(t, el, "model", Value::String("cook_torrance".into()));
     put(t, el, "geometry", Value::String("smith".into()));
     put(t, el, "normalization", Value::String("walter".into()));
@@ -319,7 +411,10 @@ fn microfacet(cx: &Cx, el: &El, rough: bool, p: &mut Props, t: &mut MaterialTabl
     if let Some(d) = p.take("distribution") {
         let name = cx.string(d)?;
         if !["beckmann", "ggx"].contains(&name) {
-            return Err(cx.el_err(d, format!("distribution '{name}' is not supported (supported: beckmann, ggx)")));
+            return Err(cx.el_err(
+                d,
+                format!("distribution '{name}' is not supported (supported: beckmann, ggx)"),
+            ));
         }
         put(t, d, "distribution", Value::String(name.into()));
     }
@@ -348,7 +443,13 @@ fn microfacet(cx: &Cx, el: &El, rough: bool, p: &mut Props, t: &mut MaterialTabl
     Ok(())
 }
 
-fn conductor(cx: &Cx, el: &El, rough: bool, p: &mut Props, t: &mut MaterialTable) -> Result<(), SceneError> {
+fn conductor(
+    cx: &Cx,
+    el: &El,
+    rough: bool,
+    p: &mut Props,
+    t: &mut MaterialTable,
+) -> Result<(), SceneError> {
     microfacet(cx, el, rough, p, t)?;
     put(t, el, "kd", Value::Float(0.0));
     if let Some(s) = p.take("specular_reflectance") {
@@ -363,7 +464,10 @@ fn conductor(cx: &Cx, el: &El, rough: bool, p: &mut Props, t: &mut MaterialTable
             }
             name => {
                 let Some((eta, k)) = data::metal(name) else {
-                    let msg = format!("unknown conductor material '{name}' (known: none, {})", data::metal_names());
+                    let msg = format!(
+                        "unknown conductor material '{name}' (known: none, {})",
+                        data::metal_names()
+                    );
                     return Err(cx.el_err(m, msg));
                 };
                 put(t, m, "fresnel", Value::String("conductor".into()));
@@ -388,7 +492,13 @@ fn conductor(cx: &Cx, el: &El, rough: bool, p: &mut Props, t: &mut MaterialTable
     Ok(())
 }
 
-fn plastic(cx: &Cx, el: &El, rough: bool, p: &mut Props, t: &mut MaterialTable) -> Result<(), SceneError> {
+fn plastic(
+    cx: &Cx,
+    el: &El,
+    rough: bool,
+    p: &mut Props,
+    t: &mut MaterialTable,
+) -> Result<(), SceneError> {
     microfacet(cx, el, rough, p, t)?;
     put(t, el, "fresnel", Value::String("dielectric".into()));
     match p.take("diffuse_reflectance") {
@@ -400,14 +510,27 @@ fn plastic(cx: &Cx, el: &El, rough: bool, p: &mut Props, t: &mut MaterialTable) 
     if let Some(s) = p.take("specular_reflectance") {
         t.insert("ks".into(), cx.color_value(s)?);
     }
-    fn ior<'e>(cx: &Cx, name: &str, default: f64, p: &mut Props<'e>) -> Result<(f64, Option<&'e El>), SceneError> {
-        let Some(e) = p.take(name) else { return Ok((default, None)) };
+    fn ior<'e>(
+        cx: &Cx,
+        name: &str,
+        default: f64,
+        p: &mut Props<'e>,
+    ) -> Result<(f64, Option<&'e El>), SceneError> {
+        let Some(e) = p.take(name) else {
+            return Ok((default, None));
+        };
         let v = match e.tag.as_str() {
             "string" => {
                 let n = cx.string(e)?;
                 data::ior(n).ok_or_else(|| {
                     let known: Vec<&str> = data::IORS.iter().map(|x| x.0).collect();
-                    cx.el_err(e, format!("unknown index of refraction '{n}' (known: {})", known.join(", ")))
+                    cx.el_err(
+                        e,
+                        format!(
+                            "unknown index of refraction '{n}' (known: {})",
+                            known.join(", ")
+                        ),
+                    )
                 })?
             }
             _ => cx.float(e)?,
@@ -416,17 +539,28 @@ fn plastic(cx: &Cx, el: &El, rough: bool, p: &mut Props, t: &mut MaterialTable) 
     }
     let (int, int_el) = ior(cx, "int_ior", 1.49, p)?;
     let (ext, _) = ior(cx, "ext_ior", 1.000277, p)?;
-    put(t, int_el.unwrap_or(el), "ior", Value::Float((int / ext) as f32 as f64));
+    put(
+        t,
+        int_el.unwrap_or(el),
+        "ior",
+        Value::Float((int / ext) as f32 as f64),
+    );
     if let Some(n) = p.take("nonlinear") {
         if cx.bool_of(n)? {
-            return Err(cx.el_err(n, "nonlinear = true is not supported (the diffuse part is plain Lambert)"));
+            return Err(cx.el_err(
+                n,
+                "nonlinear = true is not supported (the diffuse part is plain Lambert)",
+            ));
         }
     }
     Ok(())
 }
 
 /// The raw transform of a shape's `to_world` (`None` without one): its matrix.
-pub(super) fn shape_transform(cx: &Cx, t: Option<&El>) -> Result<Option<Sp<RawTransform>>, SceneError> {
+pub(super) fn shape_transform(
+    cx: &Cx,
+    t: Option<&El>,
+) -> Result<Option<Sp<RawTransform>>, SceneError> {
     let Some(t) = t else { return Ok(None) };
     let matrix = Arr(rows(&to_world(cx, t)?.m).map(Arr));
     Ok(Some(sp(
@@ -451,6 +585,7 @@ pub(super) fn raw_shape(el: &El, material: Sp<String>) -> RawShape {
         triangles: None,
         sphere: None,
         obj: None,
+        ply: None,
         transform: None,
         as_written: false,
     }
@@ -466,4 +601,3 @@ pub(super) fn raw_sphere(el: &El, center: [f64; 3], radius: f64, inward: bool) -
         },
     )
 }
-

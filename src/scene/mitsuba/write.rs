@@ -19,7 +19,7 @@
 
 use crate::brdf::cook_torrance::{CookTorrance, Distribution, Fresnel, Geometry, Normalization};
 use crate::brdf::lambert::Lambert;
-use crate::scene::{Scene, Sphere, Triangle};
+use crate::scene::{DeltaLight, Scene, Sphere, Triangle};
 use glam::Vec3;
 use std::fmt::Write as _;
 
@@ -52,7 +52,8 @@ pub fn to_mitsuba(s: &Scene, mesh_dir: &str, opts: Options) -> Result<Converted,
     sensor(&mut x, s);
     for (i, m) in s.materials.iter().enumerate() {
         let name = &s.material_names[i];
-        x.push_str(&bsdf(m, name, s.material_params.get(i), opts)?);
+        let b = bsdf(m, name, s.material_params.get(i), opts)?;
+        x.push_str(&if m.twosided { twosided(&b, name) } else { b });
     }
     if s.environment != Vec3::ZERO {
         let _ = writeln!(
@@ -61,6 +62,24 @@ pub fn to_mitsuba(s: &Scene, mesh_dir: &str, opts: Options) -> Result<Converted,
             rgb(s.environment)
         );
     }
+    for l in &s.lights {
+        x.push_str(&match l {
+            DeltaLight::Point {
+                position: p,
+                intensity,
+            } => format!(
+                "    <emitter type=\"point\">\n        <point name=\"position\" x=\"{}\" y=\"{}\" z=\"{}\"/>\n        <rgb name=\"intensity\" value=\"{}\"/>\n    </emitter>\n",
+                p.x, p.y, p.z, rgb(*intensity)
+            ),
+            DeltaLight::Directional {
+                direction: d,
+                irradiance,
+            } => format!(
+                "    <emitter type=\"directional\">\n        <vector name=\"direction\" x=\"{}\" y=\"{}\" z=\"{}\"/>\n        <rgb name=\"irradiance\" value=\"{}\"/>\n    </emitter>\n",
+                d.x, d.y, d.z, rgb(*irradiance)
+            ),
+        });
+    }
     let mut meshes = Vec::new();
     for shape in ordered_shapes(s) {
         match shape {
@@ -68,7 +87,11 @@ pub fn to_mitsuba(s: &Scene, mesh_dir: &str, opts: Options) -> Result<Converted,
                 let file = format!("{mesh_dir}/mesh-{}.obj", meshes.len());
                 let t = tris[0];
                 let _ = writeln!(x, "    <shape type=\"obj\">");
-                let _ = writeln!(x, "        <string name=\"filename\" value=\"{}\"/>", attr(&file));
+                let _ = writeln!(
+                    x,
+                    "        <string name=\"filename\" value=\"{}\"/>",
+                    attr(&file)
+                );
                 shape_tail(&mut x, s, t.material, t.emitter);
                 meshes.push((file, obj_text(&tris)));
             }
@@ -80,7 +103,11 @@ pub fn to_mitsuba(s: &Scene, mesh_dir: &str, opts: Options) -> Result<Converted,
                     "        <point name=\"center\" x=\"{}\" y=\"{}\" z=\"{}\"/>",
                     c.x, c.y, c.z
                 );
-                let _ = writeln!(x, "        <float name=\"radius\" value=\"{}\"/>", sp.radius);
+                let _ = writeln!(
+                    x,
+                    "        <float name=\"radius\" value=\"{}\"/>",
+                    sp.radius
+                );
                 if sp.inward {
                     let _ = writeln!(x, "        <boolean name=\"flip_normals\" value=\"true\"/>");
                 }
@@ -90,6 +117,18 @@ pub fn to_mitsuba(s: &Scene, mesh_dir: &str, opts: Options) -> Result<Converted,
     }
     x.push_str("</scene>\n");
     Ok(Converted { xml: x, meshes })
+}
+
+/// A two-sided material: its BSDF element (`b`, as [`bsdf`] writes it) nested, without its id,
+/// in a `twosided` BSDF that takes the id.
+fn twosided(b: &str, name: &str) -> String {
+    let id = format!(" id=\"{}\"", attr(name));
+    let inner: String = b
+        .replacen(&id, "", 1)
+        .lines()
+        .map(|l| format!("    {l}\n"))
+        .collect();
+    format!("    <bsdf type=\"twosided\"{id}>\n{inner}    </bsdf>\n")
 }
 
 /// Text safe inside a double-quoted XML attribute.
@@ -210,7 +249,11 @@ fn bsdf(
                 }
                 format!("<rgb name=\"{k}\" value=\"{}\"/>", n.join(", "))
             }
-            _ => return Err(format!("material '{name}', '{k}': this value cannot be written as XML")),
+            _ => {
+                return Err(format!(
+                    "material '{name}', '{k}': this value cannot be written as XML"
+                ))
+            }
         };
         let _ = writeln!(b, "        {line}");
     }
@@ -232,10 +275,18 @@ fn cook_torrance(c: &CookTorrance, id: &str) -> Option<String> {
             Distribution::Ggx => "ggx",
         };
         let _ = writeln!(p, "        <string name=\"distribution\" value=\"{d}\"/>");
-        let _ = writeln!(p, "        <float name=\"alpha\" value=\"{}\"/>", c.roughness);
+        let _ = writeln!(
+            p,
+            "        <float name=\"alpha\" value=\"{}\"/>",
+            c.roughness
+        );
     }
     if c.ks != Vec3::ONE {
-        let _ = writeln!(p, "        <rgb name=\"specular_reflectance\" value=\"{}\"/>", rgb(c.ks));
+        let _ = writeln!(
+            p,
+            "        <rgb name=\"specular_reflectance\" value=\"{}\"/>",
+            rgb(c.ks)
+        );
     }
     let kind = match c.fresnel {
         Fresnel::Conductor if c.kd == Vec3::ZERO => {
@@ -248,20 +299,33 @@ fn cook_torrance(c: &CookTorrance, id: &str) -> Option<String> {
             "conductor"
         }
         Fresnel::Dielectric => {
-            let _ = writeln!(p, "        <rgb name=\"diffuse_reflectance\" value=\"{}\"/>", rgb(c.kd));
+            let _ = writeln!(
+                p,
+                "        <rgb name=\"diffuse_reflectance\" value=\"{}\"/>",
+                rgb(c.kd)
+            );
             let _ = writeln!(p, "        <float name=\"int_ior\" value=\"{}\"/>", c.ior);
             let _ = writeln!(p, "        <float name=\"ext_ior\" value=\"1\"/>");
             "plastic"
         }
         _ => return None,
     };
-    let kind = if rough { format!("rough{kind}") } else { kind.to_string() };
-    Some(format!("    <bsdf type=\"{kind}\" id=\"{id}\">\n{p}    </bsdf>\n"))
+    let kind = if rough {
+        format!("rough{kind}")
+    } else {
+        kind.to_string()
+    };
+    Some(format!(
+        "    <bsdf type=\"{kind}\" id=\"{id}\">\n{p}    </bsdf>\n"
+    ))
 }
 
 /// A shape's `<ref>`, emitter and end tag.
 fn shape_tail(x: &mut String, s: &Scene, material: u32, emitter: Option<u32>) {
-    let name = s.material_names.get(material as usize).map_or("", String::as_str);
+    let name = s
+        .material_names
+        .get(material as usize)
+        .map_or("", String::as_str);
     let _ = writeln!(x, "        <ref id=\"{}\"/>", attr(name));
     if let Some(e) = emitter.and_then(|e| s.emitters.get(e as usize)) {
         let _ = writeln!(
