@@ -170,10 +170,11 @@ impl MerlTable {
     pub fn read(path: &Path) -> Result<MerlTable, MerlError> {
         let io = |what: &str, e: std::io::Error| err(path, format!("{what}: {e}"));
         let mut file = std::fs::File::open(path).map_err(|e| io("cannot open", e))?;
-        let len = file
-            .metadata()
-            .map_err(|e| io("cannot read its size", e))?
-            .len();
+        let meta = file.metadata().map_err(|e| io("cannot read its size", e))?;
+        if meta.is_dir() {
+            return Err(err(path, "is a directory, not a MERL .binary file"));
+        }
+        let len = meta.len();
         if len < HEADER_BYTES {
             return Err(err(
                 path,
