@@ -264,4 +264,28 @@ mod tests {
             .count();
         assert_eq!(outside, 0);
     }
+
+    #[test]
+    fn linear_x_axis_maps_its_range_onto_the_plot_area() {
+        let s = vec![Series {
+            label: "a".into(),
+            // (0, 1) is the middle of x in [-90, 90] and of the decades 0.1 .. 10; the point
+            // outside the x range is left out.
+            points: vec![(-90.0, 0.1), (0.0, 1.0), (90.0, 10.0), (120.0, 1.0)],
+        }];
+        let img = lin_log("t", "x", "y", (-90.0, 90.0, 30.0), &s);
+        let c = Rgb(PALETTE[0]);
+        let (pw, ph) = (W as i32 - LEFT - RIGHT, H as i32 - TOP - BOTTOM);
+        assert_eq!(
+            *img.get_pixel((LEFT + pw / 2) as u32, (TOP + ph / 2) as u32),
+            c
+        );
+        let right_of_plot = img
+            .enumerate_pixels()
+            .filter(|(x, y, p)| {
+                **p == c && (*x as i32) > LEFT + pw + 2 && (*y as i32) > TOP + 8 + 6
+            })
+            .count();
+        assert_eq!(right_of_plot, 0, "the point at x = 120 was drawn");
+    }
 }

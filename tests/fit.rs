@@ -6,10 +6,12 @@ use brdfwave::fit::{self, space::ModelSpec, FitOptions, ModelFit};
 use brdfwave::measured::merl::MerlTable;
 use glam::Vec3;
 
-/// The coarse options of the tests.
+/// The coarse options of the tests: about 1300 cells compared, 500 of them driving the
+/// optimiser.
 fn options() -> FitOptions {
     FitOptions {
         samples: 2500,
+        fit_samples: 500,
         ..FitOptions::default()
     }
 }

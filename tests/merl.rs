@@ -231,4 +231,6 @@ fn bad_files_are_refused_with_what_is_wrong() {
     );
     let e = read_err(&d.join("absent.binary"));
     assert!(e.contains("cannot open"), "{e}");
+    let e = read_err(d);
+    assert!(e.contains("is a directory"), "{e}");
 }

@@ -45,8 +45,35 @@ fn project(x: &mut [f64]) {
     }
 }
 
-/// Minimises `f` over [0, 1]ⁿ from `x0`.
+/// Minimises `f` over [0, 1]ⁿ from `x0`. A simplex pressed onto a face of the cube by the
+/// projection collapses there and can no longer move along the face, and any simplex can
+/// stall in a valley; so each run that ends is restarted from its best point with a fresh
+/// simplex, until a restart no longer improves (Nelder–Mead with restarts, as is usual) or the
+/// evaluations are spent.
 pub fn minimize(f: impl Fn(&[f64]) -> f64, x0: &[f64], opt: Options) -> Minimum {
+    let mut best = run(&f, x0, opt);
+    while best.evals < opt.max_evals {
+        let left = Options {
+            max_evals: opt.max_evals - best.evals,
+            ..opt
+        };
+        let next = run(&f, &best.x, left);
+        let evals = best.evals + next.evals;
+        let improved = next.f < best.f - opt.f_tol * best.f.abs().max(1e-12);
+        if next.f < best.f {
+            best = Minimum { evals, ..next };
+        } else {
+            best.evals = evals;
+        }
+        if !improved {
+            break;
+        }
+    }
+    best
+}
+
+/// One Nelder–Mead run from `x0`.
+fn run(f: &impl Fn(&[f64]) -> f64, x0: &[f64], opt: Options) -> Minimum {
     let n = x0.len();
     let evals = std::cell::Cell::new(0usize);
     let eval = |x: &[f64]| {

@@ -17,7 +17,9 @@
 //!   (swapping wi and wo turns φd into φd + π), all clamped to the table;
 //! * θh, θd, φd are Rusinkiewicz's (1998) half/difference angles: h = normalize(wi + wo), and d
 //!   is wi rotated by −φh about the normal, then by −θh about the bitangent; wi is the light
-//!   direction (the reference reader's "in"). Isotropy drops φh.
+//!   direction (the reference reader's "in"). Isotropy drops φh. (The reference reader takes
+//!   θ = acos(z) in double precision; in f32 that loses the first θh cells, so we take
+//!   atan2(√(x² + y²), z).)
 //! * negative values mark cells that were not measured (the reference reader prints "Below
 //!   horizon." for them): they are counted ([`MerlTable::missing`]) and left out of the
 //!   interpolation.
@@ -116,14 +118,16 @@ pub fn half_diff(wi: Vec3, wo: Vec3) -> Option<(f32, f32, f32)> {
         return None;
     }
     let h = sum / len2.sqrt();
-    let theta_h = h.z.clamp(-1.0, 1.0).acos();
+    // atan2 of the sine and cosine, not acos: acos(cos θ) loses θ below ~3e-4 rad in f32,
+    // which is the first cells of the √θh axis.
+    let theta_h = h.x.hypot(h.y).atan2(h.z);
     let phi_h = h.y.atan2(h.x);
     let (sp, cp) = phi_h.sin_cos();
     // wi rotated by −φh about the normal, then by −θh about the bitangent.
     let t = Vec3::new(wi.x * cp + wi.y * sp, wi.y * cp - wi.x * sp, wi.z);
     let (st, ct) = theta_h.sin_cos();
     let d = Vec3::new(t.x * ct - t.z * st, t.y, t.z * ct + t.x * st);
-    let theta_d = d.z.clamp(-1.0, 1.0).acos();
+    let theta_d = d.x.hypot(d.y).atan2(d.z);
     let mut phi_d = d.y.atan2(d.x);
     if phi_d < 0.0 {
         phi_d += PI;
@@ -166,10 +170,11 @@ impl MerlTable {
     pub fn read(path: &Path) -> Result<MerlTable, MerlError> {
         let io = |what: &str, e: std::io::Error| err(path, format!("{what}: {e}"));
         let mut file = std::fs::File::open(path).map_err(|e| io("cannot open", e))?;
-        let len = file
-            .metadata()
-            .map_err(|e| io("cannot read its size", e))?
-            .len();
+        let meta = file.metadata().map_err(|e| io("cannot read its size", e))?;
+        if meta.is_dir() {
+            return Err(err(path, "is a directory, not a MERL .binary file"));
+        }
+        let len = meta.len();
         if len < HEADER_BYTES {
             return Err(err(
                 path,
