@@ -17,6 +17,7 @@ mod delta_lights;
 mod error;
 mod geometry;
 pub mod load;
+mod mtl;
 mod obj;
 pub mod ply;
 mod ply_shape;

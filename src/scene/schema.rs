@@ -87,6 +87,8 @@ pub(super) struct RawShape {
     pub(super) sphere: Option<Sp<RawSphere>>,
     pub(super) obj: Option<Sp<String>>,
     pub(super) ply: Option<Sp<String>>,
+    /// Use the OBJ file's MTL materials (only with `obj`).
+    pub(super) mtl: Option<Sp<bool>>,
     pub(super) transform: Option<Sp<RawTransform>>,
 }
 
