@@ -70,6 +70,7 @@ fn scene(tris: Vec<[Vec3; 3]>, spheres: Vec<(Vec3, f32, bool)>) -> Scene {
                 inward,
             })
             .collect(),
+        lights: Vec::new(),
         environment: Vec3::ZERO,
         warnings: Vec::new(),
     }

@@ -21,6 +21,27 @@ struct Scatter {
     float pdf;
 };
 
+#ifdef SCENE_DELTA_LIGHTS
+// Next-event estimation towards the delta light of light-table entry `prim` from `origin` on s
+// (view direction wo, local): no MIS, since BSDF sampling can never find it. Writes r's shadow
+// ray. Rust twin: delta_light_ray in src/cpu/scatter.rs.
+void delta_light_ray(uint prim, Surface s, Material m, vec3 origin, vec3 wo, vec3 b, uint c, inout Scatter r) {
+    DeltaSample ds;
+    if (!sample_delta_light(prim, origin, ds)) return;
+    vec3 wi_local = to_local(s.frame, ds.wi);
+    if (!(dot(ds.wi, s.ng) > 0.0 && wi_local.z > 0.0)) return;
+    vec3 f = BRDF_EVAL(m, wi_local, wo);
+    if (f.x == 0.0 && f.y == 0.0 && f.z == 0.0) return;
+    vec3 contrib = b * f * wi_local.z * ds.li;
+    if (!finite_or_count(contrib, c)) return;
+    r.shadow = true;
+    r.shadow_o = origin;
+    r.shadow_d = ds.wi;
+    r.shadow_tmax = ds.tmax;
+    r.shadow_l = contrib;
+}
+#endif
+
 // Shades the vertex at the end of segment `depth` (surface s, reached along direction d with
 // throughput b): one light sample (next-event estimation) and one BRDF sample, keyed on (path,
 // depth). Non-finite light contributions and continuations are counted at counter c and dropped.
@@ -56,24 +77,7 @@ Scatter shade_vertex(uint path, uint depth, Surface s, vec3 d, vec3 b, uint c) {
 #ifdef SCENE_DELTA_LIGHTS
     uint light_prim = g.num_lights > 0u ? light_entry(select_light(u_choice.x)).x : 0u;
     if (g.num_lights > 0u && (light_prim & DELTA_TAG) == DELTA_TAG) {
-        // A delta light: no MIS (BSDF sampling can never find it).
-        DeltaSample ds;
-        if (sample_delta_light(light_prim, origin, ds)) {
-            vec3 wi_local = to_local(s.frame, ds.wi);
-            if (dot(ds.wi, s.ng) > 0.0 && wi_local.z > 0.0) {
-                vec3 f = BRDF_EVAL(m, wi_local, wo);
-                if (f.x != 0.0 || f.y != 0.0 || f.z != 0.0) {
-                    vec3 contrib = b * f * wi_local.z * ds.li;
-                    if (finite_or_count(contrib, c)) {
-                        r.shadow = true;
-                        r.shadow_o = origin;
-                        r.shadow_d = ds.wi;
-                        r.shadow_tmax = ds.tmax;
-                        r.shadow_l = contrib;
-                    }
-                }
-            }
-        }
+        delta_light_ray(light_prim, s, m, origin, wo, b, c, r);
     } else
 #endif
     if (g.num_lights > 0u) {

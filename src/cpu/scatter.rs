@@ -4,6 +4,7 @@
 use super::surface::{light_pdf, power_heuristic, sample_delta_light, sample_light, Surface};
 use super::{CpuRenderer, PathStats};
 use crate::brdf::Brdf;
+use crate::lights::DeltaEntry;
 use crate::rng::{dim, PathRng};
 use crate::robust;
 use glam::Vec3;
@@ -33,6 +34,43 @@ pub(super) struct Scatter {
 }
 
 impl CpuRenderer<'_> {
+    /// Next-event estimation towards the delta light `l` from `origin` on `si` (view direction
+    /// `wo`, local): no MIS, since BSDF sampling can never find it. GLSL twin:
+    /// `delta_light_ray` in `shaders/wavefront/scatter.glsl`.
+    #[allow(clippy::too_many_arguments)]
+    fn delta_light_ray(
+        &self,
+        l: &DeltaEntry,
+        si: &Surface,
+        origin: Vec3,
+        wo: Vec3,
+        beta: Vec3,
+        model: usize,
+        stats: &mut PathStats,
+    ) -> Option<ShadowRay> {
+        let brdf = self.scene.materials[si.material as usize].brdf.as_ref();
+        let ds = sample_delta_light(l, origin)?;
+        let wi_local = si.frame.to_local(ds.wi);
+        if !(ds.wi.dot(si.ng) > 0.0 && wi_local.z > 0.0) {
+            return None;
+        }
+        let f = brdf.eval(wi_local, wo);
+        if f == Vec3::ZERO {
+            return None;
+        }
+        let contrib = beta * f * wi_local.z * ds.li;
+        if !contrib.is_finite() {
+            stats.nonfinite_shade[model] += 1;
+            return None;
+        }
+        Some(ShadowRay {
+            o: origin,
+            d: ds.wi,
+            tmax: ds.tmax,
+            l: contrib,
+        })
+    }
+
     /// Shades the vertex at the end of segment `depth` (surface `si`, reached along direction
     /// `d` with throughput `beta`): one light sample (next-event estimation) and one BRDF
     /// sample, keyed on (path, depth). Non-finite light contributions and continuations are
@@ -78,26 +116,7 @@ impl CpuRenderer<'_> {
             })
             .flatten();
         if let Some(l) = delta {
-            // A delta light: no MIS (BSDF sampling can never find it).
-            if let Some(ds) = sample_delta_light(l, origin) {
-                let wi_local = si.frame.to_local(ds.wi);
-                if ds.wi.dot(si.ng) > 0.0 && wi_local.z > 0.0 {
-                    let f = brdf.eval(wi_local, wo);
-                    if f != Vec3::ZERO {
-                        let contrib = beta * f * wi_local.z * ds.li;
-                        if !contrib.is_finite() {
-                            stats.nonfinite_shade[material.model] += 1;
-                        } else {
-                            r.shadow = Some(ShadowRay {
-                                o: origin,
-                                d: ds.wi,
-                                tmax: ds.tmax,
-                                l: contrib,
-                            });
-                        }
-                    }
-                }
-            }
+            r.shadow = self.delta_light_ray(l, si, origin, wo, beta, material.model, stats);
         } else if !self.lights.is_empty() {
             let u_light = rng.get2(depth, dim::LIGHT_U);
             let ls = sample_light(s, &self.lights, u_choice.x, u_light.x, u_light.y);

@@ -217,7 +217,7 @@ pub fn sample_delta_light(l: &DeltaEntry, origin: Vec3) -> Option<DeltaSample> {
     }
     let to_light = l.v - origin;
     let dist2 = to_light.length_squared();
-    if !(dist2 > 0.0) {
+    if dist2.is_nan() || dist2 <= 0.0 {
         return None;
     }
     let dist = dist2.sqrt();

@@ -124,7 +124,7 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
         }
     }
 
-    let (materials, material_names, material_spans, material_params) =
+    let (mut materials, mut material_names, material_spans, material_params) =
         materials(cx, raw.materials)?;
     let index: HashMap<&str, usize> = material_names
         .iter()
@@ -133,7 +133,10 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
         .collect();
     let mut used = vec![false; materials.len()];
 
-    let mut out = Shapes::default();
+    let mut out = Shapes {
+        material_base: materials.len() as u32,
+        ..Shapes::default()
+    };
     for (i, shape) in raw.shapes.iter().enumerate() {
         let f = format!("shapes[{i}]");
         let m = &shape.value.material;
@@ -148,6 +151,12 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
         };
         used[material] = true;
         shape_primitives(cx, &f, shape, material as u32, &mut out)?;
+    }
+
+    // The MTL materials of OBJ shapes with `mtl = true` follow the scene's own.
+    for (name, m) in std::mem::take(&mut out.mtl_materials) {
+        material_names.push(name);
+        materials.push(m);
     }
 
     for (k, u) in used.iter().enumerate() {
@@ -384,6 +393,10 @@ pub(super) struct Shapes {
     pub(super) triangles: Vec<Triangle>,
     pub(super) spheres: Vec<Sphere>,
     pub(super) emitters: Vec<Emitter>,
+    /// Materials read from MTL files (`mtl = true`), with their names.
+    pub(super) mtl_materials: Vec<(String, brdf::Material)>,
+    /// The number of the scene's own materials (the MTL ones are numbered from it).
+    pub(super) material_base: u32,
 }
 
 pub(super) fn shape_primitives(
@@ -440,6 +453,14 @@ pub(super) fn shape_primitives(
             return Err(cx.err(span, field, msg));
         }
         Ok(q)
+    };
+    let use_mtl = match &s.mtl {
+        Some(m) if s.obj.is_none() => {
+            let msg = "mtl applies only to obj shapes";
+            return Err(cx.err(m.span().or(shape.span()), &format!("{f}.mtl"), msg));
+        }
+        Some(m) => m.value,
+        None => false,
     };
 
     let emitter = match &s.emission {
@@ -563,7 +584,17 @@ pub(super) fn shape_primitives(
             material,
             emitter,
         };
-        obj_triangles(cx, &mesh, obj, &xf, &mut out.triangles)?;
+        if use_mtl {
+            let mut mo = super::mtl::MtlOut {
+                materials: &mut out.mtl_materials,
+                emitters: &mut out.emitters,
+                base: out.material_base,
+            };
+            let tris = &mut out.triangles;
+            super::obj::obj_triangles_mtl(cx, &mesh, obj, &xf, tris, Some(&mut mo))?;
+        } else {
+            obj_triangles(cx, &mesh, obj, &xf, &mut out.triangles)?;
+        }
     }
     Ok(())
 }

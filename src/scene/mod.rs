@@ -18,6 +18,7 @@ mod error;
 mod geometry;
 pub mod load;
 pub mod mitsuba;
+mod mtl;
 mod obj;
 pub mod ply;
 mod ply_shape;
@@ -120,7 +121,9 @@ pub struct Scene {
     /// Material names, parallel to `materials`.
     pub material_names: Vec<String>,
     /// Each material's parameters as the scene file gave them (`model` included), parallel to
-    /// `materials`: what `brdfwave convert` writes for the models Mitsuba lacks.
+    /// the scene file's own materials (the first entries of `materials`; the materials of an
+    /// OBJ's MTL library that follow have none): what `brdfwave convert` writes for the models
+    /// Mitsuba lacks.
     pub material_params: Vec<std::collections::BTreeMap<String, toml::Value>>,
     pub emitters: Vec<Emitter>,
     pub triangles: Vec<Triangle>,

@@ -4,6 +4,7 @@
 
 use super::error::SceneError;
 use super::geometry::{degenerate, edge_overflow, Transform};
+use super::mtl::{mtl_material, MtlOut};
 use super::spanned::{Cx, Sp};
 use super::Triangle;
 use glam::{Vec2, Vec3};
@@ -100,6 +101,19 @@ pub(super) fn obj_triangles(
     xf: &Transform,
     out: &mut Vec<Triangle>,
 ) -> Result<(), SceneError> {
+    obj_triangles_mtl(cx, shape, obj, xf, out, None)
+}
+
+/// [`obj_triangles`], with the MTL materials of the faces when `mtl` is given (the shape's
+/// `mtl = true`: [`super::mtl`]); faces without one get the shape's material and emitter.
+pub(super) fn obj_triangles_mtl(
+    cx: &mut Cx,
+    shape: &ObjShape,
+    obj: &Sp<String>,
+    xf: &Transform,
+    out: &mut Vec<Triangle>,
+    mut mtl: Option<&mut MtlOut>,
+) -> Result<(), SceneError> {
     let fo = shape.field.as_str();
     let span = obj.span();
     let rel = Path::new(&obj.value);
@@ -123,8 +137,12 @@ pub(super) fn obj_triangles(
             format!("OBJ file '{shown}', line {line}: {msg}"),
         )
     })?;
-    if uses_mtl {
-        let msg = format!("OBJ file '{shown}' refers to MTL materials; they are ignored: every face uses this shape's material");
+    if uses_mtl && mtl.is_none() {
+        let msg = format!("OBJ file '{shown}' refers to MTL materials; they are ignored: every face uses this shape's material (mtl = true uses them)");
+        cx.warn(span.clone(), fo, msg);
+    }
+    if !uses_mtl && mtl.is_some() {
+        let msg = format!("OBJ file '{shown}' has no MTL materials (mtllib, usemtl): every face uses this shape's material");
         cx.warn(span.clone(), fo, msg);
     }
     // Points (`p`) and polylines (`l`) are not surfaces: tobj's ignore_points / ignore_lines
@@ -158,14 +176,17 @@ pub(super) fn obj_triangles(
         ignore_points: true,
         ignore_lines: true,
     };
-    // The MTL loader refuses every library: the scene file assigns the material.
+    // Without `mtl`, the MTL loader refuses every library: the scene file assigns the material.
+    // With it, libraries are read relative to the OBJ file.
+    let obj_dir = full.parent().map(Path::to_path_buf).unwrap_or_default();
+    let read_mtl = mtl.is_some();
     let loaded = std::panic::catch_unwind(|| {
-        tobj::load_obj_buf(&mut text.as_bytes(), &opts, |_| {
-            Err(tobj::LoadError::OpenFileFailed)
+        tobj::load_obj_buf(&mut text.as_bytes(), &opts, |p| match read_mtl {
+            true => tobj::load_mtl(obj_dir.join(p)),
+            false => Err(tobj::LoadError::OpenFileFailed),
         })
-        .map(|(models, _)| models)
     });
-    let models = match loaded {
+    let (models, libraries) = match loaded {
         Ok(Ok(m)) => m,
         Ok(Err(e)) => {
             return Err(cx.err(span, fo, format!("cannot parse OBJ file '{shown}': {e}")))
@@ -179,10 +200,31 @@ pub(super) fn obj_triangles(
         }
     };
 
+    let mut library = Vec::new();
+    if read_mtl && uses_mtl {
+        library = libraries.map_err(|e| {
+            let msg = format!("OBJ file '{shown}': cannot read its MTL library (mtllib, relative to the OBJ file): {e}");
+            cx.err(span.clone(), fo, msg)
+        })?;
+    }
+    // Scene materials and emitters of the library's materials, made when a face uses them.
+    let mut made: Vec<Option<(u32, Option<u32>)>> = vec![None; library.len()];
+
     let start = out.len();
     let (mut skipped, mut dropped_normals, mut flipped) = (0usize, 0usize, 0usize);
     for model in &models {
         let m = &model.mesh;
+        let (material, emitter) = match (m.material_id, mtl.as_deref_mut()) {
+            (Some(id), Some(mo)) if id < library.len() => match made[id] {
+                Some(me) => me,
+                None => {
+                    let me = mtl_material(cx, span.clone(), fo, &obj.value, &library[id], mo)?;
+                    made[id] = Some(me);
+                    me
+                }
+            },
+            _ => (shape.material, shape.emitter),
+        };
         let nverts = m.positions.len() / 3;
         let has_n = !m.normals.is_empty() && m.normals.len() == 3 * nverts;
         let has_uv = !m.texcoords.is_empty() && m.texcoords.len() == 2 * nverts;
@@ -267,8 +309,8 @@ pub(super) fn obj_triangles(
                 v,
                 n: normals,
                 uv,
-                material: shape.material,
-                emitter: shape.emitter,
+                material,
+                emitter,
             });
         }
     }

@@ -87,6 +87,8 @@ pub(super) struct RawShape {
     pub(super) sphere: Option<Sp<RawSphere>>,
     pub(super) obj: Option<Sp<String>>,
     pub(super) ply: Option<Sp<String>>,
+    /// Use the OBJ file's MTL materials (only with `obj`).
+    pub(super) mtl: Option<Sp<bool>>,
     pub(super) transform: Option<Sp<RawTransform>>,
     /// Set by the Mitsuba reader for an OBJ without `to_world`: its vertices are world space
     /// as written, taken bit for bit ([`super::geometry::Transform::AsWritten`]).

@@ -1,0 +1,139 @@
+//! OBJ shapes with `mtl = true`: the MTL materials of the faces become Lambert or normalised
+//! Blinn–Phong materials (by `illum`) and emitters (`Ke`), equal to the same materials written
+//! in TOML; bad MTL content is an error naming the material; without `mtl` nothing changes.
+
+mod common;
+use brdfwave::metrics;
+use brdfwave::scene::{load, Scene};
+use common::*;
+use glam::Vec3;
+use std::path::Path;
+
+const OBJ: &str = "mtllib lib.mtl\nv -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nv -0.3 1 0.3\nv 0.3 1 0.3\nv 0.3 1 -0.3\n\
+    v -0.3 1 -0.3\nusemtl matte\nf 1 4 3\nusemtl shiny\nf 1 3 2\nusemtl lamp\nf 5 6 7 8\n";
+
+const MTL: &str =
+    "newmtl matte\nKd 0.7 0.6 0.5\nillum 1\n\nnewmtl shiny\nKa 0.1 0.1 0.1\nKd 0.4 0.4 0.3\n\
+    Ks 0.3 0.3 0.3\nNs 40\nillum 2\nmap_Kd wood.png\n\nnewmtl lamp\nKd 0 0 0\nKe 5 4 3\n";
+
+fn scene_with(files: &[(&str, &str)], shape: &str) -> Result<Scene, String> {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("m")).unwrap();
+    for (name, content) in files {
+        std::fs::write(dir.path().join("m").join(name), content).unwrap();
+    }
+    let src = format!(
+        "[camera]\nposition = [0, 3, 3]\ntarget = [0, 0, 0]\nfov_y = 50\n[film]\nwidth = 16\n\
+         height = 16\n[integrator]\nspp = 4\nmax_depth = 3\n[materials.m]\nmodel = \"lambert\"\n\
+         [[shapes]]\nmaterial = \"m\"\nobj = \"m/a.obj\"\n{shape}\n"
+    );
+    std::fs::write(dir.path().join("s.toml"), src).unwrap();
+    load(&dir.path().join("s.toml")).map_err(|e| e.to_string())
+}
+
+/// The material written in TOML, parsed by the model.
+fn toml_material(fields: &str) -> brdfwave::brdf::Material {
+    let src = format!(
+        "[camera]\nposition = [0, 0, 5]\ntarget = [0, 0, 0]\nfov_y = 30\n[film]\nwidth = 4\nheight = 4\n\
+         [environment]\nradiance = 1\n[materials.x]\n{fields}\n[[shapes]]\nmaterial = \"x\"\n\
+         sphere = {{ center = [0, 0, 0], radius = 1 }}\n"
+    );
+    let s = brdfwave::scene::load_str(&src, Path::new("x.toml")).unwrap();
+    s.materials[0].clone()
+}
+
+#[test]
+fn mtl_materials_become_models_and_emitters() {
+    let s = scene_with(&[("a.obj", OBJ), ("lib.mtl", MTL)], "mtl = true").unwrap();
+    assert_eq!(
+        s.material_names,
+        ["m", "m/a.obj:matte", "m/a.obj:shiny", "m/a.obj:lamp"]
+    );
+    // The shape's own material stays in use (for faces without usemtl): one warning only.
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert!(
+        s.warnings[0].contains("material 'm/a.obj:shiny': ignored: Ka, texture maps"),
+        "{:?}",
+        s.warnings
+    );
+    let by_name = |n: &str| s.material_names.iter().position(|x| x == n).unwrap() as u32;
+    let mats: Vec<u32> = s.triangles.iter().map(|t| t.material).collect();
+    assert_eq!(
+        mats,
+        [
+            by_name("m/a.obj:matte"),
+            by_name("m/a.obj:shiny"),
+            by_name("m/a.obj:lamp"),
+            by_name("m/a.obj:lamp")
+        ]
+    );
+    assert_eq!(s.emitters.len(), 1);
+    assert_eq!(s.emitters[0].radiance, Vec3::new(5.0, 4.0, 3.0));
+    assert!(s.triangles[..2].iter().all(|t| t.emitter.is_none()));
+    assert!(s.triangles[2..].iter().all(|t| t.emitter == Some(0)));
+    // The same materials written in TOML evaluate the same.
+    let want = [
+        ("m/a.obj:matte", "model = \"lambert\"\nalbedo = [0.7, 0.6, 0.5]"),
+        ("m/a.obj:shiny", "model = \"blinn_phong\"\nform = \"normalized\"\nkd = [0.4, 0.4, 0.3]\nks = 0.3\nexponent = 40"),
+        ("m/a.obj:lamp", "model = \"blinn_phong\"\nform = \"normalized\"\nkd = 0\nks = 0\nexponent = 0"),
+    ];
+    let (wi, wo) = (
+        Vec3::new(0.3, 0.1, 0.9).normalize(),
+        Vec3::new(-0.2, 0.3, 0.8).normalize(),
+    );
+    for (name, fields) in want {
+        let got = &s.materials[by_name(name) as usize];
+        let t = toml_material(fields);
+        assert_eq!(got.model_name(), t.model_name(), "{name}");
+        assert_eq!(got.brdf.eval(wi, wo), t.brdf.eval(wi, wo), "{name}");
+    }
+    // Both backends render it alike (the MTL materials get their shading pipelines).
+    let ctx = context();
+    let (gpu, _) = render_gpu(&ctx, &s);
+    finish(ctx);
+    let cpu = render_cpu(&s);
+    let agree = metrics::fraction_within(&gpu.mean, &cpu.mean, 1e-3, 1e-4).unwrap();
+    assert!(agree.channel_fraction >= 0.99, "{agree}");
+    assert!(cpu.mean.mean().iter().all(|&c| c > 0.01), "a lit image");
+}
+
+#[test]
+fn without_mtl_the_faces_keep_the_shape_material() {
+    let s = scene_with(&[("a.obj", OBJ), ("lib.mtl", MTL)], "").unwrap();
+    assert_eq!(s.material_names, ["m"]);
+    assert!(s
+        .triangles
+        .iter()
+        .all(|t| t.material == 0 && t.emitter.is_none()));
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("MTL materials; they are ignored") && w.contains("mtl = true")),
+        "{:?}",
+        s.warnings
+    );
+}
+
+#[test]
+fn bad_mtl_content_is_located() {
+    let bad = MTL.replace("Kd 0.7 0.6 0.5", "Kd 1.5 0.6 0.5");
+    let e = scene_with(&[("a.obj", OBJ), ("lib.mtl", &bad)], "mtl = true").unwrap_err();
+    assert!(
+        e.contains("s.toml:15: material 'm/a.obj:matte', field 'albedo'")
+            && e.contains("out of range"),
+        "{e}"
+    );
+    let e = scene_with(&[("a.obj", OBJ)], "mtl = true").unwrap_err();
+    assert!(
+        e.contains("field 'shapes[0].obj'") && e.contains("cannot read its MTL library"),
+        "{e}"
+    );
+    let neg = MTL.replace("Ke 5 4 3", "Ke 5 -4 3");
+    let e = scene_with(&[("a.obj", OBJ), ("lib.mtl", &neg)], "mtl = true").unwrap_err();
+    assert!(
+        e.contains("material 'm/a.obj:lamp': Ke") && e.contains(">= 0"),
+        "{e}"
+    );
+    let e = scene_with(&[("a.obj", OBJ)], "mtl = 1").unwrap_err();
+    assert!(e.contains("shapes[0].mtl"), "{e}");
+}
