@@ -586,6 +586,7 @@ pub(super) fn raw_shape(el: &El, material: Sp<String>) -> RawShape {
         sphere: None,
         obj: None,
         ply: None,
+        mtl: None,
         transform: None,
         as_written: false,
     }
