@@ -78,12 +78,30 @@ fn xml_twins_load_to_the_same_scene() {
         assert_eq!(t.material_names, x.material_names, "{name}: material names");
         for (a, b) in t.materials.iter().zip(&x.materials) {
             assert_eq!(a.model, b.model, "{name}");
-            assert_eq!(a.brdf.pack(), b.brdf.pack(), "{name}: {:?} vs {:?}", a.brdf, b.brdf);
+            assert_eq!(
+                a.brdf.pack(),
+                b.brdf.pack(),
+                "{name}: {:?} vs {:?}",
+                a.brdf,
+                b.brdf
+            );
         }
         let (ti, xi) = (&t.integrator, &x.integrator);
         assert_eq!(
-            (ti.spp, ti.max_depth, ti.seed, ti.sampler, ti.russian_roulette),
-            (xi.spp, xi.max_depth, xi.seed, xi.sampler, xi.russian_roulette),
+            (
+                ti.spp,
+                ti.max_depth,
+                ti.seed,
+                ti.sampler,
+                ti.russian_roulette
+            ),
+            (
+                xi.spp,
+                xi.max_depth,
+                xi.seed,
+                xi.sampler,
+                xi.russian_roulette
+            ),
             "{name}: integrator"
         );
         assert!(x.warnings.is_empty(), "{name}: {:?}", x.warnings);
@@ -115,7 +133,10 @@ fn xml_twins_render_bit_identical_images_on_both_backends() {
         let (t, x) = load_pair(&name);
         let (t, x) = (small(t), small(x));
         let (ct, cx) = (render_cpu(&t), render_cpu(&x));
-        assert!(bits(&ct).iter().any(|b| *b != 0), "{name}: a black image proves nothing");
+        assert!(
+            bits(&ct).iter().any(|b| *b != 0),
+            "{name}: a black image proves nothing"
+        );
         assert_eq!(bits(&ct), bits(&cx), "{name}: CPU images differ");
         let ((gt, _), (gx, _)) = (render_gpu(&ctx, &t), render_gpu(&ctx, &x));
         assert_eq!(bits(&gt), bits(&gx), "{name}: GPU images differ");
@@ -142,7 +163,9 @@ fn load_xml(body: &str) -> Result<Scene, String> {
 }
 
 fn line_of(text: &str, needle: &str) -> usize {
-    let at = text.find(needle).unwrap_or_else(|| panic!("'{needle}' not in the text"));
+    let at = text
+        .find(needle)
+        .unwrap_or_else(|| panic!("'{needle}' not in the text"));
     text[..at].matches('\n').count() + 1
 }
 
@@ -153,7 +176,10 @@ fn expect_error(body: &str, needle: &str, what: &str) {
         .expect_err("must fail")
         .to_string();
     let line = line_of(&text, needle);
-    assert!(msg.starts_with(&format!("dir/s.xml:{line}: ")), "line {line}: {msg}");
+    assert!(
+        msg.starts_with(&format!("dir/s.xml:{line}: ")),
+        "line {line}: {msg}"
+    );
     assert!(msg.contains(what), "{msg}");
 }
 
@@ -216,7 +242,11 @@ fn sensor_fov_axis_and_matrix_camera() {
         "<float name=\"fov\" value=\"90\"/>",
     );
     let s = load_str(&text, Path::new("s.xml")).unwrap();
-    assert!((s.camera.fov_y_deg - 53.130_1).abs() < 1e-3, "{}", s.camera.fov_y_deg);
+    assert!(
+        (s.camera.fov_y_deg - 53.130_1).abs() < 1e-3,
+        "{}",
+        s.camera.fov_y_deg
+    );
     let text = xml("<shape type=\"sphere\"/>").replace(
         "<lookat origin=\"0, 0, -5\" target=\"0, 0, 0\" up=\"0, 1, 0\"/>",
         "<rotate y=\"1\" angle=\"90\"/><translate x=\"-5\"/>",
@@ -266,7 +296,10 @@ fn bsdfs_map_to_the_survey_models() {
     assert_eq!(plastic.ior, 1.5046);
     assert_eq!(plastic.kd, Vec3::new(0.2, 0.3, 0.4));
     // Mitsuba's default roughplastic: Beckmann, alpha 0.1.
-    assert_eq!((plastic.distribution, plastic.roughness), (Distribution::Beckmann, 0.1));
+    assert_eq!(
+        (plastic.distribution, plastic.roughness),
+        (Distribution::Beckmann, 0.1)
+    );
     assert_eq!(s.materials[2].model_name(), "ward");
     assert_eq!(s.materials[3].model_name(), "lambert");
     assert_eq!(s.material_names[3], "shape 3 bsdf");
@@ -298,19 +331,30 @@ fn malformed_xml_names_its_line() {
     let e = load_str("<scene version=\"2.1.0\"/>", Path::new("m.xml"))
         .unwrap_err()
         .to_string();
-    assert!(e.starts_with("m.xml:1: ") && e.contains("only Mitsuba 3"), "{e}");
+    assert!(
+        e.starts_with("m.xml:1: ") && e.contains("only Mitsuba 3"),
+        "{e}"
+    );
 }
 
 #[test]
 fn unsupported_elements_are_refused_where_they_are() {
-    expect_error(r#"<shape type="hair"/>"#, "hair", "<shape type=\"hair\"> is not supported (supported: obj");
+    expect_error(
+        r#"<shape type="hair"/>"#,
+        "hair",
+        "<shape type=\"hair\"> is not supported (supported: obj",
+    );
     expect_error(
         r#"<bsdf type="dielectric" id="glass"/>"#,
         "dielectric",
         "supported: diffuse, conductor, roughconductor, plastic, roughplastic, and the survey's models by name: lambert",
     );
     expect_error(r#"<emitter type="envmap"/>"#, "envmap", "is not supported");
-    expect_error(r#"<texture type="bitmap"/>"#, "bitmap", "not supported at the top level");
+    expect_error(
+        r#"<texture type="bitmap"/>"#,
+        "bitmap",
+        "not supported at the top level",
+    );
     expect_error(
         r#"<shape type="sphere"><float name="radiu" value="1"/></shape>"#,
         "radiu",
@@ -333,8 +377,16 @@ fn unsupported_elements_are_refused_where_they_are() {
         "name=\"roughness\"",
         "roughness",
     );
-    expect_error(r#"<shape type="sphere"><ref id="nope"/></shape>"#, "nope", "no <bsdf id=\"nope\"> before it");
-    expect_error(r#"<shape type="sphere"><float name="radius" value="$rr"/></shape>"#, "$rr", "unknown parameter $rr");
+    expect_error(
+        r#"<shape type="sphere"><ref id="nope"/></shape>"#,
+        "nope",
+        "no <bsdf id=\"nope\"> before it",
+    );
+    expect_error(
+        r#"<shape type="sphere"><float name="radius" value="$rr"/></shape>"#,
+        "$rr",
+        "unknown parameter $rr",
+    );
     expect_error(
         r#"<shape type="sphere"><float name="radius" value="-1"/></shape>"#,
         "value=\"-1\"",
@@ -346,7 +398,10 @@ fn unsupported_elements_are_refused_where_they_are() {
 #[test]
 fn pending_features_say_not_supported_yet() {
     for (body, needle) in [
-        (r#"<shape type="ply"><string name="filename" value="a.ply"/></shape>"#, "ply"),
+        (
+            r#"<shape type="ply"><string name="filename" value="a.ply"/></shape>"#,
+            "ply",
+        ),
         (r#"<emitter type="point"/>"#, "point\""),
         (r#"<emitter type="directional"/>"#, "directional"),
         (r#"<bsdf type="twosided" id="t"/>"#, "twosided"),
@@ -375,7 +430,9 @@ fn includes_missing_and_cyclic() {
     let main = write(
         dir,
         "main.xml",
-        &xml("<include filename=\"bsdfs.xml\"/>\n<shape type=\"sphere\"><ref id=\"grey\"/></shape>"),
+        &xml(
+            "<include filename=\"bsdfs.xml\"/>\n<shape type=\"sphere\"><ref id=\"grey\"/></shape>",
+        ),
     );
     let s = load(&main).unwrap();
     assert_eq!(s.material_names, ["grey"]);
@@ -400,11 +457,22 @@ fn includes_missing_and_cyclic() {
     let main = write(dir, "main3.xml", &text);
     let e = load(&main).unwrap_err().to_string();
     let line = line_of(&text, "missing.xml");
-    assert!(e.starts_with(&format!("{}:{line}: ", main.display())), "{e}");
+    assert!(
+        e.starts_with(&format!("{}:{line}: ", main.display())),
+        "{e}"
+    );
     assert!(e.contains("cannot read the included file"), "{e}");
 
-    let a = write(dir, "a.xml", "<scene version=\"3.0.0\">\n<include filename=\"b.xml\"/>\n</scene>\n");
-    write(dir, "b.xml", "<scene version=\"3.0.0\">\n\n<include filename=\"a.xml\"/>\n</scene>\n");
+    let a = write(
+        dir,
+        "a.xml",
+        "<scene version=\"3.0.0\">\n<include filename=\"b.xml\"/>\n</scene>\n",
+    );
+    write(
+        dir,
+        "b.xml",
+        "<scene version=\"3.0.0\">\n\n<include filename=\"a.xml\"/>\n</scene>\n",
+    );
     let e = load(&a).unwrap_err().to_string();
     assert!(
         e.starts_with(&format!("{}:3: ", dir.join("b.xml").display())),

@@ -551,7 +551,9 @@ fn general_transforms() {
     let path = Path::new("dir/t.toml");
     let v = |t: &str| load_str(&tri(t), path).unwrap().triangles[0].v;
     // Rotation by 90° about +z: x → y, y → -x, z stays; then translated by (0, 0, 5).
-    let r = v("{ rotate = { axis = [0.0, 0.0, 2.0], angle_deg = 90.0 }, translate = [0.0, 0.0, 5.0] }");
+    let r = v(
+        "{ rotate = { axis = [0.0, 0.0, 2.0], angle_deg = 90.0 }, translate = [0.0, 0.0, 5.0] }",
+    );
     for (got, want) in r.iter().zip([
         Vec3::new(0.0, 1.0, 5.0),
         Vec3::new(-1.0, 0.0, 5.0),
@@ -564,14 +566,24 @@ fn general_transforms() {
     assert!((r[0] - Vec3::Y).length() < 1e-6 && (r[1] - Vec3::Z).length() < 1e-6);
     // A matrix, row by row: x' = 2x + 7, y' = -z + 8, z' = y + 9.
     let m = v("{ matrix = [[2.0, 0.0, 0.0, 7.0], [0.0, 0.0, -1.0, 8.0], [0.0, 1.0, 0.0, 9.0], [0.0, 0.0, 0.0, 1.0]] }");
-    assert_eq!(m, [Vec3::new(9.0, 8.0, 9.0), Vec3::new(7.0, 8.0, 10.0), Vec3::new(7.0, 7.0, 9.0)]);
+    assert_eq!(
+        m,
+        [
+            Vec3::new(9.0, 8.0, 9.0),
+            Vec3::new(7.0, 8.0, 10.0),
+            Vec3::new(7.0, 7.0, 9.0)
+        ]
+    );
 
     let check = |t: &str, field: &str, what: &str| {
         let src = tri(t);
         let msg = load_str(&src, path).expect_err("must fail").to_string();
         let line = line_of(&src, "transform");
         assert!(msg.starts_with(&format!("dir/t.toml:{line}: ")), "{msg}");
-        assert!(msg.contains(&format!("field '{field}'")) && msg.contains(what), "{msg}");
+        assert!(
+            msg.contains(&format!("field '{field}'")) && msg.contains(what),
+            "{msg}"
+        );
     };
     let f = "shapes[1].transform";
     check(
@@ -610,7 +622,11 @@ fn general_transforms() {
         path,
     )
     .unwrap();
-    assert!(s.warnings.iter().any(|w| w.contains("mirrors")), "{:?}", s.warnings);
+    assert!(
+        s.warnings.iter().any(|w| w.contains("mirrors")),
+        "{:?}",
+        s.warnings
+    );
 }
 
 #[test]

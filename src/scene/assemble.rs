@@ -263,7 +263,12 @@ fn materials(
             };
             fields.insert(key, toml::Spanned::new(s.start - at..s.end - at, v.value));
         }
-        params.push(fields.iter().map(|(k, v)| (k.clone(), v.get_ref().clone())).collect());
+        params.push(
+            fields
+                .iter()
+                .map(|(k, v)| (k.clone(), v.get_ref().clone()))
+                .collect(),
+        );
         let origin = Origin {
             file,
             source,

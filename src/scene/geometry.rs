@@ -68,11 +68,7 @@ impl Transform {
                 sin,
             } => {
                 let (c, s) = (cos as f64, sin as f64);
-                let r = DMat3::from_cols(
-                    DVec3::new(c, 0.0, -s),
-                    DVec3::Y,
-                    DVec3::new(s, 0.0, c),
-                );
+                let r = DMat3::from_cols(DVec3::new(c, 0.0, -s), DVec3::Y, DVec3::new(s, 0.0, c));
                 (r * DMat3::from_diagonal(d(scale)), d(translate))
             }
             Transform::Affine { a, t } => (a, t),
@@ -100,9 +96,7 @@ impl Transform {
             Transform::Trs {
                 scale, cos, sin, ..
             } => Self::rot(*cos, *sin, n / *scale).normalize_or_zero(),
-            Transform::Affine { a, .. } => {
-                f((a.inverse().transpose() * d(n)).normalize_or_zero())
-            }
+            Transform::Affine { a, .. } => f((a.inverse().transpose() * d(n)).normalize_or_zero()),
             Transform::AsWritten if (n.length_squared() - 1.0).abs() <= 4.0 * f32::EPSILON => n,
             Transform::AsWritten => n.normalize_or_zero(),
         }

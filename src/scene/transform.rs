@@ -11,7 +11,11 @@ use super::schema::RawTransform;
 use super::spanned::{Cx, Sp};
 use glam::{DMat3, DVec3};
 
-pub(super) fn transform(cx: &mut Cx, f: &str, t: &Sp<RawTransform>) -> Result<Transform, SceneError> {
+pub(super) fn transform(
+    cx: &mut Cx,
+    f: &str,
+    t: &Sp<RawTransform>,
+) -> Result<Transform, SceneError> {
     let raw = &t.value;
     if let Some(m) = &raw.matrix {
         let others = [
@@ -106,8 +110,9 @@ fn matrix(
     let (a, _) = xf.affine();
     let det = a.determinant();
     let norm = a.to_cols_array().iter().map(|x| x * x).sum::<f64>().sqrt();
-    if !(det.abs() > 1e-12 * norm * norm * norm) {
-        let msg = format!("the matrix is singular (determinant {det:e}): it would flatten the shape");
+    if det.is_nan() || det.abs() <= 1e-12 * norm * norm * norm {
+        let msg =
+            format!("the matrix is singular (determinant {det:e}): it would flatten the shape");
         return Err(cx.err(m.span(), field, msg));
     }
     if det < 0.0 {

@@ -74,7 +74,11 @@ fn invalid(file: &str, line: Option<usize>, field: Option<&str>, msg: String) ->
 }
 
 /// Read the scene file `path` (text `text`) and everything it includes.
-pub(super) fn read(path: &Path, text: &str, defines: &[(String, String)]) -> Result<Files, SceneError> {
+pub(super) fn read(
+    path: &Path,
+    text: &str,
+    defines: &[(String, String)],
+) -> Result<Files, SceneError> {
     let mut r = Reader {
         source: String::new(),
         parts: Vec::new(),
@@ -100,7 +104,8 @@ impl Reader {
         self.source.push_str(text);
         // A separator, so that a span never ends exactly where the next file starts.
         self.source.push('\n');
-        self.stack.push(std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf()));
+        self.stack
+            .push(std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf()));
         let doc = roxmltree::Document::parse(text).map_err(|e| {
             let line = e.pos().row as usize;
             invalid(&file, Some(line), None, format!("malformed XML: {e}"))
@@ -117,16 +122,27 @@ impl Reader {
         match root.attribute("version") {
             Some(v) if v.split('.').next() == Some("3") => {}
             Some(v) => {
-                let msg = format!("version \"{v}\": only Mitsuba 3 scenes (version=\"3.x.y\") are read");
+                let msg =
+                    format!("version \"{v}\": only Mitsuba 3 scenes (version=\"3.x.y\") are read");
                 return Err(invalid(&file, Some(at(root)), Some("scene"), msg));
             }
             None => {
                 let msg = "the <scene> element has no version: write <scene version=\"3.0.0\">";
-                return Err(invalid(&file, Some(at(root)), Some("scene"), msg.to_string()));
+                return Err(invalid(
+                    &file,
+                    Some(at(root)),
+                    Some("scene"),
+                    msg.to_string(),
+                ));
             }
         }
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-        let cx = FileCx { file: &file, text, offset, dir: &dir };
+        let cx = FileCx {
+            file: &file,
+            text,
+            offset,
+            dir: &dir,
+        };
         let mut out = Vec::new();
         let mut counts: HashMap<String, usize> = HashMap::new();
         for node in root.children() {
@@ -186,7 +202,10 @@ impl Reader {
             if t.is_empty() {
                 return Ok(None);
             }
-            let msg = format!("unexpected text '{t}' in <{}>: values are attributes", parent.rsplit('/').next().unwrap_or(parent));
+            let msg = format!(
+                "unexpected text '{t}' in <{}>: values are attributes",
+                parent.rsplit('/').next().unwrap_or(parent)
+            );
             return Err(invalid(cx.file, line(), Some(parent), msg));
         }
         if !node.is_element() {
@@ -198,7 +217,9 @@ impl Reader {
         *n += 1;
         let mut attrs = Vec::new();
         for a in node.attributes() {
-            let v = self.substitute(a.value()).map_err(|msg| invalid(cx.file, line(), Some(&path), msg))?;
+            let v = self
+                .substitute(a.value())
+                .map_err(|msg| invalid(cx.file, line(), Some(&path), msg))?;
             attrs.push((a.name().to_string(), v));
         }
         let span = cx.offset + node.range().start..cx.offset + node.range().end;
@@ -219,7 +240,9 @@ impl Reader {
                 let msg = "<default> is allowed only directly inside <scene>".to_string();
                 return Err(invalid(cx.file, line(), Some(&el.path), msg));
             }
-            self.params.entry(name.to_string()).or_insert_with(|| value.to_string());
+            self.params
+                .entry(name.to_string())
+                .or_insert_with(|| value.to_string());
         }
         let mut inner: HashMap<String, usize> = HashMap::new();
         for c in node.children() {

@@ -8,8 +8,8 @@ use super::doc::El;
 use super::values::{rows, to_world};
 use crate::scene::error::SceneError;
 use crate::scene::schema::{
-    Arr, MaterialTable, RawEnvironment, RawIntegrator, RawScene, RawShape, RawSphere,
-    RawTransform, Triple,
+    Arr, MaterialTable, RawEnvironment, RawIntegrator, RawScene, RawShape, RawSphere, RawTransform,
+    Triple,
 };
 use crate::scene::spanned::{Cx, Sp};
 use std::collections::BTreeMap;
@@ -58,14 +58,21 @@ impl<'e> Props<'e> {
     }
     /// The child named `name`, if any.
     pub(super) fn take(&mut self, name: &str) -> Option<&'e El> {
-        let e = self.named.iter_mut().find(|(c, _)| c.attr("name") == Some(name))?;
+        let e = self
+            .named
+            .iter_mut()
+            .find(|(c, _)| c.attr("name") == Some(name))?;
         e.1 = true;
         Some(e.0)
     }
     /// The children with tag `tag` (and any name), e.g. `bsdf`, `ref`, `emitter`.
     pub(super) fn take_tag(&mut self, tag: &str) -> Vec<&'e El> {
         let mut out = Vec::new();
-        for e in self.named.iter_mut().filter(|(c, used)| !used && c.tag == tag) {
+        for e in self
+            .named
+            .iter_mut()
+            .filter(|(c, used)| !used && c.tag == tag)
+        {
             e.1 = true;
             out.push(e.0);
         }
@@ -104,7 +111,10 @@ impl Cx<'_> {
             "parameter '{}' is a <{}>: expected {}",
             el.attr("name").unwrap_or_default(),
             el.tag,
-            tags.iter().map(|t| format!("<{t}>")).collect::<Vec<_>>().join(" or ")
+            tags.iter()
+                .map(|t| format!("<{t}>"))
+                .collect::<Vec<_>>()
+                .join(" or ")
         );
         Err(self.el_err(el, msg))
     }
@@ -137,13 +147,26 @@ impl Cx<'_> {
         match (el.tag.as_str(), v.as_slice()) {
             (_, [x]) => Ok([*x; 3]),
             ("rgb", [r, g, b]) => Ok([*r, *g, *b]),
-            ("spectrum", _) => Err(self.el_err(el, "<spectrum> is read only as one constant value: write an <rgb> colour")),
-            _ => Err(self.el_err(el, format!("{}: a colour needs 1 or 3 numbers, found {}", el.describe(), v.len()))),
+            ("spectrum", _) => Err(self.el_err(
+                el,
+                "<spectrum> is read only as one constant value: write an <rgb> colour",
+            )),
+            _ => Err(self.el_err(
+                el,
+                format!(
+                    "{}: a colour needs 1 or 3 numbers, found {}",
+                    el.describe(),
+                    v.len()
+                ),
+            )),
         }
     }
     fn color_value(&self, el: &El) -> Result<Sp<Value>, SceneError> {
         let c = self.color_of(el)?;
-        Ok(sp(el, Value::Array(c.iter().map(|x| Value::Float(*x)).collect())))
+        Ok(sp(
+            el,
+            Value::Array(c.iter().map(|x| Value::Float(*x)).collect()),
+        ))
     }
 }
 
@@ -180,7 +203,10 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
             }
             ("bsdf", _) => {
                 let Some(id) = el.attr("id") else {
-                    return Err(cx.el_err(el, "a top-level <bsdf> needs an id (shapes refer to it with <ref id=\"…\"/>)"));
+                    return Err(cx.el_err(
+                        el,
+                        "a top-level <bsdf> needs an id (shapes refer to it with <ref id=\"…\"/>)",
+                    ));
                 };
                 let table = bsdf(cx, el)?;
                 if materials.insert(id.to_string(), sp(el, table)).is_some() {
@@ -189,7 +215,10 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
             }
             ("emitter", Some("constant")) => {
                 if environment.is_some() {
-                    return Err(cx.el_err(el, "a second <emitter type=\"constant\">: brdfwave has one environment"));
+                    return Err(cx.el_err(
+                        el,
+                        "a second <emitter type=\"constant\">: brdfwave has one environment",
+                    ));
                 }
                 let mut p = Props::new(cx, el)?;
                 let Some(r) = p.take("radiance") else {
@@ -202,7 +231,9 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
                 });
             }
             ("emitter", _) => return Err(emitter_error(cx, el, false)),
-            ("shape", _) => shapes.push(super::shapes::shape(cx, el, shapes.len(), &mut materials)?),
+            ("shape", _) => {
+                shapes.push(super::shapes::shape(cx, el, shapes.len(), &mut materials)?)
+            }
             _ => {
                 let msg = format!(
                     "{} is not supported at the top level (supported: sensor, integrator, bsdf, shape, emitter type=\"constant\", include, default)",
@@ -213,7 +244,11 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
         }
     }
     let (Some(camera), Some(film)) = (camera, film) else {
-        return Err(cx.err(None, "scene", "the scene has no <sensor type=\"perspective\">"));
+        return Err(cx.err(
+            None,
+            "scene",
+            "the scene has no <sensor type=\"perspective\">",
+        ));
     };
     if !saw_integrator {
         super::sensor::default_depth(cx, &mut integrator);
@@ -233,8 +268,13 @@ pub(super) fn emitter_error(cx: &Cx, el: &El, in_shape: bool) -> SceneError {
     match el.attr("type") {
         Some("point") => pending(cx, el, Pending::PointEmitter),
         Some("directional") => pending(cx, el, Pending::DirectionalEmitter),
-        Some("area") if !in_shape => cx.el_err(el, "an <emitter type=\"area\"> belongs inside a <shape>"),
-        Some("constant") if in_shape => cx.el_err(el, "an <emitter type=\"constant\"> belongs at the top level, not in a <shape>"),
+        Some("area") if !in_shape => {
+            cx.el_err(el, "an <emitter type=\"area\"> belongs inside a <shape>")
+        }
+        Some("constant") if in_shape => cx.el_err(
+            el,
+            "an <emitter type=\"constant\"> belongs at the top level, not in a <shape>",
+        ),
         _ => cx.el_err(
             el,
             format!(
@@ -273,7 +313,11 @@ pub(super) fn bsdf(cx: &Cx, el: &El) -> Result<MaterialTable, SceneError> {
             t.insert("model".into(), model(name));
             for c in &el.children {
                 let Some(n) = c.attr("name") else {
-                    let msg = format!("{}: {} needs a name (the model's parameter)", el.describe(), c.describe());
+                    let msg = format!(
+                        "{}: {} needs a name (the model's parameter)",
+                        el.describe(),
+                        c.describe()
+                    );
                     return Err(cx.el_err(c, msg));
                 };
                 let v = match c.tag.as_str() {
@@ -308,7 +352,13 @@ fn put(t: &mut MaterialTable, el: &El, k: &str, v: Value) {
 /// The microfacet settings every Mitsuba plugin shares: `distribution` (Beckmann, GGX) and
 /// `alpha` (Mitsuba's Beckmann α is the rms slope m, its GGX α ours), with `alpha_u`/`alpha_v`
 /// only when equal (our Cook–Torrance is isotropic); a smooth plugin is a delta mirror.
-fn microfacet(cx: &Cx, el: &El, rough: bool, p: &mut Props, t: &mut MaterialTable) -> Result<(), SceneError> {
+fn microfacet(
+    cx: &Cx,
+    el: &El,
+    rough: bool,
+    p: &mut Props,
+    t: &mut MaterialTable,
+) -> Result<(), SceneError> {
     put(t, el, "model", Value::String("cook_torrance".into()));
     put(t, el, "geometry", Value::String("smith".into()));
     put(t, el, "normalization", Value::String("walter".into()));
@@ -319,7 +369,10 @@ fn microfacet(cx: &Cx, el: &El, rough: bool, p: &mut Props, t: &mut MaterialTabl
     if let Some(d) = p.take("distribution") {
         let name = cx.string(d)?;
         if !["beckmann", "ggx"].contains(&name) {
-            return Err(cx.el_err(d, format!("distribution '{name}' is not supported (supported: beckmann, ggx)")));
+            return Err(cx.el_err(
+                d,
+                format!("distribution '{name}' is not supported (supported: beckmann, ggx)"),
+            ));
         }
         put(t, d, "distribution", Value::String(name.into()));
     }
@@ -348,7 +401,13 @@ fn microfacet(cx: &Cx, el: &El, rough: bool, p: &mut Props, t: &mut MaterialTabl
     Ok(())
 }
 
-fn conductor(cx: &Cx, el: &El, rough: bool, p: &mut Props, t: &mut MaterialTable) -> Result<(), SceneError> {
+fn conductor(
+    cx: &Cx,
+    el: &El,
+    rough: bool,
+    p: &mut Props,
+    t: &mut MaterialTable,
+) -> Result<(), SceneError> {
     microfacet(cx, el, rough, p, t)?;
     put(t, el, "kd", Value::Float(0.0));
     if let Some(s) = p.take("specular_reflectance") {
@@ -363,7 +422,10 @@ fn conductor(cx: &Cx, el: &El, rough: bool, p: &mut Props, t: &mut MaterialTable
             }
             name => {
                 let Some((eta, k)) = data::metal(name) else {
-                    let msg = format!("unknown conductor material '{name}' (known: none, {})", data::metal_names());
+                    let msg = format!(
+                        "unknown conductor material '{name}' (known: none, {})",
+                        data::metal_names()
+                    );
                     return Err(cx.el_err(m, msg));
                 };
                 put(t, m, "fresnel", Value::String("conductor".into()));
@@ -388,7 +450,13 @@ fn conductor(cx: &Cx, el: &El, rough: bool, p: &mut Props, t: &mut MaterialTable
     Ok(())
 }
 
-fn plastic(cx: &Cx, el: &El, rough: bool, p: &mut Props, t: &mut MaterialTable) -> Result<(), SceneError> {
+fn plastic(
+    cx: &Cx,
+    el: &El,
+    rough: bool,
+    p: &mut Props,
+    t: &mut MaterialTable,
+) -> Result<(), SceneError> {
     microfacet(cx, el, rough, p, t)?;
     put(t, el, "fresnel", Value::String("dielectric".into()));
     match p.take("diffuse_reflectance") {
@@ -400,14 +468,27 @@ fn plastic(cx: &Cx, el: &El, rough: bool, p: &mut Props, t: &mut MaterialTable) 
     if let Some(s) = p.take("specular_reflectance") {
         t.insert("ks".into(), cx.color_value(s)?);
     }
-    fn ior<'e>(cx: &Cx, name: &str, default: f64, p: &mut Props<'e>) -> Result<(f64, Option<&'e El>), SceneError> {
-        let Some(e) = p.take(name) else { return Ok((default, None)) };
+    fn ior<'e>(
+        cx: &Cx,
+        name: &str,
+        default: f64,
+        p: &mut Props<'e>,
+    ) -> Result<(f64, Option<&'e El>), SceneError> {
+        let Some(e) = p.take(name) else {
+            return Ok((default, None));
+        };
         let v = match e.tag.as_str() {
             "string" => {
                 let n = cx.string(e)?;
                 data::ior(n).ok_or_else(|| {
                     let known: Vec<&str> = data::IORS.iter().map(|x| x.0).collect();
-                    cx.el_err(e, format!("unknown index of refraction '{n}' (known: {})", known.join(", ")))
+                    cx.el_err(
+                        e,
+                        format!(
+                            "unknown index of refraction '{n}' (known: {})",
+                            known.join(", ")
+                        ),
+                    )
                 })?
             }
             _ => cx.float(e)?,
@@ -416,17 +497,28 @@ fn plastic(cx: &Cx, el: &El, rough: bool, p: &mut Props, t: &mut MaterialTable) 
     }
     let (int, int_el) = ior(cx, "int_ior", 1.49, p)?;
     let (ext, _) = ior(cx, "ext_ior", 1.000277, p)?;
-    put(t, int_el.unwrap_or(el), "ior", Value::Float((int / ext) as f32 as f64));
+    put(
+        t,
+        int_el.unwrap_or(el),
+        "ior",
+        Value::Float((int / ext) as f32 as f64),
+    );
     if let Some(n) = p.take("nonlinear") {
         if cx.bool_of(n)? {
-            return Err(cx.el_err(n, "nonlinear = true is not supported (the diffuse part is plain Lambert)"));
+            return Err(cx.el_err(
+                n,
+                "nonlinear = true is not supported (the diffuse part is plain Lambert)",
+            ));
         }
     }
     Ok(())
 }
 
 /// The raw transform of a shape's `to_world` (`None` without one): its matrix.
-pub(super) fn shape_transform(cx: &Cx, t: Option<&El>) -> Result<Option<Sp<RawTransform>>, SceneError> {
+pub(super) fn shape_transform(
+    cx: &Cx,
+    t: Option<&El>,
+) -> Result<Option<Sp<RawTransform>>, SceneError> {
     let Some(t) = t else { return Ok(None) };
     let matrix = Arr(rows(&to_world(cx, t)?.m).map(Arr));
     Ok(Some(sp(
@@ -466,4 +558,3 @@ pub(super) fn raw_sphere(el: &El, center: [f64; 3], radius: f64, inward: bool) -
         },
     )
 }
-

@@ -30,14 +30,22 @@ pub(super) fn sensor(
     integrator: &mut RawIntegrator,
 ) -> Result<(RawCamera, RawFilm), SceneError> {
     if el.attr("type") != Some("perspective") {
-        let msg = format!("{} is not supported (supported: perspective)", el.describe());
+        let msg = format!(
+            "{} is not supported (supported: perspective)",
+            el.describe()
+        );
         return Err(cx.el_err(el, msg));
     }
     let mut p = Props::new(cx, el)?;
     let fov_el = p.take("fov");
     let fov = match fov_el {
         Some(f) => cx.float(f)?,
-        None => return Err(cx.el_err(el, "<sensor type=\"perspective\"> needs a <float name=\"fov\">")),
+        None => {
+            return Err(cx.el_err(
+                el,
+                "<sensor type=\"perspective\"> needs a <float name=\"fov\">",
+            ))
+        }
     };
     let axis_el = p.take("fov_axis");
     let axis = match axis_el {
@@ -47,13 +55,20 @@ pub(super) fn sensor(
     for ignored in ["near_clip", "far_clip"] {
         if let Some(c) = p.take(ignored) {
             cx.float(c)?;
-            cx.warn(Some(c.span.clone()), &c.path, format!("{ignored} is ignored: brdfwave's camera has no clipping planes"));
+            cx.warn(
+                Some(c.span.clone()),
+                &c.path,
+                format!("{ignored} is ignored: brdfwave's camera has no clipping planes"),
+            );
         }
     }
     let camera_el = p.take("to_world");
     let films = p.take_tag("film");
     let samplers = p.take_tag("sampler");
-    p.finish(cx, "fov, fov_axis, to_world, near_clip, far_clip, film, sampler")?;
+    p.finish(
+        cx,
+        "fov, fov_axis, to_world, near_clip, far_clip, film, sampler",
+    )?;
 
     let film = match films.as_slice() {
         [] => default_film(el),
@@ -112,12 +127,9 @@ fn camera(cx: &Cx, t: &El, fov_y: Sp<f64>) -> Result<RawCamera, SceneError> {
     }
     let m = tw.m;
     let a = glam::DMat3::from_mat4(m);
-    let similar = crate::scene::geometry::Transform::Affine {
-        a,
-        t: DVec3::ZERO,
-    }
-    .similarity_scale()
-    .is_some();
+    let similar = crate::scene::geometry::Transform::Affine { a, t: DVec3::ZERO }
+        .similarity_scale()
+        .is_some();
     if !similar || a.determinant() <= 0.0 {
         let msg = "the camera's to_world must be a rotation, a uniform scale and a translation (no mirror, no shear)";
         return Err(cx.el_err(t, msg));
@@ -140,7 +152,10 @@ fn default_film(el: &El) -> RawFilm {
 
 fn film(cx: &mut Cx, f: &El) -> Result<RawFilm, SceneError> {
     if f.attr("type") != Some("hdrfilm") {
-        return Err(cx.el_err(f, format!("{} is not supported (supported: hdrfilm)", f.describe())));
+        return Err(cx.el_err(
+            f,
+            format!("{} is not supported (supported: hdrfilm)", f.describe()),
+        ));
     }
     let mut p = Props::new(cx, f)?;
     let mut out = default_film(f);
@@ -152,18 +167,25 @@ fn film(cx: &mut Cx, f: &El) -> Result<RawFilm, SceneError> {
     for (tag, ok) in [("rfilter", "box")] {
         for r in p.take_tag(tag) {
             if r.attr("type") != Some(ok) {
-                let msg = format!("{} is replaced by brdfwave's one-pixel box filter", r.describe());
+                let msg = format!(
+                    "{} is replaced by brdfwave's one-pixel box filter",
+                    r.describe()
+                );
                 cx.warn(Some(r.span.clone()), &r.path, msg);
             }
         }
     }
     for name in ["pixel_format", "component_format", "file_format"] {
         if let Some(e) = p.take(name) {
-            let msg = format!("{name} is ignored: the output format follows the output file's extension");
+            let msg =
+                format!("{name} is ignored: the output format follows the output file's extension");
             cx.warn(Some(e.span.clone()), &e.path, msg);
         }
     }
-    p.finish(cx, "width, height, rfilter, pixel_format, component_format, file_format")?;
+    p.finish(
+        cx,
+        "width, height, rfilter, pixel_format, component_format, file_format",
+    )?;
     Ok(out)
 }
 
@@ -171,10 +193,20 @@ fn film(cx: &mut Cx, f: &El) -> Result<RawFilm, SceneError> {
 fn size(cx: &Cx, e: &El) -> Result<u32, SceneError> {
     let t = cx.attr(e, "value")?.trim();
     if e.tag != "integer" {
-        return Err(cx.el_err(e, format!("'{}' must be an <integer>", e.attr("name").unwrap_or_default())));
+        return Err(cx.el_err(
+            e,
+            format!(
+                "'{}' must be an <integer>",
+                e.attr("name").unwrap_or_default()
+            ),
+        ));
     }
-    t.parse()
-        .map_err(|_| cx.el_err(e, format!("'{t}' is not a whole number from 0 to 4294967295")))
+    t.parse().map_err(|_| {
+        cx.el_err(
+            e,
+            format!("'{t}' is not a whole number from 0 to 4294967295"),
+        )
+    })
 }
 
 fn sampler(cx: &mut Cx, s: &El, integrator: &mut RawIntegrator) -> Result<(), SceneError> {
@@ -183,7 +215,10 @@ fn sampler(cx: &mut Cx, s: &El, integrator: &mut RawIntegrator) -> Result<(), Sc
         "independent" => "independent",
         "ldsampler" => "sobol",
         "stratified" | "multijitter" | "orthogonal" => {
-            let msg = format!("{} is rendered with brdfwave's Sobol' sampler", s.describe());
+            let msg = format!(
+                "{} is rendered with brdfwave's Sobol' sampler",
+                s.describe()
+            );
             cx.warn(Some(s.span.clone()), &s.path, msg);
             "sobol"
         }
@@ -212,7 +247,9 @@ pub(super) fn integrator(cx: &mut Cx, el: &El, out: &mut RawIntegrator) -> Resul
     let mut p = Props::new(cx, el)?;
     let depth = |cx: &Cx, e: &El| -> Result<i64, SceneError> {
         let t = cx.attr(e, "value")?.trim();
-        let d: i64 = t.parse().map_err(|_| cx.el_err(e, format!("'{t}' is not a whole number")))?;
+        let d: i64 = t
+            .parse()
+            .map_err(|_| cx.el_err(e, format!("'{t}' is not a whole number")))?;
         if d < -1 || d == 0 || d > u32::MAX as i64 {
             return Err(cx.el_err(e, format!("{d} is out of range: -1 (unlimited) or >= 1")));
         }

@@ -10,7 +10,9 @@
 //! the winding of the generated shapes.
 
 use super::doc::El;
-use super::plugins::{bsdf, emitter_error, pending, raw_shape, raw_sphere, shape_transform, sp, Pending, Props};
+use super::plugins::{
+    bsdf, emitter_error, pending, raw_shape, raw_sphere, shape_transform, sp, Pending, Props,
+};
 use crate::scene::error::SceneError;
 use crate::scene::schema::{Arr, MaterialTable, RawShape, Triple};
 use crate::scene::spanned::{Cx, Sp};
@@ -63,7 +65,10 @@ pub(super) fn shape(
     match kind.as_str() {
         "obj" => {
             let Some(f) = p.take("filename") else {
-                return Err(cx.el_err(el, "<shape type=\"obj\"> needs a <string name=\"filename\">"));
+                return Err(cx.el_err(
+                    el,
+                    "<shape type=\"obj\"> needs a <string name=\"filename\">",
+                ));
             };
             let name = cx.attr(f, "value")?;
             raw.obj = Some(sp(f, el.dir.join(name).display().to_string()));
@@ -86,13 +91,17 @@ pub(super) fn shape(
                 None => 1.0,
             };
             raw.sphere = Some(raw_sphere(el, center, radius, flip));
-            supported = "center, radius, bsdf or ref, emitter type=\"area\", to_world, flip_normals";
+            supported =
+                "center, radius, bsdf or ref, emitter type=\"area\", to_world, flip_normals";
         }
         "rectangle" | "cube" => {
             let faces: Vec<[[f64; 3]; 4]> = if kind == "rectangle" {
                 vec![face([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])]
             } else {
-                CUBE_FACES.iter().map(|(n, u, v)| face(*n, *u, *v)).collect()
+                CUBE_FACES
+                    .iter()
+                    .map(|(n, u, v)| face(*n, *u, *v))
+                    .collect()
             };
             let quads = faces
                 .into_iter()
@@ -163,7 +172,10 @@ fn material(
         ([], []) => {
             if !materials.contains_key(DEFAULT_MATERIAL) {
                 let mut t = MaterialTable::new();
-                t.insert("model".into(), sp(el, toml::Value::String("lambert".into())));
+                t.insert(
+                    "model".into(),
+                    sp(el, toml::Value::String("lambert".into())),
+                );
                 materials.insert(DEFAULT_MATERIAL.into(), sp(el, t));
             }
             Ok(sp(el, DEFAULT_MATERIAL.to_string()))
@@ -171,11 +183,19 @@ fn material(
         ([r], []) => {
             let id = cx.attr(r, "id")?;
             if !materials.contains_key(id) {
-                let mut known: Vec<&str> = materials.keys().map(String::as_str).filter(|k| *k != DEFAULT_MATERIAL).collect();
+                let mut known: Vec<&str> = materials
+                    .keys()
+                    .map(String::as_str)
+                    .filter(|k| *k != DEFAULT_MATERIAL)
+                    .collect();
                 known.sort_unstable();
                 let msg = format!(
                     "<ref id=\"{id}\">: no <bsdf id=\"{id}\"> before it (defined: {})",
-                    if known.is_empty() { "none".to_string() } else { known.join(", ") }
+                    if known.is_empty() {
+                        "none".to_string()
+                    } else {
+                        known.join(", ")
+                    }
                 );
                 return Err(cx.el_err(r, msg));
             }

@@ -19,9 +19,8 @@ impl Cx<'_> {
 
     /// A required attribute.
     pub(super) fn attr<'e>(&self, el: &'e El, name: &str) -> Result<&'e str, SceneError> {
-        el.attr(name).ok_or_else(|| {
-            self.el_err(el, format!("{} needs a {name} attribute", el.describe()))
-        })
+        el.attr(name)
+            .ok_or_else(|| self.el_err(el, format!("{} needs a {name} attribute", el.describe())))
     }
 
     /// One number of an attribute, checked finite and within single precision.
@@ -49,10 +48,18 @@ impl Cx<'_> {
     }
 
     /// Exactly `n` numbers of attribute `attr`.
-    pub(super) fn n_numbers<const N: usize>(&self, el: &El, attr: &str) -> Result<[f64; N], SceneError> {
+    pub(super) fn n_numbers<const N: usize>(
+        &self,
+        el: &El,
+        attr: &str,
+    ) -> Result<[f64; N], SceneError> {
         let v = self.numbers(el, self.attr(el, attr)?)?;
         v.as_slice().try_into().map_err(|_| {
-            let msg = format!("{}: {attr} needs {N} numbers, found {}", el.describe(), v.len());
+            let msg = format!(
+                "{}: {attr} needs {N} numbers, found {}",
+                el.describe(),
+                v.len()
+            );
             self.el_err(el, msg)
         })
     }
@@ -64,7 +71,14 @@ impl Cx<'_> {
             return match v.as_slice() {
                 [x] => Ok([*x; 3]),
                 [x, y, z] => Ok([*x, *y, *z]),
-                _ => Err(self.el_err(el, format!("{}: value needs 1 or 3 numbers, found {}", el.describe(), v.len()))),
+                _ => Err(self.el_err(
+                    el,
+                    format!(
+                        "{}: value needs 1 or 3 numbers, found {}",
+                        el.describe(),
+                        v.len()
+                    ),
+                )),
             };
         }
         let mut p = [default; 3];
@@ -105,8 +119,17 @@ pub(super) fn to_world(cx: &Cx, t: &El) -> Result<ToWorld, SceneError> {
                 let v = cx.numbers(c, cx.attr(c, "value")?)?;
                 match v.len() {
                     16 => DMat4::from_cols_array(&v.try_into().unwrap_or([0.0; 16])).transpose(),
-                    9 => DMat4::from_mat3(DMat3::from_cols_array(&v.try_into().unwrap_or([0.0; 9])).transpose()),
-                    n => return Err(cx.el_err(c, format!("<matrix> needs 16 (4×4) or 9 (3×3) numbers, row by row; found {n}"))),
+                    9 => DMat4::from_mat3(
+                        DMat3::from_cols_array(&v.try_into().unwrap_or([0.0; 9])).transpose(),
+                    ),
+                    n => {
+                        return Err(cx.el_err(
+                            c,
+                            format!(
+                                "<matrix> needs 16 (4×4) or 9 (3×3) numbers, row by row; found {n}"
+                            ),
+                        ))
+                    }
                 }
             }
             "lookat" => {
@@ -140,12 +163,21 @@ pub(super) fn to_world(cx: &Cx, t: &El) -> Result<ToWorld, SceneError> {
 
 /// Mitsuba's `lookat`: columns (left, up', dir, origin) with dir = normalize(target − origin),
 /// left = normalize(up × dir), up' = dir × left.
-fn lookat_matrix(cx: &Cx, c: &El, o: [f64; 3], t: [f64; 3], up: [f64; 3]) -> Result<DMat4, SceneError> {
+fn lookat_matrix(
+    cx: &Cx,
+    c: &El,
+    o: [f64; 3],
+    t: [f64; 3],
+    up: [f64; 3],
+) -> Result<DMat4, SceneError> {
     let (o, t, up) = (DVec3::from(o), DVec3::from(t), DVec3::from(up));
     let dir = (t - o).normalize_or_zero();
     let left = up.cross(dir).normalize_or_zero();
     if dir == DVec3::ZERO || left == DVec3::ZERO {
-        return Err(cx.el_err(c, "<lookat>: the target equals the origin, or up is parallel to the view direction"));
+        return Err(cx.el_err(
+            c,
+            "<lookat>: the target equals the origin, or up is parallel to the view direction",
+        ));
     }
     let new_up = dir.cross(left);
     Ok(DMat4::from_cols(
@@ -169,7 +201,9 @@ mod tests {
     use std::path::Path;
 
     fn compose(xml: &str) -> Result<ToWorld, String> {
-        let text = format!("<scene version=\"3.0.0\"><transform name=\"to_world\">{xml}</transform></scene>");
+        let text = format!(
+            "<scene version=\"3.0.0\"><transform name=\"to_world\">{xml}</transform></scene>"
+        );
         let files = doc::read(Path::new("t.xml"), &text, &[]).map_err(|e| e.to_string())?;
         let cx = Cx {
             file: "t.xml".into(),
@@ -189,7 +223,8 @@ mod tests {
     /// (1, 0, 0) → (2, 0, 0) → (0, 2, 0) → (0, 2, 5), computed by hand.
     #[test]
     fn steps_compose_in_mitsubas_order() {
-        let t = compose("<scale value=\"2\"/><rotate z=\"1\" angle=\"90\"/><translate z=\"5\"/>").unwrap();
+        let t = compose("<scale value=\"2\"/><rotate z=\"1\" angle=\"90\"/><translate z=\"5\"/>")
+            .unwrap();
         assert!((apply(&t, [1.0, 0.0, 0.0]) - DVec3::new(0.0, 2.0, 5.0)).length() < 1e-12);
         // The other order: translate first, then scale: (1, 0, 0) → (1, 0, 5) → (2, 0, 10).
         let t = compose("<translate z=\"5\"/><scale value=\"2\"/>").unwrap();
@@ -209,10 +244,14 @@ mod tests {
         assert!((apply(&t, [1.0, 0.0, 0.0]) - DVec3::Y).length() < 1e-12);
         let t = compose("<matrix value=\"2 0 0  0 2 0  0 0 2\"/>").unwrap();
         assert_eq!(apply(&t, [1.0, 1.0, 1.0]), DVec3::splat(2.0));
-        assert!(compose("<matrix value=\"1 0 0 0 1 0 0 0 1 0 0 0 0 0 1 1\"/>")
+        assert!(
+            compose("<matrix value=\"1 0 0 0 1 0 0 0 1 0 0 0 0 0 1 1\"/>")
+                .unwrap_err()
+                .contains("projective")
+        );
+        assert!(compose("<matrix value=\"1 2 3\"/>")
             .unwrap_err()
-            .contains("projective"));
-        assert!(compose("<matrix value=\"1 2 3\"/>").unwrap_err().contains("found 3"));
+            .contains("found 3"));
     }
 
     /// lookat from (0, 0, -5) at the origin with up +y: the camera's +z is the view direction
@@ -220,15 +259,20 @@ mod tests {
     #[test]
     fn lookat_by_hand() {
         let t = compose("<lookat origin=\"0, 0, -5\" target=\"0, 0, 0\" up=\"0, 1, 0\"/>").unwrap();
-        assert_eq!(t.lookat, Some([[0.0, 0.0, -5.0], [0.0; 3], [0.0, 1.0, 0.0]]));
+        assert_eq!(
+            t.lookat,
+            Some([[0.0, 0.0, -5.0], [0.0; 3], [0.0, 1.0, 0.0]])
+        );
         assert_eq!(apply(&t, [0.0, 0.0, 0.0]), DVec3::new(0.0, 0.0, -5.0));
         assert_eq!(apply(&t, [0.0, 0.0, 1.0]), DVec3::new(0.0, 0.0, -4.0));
         assert_eq!(apply(&t, [1.0, 0.0, 0.0]), DVec3::new(1.0, 0.0, -5.0));
         // Looking along +x from the origin: left = y × x = -z.
         let t = compose("<lookat origin=\"0, 0, 0\" target=\"3, 0, 0\" up=\"0, 1, 0\"/>").unwrap();
         assert!((apply(&t, [1.0, 0.0, 0.0]) - DVec3::new(0.0, 0.0, -1.0)).length() < 1e-15);
-        assert!(compose("<lookat origin=\"0, 0, 0\" target=\"0, 3, 0\" up=\"0, 1, 0\"/>")
-            .unwrap_err()
-            .contains("parallel"));
+        assert!(
+            compose("<lookat origin=\"0, 0, 0\" target=\"0, 3, 0\" up=\"0, 1, 0\"/>")
+                .unwrap_err()
+                .contains("parallel")
+        );
     }
 }

@@ -68,7 +68,11 @@ pub fn to_mitsuba(s: &Scene, mesh_dir: &str, opts: Options) -> Result<Converted,
                 let file = format!("{mesh_dir}/mesh-{}.obj", meshes.len());
                 let t = tris[0];
                 let _ = writeln!(x, "    <shape type=\"obj\">");
-                let _ = writeln!(x, "        <string name=\"filename\" value=\"{}\"/>", attr(&file));
+                let _ = writeln!(
+                    x,
+                    "        <string name=\"filename\" value=\"{}\"/>",
+                    attr(&file)
+                );
                 shape_tail(&mut x, s, t.material, t.emitter);
                 meshes.push((file, obj_text(&tris)));
             }
@@ -80,7 +84,11 @@ pub fn to_mitsuba(s: &Scene, mesh_dir: &str, opts: Options) -> Result<Converted,
                     "        <point name=\"center\" x=\"{}\" y=\"{}\" z=\"{}\"/>",
                     c.x, c.y, c.z
                 );
-                let _ = writeln!(x, "        <float name=\"radius\" value=\"{}\"/>", sp.radius);
+                let _ = writeln!(
+                    x,
+                    "        <float name=\"radius\" value=\"{}\"/>",
+                    sp.radius
+                );
                 if sp.inward {
                     let _ = writeln!(x, "        <boolean name=\"flip_normals\" value=\"true\"/>");
                 }
@@ -210,7 +218,11 @@ fn bsdf(
                 }
                 format!("<rgb name=\"{k}\" value=\"{}\"/>", n.join(", "))
             }
-            _ => return Err(format!("material '{name}', '{k}': this value cannot be written as XML")),
+            _ => {
+                return Err(format!(
+                    "material '{name}', '{k}': this value cannot be written as XML"
+                ))
+            }
         };
         let _ = writeln!(b, "        {line}");
     }
@@ -232,10 +244,18 @@ fn cook_torrance(c: &CookTorrance, id: &str) -> Option<String> {
             Distribution::Ggx => "ggx",
         };
         let _ = writeln!(p, "        <string name=\"distribution\" value=\"{d}\"/>");
-        let _ = writeln!(p, "        <float name=\"alpha\" value=\"{}\"/>", c.roughness);
+        let _ = writeln!(
+            p,
+            "        <float name=\"alpha\" value=\"{}\"/>",
+            c.roughness
+        );
     }
     if c.ks != Vec3::ONE {
-        let _ = writeln!(p, "        <rgb name=\"specular_reflectance\" value=\"{}\"/>", rgb(c.ks));
+        let _ = writeln!(
+            p,
+            "        <rgb name=\"specular_reflectance\" value=\"{}\"/>",
+            rgb(c.ks)
+        );
     }
     let kind = match c.fresnel {
         Fresnel::Conductor if c.kd == Vec3::ZERO => {
@@ -248,20 +268,33 @@ fn cook_torrance(c: &CookTorrance, id: &str) -> Option<String> {
             "conductor"
         }
         Fresnel::Dielectric => {
-            let _ = writeln!(p, "        <rgb name=\"diffuse_reflectance\" value=\"{}\"/>", rgb(c.kd));
+            let _ = writeln!(
+                p,
+                "        <rgb name=\"diffuse_reflectance\" value=\"{}\"/>",
+                rgb(c.kd)
+            );
             let _ = writeln!(p, "        <float name=\"int_ior\" value=\"{}\"/>", c.ior);
             let _ = writeln!(p, "        <float name=\"ext_ior\" value=\"1\"/>");
             "plastic"
         }
         _ => return None,
     };
-    let kind = if rough { format!("rough{kind}") } else { kind.to_string() };
-    Some(format!("    <bsdf type=\"{kind}\" id=\"{id}\">\n{p}    </bsdf>\n"))
+    let kind = if rough {
+        format!("rough{kind}")
+    } else {
+        kind.to_string()
+    };
+    Some(format!(
+        "    <bsdf type=\"{kind}\" id=\"{id}\">\n{p}    </bsdf>\n"
+    ))
 }
 
 /// A shape's `<ref>`, emitter and end tag.
 fn shape_tail(x: &mut String, s: &Scene, material: u32, emitter: Option<u32>) {
-    let name = s.material_names.get(material as usize).map_or("", String::as_str);
+    let name = s
+        .material_names
+        .get(material as usize)
+        .map_or("", String::as_str);
     let _ = writeln!(x, "        <ref id=\"{}\"/>", attr(name));
     if let Some(e) = emitter.and_then(|e| s.emitters.get(e as usize)) {
         let _ = writeln!(
