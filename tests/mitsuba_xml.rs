@@ -335,6 +335,17 @@ fn malformed_xml_names_its_line() {
         e.starts_with("m.xml:1: ") && e.contains("only Mitsuba 3"),
         "{e}"
     );
+    // Nesting deep enough to exhaust a recursive reader is refused, located.
+    let deep = format!(
+        "<scene version=\"3.0.0\">\n{}{}</scene>",
+        "<a>".repeat(100_000),
+        "</a>".repeat(100_000)
+    );
+    let e = load_str(&deep, Path::new("m.xml")).unwrap_err().to_string();
+    assert!(
+        e.starts_with("m.xml:2: ") && e.contains("nest deeper"),
+        "{e}"
+    );
 }
 
 #[test]

@@ -13,6 +13,10 @@ use std::path::{Path, PathBuf};
 
 /// Deepest accepted nesting of includes (a chain, not a cycle, which is refused at once).
 const MAX_INCLUDE_DEPTH: usize = 32;
+/// Deepest accepted nesting of elements (Mitsuba's subset needs five levels). roxmltree's
+/// parser and the copy here recurse per level, so a deeper file is refused by [`too_deep`]
+/// before either can exhaust the stack.
+const MAX_ELEMENT_DEPTH: usize = 64;
 
 /// One XML element, owned, with `$name`s substituted.
 #[derive(Debug)]
@@ -106,6 +110,10 @@ impl Reader {
         self.source.push('\n');
         self.stack
             .push(std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf()));
+        if let Some(at) = too_deep(text) {
+            let msg = format!("elements nest deeper than {MAX_ELEMENT_DEPTH} levels");
+            return Err(invalid(&file, Some(line_of(text, at)), None, msg));
+        }
         let doc = roxmltree::Document::parse(text).map_err(|e| {
             let line = e.pos().row as usize;
             invalid(&file, Some(line), None, format!("malformed XML: {e}"))
@@ -303,4 +311,79 @@ struct FileCx<'a> {
     text: &'a str,
     offset: usize,
     dir: &'a Path,
+}
+
+/// The offset of the first tag that opens an element deeper than [`MAX_ELEMENT_DEPTH`], by a
+/// linear scan that skips comments, CDATA, processing instructions and declarations and reads
+/// quoted attribute values whole (malformed text is left to the parser's message).
+fn too_deep(text: &str) -> Option<usize> {
+    let b = text.as_bytes();
+    let (mut i, mut depth) = (0usize, 0usize);
+    let skip_to = |from: usize, end: &str| {
+        text[from..]
+            .find(end)
+            .map_or(b.len(), |k| from + k + end.len())
+    };
+    while let Some(k) = text[i..].find('<') {
+        let at = i + k;
+        let rest = &text[at..];
+        if rest.starts_with("<!--") {
+            i = skip_to(at, "-->");
+        } else if rest.starts_with("<![CDATA[") {
+            i = skip_to(at, "]]>");
+        } else if rest.starts_with("<?") {
+            i = skip_to(at, "?>");
+        } else if rest.starts_with("<!") {
+            i = skip_to(at, ">");
+        } else if rest.starts_with("</") {
+            depth = depth.saturating_sub(1);
+            i = skip_to(at, ">");
+        } else {
+            // The tag's end, outside quoted attribute values.
+            let mut j = at + 1;
+            let mut quote = None;
+            while j < b.len() {
+                match (quote, b[j]) {
+                    (None, q @ (b'"' | b'\'')) => quote = Some(q),
+                    (Some(q), c) if c == q => quote = None,
+                    (None, b'>') => break,
+                    _ => {}
+                }
+                j += 1;
+            }
+            if j < b.len() && b[j - 1] != b'/' {
+                depth += 1;
+                if depth > MAX_ELEMENT_DEPTH {
+                    return Some(at);
+                }
+            }
+            i = (j + 1).min(b.len());
+        }
+        if i >= b.len() {
+            break;
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The depth scan counts open elements only: self-closing tags, closing tags, comments,
+    /// CDATA, declarations and a '>' inside a quoted value do not nest.
+    #[test]
+    fn depth_scan_counts_open_elements() {
+        let nest =
+            |n: usize, inner: &str| format!("{}{inner}{}", "<a>".repeat(n), "</a>".repeat(n));
+        assert_eq!(too_deep(&nest(MAX_ELEMENT_DEPTH, "")), None);
+        assert_eq!(
+            too_deep(&nest(MAX_ELEMENT_DEPTH + 1, "")),
+            Some(3 * MAX_ELEMENT_DEPTH)
+        );
+        let noise = "<b x='>' y=\"<\"/><!-- <c> --><![CDATA[<d>]]><?pi <e>?><!DOCTYPE f>";
+        let many = noise.repeat(1000);
+        assert_eq!(too_deep(&nest(MAX_ELEMENT_DEPTH, &many)), None);
+        assert_eq!(too_deep("<a x='unterminated"), None);
+    }
 }

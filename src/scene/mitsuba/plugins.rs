@@ -24,16 +24,16 @@ pub(super) struct Props<'e> {
 
 impl<'e> Props<'e> {
     pub(super) fn new(cx: &Cx, el: &'e El) -> Result<Props<'e>, SceneError> {
-        let mut named: Vec<(&El, bool)> = Vec::new();
+        let mut names = std::collections::HashSet::new();
         for c in &el.children {
             if let Some(n) = c.attr("name") {
-                if named.iter().any(|(o, _)| o.attr("name") == Some(n)) {
+                if !names.insert(n) {
                     let msg = format!("{}: parameter '{n}' given twice", el.describe());
                     return Err(cx.el_err(c, msg));
                 }
             }
-            named.push((c, false));
         }
+        let named = el.children.iter().map(|c| (c, false)).collect();
         Ok(Props { el, named })
     }
     /// The child named `name`, if any.

@@ -103,7 +103,7 @@ pub(super) struct ToWorld {
 pub(super) fn to_world(cx: &Cx, t: &El) -> Result<ToWorld, SceneError> {
     let mut m = DMat4::IDENTITY;
     let mut lookat = None;
-    for (i, c) in t.children.iter().enumerate() {
+    for c in &t.children {
         let step = match c.tag.as_str() {
             "translate" => DMat4::from_translation(DVec3::from(cx.xyz(c, 0.0)?)),
             "scale" => DMat4::from_scale(DVec3::from(cx.xyz(c, 1.0)?)),
@@ -152,7 +152,6 @@ pub(super) fn to_world(cx: &Cx, t: &El) -> Result<ToWorld, SceneError> {
                 return Err(cx.el_err(c, msg));
             }
         };
-        let _ = i;
         m = step * m;
     }
     if m.row(3) != DVec4::new(0.0, 0.0, 0.0, 1.0) {
@@ -255,7 +254,7 @@ mod tests {
     }
 
     /// lookat from (0, 0, -5) at the origin with up +y: the camera's +z is the view direction
-    /// (0, 0, 1), its +x is left = up × dir = (1, 0, 0)... by hand: y × z = x.
+    /// (0, 0, 1) and its +x is left = up × dir = y × z = x, by hand.
     #[test]
     fn lookat_by_hand() {
         let t = compose("<lookat origin=\"0, 0, -5\" target=\"0, 0, 0\" up=\"0, 1, 0\"/>").unwrap();
