@@ -1,5 +1,6 @@
 //! `brdfwave diff` as a CI check: thresholds on the metrics (`--max`) and the statistical test
-//! of two renders (`--z-test`) give exit status 1 and a FAIL line on a regression, 0 otherwise.
+//! of two renders (`--z-test`) give exit status 1 and a FAIL line on a regression, 0 otherwise;
+//! and the EXR metadata and variance layer that `render` and `merge` write and `--z-test` reads.
 
 mod common;
 
@@ -27,7 +28,11 @@ fn status(args: &[&str], code: i32) -> (String, String) {
         String::from_utf8_lossy(&out.stdout).into_owned(),
         String::from_utf8_lossy(&out.stderr).into_owned(),
     );
-    assert_eq!(out.status.code(), Some(code), "{args:?}\nstdout:\n{o}\nstderr:\n{e}");
+    assert_eq!(
+        out.status.code(),
+        Some(code),
+        "{args:?}\nstdout:\n{o}\nstderr:\n{e}"
+    );
     (o, e)
 }
 
@@ -62,7 +67,17 @@ fn thresholds_pass_below_and_fail_above_naming_the_metric() {
     assert!(o.contains("PASS rmse 5.000e-2 <= 0.06"), "{o}");
     assert!(o.contains("PASS max_abs"), "{o}");
     let (o, e) = status(
-        &["diff", t, r, "--max", "rmse=0.04", "--max", "max_abs=0.11", "--max", "relmse=1e-3"],
+        &[
+            "diff",
+            t,
+            r,
+            "--max",
+            "rmse=0.04",
+            "--max",
+            "max_abs=0.11",
+            "--max",
+            "relmse=1e-3",
+        ],
         1,
     );
     assert!(o.contains("FAIL rmse 5.000e-2 > 0.04"), "{o}");
@@ -115,8 +130,22 @@ fn bad_thresholds_are_refused_with_the_reason() {
 fn render(scene: &Path, seed: &str, name: &str) -> (PathBuf, PathBuf) {
     let (out, var) = (tmp(&format!("{name}.exr")), tmp(&format!("{name}-var.exr")));
     let args = [
-        "render", s(scene), "--backend", "cpu", "--res", "32x32", "--spp", "256",
-        "--sampler", "independent", "--seed", seed, "--out", s(&out), "--variance-out", s(&var),
+        "render",
+        s(scene),
+        "--backend",
+        "cpu",
+        "--res",
+        "32x32",
+        "--spp",
+        "256",
+        "--sampler",
+        "independent",
+        "--seed",
+        seed,
+        "--out",
+        s(&out),
+        "--variance-out",
+        s(&var),
     ];
     status(&args, 0);
     (out, var)
@@ -124,8 +153,18 @@ fn render(scene: &Path, seed: &str, name: &str) -> (PathBuf, PathBuf) {
 
 fn z_diff(a: &(PathBuf, PathBuf), b: &(PathBuf, PathBuf), code: i32, extra: &[&str]) -> String {
     let args = [
-        "diff", s(&a.0), s(&b.0), "--z-test", "--test-variance", s(&a.1), "--test-spp", "256",
-        "--reference-variance", s(&b.1), "--reference-spp", "256",
+        "diff",
+        s(&a.0),
+        s(&b.0),
+        "--z-test",
+        "--test-variance",
+        s(&a.1),
+        "--test-spp",
+        "256",
+        "--reference-variance",
+        s(&b.1),
+        "--reference-spp",
+        "256",
     ];
     status(&[&args[..], extra].concat(), code).0
 }
@@ -138,7 +177,11 @@ fn z_test_passes_on_two_seeds_and_fails_on_a_changed_wall() {
     let red = "albedo = [0.63, 0.065, 0.05]";
     assert_eq!(text.matches(red).count(), 1);
     let changed = tmp("changed.toml");
-    std::fs::write(&changed, text.replace(red, "albedo = [0.693, 0.0715, 0.055]")).unwrap();
+    std::fs::write(
+        &changed,
+        text.replace(red, "albedo = [0.693, 0.0715, 0.055]"),
+    )
+    .unwrap();
     let a = render(&scene, "1", "seed1");
     let b = render(&scene, "2", "seed2");
     let c = render(&changed, "2", "changed");
@@ -149,12 +192,121 @@ fn z_test_passes_on_two_seeds_and_fails_on_a_changed_wall() {
     assert_eq!((p.width, p.height), (32, 32));
     assert!(p.data.iter().flatten().all(|&v| (0.0..=1.0).contains(&v)));
     let o = z_diff(&c, &a, 1, &[]);
-    assert!(o.contains("z-test FAIL") && o.contains("excess rule FAIL"), "{o}");
+    assert!(
+        o.contains("z-test FAIL") && o.contains("excess rule FAIL"),
+        "{o}"
+    );
     // The worst pixels are on the red wall, the left of the image.
     let j: serde_json::Value = serde_json::from_str(z_diff(&c, &a, 1, &["--json"]).trim()).unwrap();
     assert_eq!(j["pass"], false);
     assert_eq!(j["z_test"]["pass"], false);
     assert!(j["z_test"]["worst"][0]["x"].as_u64().unwrap() < 8, "{j}");
     let j: serde_json::Value = serde_json::from_str(z_diff(&a, &b, 0, &["--json"]).trim()).unwrap();
-    assert_eq!((j["pass"].clone(), j["z_test"]["variance_model"].clone()), (true.into(), "pooled".into()));
+    assert_eq!(
+        (j["pass"].clone(), j["z_test"]["variance_model"].clone()),
+        (true.into(), "pooled".into())
+    );
+    // The same verdicts from the EXRs' variance layers and spp attributes alone.
+    let layers = |x: &PathBuf, y: &PathBuf, code| {
+        let (o, _) = status(&["diff", s(x), s(y), "--z-test", "--json"], code);
+        let j: serde_json::Value = serde_json::from_str(o.trim()).unwrap();
+        j["z_test"].clone()
+    };
+    assert_eq!(layers(&a.0, &b.0, 0), j["z_test"]);
+    assert_eq!(layers(&c.0, &a.0, 1)["pass"], false);
+}
+
+#[test]
+fn render_and_merge_outputs_carry_what_produced_them() {
+    let scene = common::repo().join("scenes/cornell-box.toml");
+    let fixed = [
+        "--backend",
+        "cpu",
+        "--res",
+        "8x8",
+        "--seed",
+        "7",
+        "--max-depth",
+        "3",
+    ];
+    let out = tmp("whole.exr");
+    status(
+        &[
+            &["render", s(&scene), "--spp", "4", "--out", s(&out)][..],
+            &fixed,
+        ]
+        .concat(),
+        0,
+    );
+    let l = imageio::read_layered(&out).unwrap();
+    let p = &l.provenance;
+    assert_eq!(
+        (p.spp, p.samples.clone(), p.seed, p.max_depth),
+        (Some(4), Some(0..4), Some(7), Some(3))
+    );
+    assert_eq!(
+        (p.sampler.as_deref(), p.backend.as_deref()),
+        (Some("sobol"), Some("cpu"))
+    );
+    let bytes = std::fs::read(&scene).unwrap();
+    let file_hash = format!("{:016x}", brdfwave::hash::fnv1a64(&bytes));
+    assert_eq!(p.scene_file_hash.as_deref(), Some(file_hash.as_str()));
+    assert_eq!(p.version, Some(brdfwave::film::code_version()));
+    assert!(p.device.as_deref().unwrap().contains("CPU") && p.render_seconds.unwrap() >= 0.0);
+    assert!(p.scene_hash.is_some());
+    let image = l.image.clone();
+    let variance = l.variance.expect("a variance layer");
+    assert_eq!(imageio::read(&out).unwrap(), image);
+    // --variance-out still writes the variance alone.
+    let var_out = tmp("whole-var.exr");
+    status(
+        &[
+            &[
+                "render",
+                s(&scene),
+                "--spp",
+                "4",
+                "--variance-out",
+                s(&var_out),
+                "--out",
+                s(&out),
+            ][..],
+            &fixed,
+        ]
+        .concat(),
+        0,
+    );
+    assert_eq!(imageio::read(&var_out).unwrap(), variance);
+    // Two parts merged: the union of their samples, their seconds added, the same image.
+    let parts: Vec<PathBuf> = ["0..2", "2..4"]
+        .iter()
+        .enumerate()
+        .map(|(i, range)| {
+            let part = tmp(&format!("part{i}.bwfilm"));
+            status(
+                &[
+                    &["render", s(&scene), "--samples", range, "--out", s(&part)][..],
+                    &fixed,
+                ]
+                .concat(),
+                0,
+            );
+            part
+        })
+        .collect();
+    let merged = tmp("merged.exr");
+    status(
+        &["merge", s(&parts[0]), s(&parts[1]), "--out", s(&merged)],
+        0,
+    );
+    let m = imageio::read_layered(&merged).unwrap();
+    let mp = &m.provenance;
+    assert_eq!((mp.spp, mp.samples.clone()), (Some(4), Some(0..4)));
+    assert_eq!(
+        (mp.scene_hash.clone(), mp.version.clone()),
+        (p.scene_hash.clone(), p.version.clone())
+    );
+    assert_eq!(mp.backend.as_deref(), Some("cpu"));
+    assert!(mp.render_seconds.is_some() && m.variance.is_some());
+    assert_eq!(m.image, image);
 }

@@ -333,19 +333,29 @@ impl Outputs {
     }
 
     /// Writes every output that can be written, even when one fails; then reports the failures.
-    fn write(&self, r: &Rendered, part: Option<&film::Part>) -> Result<()> {
+    /// EXR images carry `provenance`, and the image outputs the variance as a layer.
+    fn write(
+        &self,
+        r: &Rendered,
+        part: Option<&film::Part>,
+        provenance: &imageio::Provenance,
+    ) -> Result<()> {
         let planned = self.planned();
         let paths: Vec<&Path> = planned.iter().map(|o| o.path).collect();
         outfile::write_each(&paths, |i, p| {
             if i < self.outs.len() && is_partial_film(p) {
                 film::write_part(p, part.expect("a film is kept for .bwfilm outputs"))?;
             } else {
-                let img = if i < self.outs.len() {
-                    &r.output.mean
+                let (img, variance) = if i < self.outs.len() {
+                    (&r.output.mean, Some(&r.output.variance))
                 } else {
-                    &r.output.variance
+                    (&r.output.variance, None)
                 };
-                imageio::write(p, img)?;
+                let extras = imageio::Extras {
+                    variance,
+                    provenance: Some(provenance),
+                };
+                imageio::write_layered(p, img, &extras)?;
             }
             Ok(())
         })?;
@@ -356,6 +366,9 @@ impl Outputs {
 pub fn run(a: RenderArgs) -> Result<()> {
     let t0 = Instant::now();
     let mut sc = scene::load(&a.scene)?;
+    // The bytes hashed into the images' metadata: the file as it was when loaded.
+    let scene_bytes = std::fs::read(&a.scene)
+        .with_context(|| format!("{}: cannot read the scene file", a.scene.display()))?;
     for w in &sc.warnings {
         eprintln!("{w}");
     }
@@ -429,7 +442,22 @@ pub fn run(a: RenderArgs) -> Result<()> {
             seconds_render,
         )
     });
-    outputs.write(&rendered, part_film.as_ref())?;
+    let provenance = imageio::Provenance {
+        spp: Some(rendered.output.spp),
+        samples: Some(part.samples.clone()),
+        seed: Some(sc.integrator.seed),
+        sampler: Some(sc.integrator.sampler.name().to_string()),
+        max_depth: Some(sc.integrator.max_depth),
+        render_seconds: Some(seconds_render),
+        scene: Some(a.scene.display().to_string()),
+        scene_file_hash: Some(format!("{:016x}", brdfwave::hash::fnv1a64(&scene_bytes))),
+        scene_hash: Some(film::scene_hash(&sc)),
+        overrides: Vec::new(),
+        version: Some(film::code_version()),
+        backend: Some(description.backend.to_string()),
+        device: Some(description.device.clone()),
+    };
+    outputs.write(&rendered, part_film.as_ref(), &provenance)?;
     let times = Times {
         bvh: seconds_bvh,
         setup: seconds_setup,

@@ -443,4 +443,3 @@ pub fn fraction_within(
         worst: worst_list(test, reference, scores.into_iter()),
     })
 }
-

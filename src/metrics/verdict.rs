@@ -108,10 +108,7 @@ impl Threshold {
             text: s.to_string(),
             reason,
         };
-        let max: f64 = value
-            .trim()
-            .parse()
-            .map_err(|_| bad("not a number"))?;
+        let max: f64 = value.trim().parse().map_err(|_| bad("not a number"))?;
         if !(max.is_finite() && max >= 0.0) {
             return Err(bad("must be finite and >= 0"));
         }
@@ -181,14 +178,22 @@ mod tests {
             let t = Threshold::parse(&format!("{}=0.5", m.name())).unwrap();
             assert_eq!((t.metric, t.max), (m, 0.5));
         }
-        assert_eq!(Threshold::parse("MAX-ABS = 2").unwrap().metric, Metric::MaxAbs);
+        assert_eq!(
+            Threshold::parse("MAX-ABS = 2").unwrap().metric,
+            Metric::MaxAbs
+        );
         assert!(matches!(
             Threshold::parse("relmse"),
             Err(ThresholdError::Syntax(_))
         ));
         let e = Threshold::parse("psnr=30").unwrap_err().to_string();
-        assert!(e.contains("unknown metric 'psnr'") && e.contains("relmse"), "{e}");
-        for bad in ["rmse=abc", "rmse=-1", "rmse=inf", "rmse=NaN", "over=1.5", "flip=2"] {
+        assert!(
+            e.contains("unknown metric 'psnr'") && e.contains("relmse"),
+            "{e}"
+        );
+        for bad in [
+            "rmse=abc", "rmse=-1", "rmse=inf", "rmse=NaN", "over=1.5", "flip=2",
+        ] {
             assert!(
                 matches!(Threshold::parse(bad), Err(ThresholdError::BadValue { .. })),
                 "{bad}"
