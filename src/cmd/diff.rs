@@ -18,7 +18,7 @@ pub struct DiffArgs {
     /// The reference image, the same size.
     reference: PathBuf,
     /// Write an error map image.
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     error_map: Option<PathBuf>,
     /// Print the metrics as one JSON object on stdout.
     #[arg(long)]
@@ -42,28 +42,34 @@ pub struct DiffArgs {
     z_test: bool,
     /// --z-test: the test image's variance of one sample (default: its EXR's variance layer,
     /// which `render` and `merge` write).
-    #[arg(long, requires = "z_test")]
+    #[arg(long, requires = "z_test", value_name = "FILE")]
     test_variance: Option<PathBuf>,
     /// --z-test: the test image's samples per pixel (default: its EXR metadata).
-    #[arg(long, requires = "z_test", value_parser = clap::value_parser!(u64).range(1..))]
+    #[arg(long, requires = "z_test", value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
     test_spp: Option<u64>,
     /// --z-test: the reference's variance of one sample (default: its EXR variance layer).
-    #[arg(long, requires = "z_test")]
+    #[arg(long, requires = "z_test", value_name = "FILE")]
     reference_variance: Option<PathBuf>,
     /// --z-test: the reference's samples per pixel (default: its EXR metadata).
-    #[arg(long, requires = "z_test", value_parser = clap::value_parser!(u64).range(1..))]
+    #[arg(long, requires = "z_test", value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
     reference_spp: Option<u64>,
     /// --z-test: the family-wise false-alarm rate, in (0, 1).
-    #[arg(long, requires = "z_test", default_value_t = 0.01, value_parser = parse_alpha)]
+    #[arg(long, requires = "z_test", value_name = "A", default_value_t = 0.01, value_parser = parse_alpha)]
     alpha: f64,
     /// --z-test: the variance of the difference of means: `pooled` (both sides run the same
     /// estimator: two seeds, GPU against CPU), `welch` (different estimators, or an exact
     /// reference with zero variance), or `auto` (the default: pooled, welch when one side's
     /// variance is zero everywhere). The two agree when both sides have the same spp.
-    #[arg(long, requires = "z_test", value_enum, default_value = "auto")]
+    #[arg(
+        long,
+        requires = "z_test",
+        value_name = "MODEL",
+        value_enum,
+        default_value = "auto"
+    )]
     variance_model: VarianceArg,
     /// --z-test: write the per-pixel-channel p-values as an image (.exr keeps them exact).
-    #[arg(long, requires = "z_test")]
+    #[arg(long, requires = "z_test", value_name = "FILE")]
     p_map: Option<PathBuf>,
 }
 
