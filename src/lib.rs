@@ -3,6 +3,7 @@
 //!
 //! Where to find things:
 //! * `scene` — scene format and loader (`scenes/README.md` documents the TOML);
+//!   `overrides` — `render --set KEY=VALUE`, edits of the scene document before its checks;
 //! * `brdf` — one file per reflectance model (GLSL twins in `shaders/brdf/`);
 //! * `bvh` — host binned-SAH BVH, its GPU layout and the CPU traversal (`shaders/bvh.glsl`);
 //! * `robust` — robust f32 geometry: error-bounded hit points, ray-origin offsets
@@ -66,6 +67,7 @@ pub mod memory;
 pub mod metrics;
 pub mod outfile;
 pub mod output;
+pub mod overrides;
 pub mod plot;
 pub mod render;
 pub mod rng;

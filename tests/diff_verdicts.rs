@@ -1,5 +1,6 @@
 //! `brdfwave diff` as a CI check: thresholds on the metrics (`--max`) and the statistical test
-//! of two renders (`--z-test`) give exit status 1 and a FAIL line on a regression, 0 otherwise.
+//! of two renders (`--z-test`) give exit status 1 and a FAIL line on a regression, 0 otherwise;
+//! and the EXR metadata and variance layer that `render` and `merge` write and `--z-test` reads.
 
 mod common;
 
@@ -205,4 +206,107 @@ fn z_test_passes_on_two_seeds_and_fails_on_a_changed_wall() {
         (j["pass"].clone(), j["z_test"]["variance_model"].clone()),
         (true.into(), "pooled".into())
     );
+    // The same verdicts from the EXRs' variance layers and spp attributes alone.
+    let layers = |x: &PathBuf, y: &PathBuf, code| {
+        let (o, _) = status(&["diff", s(x), s(y), "--z-test", "--json"], code);
+        let j: serde_json::Value = serde_json::from_str(o.trim()).unwrap();
+        j["z_test"].clone()
+    };
+    assert_eq!(layers(&a.0, &b.0, 0), j["z_test"]);
+    assert_eq!(layers(&c.0, &a.0, 1)["pass"], false);
+}
+
+#[test]
+fn render_and_merge_outputs_carry_what_produced_them() {
+    let scene = common::repo().join("scenes/cornell-box.toml");
+    let fixed = [
+        "--backend",
+        "cpu",
+        "--res",
+        "8x8",
+        "--seed",
+        "7",
+        "--max-depth",
+        "3",
+    ];
+    let out = tmp("whole.exr");
+    status(
+        &[
+            &["render", s(&scene), "--spp", "4", "--out", s(&out)][..],
+            &fixed,
+        ]
+        .concat(),
+        0,
+    );
+    let l = imageio::read_layered(&out).unwrap();
+    let p = &l.provenance;
+    assert_eq!(
+        (p.spp, p.samples.clone(), p.seed, p.max_depth),
+        (Some(4), Some(0..4), Some(7), Some(3))
+    );
+    assert_eq!(
+        (p.sampler.as_deref(), p.backend.as_deref()),
+        (Some("sobol"), Some("cpu"))
+    );
+    let bytes = std::fs::read(&scene).unwrap();
+    let file_hash = format!("{:016x}", brdfwave::hash::fnv1a64(&bytes));
+    assert_eq!(p.scene_file_hash.as_deref(), Some(file_hash.as_str()));
+    assert_eq!(p.version, Some(brdfwave::film::code_version()));
+    assert!(p.device.as_deref().unwrap().contains("CPU") && p.render_seconds.unwrap() >= 0.0);
+    assert!(p.scene_hash.is_some());
+    let image = l.image.clone();
+    let variance = l.variance.expect("a variance layer");
+    assert_eq!(imageio::read(&out).unwrap(), image);
+    // --variance-out still writes the variance alone.
+    let var_out = tmp("whole-var.exr");
+    status(
+        &[
+            &[
+                "render",
+                s(&scene),
+                "--spp",
+                "4",
+                "--variance-out",
+                s(&var_out),
+                "--out",
+                s(&out),
+            ][..],
+            &fixed,
+        ]
+        .concat(),
+        0,
+    );
+    assert_eq!(imageio::read(&var_out).unwrap(), variance);
+    // Two parts merged: the union of their samples, their seconds added, the same image.
+    let parts: Vec<PathBuf> = ["0..2", "2..4"]
+        .iter()
+        .enumerate()
+        .map(|(i, range)| {
+            let part = tmp(&format!("part{i}.bwfilm"));
+            status(
+                &[
+                    &["render", s(&scene), "--samples", range, "--out", s(&part)][..],
+                    &fixed,
+                ]
+                .concat(),
+                0,
+            );
+            part
+        })
+        .collect();
+    let merged = tmp("merged.exr");
+    status(
+        &["merge", s(&parts[0]), s(&parts[1]), "--out", s(&merged)],
+        0,
+    );
+    let m = imageio::read_layered(&merged).unwrap();
+    let mp = &m.provenance;
+    assert_eq!((mp.spp, mp.samples.clone()), (Some(4), Some(0..4)));
+    assert_eq!(
+        (mp.scene_hash.clone(), mp.version.clone()),
+        (p.scene_hash.clone(), p.version.clone())
+    );
+    assert_eq!(mp.backend.as_deref(), Some("cpu"));
+    assert!(mp.render_seconds.is_some() && m.variance.is_some());
+    assert_eq!(m.image, image);
 }

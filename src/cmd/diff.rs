@@ -4,7 +4,7 @@
 
 use anyhow::{bail, Context as _, Result};
 use brdfwave::{
-    imageio::{self, Image},
+    imageio::{self, Image, Layered, Provenance},
     metrics::{self, Metric, Threshold, VarianceModel, ZTestOptions, ZTestReport},
     outfile::{self, Output},
 };
@@ -18,7 +18,7 @@ pub struct DiffArgs {
     /// The reference image, the same size.
     reference: PathBuf,
     /// Write an error map image.
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     error_map: Option<PathBuf>,
     /// Print the metrics as one JSON object on stdout.
     #[arg(long)]
@@ -40,29 +40,36 @@ pub struct DiffArgs {
     /// count; fails when they differ by more than their noise explains.
     #[arg(long)]
     z_test: bool,
-    /// --z-test: the test image's variance of one sample (default: its EXR variance layer).
-    #[arg(long, requires = "z_test")]
+    /// --z-test: the test image's variance of one sample (default: its EXR's variance layer,
+    /// which `render` and `merge` write).
+    #[arg(long, requires = "z_test", value_name = "FILE")]
     test_variance: Option<PathBuf>,
     /// --z-test: the test image's samples per pixel (default: its EXR metadata).
-    #[arg(long, requires = "z_test", value_parser = clap::value_parser!(u64).range(1..))]
+    #[arg(long, requires = "z_test", value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
     test_spp: Option<u64>,
     /// --z-test: the reference's variance of one sample (default: its EXR variance layer).
-    #[arg(long, requires = "z_test")]
+    #[arg(long, requires = "z_test", value_name = "FILE")]
     reference_variance: Option<PathBuf>,
     /// --z-test: the reference's samples per pixel (default: its EXR metadata).
-    #[arg(long, requires = "z_test", value_parser = clap::value_parser!(u64).range(1..))]
+    #[arg(long, requires = "z_test", value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
     reference_spp: Option<u64>,
     /// --z-test: the family-wise false-alarm rate, in (0, 1).
-    #[arg(long, requires = "z_test", default_value_t = 0.01, value_parser = parse_alpha)]
+    #[arg(long, requires = "z_test", value_name = "A", default_value_t = 0.01, value_parser = parse_alpha)]
     alpha: f64,
     /// --z-test: the variance of the difference of means: `pooled` (both sides run the same
     /// estimator: two seeds, GPU against CPU), `welch` (different estimators, or an exact
     /// reference with zero variance), or `auto` (the default: pooled, welch when one side's
     /// variance is zero everywhere). The two agree when both sides have the same spp.
-    #[arg(long, requires = "z_test", value_enum, default_value = "auto")]
+    #[arg(
+        long,
+        requires = "z_test",
+        value_name = "MODEL",
+        value_enum,
+        default_value = "auto"
+    )]
     variance_model: VarianceArg,
     /// --z-test: write the per-pixel-channel p-values as an image (.exr keeps them exact).
-    #[arg(long, requires = "z_test")]
+    #[arg(long, requires = "z_test", value_name = "FILE")]
     p_map: Option<PathBuf>,
 }
 
@@ -119,13 +126,15 @@ pub fn run(a: DiffArgs) -> Result<()> {
         bail!("--tolerance and --rel-tolerance apply to `--max over=FRACTION` only, which is not given");
     }
     prepare_outputs(&a)?;
-    let test = imageio::read(&a.test)?;
-    let reference = imageio::read(&a.reference)?;
-    let report = metrics::diff(&test, &reference)?;
+    let test = imageio::read_layered(&a.test)?;
+    let reference = imageio::read_layered(&a.reference)?;
+    let (t_layers, r_layers) = (&test, &reference);
+    let (test, reference) = (&test.image, &reference.image);
+    let report = metrics::diff(test, reference)?;
     let over = if uses_over {
         let agree = metrics::fraction_within(
-            &test,
-            &reference,
+            test,
+            reference,
             a.rel_tolerance.unwrap_or(0.0),
             a.tolerance.unwrap_or(0.0),
         )?;
@@ -139,12 +148,12 @@ pub fn run(a: DiffArgs) -> Result<()> {
         .map(|t| t.judge(t.metric.value(&report, over)))
         .collect();
     let z = if a.z_test {
-        Some(z_test(&a, &test, &reference)?)
+        Some(z_test(&a, t_layers, r_layers)?)
     } else {
         None
     };
     if let Some(p) = &a.error_map {
-        imageio::write(p, &metrics::error_map(&test, &reference)?)?;
+        imageio::write(p, &metrics::error_map(test, reference)?)?;
     }
     if let (Some(p), Some(z)) = (&a.p_map, &z) {
         imageio::write(p, &z.p_map)?;
@@ -187,6 +196,11 @@ pub fn run(a: DiffArgs) -> Result<()> {
         }
         outln!("{j}")?;
     } else {
+        for (name, l) in [("test", t_layers), ("reference", r_layers)] {
+            if l.provenance != Provenance::default() {
+                outln!("{name:<11} {}", l.provenance.summary())?;
+            }
+        }
         out!("{report}")?;
         if uses_over {
             outln!("over        {over:.6e} of the pixels")?;
@@ -226,45 +240,50 @@ struct Side {
     spp: u64,
 }
 
-/// The variance and spp of the image at `path`: the options, else what the EXR carries.
+/// The variance and spp of one image: the options, else what its EXR file carries.
 fn side(
     name: &str,
     path: &Path,
+    layers: &Layered,
     variance: Option<&Path>,
     spp: Option<u64>,
-    option: &str,
 ) -> Result<Side> {
-    let variance = match variance {
-        Some(v) => imageio::read(v).with_context(|| format!("--{option}-variance"))?,
-        None => bail!(
-            "--z-test needs the variance of the {name} image {}: give --{option}-variance FILE",
-            path.display()
+    let variance = match (variance, &layers.variance) {
+        (Some(v), _) => imageio::read(v).with_context(|| format!("--{name}-variance"))?,
+        (None, Some(v)) => v.clone(),
+        (None, None) => bail!(
+            "--z-test needs the variance of the {name} image {}, which has no {} layer: give \
+             --{name}-variance FILE",
+            path.display(),
+            imageio::VARIANCE_LAYER
         ),
     };
-    let spp = match spp {
-        Some(n) => n,
-        None => bail!(
-            "--z-test needs the samples per pixel of the {name} image {}: give --{option}-spp N",
+    let spp = match (spp, layers.provenance.spp) {
+        (Some(n), _) => n,
+        (None, Some(n)) if n > 0 => n as u64,
+        _ => bail!(
+            "--z-test needs the samples per pixel of the {name} image {}, whose metadata does \
+             not give them: give --{name}-spp N",
             path.display()
         ),
     };
     Ok(Side { variance, spp })
 }
 
-fn z_test(a: &DiffArgs, test: &Image, reference: &Image) -> Result<ZTestReport> {
+fn z_test(a: &DiffArgs, test: &Layered, reference: &Layered) -> Result<ZTestReport> {
     let t = side(
         "test",
         &a.test,
+        test,
         a.test_variance.as_deref(),
         a.test_spp,
-        "test",
     )?;
     let r = side(
         "reference",
         &a.reference,
+        reference,
         a.reference_variance.as_deref(),
         a.reference_spp,
-        "reference",
     )?;
     let all_zero = |v: &Image| v.data.iter().all(|p| p.iter().all(|&c| c == 0.0));
     let variance = match a.variance_model {
@@ -279,10 +298,10 @@ fn z_test(a: &DiffArgs, test: &Image, reference: &Image) -> Result<ZTestReport> 
         ..ZTestOptions::default()
     };
     metrics::z_test_with(
-        test,
+        &test.image,
         &t.variance,
         t.spp,
-        reference,
+        &reference.image,
         &r.variance,
         r.spp,
         &opts,

@@ -126,9 +126,19 @@ pub fn run(a: MergeArgs) -> Result<()> {
             want.end
         );
     }
+    let provenance = provenance(parts, &m)?;
     let paths: Vec<&Path> = planned.iter().map(|o| o.path).collect();
     outfile::write_each(&paths, |i, p| {
-        imageio::write(p, if i < out.len() { &m.mean } else { &m.variance })?;
+        let (img, variance) = if i < out.len() {
+            (&m.mean, Some(&m.variance))
+        } else {
+            (&m.variance, None)
+        };
+        let extras = imageio::Extras {
+            variance,
+            provenance: Some(&provenance),
+        };
+        imageio::write_layered(p, img, &extras)?;
         Ok(())
     })?;
     let nonfinite_samples = m.nonfinite_by_stage.iter().map(|s| s.1).sum();
@@ -159,4 +169,36 @@ pub fn run(a: MergeArgs) -> Result<()> {
         eprintln!("warning: the parts dropped {nonfinite_samples} non-finite values");
     }
     Ok(())
+}
+
+/// What the merged image's EXR attributes say: the union of the parts' samples, their render
+/// times added, and the scene hash and version they share (`film::merge` checked that they
+/// agree); the backends and devices of the parts, each once. The seed, sampler and depth are
+/// in the scene hash but not in the parts' headers, so they are not written.
+fn provenance(parts: &[PathBuf], m: &film::Merged) -> Result<imageio::Provenance> {
+    let headers = parts
+        .iter()
+        .map(|p| film::read_header(p))
+        .collect::<Result<Vec<_>>>()?;
+    let each_once = |f: fn(&film::PartHeader) -> &str| {
+        let mut v: Vec<&str> = Vec::new();
+        for h in &headers {
+            if !v.contains(&f(h)) {
+                v.push(f(h));
+            }
+        }
+        v.join("; ")
+    };
+    let first = &headers[0];
+    Ok(imageio::Provenance {
+        spp: Some(m.samples.end - m.samples.start),
+        samples: Some(m.samples.clone()),
+        render_seconds: Some(m.seconds_render),
+        scene: Some(m.scene.clone()),
+        scene_hash: Some(first.scene_hash.clone()),
+        version: Some(first.code_version.clone()),
+        backend: Some(each_once(|h| &h.backend)),
+        device: Some(each_once(|h| &h.device)),
+        ..imageio::Provenance::default()
+    })
 }

@@ -9,6 +9,7 @@ use brdfwave::{
     film::{self, Tile},
     imageio,
     outfile::{self, Output},
+    overrides::{self, Set},
     render::{
         self, Description, Overrides, Progress, ProgressUnit, RenderRequest, Rendered, Renderer,
     },
@@ -87,6 +88,19 @@ pub struct RenderArgs {
     /// Print the summary as one JSON object on stdout.
     #[arg(long)]
     json: bool,
+    /// Override a field of the scene file before it is checked, KEY=VALUE, e.g.
+    /// `integrator.spp=256`, `materials.gold.roughness=0.1`, `shapes[2].sphere.radius=1.5`;
+    /// VALUE is a TOML value (a bare word is a string); may be given several times, later
+    /// ones win. Checked like the file; an error names the override.
+    #[arg(long = "set", value_name = "KEY=VALUE", value_parser = Set::parse)]
+    set: Vec<Set>,
+    /// Worker threads, 1 to 1024: the CPU backend's thread pool, or on the GPU backend
+    /// lavapipe's (LP_NUM_THREADS, which other drivers ignore). Default: one per core.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    threads: Option<u32>,
+    /// No progress bar and no summary; warnings and errors still go to stderr.
+    #[arg(long, conflicts_with = "json")]
+    quiet: bool,
 }
 
 impl RenderArgs {
@@ -105,7 +119,10 @@ impl RenderArgs {
 
 /// The bar of a render's progress on stderr (drawn only on a terminal): rows of the tile on
 /// the CPU, per cent of the samples on the GPU.
-fn progress_bar(unit: ProgressUnit, total: f64) -> ProgressBar {
+fn progress_bar(unit: ProgressUnit, total: f64, quiet: bool) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
     let (len, template) = match unit {
         ProgressUnit::Rows => (
             total as u64,
@@ -151,6 +168,8 @@ struct RenderSummary {
     seed: u32,
     sampler: &'static str,
     russian_roulette: bool,
+    /// The CPU backend's thread pool, or the `--threads` given to lavapipe (else null).
+    threads: Option<u32>,
     /// GPU only.
     #[serde(flatten)]
     gpu: Option<GpuSetup>,
@@ -337,19 +356,29 @@ impl Outputs {
     }
 
     /// Writes every output that can be written, even when one fails; then reports the failures.
-    fn write(&self, r: &Rendered, part: Option<&film::Part>) -> Result<()> {
+    /// EXR images carry `provenance`, and the image outputs the variance as a layer.
+    fn write(
+        &self,
+        r: &Rendered,
+        part: Option<&film::Part>,
+        provenance: &imageio::Provenance,
+    ) -> Result<()> {
         let planned = self.planned();
         let paths: Vec<&Path> = planned.iter().map(|o| o.path).collect();
         outfile::write_each(&paths, |i, p| {
             if i < self.outs.len() && is_partial_film(p) {
                 film::write_part(p, part.expect("a film is kept for .bwfilm outputs"))?;
             } else {
-                let img = if i < self.outs.len() {
-                    &r.output.mean
+                let (img, variance) = if i < self.outs.len() {
+                    (&r.output.mean, Some(&r.output.variance))
                 } else {
-                    &r.output.variance
+                    (&r.output.variance, None)
                 };
-                imageio::write(p, img)?;
+                let extras = imageio::Extras {
+                    variance,
+                    provenance: Some(provenance),
+                };
+                imageio::write_layered(p, img, &extras)?;
             }
             Ok(())
         })?;
@@ -359,7 +388,8 @@ impl Outputs {
 
 pub fn run(a: RenderArgs) -> Result<()> {
     let t0 = Instant::now();
-    let mut sc = scene::load_with(&a.scene, &a.define)?;
+    set_threads(a.backend, a.threads)?;
+    let (mut sc, scene_bytes) = load_scene(&a.scene, &a.set, &a.define)?;
     for w in &sc.warnings {
         eprintln!("{w}");
     }
@@ -409,7 +439,14 @@ pub fn run(a: RenderArgs) -> Result<()> {
     };
     let r = render::open(backend, &sc, &bvh, part.tile)?;
     let (mut rendered, description, seconds_setup, seconds_render) =
-        render_with_progress(r, &request, part.tile, t0)?;
+        render_with_progress(r, &request, part.tile, t0, a.quiet)?;
+    if a.backend == Backend::Gpu && a.threads.is_some() && !description.device.contains("llvmpipe")
+    {
+        eprintln!(
+            "warning: --threads sets LP_NUM_THREADS, which only lavapipe reads; {} ignores it",
+            description.device
+        );
+    }
     // Tear down now so that messages raised at device destruction (leaks) count too.
     if let Some((ctx, compiler)) = gpu {
         drop(compiler);
@@ -433,7 +470,22 @@ pub fn run(a: RenderArgs) -> Result<()> {
             seconds_render,
         )
     });
-    outputs.write(&rendered, part_film.as_ref())?;
+    let provenance = imageio::Provenance {
+        spp: Some(rendered.output.spp),
+        samples: Some(part.samples.clone()),
+        seed: Some(sc.integrator.seed),
+        sampler: Some(sc.integrator.sampler.name().to_string()),
+        max_depth: Some(sc.integrator.max_depth),
+        render_seconds: Some(seconds_render),
+        scene: Some(a.scene.display().to_string()),
+        scene_file_hash: Some(format!("{:016x}", brdfwave::hash::fnv1a64(&scene_bytes))),
+        scene_hash: Some(film::scene_hash(&sc)),
+        overrides: a.set.iter().map(|s| s.text.clone()).collect(),
+        version: Some(film::code_version()),
+        backend: Some(description.backend.to_string()),
+        device: Some(description.device.clone()),
+    };
+    outputs.write(&rendered, part_film.as_ref(), &provenance)?;
     let times = Times {
         bvh: seconds_bvh,
         setup: seconds_setup,
@@ -451,7 +503,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
     );
     if a.json {
         outln!("{}", serde_json::to_string(&summary)?)?;
-    } else {
+    } else if !a.quiet {
         out!("{summary}")?;
     }
     if rendered.output.nonfinite_samples > 0 {
@@ -463,6 +515,48 @@ pub fn run(a: RenderArgs) -> Result<()> {
     Ok(())
 }
 
+/// `--threads`: the size of the CPU backend's thread pool, made now, before anything else uses
+/// it; or `LP_NUM_THREADS` for lavapipe, which reads it when the Vulkan instance is made (as
+/// the bench's `-tN` configurations do).
+fn set_threads(backend: Backend, threads: Option<u32>) -> Result<()> {
+    let Some(n) = threads else { return Ok(()) };
+    match backend {
+        Backend::Cpu => rayon::ThreadPoolBuilder::new()
+            .num_threads(n as usize)
+            .build_global()
+            .context("--threads: cannot make the thread pool")?,
+        Backend::Gpu => std::env::set_var("LP_NUM_THREADS", n.to_string()),
+    }
+    Ok(())
+}
+
+/// The scene and its file's bytes (hashed into the images' metadata), with the `--set`
+/// overrides applied to the document before its checks (`brdfwave::overrides`).
+fn load_scene(path: &Path, sets: &[Set], defines: &[(String, String)]) -> Result<(Scene, Vec<u8>)> {
+    if sets.is_empty() {
+        let sc = scene::load_with(path, defines)?;
+        let bytes = std::fs::read(path)
+            .with_context(|| format!("{}: cannot read the scene file", path.display()))?;
+        return Ok((sc, bytes));
+    }
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+    if !ext.eq_ignore_ascii_case("toml") {
+        bail!(
+            "--set edits TOML scene files, and {} is not one (.toml){}",
+            path.display(),
+            if scene::load::is_xml(path) {
+                ": a Mitsuba XML scene takes -D NAME=VALUE for its $NAME parameters"
+            } else {
+                ""
+            }
+        );
+    }
+    if let Some((name, _)) = defines.first() {
+        bail!("-D {name}=…: parameters apply to Mitsuba XML scenes only (this is a TOML scene; --set edits it)");
+    }
+    overrides::load_toml(path, sets)
+}
+
 /// Renders the request with a progress bar; returns what was rendered, the renderer's
 /// description, and the seconds of set-up (since `t0`) and of the render.
 fn render_with_progress(
@@ -470,11 +564,12 @@ fn render_with_progress(
     request: &RenderRequest,
     tile: Tile,
     t0: Instant,
+    quiet: bool,
 ) -> Result<(Rendered, Description, f64, f64)> {
     let seconds_setup = t0.elapsed().as_secs_f64();
     let description = r.describe();
     let unit = description.progress;
-    let pb = progress_bar(unit, unit.total(tile, &request.samples));
+    let pb = progress_bar(unit, unit.total(tile, &request.samples), quiet);
     let t = Instant::now();
     let rendered = r.render(request, &|p| show(&pb, p))?;
     let seconds_render = t.elapsed().as_secs_f64();
@@ -518,6 +613,10 @@ fn summary(
         seed: sc.integrator.seed,
         sampler: sc.integrator.sampler.name(),
         russian_roulette: sc.integrator.russian_roulette,
+        threads: match d.gpu {
+            None => Some(rayon::current_num_threads() as u32),
+            Some(_) => a.threads,
+        },
         gpu: d.gpu.as_ref().map(|g| GpuSetup {
             pipelines: g.setup.pipelines.clone(),
             seconds_shader_compile: g.setup.seconds_shader_compile,

@@ -21,7 +21,13 @@
 //! command line creates them up front, see [`crate::outfile::prepare`]).
 //!
 //! Renderers that estimate per-pixel variance produce two plain [`Image`]s (mean and sample
-//! variance), from the sums of their film (`crate::film::mean_and_variance`).
+//! variance), from the sums of their film (`crate::film::mean_and_variance`); in an EXR file
+//! both go together with what produced them ([`write_layered`], [`read_layered`],
+//! [`Provenance`]; the file layout is described in `openexr.rs`).
+
+mod openexr;
+
+pub use openexr::{Extras, Layered, Provenance, VARIANCE_LAYER};
 
 use std::fmt;
 use std::fs::File;
@@ -357,6 +363,13 @@ impl Format {
 /// Writes `img` to `path` atomically, in the format given by the extension (see the module
 /// documentation). The parent directory must exist.
 pub fn write(path: &Path, img: &Image) -> Result<(), ImageError> {
+    write_layered(path, img, &Extras::default())
+}
+
+/// [`write`], and in an EXR file the variance layer and the attributes of `extras` too (see
+/// `openexr`'s documentation: plain RGB readers still read `img`); PNG and PFM files get the
+/// image only.
+pub fn write_layered(path: &Path, img: &Image, extras: &Extras) -> Result<(), ImageError> {
     let format = Format::from_path(path)?;
     img.validate().map_err(|e| ImageError::InvalidImage {
         path: path.to_path_buf(),
@@ -376,7 +389,7 @@ pub fn write(path: &Path, img: &Image) -> Result<(), ImageError> {
         });
     }
     crate::outfile::write_with(path, |file| match format {
-        Format::Exr => write_exr(file, path, img),
+        Format::Exr => openexr::write_exr(file, path, img, extras),
         Format::Png => write_png(file, path, img),
         Format::Pfm => write_pfm(file, path, img),
     })
@@ -390,27 +403,6 @@ impl From<crate::outfile::WriteError> for ImageError {
             source: e.source,
         }
     }
-}
-
-fn write_exr(file: &mut File, path: &Path, img: &Image) -> Result<(), ImageError> {
-    use exr::prelude::{Encoding, SpecificChannels, Vec2, WritableImage};
-    let w = img.width as usize;
-    let data = &img.data;
-    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
-        let p = data[y * w + x];
-        (p[0], p[1], p[2])
-    });
-    exr::prelude::Image::from_encoded_channels(
-        (w, img.height as usize),
-        Encoding::SMALL_LOSSLESS,
-        channels,
-    )
-    .write()
-    .to_buffered(BufWriter::new(file))
-    .map_err(|source| ImageError::ExrWrite {
-        path: path.to_path_buf(),
-        source,
-    })
 }
 
 fn write_png(file: &mut File, path: &Path, img: &Image) -> Result<(), ImageError> {
@@ -461,7 +453,7 @@ fn write_pfm(file: &mut File, path: &Path, img: &Image) -> Result<(), ImageError
 pub fn read(path: &Path) -> Result<Image, ImageError> {
     let format = Format::from_path(path)?;
     let img = match format {
-        Format::Exr => read_exr(path)?,
+        Format::Exr => openexr::read_exr(path)?,
         Format::Png => read_png(path)?,
         Format::Pfm => read_pfm(path)?,
     };
@@ -472,7 +464,27 @@ pub fn read(path: &Path) -> Result<Image, ImageError> {
     Ok(img)
 }
 
-fn open(path: &Path) -> Result<File, ImageError> {
+/// [`read`], with the variance layer and the attributes an EXR file written by
+/// [`write_layered`] carries (none for PNG and PFM files).
+pub fn read_layered(path: &Path) -> Result<Layered, ImageError> {
+    if Format::from_path(path)? != Format::Exr {
+        return Ok(Layered {
+            image: read(path)?,
+            variance: None,
+            provenance: Provenance::default(),
+        });
+    }
+    let l = openexr::read_exr_layers(path)?;
+    for img in std::iter::once(&l.image).chain(&l.variance) {
+        img.validate().map_err(|e| ImageError::InvalidImage {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+        })?;
+    }
+    Ok(l)
+}
+
+pub(crate) fn open(path: &Path) -> Result<File, ImageError> {
     File::open(path).map_err(|source| ImageError::Io {
         path: path.to_path_buf(),
         what: "cannot open",
@@ -483,7 +495,7 @@ fn open(path: &Path) -> Result<File, ImageError> {
 /// Refuses an image of `width` × `height` read from `path` when either side is over the film
 /// limit ([`crate::scene::load::MAX_FILM_SIZE`]), before anything of that size is allocated: a
 /// file of a few bytes can declare 10^10 pixels.
-fn check_size(path: &Path, width: u64, height: u64) -> Result<(), ImageError> {
+pub(crate) fn check_size(path: &Path, width: u64, height: u64) -> Result<(), ImageError> {
     let max = crate::scene::load::MAX_FILM_SIZE as u64;
     if width > max || height > max {
         return Err(ImageError::InvalidImage {
@@ -494,40 +506,6 @@ fn check_size(path: &Path, width: u64, height: u64) -> Result<(), ImageError> {
         });
     }
     Ok(())
-}
-
-fn read_exr(path: &Path) -> Result<Image, ImageError> {
-    use exr::prelude::ReadChannels;
-    use exr::prelude::ReadLayers;
-    // The headers first: the reader below allocates the image from the data window.
-    let meta = exr::meta::MetaData::read_from_buffered(BufReader::new(open(path)?), false)
-        .map_err(|source| ImageError::Exr {
-            path: path.to_path_buf(),
-            source,
-        })?;
-    for header in &meta.headers {
-        let size = header.layer_size;
-        check_size(path, size.width() as u64, size.height() as u64)?;
-    }
-    let file = open(path)?;
-    let exr_img = exr::prelude::read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .rgba_channels(
-            |size, _| Image::new(size.width() as u32, size.height() as u32),
-            |img: &mut Image, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-                let i = pos.y() * img.width as usize + pos.x();
-                img.data[i] = [r, g, b];
-            },
-        )
-        .first_valid_layer()
-        .all_attributes()
-        .from_buffered(BufReader::new(file))
-        .map_err(|source| ImageError::Exr {
-            path: path.to_path_buf(),
-            source,
-        })?;
-    Ok(exr_img.layer_data.channel_data.pixels)
 }
 
 fn read_png(path: &Path) -> Result<Image, ImageError> {

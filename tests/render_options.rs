@@ -1,0 +1,233 @@
+//! `render --set`, `--threads` and `--quiet` as a user runs them: an override renders what the
+//! edited file renders and is refused naming its key when wrong; the thread count changes the
+//! pool, not the image; quiet prints nothing but errors.
+
+mod common;
+
+use brdfwave::imageio;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn run(args: &[&str]) -> Output {
+    let out = Command::new(env!("CARGO_BIN_EXE_brdfwave"))
+        .args(args)
+        .current_dir(common::repo())
+        .env("BRDFWAVE_CACHE_DIR", tmp("cache"))
+        .env_remove("LP_NUM_THREADS")
+        .output()
+        .expect("run brdfwave");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{args:?} panicked:\n{stderr}");
+    out
+}
+
+#[track_caller]
+fn status(args: &[&str], code: i32) -> (String, String) {
+    let out = run(args);
+    let (o, e) = (
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(code),
+        "{args:?}\nstdout:\n{o}\nstderr:\n{e}"
+    );
+    (o, e)
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("brdfwave-options-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d.join(name)
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+const GLOSSY: &str = "scenes/cornell-box-glossy.toml";
+const SMALL: [&str; 4] = ["--backend", "cpu", "--res", "12x10"];
+
+fn render_json(scene: &str, out: &Path, extra: &[&str]) -> serde_json::Value {
+    let args = [
+        &["render", scene, "--out", s(out), "--json"][..],
+        &SMALL,
+        extra,
+    ]
+    .concat();
+    let (o, _) = status(&args, 0);
+    serde_json::from_str(o.trim()).unwrap()
+}
+
+#[test]
+fn set_renders_what_the_edited_file_renders() {
+    let text = std::fs::read_to_string(common::repo().join(GLOSSY)).unwrap();
+    let (old_rough, old_spp) = ("roughness = 0.2", "spp = 16");
+    assert_eq!(
+        (
+            text.matches(old_rough).count(),
+            text.matches(old_spp).count()
+        ),
+        (1, 1)
+    );
+    let edited = tmp("edited.toml");
+    std::fs::write(
+        &edited,
+        text.replace(old_rough, "roughness = 0.05")
+            .replace(old_spp, "spp = 3"),
+    )
+    .unwrap();
+    let (a, b, plain) = (tmp("set.exr"), tmp("edited.exr"), tmp("plain.exr"));
+    let sets = [
+        "--set",
+        "materials.gold_rough.roughness=0.05",
+        "--set",
+        "integrator.spp=3",
+    ];
+    let j = render_json(GLOSSY, &a, &sets);
+    assert_eq!(j["spp"], 3);
+    render_json(s(&edited), &b, &[]);
+    render_json(GLOSSY, &plain, &["--spp", "3"]);
+    let (ia, ib, ip) = [&a, &b, &plain].map(|p| imageio::read(p).unwrap()).into();
+    assert_eq!(ia, ib, "--set and the edited file render the same image");
+    assert_ne!(ia, ip, "the override changed the image");
+    let p = imageio::read_layered(&a).unwrap().provenance;
+    assert_eq!(
+        p.overrides,
+        ["materials.gold_rough.roughness=0.05", "integrator.spp=3"]
+    );
+    // A string, an array and a new key; later overrides win.
+    let j = render_json(
+        GLOSSY,
+        &a,
+        &[
+            "--set",
+            "integrator.sampler=sobol",
+            "--set",
+            "integrator.sampler=independent",
+            "--set",
+            "materials.white.albedo=[0.5, 0.5, 0.5]",
+        ],
+    );
+    assert_eq!(j["sampler"], "independent");
+}
+
+#[test]
+fn a_wrong_override_is_refused_naming_its_key() {
+    let out = tmp("bad.exr");
+    for (set, needle) in [
+        (
+            "materials.white.roughnes=0.1",
+            "--set materials.white.roughnes=0.1: scenes/cornell-box-glossy.toml:",
+        ),
+        (
+            "materials.white.roughnes=0.1",
+            "field 'roughnes': unknown field",
+        ),
+        ("integrator.spp=abc", "--set integrator.spp=abc: "),
+        (
+            "integrator.spp=abc",
+            "field 'integrator.spp': invalid type: string \"abc\"",
+        ),
+        ("integrator.spp=-1", "--set integrator.spp=-1: "),
+        ("camera.fov_y=\"wide\"", "--set camera.fov_y=\"wide\": "),
+        (
+            "shapes[99].x=1",
+            "--set shapes[99].x=1: index 99 is past the end: 'shapes' has",
+        ),
+        (
+            "integrator.spp.x=1",
+            "'integrator.spp' is integer, which has no field 'x'",
+        ),
+    ] {
+        let (_, e) = status(
+            &[
+                &["render", GLOSSY, "--out", s(&out), "--set", set][..],
+                &SMALL,
+            ]
+            .concat(),
+            1,
+        );
+        assert!(e.contains(needle), "{set}: {e}");
+    }
+    // Syntax errors are the option's.
+    for set in ["spp", "a..b=1", "x=[1"] {
+        let (_, e) = status(&["render", GLOSSY, "--set", set], 2);
+        assert!(e.contains("--set"), "{set}: {e}");
+    }
+    // Another format.
+    let other = tmp("scene.xml");
+    std::fs::write(&other, "<scene/>").unwrap();
+    let (_, e) = status(&["render", s(&other), "--set", "integrator.spp=1"], 1);
+    assert!(e.contains("--set edits TOML scene files"), "{e}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn threads_size_the_pool_and_leave_the_image_alone() {
+    let (one, all) = (tmp("t1.exr"), tmp("tall.exr"));
+    let j = render_json(GLOSSY, &one, &["--threads", "1", "--spp", "2"]);
+    assert_eq!(j["threads"], 1);
+    assert!(j["device"].as_str().unwrap().contains("(1 threads)"), "{j}");
+    let j = render_json(GLOSSY, &all, &["--threads", "3", "--spp", "2"]);
+    assert_eq!(j["threads"], 3);
+    assert_eq!(imageio::read(&one).unwrap(), imageio::read(&all).unwrap());
+    // lavapipe: LP_NUM_THREADS, the same image as without.
+    let (g1, g) = (tmp("g1.exr"), tmp("g.exr"));
+    let gpu = |out: &Path, extra: &[&str]| {
+        let args = [
+            &[
+                "render",
+                GLOSSY,
+                "--res",
+                "12x10",
+                "--spp",
+                "2",
+                "--json",
+                "--out",
+                s(out),
+            ][..],
+            extra,
+        ]
+        .concat();
+        let (o, e) = status(&args, 0);
+        assert!(!e.contains("warning"), "{e}");
+        serde_json::from_str::<serde_json::Value>(o.trim()).unwrap()
+    };
+    assert_eq!(gpu(&g1, &["--threads", "1"])["threads"], 1);
+    assert_eq!(gpu(&g, &[])["threads"], serde_json::Value::Null);
+    assert_eq!(imageio::read(&g1).unwrap(), imageio::read(&g).unwrap());
+    for bad in ["0", "-2", "many", "5000"] {
+        let (_, e) = status(&["render", GLOSSY, "--threads", bad], 2);
+        assert!(e.contains("--threads"), "{bad}: {e}");
+    }
+}
+
+#[test]
+fn quiet_prints_nothing_but_errors() {
+    let out = tmp("quiet.exr");
+    let (o, e) = status(
+        &[
+            &["render", GLOSSY, "--spp", "1", "--quiet", "--out", s(&out)][..],
+            &SMALL,
+        ]
+        .concat(),
+        0,
+    );
+    assert_eq!((o.as_str(), e.as_str()), ("", ""));
+    assert!(out.is_file());
+    let (o, e) = status(
+        &[
+            &["render", GLOSSY, "--spp", "1", "--out", s(&out)][..],
+            &SMALL,
+        ]
+        .concat(),
+        0,
+    );
+    assert!(o.contains("wrote") && e.is_empty(), "{o}");
+    let (o, e) = status(&["render", "scenes/none.toml", "--quiet"], 1);
+    assert!(o.is_empty() && e.contains("scenes/none.toml"), "{e}");
+    let (_, e) = status(&["render", GLOSSY, "--quiet", "--json"], 2);
+    assert!(e.contains("cannot be used with"), "{e}");
+}
