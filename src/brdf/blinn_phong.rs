@@ -111,35 +111,12 @@ impl BlinnPhong {
     }
 }
 
-const KD: Param = Param::rgb(
-    "kd",
-    "RGB, unitless",
-    [0.5; 3],
-    (0.0, 1.0),
-    "diffuse coefficient k_d (f_d = k_d/π, eq. 3)",
-);
-const KS: Param = Param::rgb(
-    "ks",
-    "RGB, unitless",
-    [0.3; 3],
-    (0.0, 1.0),
-    "specular coefficient k_s",
-);
-const EXPONENT: Param = Param::scalar(
-    "exponent",
-    "unitless",
-    80.0,
-    (0.0, 1e6),
-    "shininess n (≈ 4× the Phong exponent for a similar highlight)",
-);
-const FORM: Param = Param::choice(
-    "form",
-    Form::NAMES,
-    Form::Classic.name(),
-    "the survey's form (eq. 5) or the energy-normalised reciprocal lobe",
-);
-/// The scene-file parameters (the table above is generated from them: `brdf::docs`).
-pub const PARAMS: &[Param] = &[KD, KS, EXPONENT, FORM];
+params! {
+    KD = rgb("kd", "RGB, unitless", [0.5; 3], (0.0, 1.0), "diffuse coefficient k_d (f_d = k_d/π, eq. 3)");
+    KS = rgb("ks", "RGB, unitless", [0.3; 3], (0.0, 1.0), "specular coefficient k_s");
+    EXPONENT = scalar("exponent", "unitless", 80.0, (0.0, 1e6), "shininess n (≈ 4× the Phong exponent for a similar highlight)");
+    FORM = choice("form", Form::NAMES, Form::Classic.name(), "the survey's form (eq. 5) or the energy-normalised reciprocal lobe");
+}
 /// Where the survey gives the model (README's model table).
 pub const SURVEY: &str = "§2.1.4, eq. 5";
 /// The `brdf report` materials: both forms at one gloss.

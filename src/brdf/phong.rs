@@ -93,35 +93,12 @@ fn spec_albedo_estimate(n: f32, form: Form) -> f32 {
     }
 }
 
-const KD: Param = Param::rgb(
-    "kd",
-    "RGB, unitless",
-    [0.5; 3],
-    (0.0, 1.0),
-    "diffuse coefficient k_d (f_d = k_d/π)",
-);
-const KS: Param = Param::rgb(
-    "ks",
-    "RGB, unitless",
-    [0.3; 3],
-    (0.0, 1.0),
-    "specular coefficient k_s",
-);
-const EXPONENT: Param = Param::scalar(
-    "exponent",
-    "unitless",
-    20.0,
-    (0.0, 1e6),
-    "shininess n_s (0: dull, ∞: mirror)",
-);
-const FORM: Param = Param::choice(
-    "form",
-    Form::NAMES,
-    Form::Survey.name(),
-    "eq. 4 as written, or the energy-normalised reciprocal lobe",
-);
-/// The scene-file parameters (the table above is generated from them: `brdf::docs`).
-pub const PARAMS: &[Param] = &[KD, KS, EXPONENT, FORM];
+params! {
+    KD = rgb("kd", "RGB, unitless", [0.5; 3], (0.0, 1.0), "diffuse coefficient k_d (f_d = k_d/π)");
+    KS = rgb("ks", "RGB, unitless", [0.3; 3], (0.0, 1.0), "specular coefficient k_s");
+    EXPONENT = scalar("exponent", "unitless", 20.0, (0.0, 1e6), "shininess n_s (0: dull, ∞: mirror)");
+    FORM = choice("form", Form::NAMES, Form::Survey.name(), "eq. 4 as written, or the energy-normalised reciprocal lobe");
+}
 /// Where the survey gives the model (README's model table).
 pub const SURVEY: &str = "§2.1.3, eq. 4";
 /// The `brdf report` materials: both forms at one gloss.
