@@ -6,8 +6,7 @@ use super::error::SceneError;
 use super::geometry::{degenerate, edge_overflow, Transform};
 use super::obj::{obj_triangles, ObjShape};
 use super::schema::{
-    Arr, MaterialTable, Quads, RawCamera, RawIntegrator, RawScene, RawShape, RawSphere, Triple,
-    Tris, V3,
+    Arr, MaterialTable, RawCamera, RawIntegrator, RawScene, RawShape, RawSphere, Triple, V3,
 };
 use super::spanned::{Cx, Sp};
 use super::{Camera, Emitter, Integrator, Scene, Sphere, Triangle};
@@ -462,11 +461,11 @@ pub(super) fn shape_primitives(
     };
     if let Some(quads) = &s.quads {
         let tris = &mut out.triangles;
-        quad_triangles(cx, (f, &label), quads, &place, &tri, tris)?;
+        polygon_triangles(cx, (f, &label, "quad"), quads, &place, &tri, tris)?;
     }
     if let Some(listed) = &s.triangles {
         let tris = &mut out.triangles;
-        listed_triangles(cx, (f, &label), listed, &place, &tri, tris)?;
+        polygon_triangles(cx, (f, &label, "triangle"), listed, &place, &tri, tris)?;
     }
     if let Some(sp) = &s.sphere {
         let placed = xf.as_ref().zip(s.transform.as_ref().map(|t| t.span()));
@@ -563,69 +562,46 @@ fn placed<const N: usize>(
     Ok(p)
 }
 
-/// A shape's `quads`, two triangles each (v0 v1 v2, v0 v2 v3); a zero-area half is refused.
-fn quad_triangles(
+/// A shape's `quads` (`kind` "quad", two triangles each: v0 v1 v2, v0 v2 v3) or `triangles`
+/// (`kind` "triangle"); an empty list, an edge out of range or a zero-area triangle is refused.
+fn polygon_triangles<const N: usize>(
     cx: &Cx,
-    (f, label): (&str, &str),
-    quads: &Sp<Quads>,
+    (f, label, kind): (&str, &str, &str),
+    list: &Sp<Vec<Sp<Arr<Arr<f64, 3>, N>>>>,
     place: &Place,
     tri: &dyn Fn([Vec3; 3]) -> Triangle,
     out: &mut Vec<Triangle>,
 ) -> Result<(), SceneError> {
-    if quads.value.is_empty() {
-        let msg = format!("{label}: the list of quads is empty");
-        return Err(cx.err(quads.span(), &format!("{f}.quads"), msg));
+    let field = format!("{f}.{kind}s");
+    if list.value.is_empty() {
+        let msg = format!("{label}: the list of {kind}s is empty");
+        return Err(cx.err(list.span(), &field, msg));
     }
-    for (k, q) in quads.value.iter().enumerate() {
-        let fq = format!("{f}.quads[{k}]");
-        let p: [Vec3; 4] = placed(cx, &fq, q, place)?;
-        for (half, idx) in [[0, 1, 2], [0, 2, 3]].iter().enumerate() {
-            let t = [p[idx[0]], p[idx[1]], p[idx[2]]];
+    for (k, q) in list.value.iter().enumerate() {
+        let fq = format!("{field}[{k}]");
+        let p: [Vec3; N] = placed(cx, &fq, q, place)?;
+        for half in 0..N - 2 {
+            let idx = [0, half + 1, half + 2];
+            let t = idx.map(|i| p[i]);
             if let Some(msg) = edge_overflow(&t) {
-                return Err(cx.err(q.span(), &fq, format!("{label}, quad {k}: {msg}")));
+                return Err(cx.err(q.span(), &fq, format!("{label}, {kind} {k}: {msg}")));
             }
             if degenerate(&t) {
-                let msg = format!(
-                    "{label}, quad {k}: its {} triangle (v{}, v{}, v{}) has zero area \
-                     (collinear or repeated vertices)",
-                    ["first", "second"][half],
-                    idx[0],
-                    idx[1],
-                    idx[2]
-                );
+                let which = match N {
+                    3 => format!("{label}, {kind} {k} has"),
+                    _ => format!(
+                        "{label}, {kind} {k}: its {} triangle (v{}, v{}, v{}) has",
+                        ["first", "second"][half],
+                        idx[0],
+                        idx[1],
+                        idx[2]
+                    ),
+                };
+                let msg = format!("{which} zero area (collinear or repeated vertices)");
                 return Err(cx.err(q.span(), &fq, msg));
             }
             out.push(tri(t));
         }
-    }
-    Ok(())
-}
-
-/// A shape's `triangles`; a zero-area one is refused.
-fn listed_triangles(
-    cx: &Cx,
-    (f, label): (&str, &str),
-    tris: &Sp<Tris>,
-    place: &Place,
-    tri: &dyn Fn([Vec3; 3]) -> Triangle,
-    out: &mut Vec<Triangle>,
-) -> Result<(), SceneError> {
-    if tris.value.is_empty() {
-        let msg = format!("{label}: the list of triangles is empty");
-        return Err(cx.err(tris.span(), &format!("{f}.triangles"), msg));
-    }
-    for (k, q) in tris.value.iter().enumerate() {
-        let ft = format!("{f}.triangles[{k}]");
-        let t: [Vec3; 3] = placed(cx, &ft, q, place)?;
-        if let Some(msg) = edge_overflow(&t) {
-            return Err(cx.err(q.span(), &ft, format!("{label}, triangle {k}: {msg}")));
-        }
-        if degenerate(&t) {
-            let msg =
-                format!("{label}, triangle {k} has zero area (collinear or repeated vertices)");
-            return Err(cx.err(q.span(), &ft, msg));
-        }
-        out.push(tri(t));
     }
     Ok(())
 }
