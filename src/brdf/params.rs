@@ -193,28 +193,23 @@ impl Param {
         name: &'static str,
         unit: &'static str,
         default: [f32; 3],
-        (min, max): (f32, f32),
+        range: (f32, f32),
         meaning: &'static str,
     ) -> Param {
-        Param {
-            min,
-            max,
-            ..Param::new(name, unit, Kind::Rgb(default), meaning)
-        }
+        Param::new(name, unit, Kind::Rgb(default), meaning).within(range)
     }
     /// A scalar parameter in [`min`, `max`].
     pub const fn scalar(
         name: &'static str,
         unit: &'static str,
         default: f32,
-        (min, max): (f32, f32),
+        range: (f32, f32),
         meaning: &'static str,
     ) -> Param {
-        Param {
-            min,
-            max,
-            ..Param::new(name, unit, Kind::Scalar(default), meaning)
-        }
+        Param::new(name, unit, Kind::Scalar(default), meaning).within(range)
+    }
+    const fn within(self, (min, max): (f32, f32)) -> Param {
+        Param { min, max, ..self }
     }
     /// A choice among named options.
     pub const fn choice(
