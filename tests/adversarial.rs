@@ -125,7 +125,11 @@ fn png_bomb(path: &Path) {
 fn image_header_bombs_are_refused_by_every_reader() {
     let good = CLI.tmp("good.exr");
     small_exr(&good);
-    let (exr, png, pfm) = (CLI.tmp("bomb.exr"), CLI.tmp("bomb.png"), CLI.tmp("bomb.pfm"));
+    let (exr, png, pfm) = (
+        CLI.tmp("bomb.exr"),
+        CLI.tmp("bomb.png"),
+        CLI.tmp("bomb.pfm"),
+    );
     exr_bomb(&exr);
     png_bomb(&png);
     let mut b = b"PF\n100000 100000\n-1.0\n".to_vec();

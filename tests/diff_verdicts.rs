@@ -96,7 +96,10 @@ fn bad_thresholds_are_refused_with_the_reason() {
 /// Renders `scene` small on the CPU with the independent sampler (whose per-sample variance is
 /// what the z-test assumes) to `name`.exr and its variance to `name`-var.exr.
 fn render(scene: &Path, seed: &str, name: &str) -> (PathBuf, PathBuf) {
-    let (out, var) = (CLI.tmp(&format!("{name}.exr")), CLI.tmp(&format!("{name}-var.exr")));
+    let (out, var) = (
+        CLI.tmp(&format!("{name}.exr")),
+        CLI.tmp(&format!("{name}-var.exr")),
+    );
     let args = [
         "render",
         s(scene),

@@ -46,7 +46,11 @@ fn set_renders_what_the_edited_file_renders() {
             .replace(old_spp, "spp = 3"),
     )
     .unwrap();
-    let (a, b, plain) = (CLI.tmp("set.exr"), CLI.tmp("edited.exr"), CLI.tmp("plain.exr"));
+    let (a, b, plain) = (
+        CLI.tmp("set.exr"),
+        CLI.tmp("edited.exr"),
+        CLI.tmp("plain.exr"),
+    );
     let sets = [
         "--set",
         "materials.gold_rough.roughness=0.05",

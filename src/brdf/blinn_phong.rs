@@ -41,8 +41,8 @@
 //! the host.
 
 use super::common::{
-    diffuse_specular_pdf, expm1_f, luminance, pow_one_minus, reflect_about, same_hemisphere_up,
-    sample_cosine_hemisphere,
+    diffuse_specular_pdf, luminance, pow_one_minus, reflect_about, same_hemisphere_up,
+    sample_cosine_hemisphere, sample_power_cosine, specular_probability,
 };
 use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
@@ -89,7 +89,7 @@ impl BlinnPhong {
             luminance(kd),
             luminance(ks) * spec_albedo_estimate(exponent, form),
         );
-        let p_spec = if d + s > 0.0 { s / (d + s) } else { 0.0 };
+        let p_spec = specular_probability(d, s);
         BlinnPhong {
             kd,
             ks,
@@ -205,13 +205,7 @@ pub fn sample(m: &BlinnPhong, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfS
         return None;
     }
     let wi = if u_lobe < m.p_spec {
-        // cosθh = u'^{1/(e+1)}, u' = 1 − u.x in (0, 1].
-        let l = (1.0 - u.x).ln() / (m.sample_exponent() + 1.0);
-        let cos_h = l.exp();
-        let sin_h = (-expm1_f(2.0 * l)).max(0.0).sqrt();
-        let phi = 2.0 * PI * u.y;
-        let h = Vec3::new(sin_h * phi.cos(), sin_h * phi.sin(), cos_h);
-        reflect_about(given, h)?
+        reflect_about(given, sample_power_cosine(u, m.sample_exponent()))?
     } else {
         sample_cosine_hemisphere(u)
     };

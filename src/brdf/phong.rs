@@ -39,8 +39,8 @@
 //! (0 survey, 1 normalized), `p[2].x` = P_s (lobe-selection probability, computed on the host).
 
 use super::common::{
-    diffuse_specular_pdf, expm1_f, luminance, one_minus_dot, orthonormal_basis, pow_one_minus,
-    reflect_z, same_hemisphere_up, sample_cosine_hemisphere,
+    diffuse_specular_pdf, luminance, one_minus_dot, orthonormal_basis, pow_one_minus, reflect_z,
+    same_hemisphere_up, sample_cosine_hemisphere, sample_power_cosine, specular_probability,
 };
 use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
@@ -71,7 +71,7 @@ impl Phong {
     pub fn new(kd: Vec3, ks: Vec3, exponent: f32, form: Form) -> Phong {
         let es = spec_albedo_estimate(exponent, form);
         let (d, s) = (luminance(kd), luminance(ks) * es);
-        let p_spec = if d + s > 0.0 { s / (d + s) } else { 0.0 };
+        let p_spec = specular_probability(d, s);
         Phong {
             kd,
             ks,
@@ -170,12 +170,8 @@ pub fn sample(m: &Phong, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample
     let wi = if u_lobe < m.p_spec {
         let r = reflect_z(given);
         let (t, b) = orthonormal_basis(r);
-        // cosα = u'^{1/(n+1)}, u' = 1 − u.x in (0, 1].
-        let l = (1.0 - u.x).ln() / (m.exponent + 1.0);
-        let cos_a = l.exp();
-        let sin_a = (-expm1_f(2.0 * l)).max(0.0).sqrt();
-        let phi = 2.0 * PI * u.y;
-        t * (sin_a * phi.cos()) + b * (sin_a * phi.sin()) + r * cos_a
+        let d = sample_power_cosine(u, m.exponent);
+        t * d.x + b * d.y + r * d.z
     } else {
         sample_cosine_hemisphere(u)
     };

@@ -49,7 +49,7 @@
 
 use super::common::{
     diffuse_specular_pdf, luminance, reflect_about, rotate_z, same_hemisphere_up,
-    sample_cosine_hemisphere,
+    sample_cosine_hemisphere, specular_probability,
 };
 use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
@@ -92,7 +92,7 @@ impl Ward {
         rotation: f32,
     ) -> Ward {
         let (d, s) = (luminance(kd), luminance(ks));
-        let p_spec = if d + s > 0.0 { s / (d + s) } else { 0.0 };
+        let p_spec = specular_probability(d, s);
         let (sin_rot, cos_rot) = rotation.to_radians().sin_cos();
         Ward {
             kd,
