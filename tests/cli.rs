@@ -748,20 +748,8 @@ fn written_files_follow_the_umask() {
     }
 }
 
-#[test]
-fn messages_name_the_cause_once_and_in_plain_words() {
-    let d = fresh_dir("messages");
-    let scene = |name: &str, edit: &dyn Fn(String) -> String| {
-        let text =
-            std::fs::read_to_string(common::repo().join("scenes/white-furnace.toml")).unwrap();
-        let p = d.join(name);
-        std::fs::write(&p, edit(text)).unwrap();
-        p
-    };
-    // A scene whose only geometry is an OBJ without faces: the error says why.
-    let obj = d.join("lines.obj");
-    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2\n").unwrap();
-    let sc = d.join("obj-only.toml");
+/// `d/obj-only.toml`: the white furnace without its shapes and with one OBJ shape, `obj`.
+fn obj_only_scene(d: &Path, obj: &str) -> PathBuf {
     let text = std::fs::read_to_string(common::repo().join("scenes/white-furnace.toml")).unwrap();
     let mut kept = String::new();
     let mut in_shape = false;
@@ -786,8 +774,26 @@ fn messages_name_the_cause_once_and_in_plain_words() {
         })
         .expect("a material")
         .to_string();
-    kept += &format!("\n[[shapes]]\nmaterial = \"{material}\"\nobj = \"lines.obj\"\n");
+    kept += &format!("\n[[shapes]]\nmaterial = \"{material}\"\nobj = \"{obj}\"\n");
+    let sc = d.join("obj-only.toml");
     std::fs::write(&sc, &kept).unwrap();
+    sc
+}
+
+#[test]
+fn messages_name_the_cause_once_and_in_plain_words() {
+    let d = fresh_dir("messages");
+    let scene = |name: &str, edit: &dyn Fn(String) -> String| {
+        let text =
+            std::fs::read_to_string(common::repo().join("scenes/white-furnace.toml")).unwrap();
+        let p = d.join(name);
+        std::fs::write(&p, edit(text)).unwrap();
+        p
+    };
+    // A scene whose only geometry is an OBJ without faces: the error says why.
+    let obj = d.join("lines.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2\n").unwrap();
+    let sc = obj_only_scene(&d, "lines.obj");
     let err = fails(&["render", s(&sc), "--backend", "cpu"]);
     assert!(!err.contains("add a [[shapes]] table"), "{err}");
     assert!(
@@ -850,10 +856,14 @@ fn messages_name_the_cause_once_and_in_plain_words() {
         err.contains("is a file") && !err.contains("os error"),
         "{err}"
     );
+}
 
-    // A driver list that points nowhere, a manifest that exists but is garbage (the loader
-    // says "host memory allocation has failed") and one whose library is missing: each
-    // manifest tried is named with what is wrong with it, and how to fix it.
+/// A driver list that points nowhere, a manifest that exists but is garbage (the loader says
+/// "host memory allocation has failed") and one whose library is missing: each manifest tried
+/// is named with what is wrong with it, and how to fix it.
+#[test]
+fn bad_driver_manifests_are_named_with_what_is_wrong() {
+    let d = fresh_dir("manifests");
     let nowhere = std::path::PathBuf::from("/nonexistent/brdfwave_icd.json");
     let garbage = d.join("garbage_icd.json");
     std::fs::write(&garbage, b"garbage\n").unwrap();
