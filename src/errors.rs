@@ -24,9 +24,13 @@ pub fn chain(e: &anyhow::Error) -> String {
 /// reports only "stream did not contain valid UTF-8", which leaves the user searching.
 pub fn read_utf8(path: &std::path::Path) -> std::io::Result<String> {
     let bytes = std::fs::read(path)?;
-    String::from_utf8(bytes).map_err(|e| {
-        let at = e.utf8_error().valid_up_to();
-        let bytes = e.as_bytes();
+    utf8_of(&bytes).map(str::to_string)
+}
+
+/// `bytes` as text, or the error of [`read_utf8`] that locates the first invalid byte.
+pub fn utf8_of(bytes: &[u8]) -> std::io::Result<&str> {
+    std::str::from_utf8(bytes).map_err(|e| {
+        let at = e.valid_up_to();
         std::io::Error::new(std::io::ErrorKind::InvalidData, not_utf8_at(bytes, at))
     })
 }

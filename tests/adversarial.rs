@@ -5,8 +5,16 @@
 
 mod common;
 
+use common::cli::{s, Cli};
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
+
+const CLI: Cli = Cli {
+    tag: "adv",
+    own_cache: false,
+    env_remove: &[],
+};
 
 fn bin() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_brdfwave"));
@@ -38,16 +46,6 @@ fn fails_with(args: &[&str], needles: &[&str]) -> String {
         assert!(err.contains(n), "{args:?}: no {n:?} in:\n{err}");
     }
     err
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("brdfwave-adv-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 fn small_exr(path: &Path) {
@@ -125,9 +123,13 @@ fn png_bomb(path: &Path) {
 /// it: `diff` ended in `memory allocation of 120000000000 bytes failed` (SIGABRT) on the EXR.
 #[test]
 fn image_header_bombs_are_refused_by_every_reader() {
-    let good = tmp("good.exr");
+    let good = CLI.tmp("good.exr");
     small_exr(&good);
-    let (exr, png, pfm) = (tmp("bomb.exr"), tmp("bomb.png"), tmp("bomb.pfm"));
+    let (exr, png, pfm) = (
+        CLI.tmp("bomb.exr"),
+        CLI.tmp("bomb.png"),
+        CLI.tmp("bomb.pfm"),
+    );
     exr_bomb(&exr);
     png_bomb(&png);
     let mut b = b"PF\n100000 100000\n-1.0\n".to_vec();
@@ -150,8 +152,8 @@ fn image_header_bombs_are_refused_by_every_reader() {
 /// is discarded and rendered again (it made every later `bench` of the scene abort).
 #[test]
 fn a_corrupt_bench_reference_is_refused_or_rebuilt() {
-    let cache = tmp("bench-cache");
-    let out = tmp("bench-out");
+    let cache = CLI.tmp("bench-cache");
+    let out = CLI.tmp("bench-out");
     let bench = |extra: &[&str]| {
         let mut args = vec![
             "bench",
@@ -192,7 +194,7 @@ fn a_corrupt_bench_reference_is_refused_or_rebuilt() {
     // Rebuilt: an 8x8 image again.
     let img = brdfwave::imageio::read(&cached[0]).expect("the cache entry was rebuilt");
     assert_eq!((img.width, img.height), (8, 8));
-    let bomb = tmp("bench-bomb.exr");
+    let bomb = CLI.tmp("bench-bomb.exr");
     exr_bomb(&bomb);
     let o = bench(&["--reference", s(&bomb)]);
     let err = String::from_utf8_lossy(&o.stderr);
@@ -205,7 +207,7 @@ fn a_corrupt_bench_reference_is_refused_or_rebuilt() {
 
 /// Renders samples `samples` of the Cornell box at 8x8 on the CPU into a partial film.
 fn part(name: &str, samples: &str) -> PathBuf {
-    let p = tmp(name);
+    let p = CLI.tmp(name);
     let o = bin()
         .args([
             "render",
@@ -247,13 +249,13 @@ fn patch_header(from: &Path, to: &Path, edit: impl FnOnce(&mut serde_json::Value
 #[test]
 fn a_bwfilm_header_bomb_is_refused() {
     let good = part("part.bwfilm", "0..2");
-    let bomb = tmp("bomb.bwfilm");
+    let bomb = CLI.tmp("bomb.bwfilm");
     patch_header(&good, &bomb, |h| {
         h["width"] = 1_000_000.into();
         h["height"] = 100_000.into();
     });
     fails_with(
-        &["merge", s(&bomb), "--out", s(&tmp("merged.exr"))],
+        &["merge", s(&bomb), "--out", s(&CLI.tmp("merged.exr"))],
         &[s(&bomb), "1000000x100000", "16384"],
     );
 }
@@ -263,7 +265,7 @@ fn a_bwfilm_header_bomb_is_refused() {
 #[test]
 fn merge_refuses_overflowing_counts_and_damaged_bodies() {
     let (a, b) = (part("a.bwfilm", "0..1"), part("b.bwfilm", "1..2"));
-    let merged = tmp("ab.exr");
+    let merged = CLI.tmp("ab.exr");
     let o = check(
         bin()
             .args(["merge", s(&a), s(&b), "--out", s(&merged)])
@@ -272,7 +274,7 @@ fn merge_refuses_overflowing_counts_and_damaged_bodies() {
         "merge",
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let (a2, b2) = (tmp("a-max.bwfilm"), tmp("b-max.bwfilm"));
+    let (a2, b2) = (CLI.tmp("a-max.bwfilm"), CLI.tmp("b-max.bwfilm"));
     for (from, to) in [(&a, &a2), (&b, &b2)] {
         patch_header(from, to, |h| h["extension_rays"] = u64::MAX.into());
     }
@@ -283,7 +285,7 @@ fn merge_refuses_overflowing_counts_and_damaged_bodies() {
     let mut bytes = std::fs::read(&a).unwrap();
     let at = bytes.len() - 8 * 6 * 10 + 3;
     bytes[at] ^= 0x10;
-    let damaged = tmp("a-damaged.bwfilm");
+    let damaged = CLI.tmp("a-damaged.bwfilm");
     std::fs::write(&damaged, bytes).unwrap();
     fails_with(
         &["merge", s(&damaged), s(&b), "--out", s(&merged)],
@@ -305,7 +307,7 @@ fn dev_full() -> Stdio {
 /// render and no image was written).
 #[test]
 fn full_stdout_and_stderr_never_panic() {
-    let img = tmp("full.exr");
+    let img = CLI.tmp("full.exr");
     let quick = ["render", "scenes/cornell-box.toml"];
     let run = |args: &[&str], stdout: Stdio, stderr: Stdio| {
         let o = bin()
@@ -316,9 +318,9 @@ fn full_stdout_and_stderr_never_panic() {
             .unwrap();
         check(o, &format!("{args:?}"))
     };
-    let good = tmp("full-good.exr");
+    let good = CLI.tmp("full-good.exr");
     small_exr(&good);
-    let dirs = tmp("full-dirs.csv");
+    let dirs = CLI.tmp("full-dirs.csv");
     std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
     let mut render: Vec<&str> = quick.to_vec();
     render.extend(common::QUICK_RENDER);
@@ -356,7 +358,7 @@ fn full_stdout_and_stderr_never_panic() {
 /// file and a device that does not exist are refused up front, and no failure file is written.
 #[test]
 fn stress_refuses_a_bad_failure_file_or_device_up_front() {
-    let failures = tmp("stress-failures.jsonl");
+    let failures = CLI.tmp("stress-failures.jsonl");
     let _ = std::fs::remove_file(&failures);
     let t = std::time::Instant::now();
     fails_with(
@@ -393,7 +395,7 @@ fn stress_refuses_a_bad_failure_file_or_device_up_front() {
 /// a TOML scene named `.exr` given as its own `--out` was overwritten by the image.
 #[test]
 fn an_output_that_is_an_input_is_refused() {
-    let dirs = tmp("same-dirs.csv");
+    let dirs = CLI.tmp("same-dirs.csv");
     let text = "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n";
     std::fs::write(&dirs, text).unwrap();
     fails_with(
@@ -412,7 +414,7 @@ fn an_output_that_is_an_input_is_refused() {
         &["--out", "--dirs file", "replace the input"],
     );
     assert_eq!(std::fs::read_to_string(&dirs).unwrap(), text);
-    let scene = tmp("scene-named.exr");
+    let scene = CLI.tmp("scene-named.exr");
     let toml = std::fs::read_to_string(common::repo().join("scenes/cornell-box.toml")).unwrap();
     std::fs::write(&scene, &toml).unwrap();
     let mut args = vec!["render", s(&scene)];
@@ -426,9 +428,9 @@ fn an_output_that_is_an_input_is_refused() {
 /// non-finite benchmark reference is refused (it gave relMSE 0).
 #[test]
 fn non_finite_images_do_not_compare() {
-    let nan = tmp("allnan.exr");
+    let nan = CLI.tmp("allnan.exr");
     brdfwave::imageio::write(&nan, &brdfwave::imageio::Image::filled(4, 4, [f32::NAN; 3])).unwrap();
-    let good = tmp("finite.exr");
+    let good = CLI.tmp("finite.exr");
     brdfwave::imageio::write(&good, &brdfwave::imageio::Image::filled(4, 4, [0.5; 3])).unwrap();
     for (a, b) in [(&nan, &nan), (&good, &nan), (&nan, &good)] {
         fails_with(&["diff", s(a), s(b)], &["non-finite", "do not compare"]);
@@ -464,7 +466,7 @@ fn a_cpu_render_too_large_for_memory_is_refused_up_front() {
             .arg(format!(
                 "ulimit -v 4000000 && exec '{bin}' render scenes/cornell-box.toml --backend cpu \
                  --res 16384x16384 --spp 1 --out '{}'",
-                s(&tmp(out))
+                s(&CLI.tmp(out))
             ))
             .current_dir(common::repo())
             .output()
@@ -476,7 +478,7 @@ fn a_cpu_render_too_large_for_memory_is_refused_up_front() {
             err.contains("16384x16384") && err.contains("MiB") && err.contains("--tile"),
             "{err}"
         );
-        assert!(!tmp(out).exists());
+        assert!(!CLI.tmp(out).exists());
     }
 }
 
@@ -484,7 +486,7 @@ fn a_cpu_render_too_large_for_memory_is_refused_up_front() {
 /// probe used a shortened name, so it passed, and the write failed after the render).
 #[test]
 fn an_over_long_output_name_is_refused_up_front() {
-    let long = tmp(&format!("{}.png", "n".repeat(300)));
+    let long = CLI.tmp(&format!("{}.png", "n".repeat(300)));
     let mut args = vec!["render", "scenes/cornell-box.toml"];
     args.extend(common::QUICK_RENDER);
     args.extend(["--out", s(&long)]);
@@ -497,7 +499,7 @@ fn an_over_long_output_name_is_refused_up_front() {
 #[test]
 #[cfg(unix)]
 fn a_signal_during_a_write_leaves_the_old_output_and_no_temporary() {
-    let dir = tmp("signal");
+    let dir = CLI.tmp("signal");
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let out = dir.join("big.pfm");
@@ -576,13 +578,13 @@ fn eval_lambert(dirs: &Path) -> Output {
 #[test]
 fn messages_say_what_is_wrong() {
     let good = part("msg.bwfilm", "0..2");
-    let escaped = tmp("escaped.bwfilm");
+    let escaped = CLI.tmp("escaped.bwfilm");
     patch_header(&good, &escaped, |h| h["scene"] = "x\n\u{1b}[31mred".into());
     fails_with(
-        &["merge", s(&escaped), "--out", s(&tmp("esc.exr"))],
+        &["merge", s(&escaped), "--out", s(&CLI.tmp("esc.exr"))],
         &["header field 'scene'", "control characters"],
     );
-    let dirs = tmp("bom.csv");
+    let dirs = CLI.tmp("bom.csv");
     std::fs::write(
         &dirs,
         "\u{feff}wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n",
@@ -627,7 +629,7 @@ fn a_negative_count_is_an_invalid_value() {
 /// Directions below the horizon give 0 with a warning that counts them (they gave 0 silently).
 #[test]
 fn brdf_eval_warns_below_the_horizon() {
-    let dirs = tmp("below.csv");
+    let dirs = CLI.tmp("below.csv");
     std::fs::write(
         &dirs,
         "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n0,0,-1,0,0,1\n0,0,1,0.6,0,-0.8\n",
@@ -695,13 +697,13 @@ fn no_file_descriptor_left_is_named_as_such() {
 /// line and column where it stops being UTF-8.
 #[test]
 fn non_utf8_text_inputs_are_located() {
-    let scene = tmp("latin1.toml");
+    let scene = CLI.tmp("latin1.toml");
     std::fs::write(&scene, b"# caf\xe9\n[camera]\n").unwrap();
     fails_with(
         &["render", s(&scene)],
         &["latin1.toml", "line 1, column 6", "0xe9", "not UTF-8"],
     );
-    let csv = tmp("dirs.csv");
+    let csv = CLI.tmp("dirs.csv");
     std::fs::write(&csv, b"wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,\xff1\n").unwrap();
     fails_with(
         &[
@@ -714,9 +716,9 @@ fn non_utf8_text_inputs_are_located() {
         ],
         &["dirs.csv", "line 2, column 11", "0xff"],
     );
-    let obj = tmp("mesh.obj");
+    let obj = CLI.tmp("mesh.obj");
     std::fs::write(&obj, b"v 0 0 0\nv 1 0 0\nv 0 1 0\n# \xc3(\nf 1 2 3\n").unwrap();
-    let with_obj = tmp("with-obj.toml");
+    let with_obj = CLI.tmp("with-obj.toml");
     let cornell = std::fs::read_to_string(common::repo().join("scenes/cornell-box.toml")).unwrap();
     std::fs::write(
         &with_obj,

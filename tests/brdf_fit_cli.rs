@@ -133,45 +133,20 @@ fn bad_inputs_fail_cleanly() {
         &["absent.binary", "cannot open"],
     );
     let file = write_ward(d);
-    fails_with(
-        &[
-            "brdf",
-            "fit",
-            "--measured",
-            &file,
-            "--models",
-            "ward,warp",
-            "--out",
-            o,
-        ],
-        &["unknown model 'warp'", "cook_torrance"],
-    );
-    fails_with(
-        &[
-            "brdf",
-            "fit",
-            "--measured",
-            &file,
-            "--models",
-            "ward alpha = ",
-            "--out",
-            o,
-        ],
-        &["--models"],
-    );
-    fails_with(
-        &[
-            "brdf",
-            "fit",
-            "--measured",
-            &file,
-            "--max-theta",
-            "90",
-            "--out",
-            o,
-        ],
-        &["--max-theta must be in [1, 89]"],
-    );
+    let cases: [(&[&str], &[&str]); 3] = [
+        (
+            &["--models", "ward,warp"],
+            &["unknown model 'warp'", "cook_torrance"],
+        ),
+        (&["--models", "ward alpha = "], &["--models"]),
+        (&["--max-theta", "90"], &["--max-theta must be in [1, 89]"]),
+    ];
+    for (options, needles) in cases {
+        let mut args = vec!["brdf", "fit", "--measured", &file];
+        args.extend_from_slice(options);
+        args.extend(["--out", o]);
+        fails_with(&args, needles);
+    }
     fails_with(
         &["brdf", "fit", "--measured", &file, "--out", &file],
         &["is a file"],

@@ -9,7 +9,7 @@ mod common;
 use brdfwave::brdf::validate::dir_from_theta_deg;
 use common::brdf::{
     check_reciprocal, check_sampled_albedo, check_sampler, grey, material, mixture_albedo,
-    mixture_sampler, models, rejects_each, AlbedoCheck, SamplerCheck, ANGLES,
+    mixture_sampler, models, rejects_fields, AlbedoCheck, SamplerCheck, ANGLES,
 };
 use glam::Vec3;
 
@@ -241,8 +241,5 @@ fn parameters_and_defines() {
         ("diffuse = 1.2", "diffuse", "out of range"),
         ("roughness = 0.2", "roughness", "unknown field"),
     ];
-    rejects_each(
-        "he",
-        &cases.map(|(body, field, msg)| (body, ["test.toml:2", field, msg])),
-    );
+    rejects_fields("he", "test.toml:2", &cases);
 }

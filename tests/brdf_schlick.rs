@@ -10,7 +10,7 @@ use brdfwave::brdf::validate::{albedo_quadrature, dir_from_theta_deg};
 use brdfwave::brdf::{Brdf, BrdfSample, Params};
 use common::brdf::{
     check_reciprocal, check_sampled_albedo, check_sampler, grey, material, mixture_albedo,
-    mixture_sampler, models, rejects_each, ANGLES,
+    mixture_sampler, models, rejects_fields, ANGLES,
 };
 use glam::{Vec2, Vec3};
 
@@ -300,8 +300,5 @@ fn parameters_defines_and_errors() {
         ("rotation = 400", "rotation", "out of range"),
         ("roughness = 0.5", "roughness", "unknown field"),
     ];
-    rejects_each(
-        "schlick",
-        &cases.map(|(body, field, msg)| (body, ["test.toml:2", field, msg])),
-    );
+    rejects_fields("schlick", "test.toml:2", &cases);
 }

@@ -930,6 +930,124 @@ fn run_probe(ctx: &Context, spirv: &[u32], s: &Scene, b: &Bvh, rays: &[[f32; 4]]
     result
 }
 
+/// The probe's rays for scene `s`: random rays (half aimed at primitives), secondary rays from
+/// surface points as the renderer makes them, and axis-aligned rays from grid points.
+fn probe_rays(s: &Scene, b: &Bvh, rng: &mut Rng) -> Vec<(Vec3, Vec3, f32)> {
+    let tg = targets(s, rng);
+    let mut rays: Vec<(Vec3, Vec3, f32)> = Vec::new();
+    for k in 0..20_000 {
+        let o = rng.vec(-8.0, 8.0);
+        let d = if k % 2 == 0 || tg.is_empty() {
+            rng.dir()
+        } else {
+            tg[(rng.next_u64() % tg.len() as u64) as usize] - o
+        };
+        rays.push((o, d, tmax_of(rng, 10.0)));
+    }
+    // Secondary rays as the renderer makes them: from surface points (offset along the
+    // normal, and raw) in random directions, spheres included.
+    for k in 0..4000 {
+        let (o, d, tmax) = rays[k];
+        let Some(h) = b.closest(s, o, d, tmax) else {
+            continue;
+        };
+        let (p, err, n) = if h.prim & SPHERE_BIT != 0 {
+            let sph = &s.spheres[(h.prim & !SPHERE_BIT) as usize];
+            let u = (o + d * h.t - sph.center).normalize();
+            let (p, err) = robust::sphere_point(sph.center, u, sph.radius);
+            (p, err, u)
+        } else {
+            let v = s.triangles[h.prim as usize].v;
+            let (p, err) = robust::triangle_point(&v, h.bary.x, h.bary.y);
+            (p, err, brdfwave::robust::triangle_normal(&v))
+        };
+        let n = if k % 2 == 0 { n } else { -n };
+        let mut dir = rng.dir();
+        if dir.dot(n) < 0.0 {
+            dir -= 2.0 * dir.dot(n) * n;
+        }
+        rays.push((robust::offset_ray_origin(p, err, n), dir, f32::MAX));
+        rays.push((p, dir, f32::MAX));
+    }
+    // Axis-aligned rays from grid points (zero direction components, box-face origins).
+    for k in 0..3000 {
+        let o = Vec3::new(
+            (rng.next_u64() % 9) as f32 * 0.25 - 1.0,
+            (rng.next_u64() % 9) as f32 * 0.25 - 1.0,
+            rng.range(-0.9, 0.9),
+        );
+        let mut d = [0.0f32; 3];
+        d[k % 3] = if k % 2 == 0 { 1.0 } else { -1.0 };
+        let o = match k % 3 {
+            0 => Vec3::new(o.z, o.x, o.y),
+            1 => Vec3::new(o.y, o.z, o.x),
+            _ => o,
+        };
+        rays.push((o, Vec3::from(d), f32::MAX));
+    }
+    rays
+}
+
+/// Checks the GPU probe's answers `out` for `rays` against the CPU traversal; returns the hits,
+/// and how many of them are bit-exact and how many only within 1e-5 in t.
+fn compare_probe(
+    name: &str,
+    s: &Scene,
+    b: &Bvh,
+    rays: &[(Vec3, Vec3, f32)],
+    out: &[[u32; 4]],
+) -> (usize, usize, usize) {
+    let (mut hits, mut exact, mut inexact) = (0, 0, 0);
+    for (i, &(o, d, tmax)) in rays.iter().enumerate() {
+        let [prim, t, b1, b2] = out[2 * i];
+        let [any, qx, qy, qz] = out[2 * i + 1];
+        let cpu = b.closest(s, o, d, tmax);
+        let q = robust::offset_ray_origin(o, o.abs() * 4.0e-7, d);
+        assert_eq!(
+            [qx, qy, qz],
+            [q.x.to_bits(), q.y.to_bits(), q.z.to_bits()],
+            "{name}: offset_ray_origin({o}, |o|·4e-7, {d})"
+        );
+        assert_eq!(
+            any == 1,
+            b.occluded(s, o, d, tmax),
+            "{name}: any-hit differs for o={o} d={d} tmax={tmax}"
+        );
+        match cpu {
+            None => assert_eq!(
+                prim,
+                u32::MAX,
+                "{name}: GPU hit {prim:#x} t={}, CPU none: o={o} d={d}",
+                f32::from_bits(t)
+            ),
+            Some(h) => {
+                assert_ne!(prim, u32::MAX, "{name}: GPU missed, CPU {h:?}: o={o} d={d}");
+                hits += 1;
+                let gt = f32::from_bits(t);
+                let gb = Vec2::new(f32::from_bits(b1), f32::from_bits(b2));
+                // The traversal order, and so the primitive kept among equal-t hits, is
+                // the same on both sides.
+                assert_eq!(
+                    prim, h.prim,
+                    "{name}: GPU hit {prim:#x} at {gt}, CPU {h:?}: o={o} d={d}"
+                );
+                if t == h.t.to_bits() && gb == h.bary {
+                    exact += 1;
+                } else {
+                    // Tolerated on devices whose division or sqrt is not correctly rounded.
+                    let rel = (gt - h.t).abs() / h.t.max(1e-30);
+                    assert!(
+                        rel < 1e-5,
+                        "{name}: t differs: GPU {gt}, CPU {h:?}: o={o} d={d}"
+                    );
+                    inexact += 1;
+                }
+            }
+        }
+    }
+    (hits, exact, inexact)
+}
+
 #[test]
 fn glsl_traversal_matches_cpu_on_a_vulkan_device() {
     let spirv = compile_probe();
@@ -954,58 +1072,7 @@ fn glsl_traversal_matches_cpu_on_a_vulkan_device() {
     ];
     for (name, s) in &scenes {
         let b = bvh::build(s);
-        let tg = targets(s, &mut rng);
-        let mut rays: Vec<(Vec3, Vec3, f32)> = Vec::new();
-        for k in 0..20_000 {
-            let o = rng.vec(-8.0, 8.0);
-            let d = if k % 2 == 0 || tg.is_empty() {
-                rng.dir()
-            } else {
-                tg[(rng.next_u64() % tg.len() as u64) as usize] - o
-            };
-            rays.push((o, d, tmax_of(&mut rng, 10.0)));
-        }
-        // Secondary rays as the renderer makes them: from surface points (offset along the
-        // normal, and raw) in random directions, spheres included.
-        for k in 0..4000 {
-            let (o, d, tmax) = rays[k];
-            let Some(h) = b.closest(s, o, d, tmax) else {
-                continue;
-            };
-            let (p, err, n) = if h.prim & SPHERE_BIT != 0 {
-                let sph = &s.spheres[(h.prim & !SPHERE_BIT) as usize];
-                let u = (o + d * h.t - sph.center).normalize();
-                let (p, err) = robust::sphere_point(sph.center, u, sph.radius);
-                (p, err, u)
-            } else {
-                let v = s.triangles[h.prim as usize].v;
-                let (p, err) = robust::triangle_point(&v, h.bary.x, h.bary.y);
-                (p, err, brdfwave::robust::triangle_normal(&v))
-            };
-            let n = if k % 2 == 0 { n } else { -n };
-            let mut dir = rng.dir();
-            if dir.dot(n) < 0.0 {
-                dir -= 2.0 * dir.dot(n) * n;
-            }
-            rays.push((robust::offset_ray_origin(p, err, n), dir, f32::MAX));
-            rays.push((p, dir, f32::MAX));
-        }
-        // Axis-aligned rays from grid points (zero direction components, box-face origins).
-        for k in 0..3000 {
-            let o = Vec3::new(
-                (rng.next_u64() % 9) as f32 * 0.25 - 1.0,
-                (rng.next_u64() % 9) as f32 * 0.25 - 1.0,
-                rng.range(-0.9, 0.9),
-            );
-            let mut d = [0.0f32; 3];
-            d[k % 3] = if k % 2 == 0 { 1.0 } else { -1.0 };
-            let o = match k % 3 {
-                0 => Vec3::new(o.z, o.x, o.y),
-                1 => Vec3::new(o.y, o.z, o.x),
-                _ => o,
-            };
-            rays.push((o, Vec3::from(d), f32::MAX));
-        }
+        let rays = probe_rays(s, &b, &mut rng);
         let ray_data: Vec<[f32; 4]> = rays
             .iter()
             .flat_map(|&(o, d, t)| [[o.x, o.y, o.z, t], [d.x, d.y, d.z, 0.0]])
@@ -1013,54 +1080,7 @@ fn glsl_traversal_matches_cpu_on_a_vulkan_device() {
         let n = rays.len();
         let out = run_probe(&ctx, &spirv, s, &b, &ray_data);
 
-        let (mut hits, mut exact, mut inexact) = (0, 0, 0);
-        for (i, &(o, d, tmax)) in rays.iter().enumerate() {
-            let [prim, t, b1, b2] = out[2 * i];
-            let [any, qx, qy, qz] = out[2 * i + 1];
-            let cpu = b.closest(s, o, d, tmax);
-            let q = robust::offset_ray_origin(o, o.abs() * 4.0e-7, d);
-            assert_eq!(
-                [qx, qy, qz],
-                [q.x.to_bits(), q.y.to_bits(), q.z.to_bits()],
-                "{name}: offset_ray_origin({o}, |o|·4e-7, {d})"
-            );
-            assert_eq!(
-                any == 1,
-                b.occluded(s, o, d, tmax),
-                "{name}: any-hit differs for o={o} d={d} tmax={tmax}"
-            );
-            match cpu {
-                None => assert_eq!(
-                    prim,
-                    u32::MAX,
-                    "{name}: GPU hit {prim:#x} t={}, CPU none: o={o} d={d}",
-                    f32::from_bits(t)
-                ),
-                Some(h) => {
-                    assert_ne!(prim, u32::MAX, "{name}: GPU missed, CPU {h:?}: o={o} d={d}");
-                    hits += 1;
-                    let gt = f32::from_bits(t);
-                    let gb = Vec2::new(f32::from_bits(b1), f32::from_bits(b2));
-                    // The traversal order, and so the primitive kept among equal-t hits, is
-                    // the same on both sides.
-                    assert_eq!(
-                        prim, h.prim,
-                        "{name}: GPU hit {prim:#x} at {gt}, CPU {h:?}: o={o} d={d}"
-                    );
-                    if t == h.t.to_bits() && gb == h.bary {
-                        exact += 1;
-                    } else {
-                        // Tolerated on devices whose division or sqrt is not correctly rounded.
-                        let rel = (gt - h.t).abs() / h.t.max(1e-30);
-                        assert!(
-                            rel < 1e-5,
-                            "{name}: t differs: GPU {gt}, CPU {h:?}: o={o} d={d}"
-                        );
-                        inexact += 1;
-                    }
-                }
-            }
-        }
+        let (hits, exact, inexact) = compare_probe(name, s, &b, &rays, &out);
         println!("{name} on {}: {n} rays, {hits} hits, {exact} bit-exact, {inexact} t/bary off in the last bits", ctx.device_name);
         // lavapipe's float division and sqrt are IEEE: everything must be bit-exact there.
         if ctx.device_name.contains("llvmpipe") {

@@ -4,29 +4,22 @@
 
 mod common;
 
+use common::cli::{s, Cli};
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
+
+const CLI: Cli = Cli {
+    tag: "cli",
+    own_cache: false,
+    env_remove: &[],
+};
 
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_brdfwave"))
 }
-
-fn run(args: &[&str]) -> Output {
-    let out = bin()
-        .args(args)
-        .current_dir(common::repo())
-        .output()
-        .expect("run brdfwave");
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        !stderr.contains("panicked"),
-        "brdfwave {args:?} panicked:\n{stderr}"
-    );
-    out
-}
-
 fn ok(args: &[&str]) -> String {
-    let out = run(args);
+    let out = CLI.run(args);
     assert!(
         out.status.success(),
         "brdfwave {args:?} failed ({}):\n{}",
@@ -38,7 +31,7 @@ fn ok(args: &[&str]) -> String {
 
 /// Runs a command that must fail; returns its stderr.
 fn fails(args: &[&str]) -> String {
-    let out = run(args);
+    let out = CLI.run(args);
     assert_eq!(
         out.status.code(),
         Some(1),
@@ -64,22 +57,12 @@ fn eval_args<'a>(material: &'a str, dirs: &'a str, extra: &[&'a str]) -> Vec<&'a
     a
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("brdfwave-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
 #[test]
 fn render_json_summary_on_both_backends() {
     let mut images = Vec::new();
     for backend in ["gpu", "cpu"] {
-        let png = tmp(&format!("cornell-{backend}.png"));
-        let exr = tmp(&format!("cornell-{backend}.exr"));
+        let png = CLI.tmp(&format!("cornell-{backend}.png"));
+        let exr = CLI.tmp(&format!("cornell-{backend}.exr"));
         let stdout = ok(&[
             "render",
             "scenes/cornell-box.toml",
@@ -161,7 +144,7 @@ fn render_json_summary_on_both_backends() {
         images.push(exr);
     }
     // Same seed on both backends: `diff` reports a small error and writes the error map.
-    let map = tmp("cornell-error.png");
+    let map = CLI.tmp("cornell-error.png");
     let stdout = ok(&[
         "diff",
         s(&images[0]),
@@ -203,8 +186,8 @@ fn auto_integrator_takes_the_megakernel_for_small_waves_only() {
         ("16x16", "8", 2048, "megakernel"),
         ("33x32", "2", 2112, "wavefront"),
     ] {
-        let auto = tmp(&format!("auto-{res}.exr"));
-        let fixed = tmp(&format!("fixed-{res}.exr"));
+        let auto = CLI.tmp(&format!("auto-{res}.exr"));
+        let fixed = CLI.tmp(&format!("fixed-{res}.exr"));
         let j = render(res, spp, "auto", &auto);
         assert_eq!(j["wave_paths"], wave, "{j}");
         assert_eq!(j["integrator"], chosen, "{j}");
@@ -232,7 +215,7 @@ fn auto_integrator_takes_the_megakernel_for_small_waves_only() {
 #[test]
 fn bad_inputs_name_the_file_and_field() {
     // Scene with a bad field value.
-    let scene = tmp("bad.toml");
+    let scene = CLI.tmp("bad.toml");
     let text = std::fs::read_to_string(common::repo().join("scenes/cornell-box.toml")).unwrap();
     let bad = text.replacen("[camera]", "[camera]\nfov_y_bogus = 3", 1);
     std::fs::write(&scene, bad).unwrap();
@@ -264,12 +247,12 @@ fn bad_inputs_name_the_file_and_field() {
         &["render", "scenes/cornell-box.toml", "--wave-paths", "10"],
         "--wave-paths",
     );
-    let out = run(&["render", "scenes/cornell-box.toml", "--res", "12by12"]);
+    let out = CLI.run(&["render", "scenes/cornell-box.toml", "--res", "12by12"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("12by12"));
 
     // Inline materials: unknown model and negative roughness.
-    let dirs = tmp("dirs-ok.csv");
+    let dirs = CLI.tmp("dirs-ok.csv");
     std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
     fails_naming(&eval_args(r#"model = "wardd""#, s(&dirs), &[]), "wardd");
     fails_naming(
@@ -282,7 +265,7 @@ fn bad_inputs_name_the_file_and_field() {
     );
 
     // A direction CSV with a bad value names the file and line.
-    let bad_csv = tmp("dirs-bad.csv");
+    let bad_csv = CLI.tmp("dirs-bad.csv");
     std::fs::write(
         &bad_csv,
         "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n0,0,1,0,zero,1\n",
@@ -300,7 +283,7 @@ fn bad_inputs_name_the_file_and_field() {
 
 #[test]
 fn brdf_eval_agrees_between_backends_and_keeps_the_columns() {
-    let dirs = tmp("dirs.csv");
+    let dirs = CLI.tmp("dirs.csv");
     let mut text = String::from("wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n");
     for (ti, to, phi) in [
         (0.0f32, 0.0f32, 0.0f32),
@@ -331,7 +314,7 @@ fn brdf_eval_agrees_between_backends_and_keeps_the_columns() {
             .collect()
     };
     let cpu = parse(&ok(&eval_args(material, s(&dirs), &["--backend", "cpu"])));
-    let out = tmp("gpu-eval.csv");
+    let out = CLI.tmp("gpu-eval.csv");
     ok(&eval_args(
         material,
         s(&dirs),
@@ -356,7 +339,7 @@ fn brdf_eval_agrees_between_backends_and_keeps_the_columns() {
 
 #[test]
 fn brdf_plot_writes_a_png_and_refuses_bad_angles() {
-    let out = tmp("lobe.png");
+    let out = CLI.tmp("lobe.png");
     ok(&[
         "brdf",
         "plot",
@@ -409,8 +392,8 @@ fn brdf_plot_writes_a_png_and_refuses_bad_angles() {
 /// and a summary; a bad configuration name is refused.
 #[test]
 fn bench_writes_its_csv_plot_and_summary() {
-    let out = tmp("bench");
-    let reference = tmp("bench-cache");
+    let out = CLI.tmp("bench");
+    let reference = CLI.tmp("bench-cache");
     let o = bin()
         .args([
             "bench",
@@ -520,7 +503,7 @@ fn bench_writes_its_csv_plot_and_summary() {
 
 /// A fresh, empty directory for one test.
 fn fresh_dir(name: &str) -> PathBuf {
-    let d = tmp(name);
+    let d = CLI.tmp(name);
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
@@ -684,7 +667,7 @@ fn brdf_plot_honours_the_extension() {
     let d = fresh_dir("plot-ext");
     let material = r#"model = "phong", ks = 0.8, kd = 0, exponent = 20"#;
     let plot = |out: &Path| {
-        run(&[
+        CLI.run(&[
             "brdf",
             "plot",
             "--material",
@@ -765,20 +748,8 @@ fn written_files_follow_the_umask() {
     }
 }
 
-#[test]
-fn messages_name_the_cause_once_and_in_plain_words() {
-    let d = fresh_dir("messages");
-    let scene = |name: &str, edit: &dyn Fn(String) -> String| {
-        let text =
-            std::fs::read_to_string(common::repo().join("scenes/white-furnace.toml")).unwrap();
-        let p = d.join(name);
-        std::fs::write(&p, edit(text)).unwrap();
-        p
-    };
-    // A scene whose only geometry is an OBJ without faces: the error says why.
-    let obj = d.join("lines.obj");
-    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2\n").unwrap();
-    let sc = d.join("obj-only.toml");
+/// `d/obj-only.toml`: the white furnace without its shapes and with one OBJ shape, `obj`.
+fn obj_only_scene(d: &Path, obj: &str) -> PathBuf {
     let text = std::fs::read_to_string(common::repo().join("scenes/white-furnace.toml")).unwrap();
     let mut kept = String::new();
     let mut in_shape = false;
@@ -803,8 +774,26 @@ fn messages_name_the_cause_once_and_in_plain_words() {
         })
         .expect("a material")
         .to_string();
-    kept += &format!("\n[[shapes]]\nmaterial = \"{material}\"\nobj = \"lines.obj\"\n");
+    kept += &format!("\n[[shapes]]\nmaterial = \"{material}\"\nobj = \"{obj}\"\n");
+    let sc = d.join("obj-only.toml");
     std::fs::write(&sc, &kept).unwrap();
+    sc
+}
+
+#[test]
+fn messages_name_the_cause_once_and_in_plain_words() {
+    let d = fresh_dir("messages");
+    let scene = |name: &str, edit: &dyn Fn(String) -> String| {
+        let text =
+            std::fs::read_to_string(common::repo().join("scenes/white-furnace.toml")).unwrap();
+        let p = d.join(name);
+        std::fs::write(&p, edit(text)).unwrap();
+        p
+    };
+    // A scene whose only geometry is an OBJ without faces: the error says why.
+    let obj = d.join("lines.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2\n").unwrap();
+    let sc = obj_only_scene(&d, "lines.obj");
     let err = fails(&["render", s(&sc), "--backend", "cpu"]);
     assert!(!err.contains("add a [[shapes]] table"), "{err}");
     assert!(
@@ -867,10 +856,14 @@ fn messages_name_the_cause_once_and_in_plain_words() {
         err.contains("is a file") && !err.contains("os error"),
         "{err}"
     );
+}
 
-    // A driver list that points nowhere, a manifest that exists but is garbage (the loader
-    // says "host memory allocation has failed") and one whose library is missing: each
-    // manifest tried is named with what is wrong with it, and how to fix it.
+/// A driver list that points nowhere, a manifest that exists but is garbage (the loader says
+/// "host memory allocation has failed") and one whose library is missing: each manifest tried
+/// is named with what is wrong with it, and how to fix it.
+#[test]
+fn bad_driver_manifests_are_named_with_what_is_wrong() {
+    let d = fresh_dir("manifests");
     let nowhere = std::path::PathBuf::from("/nonexistent/brdfwave_icd.json");
     let garbage = d.join("garbage_icd.json");
     std::fs::write(&garbage, b"garbage\n").unwrap();
@@ -912,7 +905,7 @@ fn gpu_options_are_refused_or_warned_about_consistently() {
     ] {
         let mut args = extra.clone();
         args.extend(["--out", s(&png)]);
-        let out = run(&render_args(&args));
+        let out = CLI.run(&render_args(&args));
         assert!(out.status.success());
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(
@@ -926,7 +919,7 @@ fn gpu_options_are_refused_or_warned_about_consistently() {
     // The same for brdf eval on the CPU.
     let dirs = d.join("dirs.csv");
     std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
-    let out = run(&eval_args(
+    let out = CLI.run(&eval_args(
         r#"model = "lambert""#,
         s(&dirs),
         &["--device", "llvmpipe"],
@@ -966,7 +959,7 @@ fn gpu_options_are_refused_or_warned_about_consistently() {
         &["render", "scenes/cornell-box.toml", "--device", ""][..],
         &["brdf", "report", "--device", " "][..],
     ] {
-        let out = run(args);
+        let out = CLI.run(args);
         assert_eq!(out.status.code(), Some(2), "{args:?}");
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(err.contains("empty"), "{err}");
@@ -977,7 +970,7 @@ fn gpu_options_are_refused_or_warned_about_consistently() {
 /// `--replay` runs exactly the listed cases; bad arguments are errors, not panics.
 #[test]
 fn stress_runs_every_group_within_a_small_budget_and_replays_cases() {
-    let failures = tmp("stress-failures.jsonl");
+    let failures = CLI.tmp("stress-failures.jsonl");
     let _ = std::fs::remove_file(&failures);
     let out = ok(&[
         "stress",
@@ -1010,7 +1003,7 @@ fn stress_runs_every_group_within_a_small_budget_and_replays_cases() {
     assert!(!failures.exists(), "a passing run wrote a failure file");
 
     // Replay: a file naming two cases runs those two and nothing else.
-    let replay = tmp("stress-replay.jsonl");
+    let replay = CLI.tmp("stress-replay.jsonl");
     std::fs::write(
         &replay,
         "{\"group\":\"models\",\"seed\":12345,\"message\":\"\"}\n\

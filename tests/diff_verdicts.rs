@@ -4,52 +4,20 @@
 
 mod common;
 
+use common::cli::{s, Cli};
+
 use brdfwave::imageio::{self, Image};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
-fn run(args: &[&str]) -> Output {
-    let out = Command::new(env!("CARGO_BIN_EXE_brdfwave"))
-        .args(args)
-        .current_dir(common::repo())
-        .env("BRDFWAVE_CACHE_DIR", tmp("cache"))
-        .output()
-        .expect("run brdfwave");
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(!stderr.contains("panicked"), "{args:?} panicked:\n{stderr}");
-    out
-}
-
-/// Runs `args`; asserts the exit status; returns stdout and stderr.
-#[track_caller]
-fn status(args: &[&str], code: i32) -> (String, String) {
-    let out = run(args);
-    let (o, e) = (
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    );
-    assert_eq!(
-        out.status.code(),
-        Some(code),
-        "{args:?}\nstdout:\n{o}\nstderr:\n{e}"
-    );
-    (o, e)
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("brdfwave-diff-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
+const CLI: Cli = Cli {
+    tag: "diff",
+    own_cache: true,
+    env_remove: &[],
+};
 /// A reference of 0.5 everywhere and a test 0.1 brighter in the left quarter of the columns:
 /// RMSE 0.05, max |t-r| 0.1, a quarter of the pixels over a tolerance below 0.1.
 fn pair() -> (PathBuf, PathBuf) {
-    let (t, r) = (tmp("test.exr"), tmp("reference.exr"));
+    let (t, r) = (CLI.tmp("test.exr"), CLI.tmp("reference.exr"));
     imageio::write(&r, &Image::filled(16, 16, [0.5; 3])).unwrap();
     let test = Image::from_fn(16, 16, |x, _| [if x < 4 { 0.6 } else { 0.5 }; 3]);
     imageio::write(&t, &test).unwrap();
@@ -60,13 +28,13 @@ fn pair() -> (PathBuf, PathBuf) {
 fn thresholds_pass_below_and_fail_above_naming_the_metric() {
     let (t, r) = pair();
     let (t, r) = (s(&t), s(&r));
-    let (o, _) = status(
+    let (o, _) = CLI.status(
         &["diff", t, r, "--max", "rmse=0.06", "--max", "max_abs=0.11"],
         0,
     );
     assert!(o.contains("PASS rmse 5.000e-2 <= 0.06"), "{o}");
     assert!(o.contains("PASS max_abs"), "{o}");
-    let (o, e) = status(
+    let (o, e) = CLI.status(
         &[
             "diff",
             t,
@@ -86,13 +54,13 @@ fn thresholds_pass_below_and_fail_above_naming_the_metric() {
     assert!(e.contains("FAIL rmse 5.000e-2 > 0.04; FAIL relmse"), "{e}");
     // A quarter of the pixels are over a tolerance of 0.05, none over 0.2.
     let over = ["diff", t, r, "--max", "over=0.2", "--tolerance"];
-    let (o, _) = status(&[&over[..], &["0.05"]].concat(), 1);
+    let (o, _) = CLI.status(&[&over[..], &["0.05"]].concat(), 1);
     assert!(o.contains("FAIL over 2.500e-1 > 0.2"), "{o}");
-    status(&[&over[..], &["0.2"]].concat(), 0);
+    CLI.status(&[&over[..], &["0.2"]].concat(), 0);
     // The relative tolerance: 0.1 <= 0.2 * 0.6.
-    status(&[&over[..], &["0", "--rel-tolerance", "0.2"]].concat(), 0);
+    CLI.status(&[&over[..], &["0", "--rel-tolerance", "0.2"]].concat(), 0);
     // JSON carries the verdicts and the overall one.
-    let (o, _) = status(&["diff", t, r, "--json", "--max", "flip=1e-9"], 1);
+    let (o, _) = CLI.status(&["diff", t, r, "--json", "--max", "flip=1e-9"], 1);
     let j: serde_json::Value = serde_json::from_str(o.trim()).unwrap();
     assert_eq!(j["pass"], false);
     assert_eq!(j["verdicts"][0]["metric"], "flip");
@@ -102,7 +70,7 @@ fn thresholds_pass_below_and_fail_above_naming_the_metric() {
         .iter()
         .flat_map(|m| ["--max", Box::leak(format!("{m}=0").into_boxed_str())])
         .collect();
-    status(&[&["diff", r, r][..], &zero].concat(), 0);
+    CLI.status(&[&["diff", r, r][..], &zero].concat(), 0);
 }
 
 #[test]
@@ -116,19 +84,22 @@ fn bad_thresholds_are_refused_with_the_reason() {
         ("rmse=-1", "must be finite and >= 0"),
         ("over=2", "at most 1"),
     ] {
-        let (_, e) = status(&["diff", t, r, "--max", arg], 2);
+        let (_, e) = CLI.status(&["diff", t, r, "--max", arg], 2);
         assert!(e.contains(needle) && e.contains("--max"), "{arg}: {e}");
     }
-    let (_, e) = status(&["diff", t, r, "--tolerance", "0.1"], 1);
+    let (_, e) = CLI.status(&["diff", t, r, "--tolerance", "0.1"], 1);
     assert!(e.contains("--max over"), "{e}");
-    let (_, e) = status(&["diff", t, r, "--z-test"], 1);
+    let (_, e) = CLI.status(&["diff", t, r, "--z-test"], 1);
     assert!(e.contains("--test-variance"), "{e}");
 }
 
 /// Renders `scene` small on the CPU with the independent sampler (whose per-sample variance is
 /// what the z-test assumes) to `name`.exr and its variance to `name`-var.exr.
 fn render(scene: &Path, seed: &str, name: &str) -> (PathBuf, PathBuf) {
-    let (out, var) = (tmp(&format!("{name}.exr")), tmp(&format!("{name}-var.exr")));
+    let (out, var) = (
+        CLI.tmp(&format!("{name}.exr")),
+        CLI.tmp(&format!("{name}-var.exr")),
+    );
     let args = [
         "render",
         s(scene),
@@ -147,7 +118,7 @@ fn render(scene: &Path, seed: &str, name: &str) -> (PathBuf, PathBuf) {
         "--variance-out",
         s(&var),
     ];
-    status(&args, 0);
+    CLI.status(&args, 0);
     (out, var)
 }
 
@@ -166,7 +137,7 @@ fn z_diff(a: &(PathBuf, PathBuf), b: &(PathBuf, PathBuf), code: i32, extra: &[&s
         "--reference-spp",
         "256",
     ];
-    status(&[&args[..], extra].concat(), code).0
+    CLI.status(&[&args[..], extra].concat(), code).0
 }
 
 #[test]
@@ -176,7 +147,7 @@ fn z_test_passes_on_two_seeds_and_fails_on_a_changed_wall() {
     // The red wall 10% brighter.
     let red = "albedo = [0.63, 0.065, 0.05]";
     assert_eq!(text.matches(red).count(), 1);
-    let changed = tmp("changed.toml");
+    let changed = CLI.tmp("changed.toml");
     std::fs::write(
         &changed,
         text.replace(red, "albedo = [0.693, 0.0715, 0.055]"),
@@ -185,7 +156,7 @@ fn z_test_passes_on_two_seeds_and_fails_on_a_changed_wall() {
     let a = render(&scene, "1", "seed1");
     let b = render(&scene, "2", "seed2");
     let c = render(&changed, "2", "changed");
-    let p_map = tmp("p.exr");
+    let p_map = CLI.tmp("p.exr");
     let o = z_diff(&a, &b, 0, &["--p-map", s(&p_map)]);
     assert!(o.contains("z-test PASS"), "{o}");
     let p = imageio::read(&p_map).unwrap();
@@ -208,7 +179,7 @@ fn z_test_passes_on_two_seeds_and_fails_on_a_changed_wall() {
     );
     // The same verdicts from the EXRs' variance layers and spp attributes alone.
     let layers = |x: &PathBuf, y: &PathBuf, code| {
-        let (o, _) = status(&["diff", s(x), s(y), "--z-test", "--json"], code);
+        let (o, _) = CLI.status(&["diff", s(x), s(y), "--z-test", "--json"], code);
         let j: serde_json::Value = serde_json::from_str(o.trim()).unwrap();
         j["z_test"].clone()
     };
@@ -229,8 +200,8 @@ fn render_and_merge_outputs_carry_what_produced_them() {
         "--max-depth",
         "3",
     ];
-    let out = tmp("whole.exr");
-    status(
+    let out = CLI.tmp("whole.exr");
+    CLI.status(
         &[
             &["render", s(&scene), "--spp", "4", "--out", s(&out)][..],
             &fixed,
@@ -258,8 +229,8 @@ fn render_and_merge_outputs_carry_what_produced_them() {
     let variance = l.variance.expect("a variance layer");
     assert_eq!(imageio::read(&out).unwrap(), image);
     // --variance-out still writes the variance alone.
-    let var_out = tmp("whole-var.exr");
-    status(
+    let var_out = CLI.tmp("whole-var.exr");
+    CLI.status(
         &[
             &[
                 "render",
@@ -282,8 +253,8 @@ fn render_and_merge_outputs_carry_what_produced_them() {
         .iter()
         .enumerate()
         .map(|(i, range)| {
-            let part = tmp(&format!("part{i}.bwfilm"));
-            status(
+            let part = CLI.tmp(&format!("part{i}.bwfilm"));
+            CLI.status(
                 &[
                     &["render", s(&scene), "--samples", range, "--out", s(&part)][..],
                     &fixed,
@@ -294,8 +265,8 @@ fn render_and_merge_outputs_carry_what_produced_them() {
             part
         })
         .collect();
-    let merged = tmp("merged.exr");
-    status(
+    let merged = CLI.tmp("merged.exr");
+    CLI.status(
         &["merge", s(&parts[0]), s(&parts[1]), "--out", s(&merged)],
         0,
     );

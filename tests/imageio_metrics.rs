@@ -472,7 +472,8 @@ fn z_test_accepts_equal_means_and_rejects_shifted_regions() {
     for seed in 0..8u64 {
         let (ma, va) = exponential_render(2 * seed + 1, w, h, na, mu, none);
         let (mb, vb) = exponential_render(2 * seed + 2, w, h, nb, mu, none);
-        let r = metrics::z_test(&ma, &va, na, &mb, &vb, nb, 0.01).unwrap();
+        let r = metrics::z_test_with(&ma, &va, na, &mb, &vb, nb, &ZTestOptions::at_alpha(0.01))
+            .unwrap();
         println!("seed {seed} Welch: {r}");
         welch_passes += r.pass as usize;
         min_pass_fraction = min_pass_fraction.min(r.pass_fraction);
@@ -502,7 +503,8 @@ fn z_test_accepts_equal_means_and_rejects_shifted_regions() {
     let (ma, va) = exponential_render(101, w, h, na, mu, shift3);
     let r = metrics::z_test_with(&ma, &va, na, &mb, &vb, nb, &pooled).unwrap();
     assert!(!r.pass && !r.excess_rule_pass, "3-SE shift, pooled:\n{r}");
-    let r = metrics::z_test(&ma, &va, na, &mb, &vb, nb, 0.01).unwrap();
+    let r =
+        metrics::z_test_with(&ma, &va, na, &mb, &vb, nb, &ZTestOptions::at_alpha(0.01)).unwrap();
     println!("3-SE shift, Welch: {r}");
     assert!(!r.pass, "3-SE shift over a region must fail:\n{r}");
     assert!(!r.excess_rule_pass);
@@ -513,13 +515,15 @@ fn z_test_accepts_equal_means_and_rejects_shifted_regions() {
     // The worst pixel-channels lie in the shifted region.
     assert!(r.worst.iter().all(|o| region(o.x, o.y)), "{r}");
     // The same seeds without the shift pass.
-    let r0 = metrics::z_test(&ma0, &va0, na, &mb, &vb, nb, 0.01).unwrap();
+    let r0 =
+        metrics::z_test_with(&ma0, &va0, na, &mb, &vb, nb, &ZTestOptions::at_alpha(0.01)).unwrap();
     assert!(r0.pass, "{r0}");
 
     // A gross local error (8 SE on 8x8) fails Mitsuba's outlier rule as well.
     let shift8 = |x: u32, y: u32| if region(x, y) { 8.0 * se(x, y) } else { 0.0 };
     let (ma, va) = exponential_render(101, w, h, na, mu, shift8);
-    let r = metrics::z_test(&ma, &va, na, &mb, &vb, nb, 0.01).unwrap();
+    let r =
+        metrics::z_test_with(&ma, &va, na, &mb, &vb, nb, &ZTestOptions::at_alpha(0.01)).unwrap();
     println!("8-SE shift, Welch: {r}");
     assert!(!r.outlier_rule_pass && !r.pass, "{r}");
     assert!(r.min_p < r.alpha_sidak);
@@ -547,30 +551,46 @@ fn z_test_zero_variance_and_bad_inputs() {
     let zero = Image::new(w, h);
     let a = Image::filled(w, h, [0.5, 0.0, 2.0]);
     // Identical, zero variance: pass with p = 1 everywhere.
-    let r = metrics::z_test(&a, &zero, 16, &a, &zero, 16, 0.01).unwrap();
+    let r =
+        metrics::z_test_with(&a, &zero, 16, &a, &zero, 16, &ZTestOptions::at_alpha(0.01)).unwrap();
     assert!(r.pass && r.min_p == 1.0, "{r}");
     // Zero variance, a difference at float rounding level: pass.
     let b = a.map(|p| p.map(|v| v * (1.0 + 2e-7)));
     assert!(
-        metrics::z_test(&a, &zero, 16, &b, &zero, 16, 0.01)
+        metrics::z_test_with(&a, &zero, 16, &b, &zero, 16, &ZTestOptions::at_alpha(0.01))
             .unwrap()
             .pass
     );
     // Zero variance, a real difference in one pixel: fail.
     let mut c = a.clone();
     c.set(3, 4, [0.5, 0.001, 2.0]);
-    let r = metrics::z_test(&a, &zero, 16, &c, &zero, 16, 0.01).unwrap();
+    let r =
+        metrics::z_test_with(&a, &zero, 16, &c, &zero, 16, &ZTestOptions::at_alpha(0.01)).unwrap();
     assert!(!r.pass && r.outliers == 1, "{r}");
     assert_eq!((r.worst[0].x, r.worst[0].y, r.worst[0].channel), (3, 4, 1));
     // A NaN mean fails.
     let mut d = a.clone();
     d.data[0][2] = f32::NAN;
-    let r = metrics::z_test(&a, &zero, 16, &d, &zero, 16, 0.01).unwrap();
+    let r =
+        metrics::z_test_with(&a, &zero, 16, &d, &zero, 16, &ZTestOptions::at_alpha(0.01)).unwrap();
     assert!(!r.pass && r.nonfinite == 1);
     // Bad inputs are errors, not panics.
-    assert!(metrics::z_test(&a, &zero, 0, &a, &zero, 16, 0.01).is_err());
-    assert!(metrics::z_test(&a, &zero, 16, &a, &zero, 16, 1.5).is_err());
-    let err = metrics::z_test(&a, &Image::new(4, 4), 16, &a, &zero, 16, 0.01).unwrap_err();
+    assert!(
+        metrics::z_test_with(&a, &zero, 0, &a, &zero, 16, &ZTestOptions::at_alpha(0.01)).is_err()
+    );
+    assert!(
+        metrics::z_test_with(&a, &zero, 16, &a, &zero, 16, &ZTestOptions::at_alpha(1.5)).is_err()
+    );
+    let err = metrics::z_test_with(
+        &a,
+        &Image::new(4, 4),
+        16,
+        &a,
+        &zero,
+        16,
+        &ZTestOptions::at_alpha(0.01),
+    )
+    .unwrap_err();
     assert!(err.to_string().contains("var_a"), "{err}");
 }
 

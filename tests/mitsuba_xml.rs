@@ -8,7 +8,7 @@ mod common;
 use brdfwave::scene::load::load_str_with;
 use brdfwave::scene::mitsuba::write::{to_mitsuba, Options};
 use brdfwave::scene::{load, load_str, Scene};
-use common::{context, render_cpu, render_gpu, repo};
+use common::{context, line_of, render_cpu, render_gpu, repo};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 
@@ -162,25 +162,13 @@ fn load_xml(body: &str) -> Result<Scene, String> {
     load_str(&xml(body), Path::new("dir/s.xml")).map_err(|e| e.to_string())
 }
 
-fn line_of(text: &str, needle: &str) -> usize {
-    let at = text
-        .find(needle)
-        .unwrap_or_else(|| panic!("'{needle}' not in the text"));
-    text[..at].matches('\n').count() + 1
-}
-
 /// The error of `body` starts with `dir/s.xml:LINE:` (the line of `needle`) and contains `what`.
 fn expect_error(body: &str, needle: &str, what: &str) {
     let text = xml(body);
     let msg = load_str(&text, Path::new("dir/s.xml"))
         .expect_err("must fail")
         .to_string();
-    let line = line_of(&text, needle);
-    assert!(
-        msg.starts_with(&format!("dir/s.xml:{line}: ")),
-        "line {line}: {msg}"
-    );
-    assert!(msg.contains(what), "{msg}");
+    common::assert_located(&msg, ("dir/s.xml", &text), needle, &[what]);
 }
 
 #[test]

@@ -4,48 +4,16 @@
 
 mod common;
 
+use common::cli::{s, Cli};
+
 use brdfwave::imageio;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
 
-fn run(args: &[&str]) -> Output {
-    let out = Command::new(env!("CARGO_BIN_EXE_brdfwave"))
-        .args(args)
-        .current_dir(common::repo())
-        .env("BRDFWAVE_CACHE_DIR", tmp("cache"))
-        .env_remove("LP_NUM_THREADS")
-        .output()
-        .expect("run brdfwave");
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(!stderr.contains("panicked"), "{args:?} panicked:\n{stderr}");
-    out
-}
-
-#[track_caller]
-fn status(args: &[&str], code: i32) -> (String, String) {
-    let out = run(args);
-    let (o, e) = (
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    );
-    assert_eq!(
-        out.status.code(),
-        Some(code),
-        "{args:?}\nstdout:\n{o}\nstderr:\n{e}"
-    );
-    (o, e)
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("brdfwave-options-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
+const CLI: Cli = Cli {
+    tag: "options",
+    own_cache: true,
+    env_remove: &["LP_NUM_THREADS"],
+};
 const GLOSSY: &str = "scenes/cornell-box-glossy.toml";
 const SMALL: [&str; 4] = ["--backend", "cpu", "--res", "12x10"];
 
@@ -56,7 +24,7 @@ fn render_json(scene: &str, out: &Path, extra: &[&str]) -> serde_json::Value {
         extra,
     ]
     .concat();
-    let (o, _) = status(&args, 0);
+    let (o, _) = CLI.status(&args, 0);
     serde_json::from_str(o.trim()).unwrap()
 }
 
@@ -71,14 +39,18 @@ fn set_renders_what_the_edited_file_renders() {
         ),
         (1, 1)
     );
-    let edited = tmp("edited.toml");
+    let edited = CLI.tmp("edited.toml");
     std::fs::write(
         &edited,
         text.replace(old_rough, "roughness = 0.05")
             .replace(old_spp, "spp = 3"),
     )
     .unwrap();
-    let (a, b, plain) = (tmp("set.exr"), tmp("edited.exr"), tmp("plain.exr"));
+    let (a, b, plain) = (
+        CLI.tmp("set.exr"),
+        CLI.tmp("edited.exr"),
+        CLI.tmp("plain.exr"),
+    );
     let sets = [
         "--set",
         "materials.gold_rough.roughness=0.05",
@@ -115,7 +87,7 @@ fn set_renders_what_the_edited_file_renders() {
 
 #[test]
 fn a_wrong_override_is_refused_naming_its_key() {
-    let out = tmp("bad.exr");
+    let out = CLI.tmp("bad.exr");
     for (set, needle) in [
         (
             "materials.white.roughnes=0.1",
@@ -141,7 +113,7 @@ fn a_wrong_override_is_refused_naming_its_key() {
             "'integrator.spp' is integer, which has no field 'x'",
         ),
     ] {
-        let (_, e) = status(
+        let (_, e) = CLI.status(
             &[
                 &["render", GLOSSY, "--out", s(&out), "--set", set][..],
                 &SMALL,
@@ -153,20 +125,20 @@ fn a_wrong_override_is_refused_naming_its_key() {
     }
     // Syntax errors are the option's.
     for set in ["spp", "a..b=1", "x=[1"] {
-        let (_, e) = status(&["render", GLOSSY, "--set", set], 2);
+        let (_, e) = CLI.status(&["render", GLOSSY, "--set", set], 2);
         assert!(e.contains("--set"), "{set}: {e}");
     }
     // Another format.
-    let other = tmp("scene.xml");
+    let other = CLI.tmp("scene.xml");
     std::fs::write(&other, "<scene/>").unwrap();
-    let (_, e) = status(&["render", s(&other), "--set", "integrator.spp=1"], 1);
+    let (_, e) = CLI.status(&["render", s(&other), "--set", "integrator.spp=1"], 1);
     assert!(e.contains("--set edits TOML scene files"), "{e}");
     assert!(!out.exists());
 }
 
 #[test]
 fn threads_size_the_pool_and_leave_the_image_alone() {
-    let (one, all) = (tmp("t1.exr"), tmp("tall.exr"));
+    let (one, all) = (CLI.tmp("t1.exr"), CLI.tmp("tall.exr"));
     let j = render_json(GLOSSY, &one, &["--threads", "1", "--spp", "2"]);
     assert_eq!(j["threads"], 1);
     assert!(j["device"].as_str().unwrap().contains("(1 threads)"), "{j}");
@@ -174,7 +146,7 @@ fn threads_size_the_pool_and_leave_the_image_alone() {
     assert_eq!(j["threads"], 3);
     assert_eq!(imageio::read(&one).unwrap(), imageio::read(&all).unwrap());
     // lavapipe: LP_NUM_THREADS, the same image as without.
-    let (g1, g) = (tmp("g1.exr"), tmp("g.exr"));
+    let (g1, g) = (CLI.tmp("g1.exr"), CLI.tmp("g.exr"));
     let gpu = |out: &Path, extra: &[&str]| {
         let args = [
             &[
@@ -191,7 +163,7 @@ fn threads_size_the_pool_and_leave_the_image_alone() {
             extra,
         ]
         .concat();
-        let (o, e) = status(&args, 0);
+        let (o, e) = CLI.status(&args, 0);
         assert!(!e.contains("warning"), "{e}");
         serde_json::from_str::<serde_json::Value>(o.trim()).unwrap()
     };
@@ -199,15 +171,15 @@ fn threads_size_the_pool_and_leave_the_image_alone() {
     assert_eq!(gpu(&g, &[])["threads"], serde_json::Value::Null);
     assert_eq!(imageio::read(&g1).unwrap(), imageio::read(&g).unwrap());
     for bad in ["0", "-2", "many", "5000"] {
-        let (_, e) = status(&["render", GLOSSY, "--threads", bad], 2);
+        let (_, e) = CLI.status(&["render", GLOSSY, "--threads", bad], 2);
         assert!(e.contains("--threads"), "{bad}: {e}");
     }
 }
 
 #[test]
 fn quiet_prints_nothing_but_errors() {
-    let out = tmp("quiet.exr");
-    let (o, e) = status(
+    let out = CLI.tmp("quiet.exr");
+    let (o, e) = CLI.status(
         &[
             &["render", GLOSSY, "--spp", "1", "--quiet", "--out", s(&out)][..],
             &SMALL,
@@ -217,7 +189,7 @@ fn quiet_prints_nothing_but_errors() {
     );
     assert_eq!((o.as_str(), e.as_str()), ("", ""));
     assert!(out.is_file());
-    let (o, e) = status(
+    let (o, e) = CLI.status(
         &[
             &["render", GLOSSY, "--spp", "1", "--out", s(&out)][..],
             &SMALL,
@@ -226,8 +198,8 @@ fn quiet_prints_nothing_but_errors() {
         0,
     );
     assert!(o.contains("wrote") && e.is_empty(), "{o}");
-    let (o, e) = status(&["render", "scenes/none.toml", "--quiet"], 1);
+    let (o, e) = CLI.status(&["render", "scenes/none.toml", "--quiet"], 1);
     assert!(o.is_empty() && e.contains("scenes/none.toml"), "{e}");
-    let (_, e) = status(&["render", GLOSSY, "--quiet", "--json"], 2);
+    let (_, e) = CLI.status(&["render", GLOSSY, "--quiet", "--json"], 2);
     assert!(e.contains("cannot be used with"), "{e}");
 }

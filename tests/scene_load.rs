@@ -1,7 +1,10 @@
 //! Scene loading: the shipped scenes load as documented, and every kind of bad input gives an
 //! error naming the file, the line and the field.
 
+mod common;
+
 use brdfwave::scene::{load, load_str, Scene, Triangle};
+use common::line_of;
 use glam::{Quat, Vec3};
 use std::path::{Path, PathBuf};
 
@@ -370,13 +373,6 @@ fn with(from: &str, to: &str) -> String {
 
 /// 1-based line of the first occurrence of `needle` in `src` (the test's own idea of where
 /// the fault is).
-fn line_of(src: &str, needle: &str) -> usize {
-    let at = src
-        .find(needle)
-        .unwrap_or_else(|| panic!("test bug: '{needle}' not in the scene"));
-    src[..at].matches('\n').count() + 1
-}
-
 fn error_of(src: &str) -> String {
     match load_str(src, Path::new("dir/bad.toml")) {
         Ok(_) => panic!("loaded without error:\n{src}"),
@@ -388,16 +384,8 @@ fn error_of(src: &str) -> String {
 #[track_caller]
 fn expect_error(src: &str, at: &str, field: &str, what: &str) {
     let msg = error_of(src);
-    let line = line_of(src, at);
-    assert!(
-        msg.starts_with(&format!("dir/bad.toml:{line}: ")),
-        "want line {line}: {msg}"
-    );
-    assert!(
-        msg.contains(&format!("field '{field}'")),
-        "want field '{field}': {msg}"
-    );
-    assert!(msg.contains(what), "want '{what}': {msg}");
+    let field = format!("field '{field}'");
+    common::assert_located(&msg, ("dir/bad.toml", src), at, &[&field, what]);
 }
 
 #[test]

@@ -41,8 +41,8 @@
 //! the host.
 
 use super::common::{
-    diffuse_specular_pdf, expm1_f, luminance, pow_one_minus, reflect_about, same_hemisphere_up,
-    sample_cosine_hemisphere,
+    diffuse_specular_pdf, luminance, pow_one_minus, reflect_about, same_hemisphere_up,
+    sample_cosine_hemisphere, sample_power_cosine, specular_probability,
 };
 use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
@@ -89,7 +89,7 @@ impl BlinnPhong {
             luminance(kd),
             luminance(ks) * spec_albedo_estimate(exponent, form),
         );
-        let p_spec = if d + s > 0.0 { s / (d + s) } else { 0.0 };
+        let p_spec = specular_probability(d, s);
         BlinnPhong {
             kd,
             ks,
@@ -111,35 +111,12 @@ impl BlinnPhong {
     }
 }
 
-const KD: Param = Param::rgb(
-    "kd",
-    "RGB, unitless",
-    [0.5; 3],
-    (0.0, 1.0),
-    "diffuse coefficient k_d (f_d = k_d/π, eq. 3)",
-);
-const KS: Param = Param::rgb(
-    "ks",
-    "RGB, unitless",
-    [0.3; 3],
-    (0.0, 1.0),
-    "specular coefficient k_s",
-);
-const EXPONENT: Param = Param::scalar(
-    "exponent",
-    "unitless",
-    80.0,
-    (0.0, 1e6),
-    "shininess n (≈ 4× the Phong exponent for a similar highlight)",
-);
-const FORM: Param = Param::choice(
-    "form",
-    Form::NAMES,
-    Form::Classic.name(),
-    "the survey's form (eq. 5) or the energy-normalised reciprocal lobe",
-);
-/// The scene-file parameters (the table above is generated from them: `brdf::docs`).
-pub const PARAMS: &[Param] = &[KD, KS, EXPONENT, FORM];
+params! {
+    KD = rgb("kd", "RGB, unitless", [0.5; 3], (0.0, 1.0), "diffuse coefficient k_d (f_d = k_d/π, eq. 3)");
+    KS = rgb("ks", "RGB, unitless", [0.3; 3], (0.0, 1.0), "specular coefficient k_s");
+    EXPONENT = scalar("exponent", "unitless", 80.0, (0.0, 1e6), "shininess n (≈ 4× the Phong exponent for a similar highlight)");
+    FORM = choice("form", Form::NAMES, Form::Classic.name(), "the survey's form (eq. 5) or the energy-normalised reciprocal lobe");
+}
 /// Where the survey gives the model (README's model table).
 pub const SURVEY: &str = "§2.1.4, eq. 5";
 /// The `brdf report` materials: both forms at one gloss.
@@ -228,13 +205,7 @@ pub fn sample(m: &BlinnPhong, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfS
         return None;
     }
     let wi = if u_lobe < m.p_spec {
-        // cosθh = u'^{1/(e+1)}, u' = 1 − u.x in (0, 1].
-        let l = (1.0 - u.x).ln() / (m.sample_exponent() + 1.0);
-        let cos_h = l.exp();
-        let sin_h = (-expm1_f(2.0 * l)).max(0.0).sqrt();
-        let phi = 2.0 * PI * u.y;
-        let h = Vec3::new(sin_h * phi.cos(), sin_h * phi.sin(), cos_h);
-        reflect_about(given, h)?
+        reflect_about(given, sample_power_cosine(u, m.sample_exponent()))?
     } else {
         sample_cosine_hemisphere(u)
     };

@@ -71,6 +71,28 @@ pub fn diffuse_specular_pdf(p_spec: f32, ps: f32, sampled: Vec3) -> f32 {
     (1.0 - p_spec) * cosine_hemisphere_pdf(sampled.z) + p_spec * ps
 }
 
+/// The probability of choosing the specular lobe of a diffuse + specular mixture: its share of
+/// the luminances `d` of the diffuse albedo and `s` of the lobe's albedo estimate (0 when both
+/// are 0). Phong, Blinn–Phong and Ward compute it on the host (the record's P_s).
+pub fn specular_probability(d: f32, s: f32) -> f32 {
+    if d + s > 0.0 {
+        s / (d + s)
+    } else {
+        0.0
+    }
+}
+
+/// A direction about +z of density (n+1)/(2π) cosⁿθ: cosθ = u'^{1/(n+1)} with u' = 1 − u.x in
+/// (0, 1], sin²θ = −expm1(2 ln u'/(n+1)) (no 1 − cos² cancellation), φ = 2π u.y. Phong samples
+/// its lobe with it about the mirror direction, Blinn–Phong its half vector.
+pub fn sample_power_cosine(u: Vec2, n: f32) -> Vec3 {
+    let l = (1.0 - u.x).ln() / (n + 1.0);
+    let cos = l.exp();
+    let sin = (-expm1_f(2.0 * l)).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(sin * phi.cos(), sin * phi.sin(), cos)
+}
+
 /// The solid-angle density at `sampled` of a lobe that samples a half vector h and reflects
 /// `given` about it: pdf_h(h) / (4 given·h), with `pdf_h` the half vector's density (cosθh
 /// included) and 4 given·h the Jacobian of the reflection (Walter et al. 2007); h =

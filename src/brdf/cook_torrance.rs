@@ -150,95 +150,20 @@ impl CookTorrance {
     }
 }
 
-const KD: Param = Param::rgb(
-    "kd",
-    "RGB",
-    [0.0; 3],
-    (0.0, 1.0),
-    "Lambertian diffuse albedo (survey: \"simply adding\" a diffuse part)",
-);
-const KS: Param = Param::rgb(
-    "ks",
-    "RGB",
-    [1.0; 3],
-    (0.0, 1.0),
-    "scale of the specular lobe",
-);
-const ROUGHNESS: Param = Param::scalar(
-    "roughness",
-    "rms slope m",
-    0.3,
-    (0.0, 4.0),
-    "Beckmann m = GGX α; below 1e-3 the lobe is a delta mirror",
-);
-const DISTRIBUTION: Param = Param::choice(
-    "distribution",
-    Distribution::NAMES,
-    Distribution::Beckmann.name(),
-    "microfacet NDF (`beckmann`: survey eq. 6)",
-);
-const GEOMETRY: Param = Param::choice(
-    "geometry",
-    Geometry::NAMES,
-    Geometry::VCavity.name(),
-    "masking-shadowing G (`v_cavity`: survey eq. 8)",
-);
-const FRESNEL: Param = Param::choice(
-    "fresnel",
-    Fresnel::NAMES,
-    Fresnel::Dielectric.name(),
-    "Fresnel term at c = wi·h (`dielectric`: survey eq. 7; `conductor`: the exact formula)",
-);
-const IOR: Param = Param::scalar(
-    "ior",
-    "—",
-    1.5,
-    (1.0, 100.0),
-    "relative index, `fresnel = \"dielectric\"` (eq. 7)",
-);
-// η > 0 is checked in `parse`.
-const ETA: Param = Param::rgb(
-    "eta",
-    "RGB",
-    [0.143_036, 0.375_307, 1.442_05],
-    (0.0, 100.0),
-    "real part η of the complex index η + iκ, `fresnel = \"conductor\"` (default gold-like)",
-)
-.range_text("(0, 100]");
-const K: Param = Param::rgb(
-    "k",
-    "RGB",
-    [3.983, 2.385_56, 1.603_36],
-    (0.0, 100.0),
-    "imaginary part κ of the complex index, `fresnel = \"conductor\"`",
-);
-const F0: Param = Param::rgb(
-    "f0",
-    "RGB",
-    [0.04; 3],
-    (0.0, 1.0),
-    "normal-incidence reflectance, `fresnel = \"schlick\"`",
-);
-const NORMALIZATION: Param = Param::choice(
-    "normalization",
-    Normalization::NAMES,
-    Normalization::Survey.name(),
-    "the specular denominator: `survey` (eq. 9) or `walter`, see below",
-);
-/// The scene-file parameters (the table above is generated from them: `brdf::docs`).
-pub const PARAMS: &[Param] = &[
-    KD,
-    KS,
-    ROUGHNESS,
-    DISTRIBUTION,
-    GEOMETRY,
-    FRESNEL,
-    IOR,
-    ETA,
-    K,
-    F0,
-    NORMALIZATION,
-];
+params! {
+    KD = rgb("kd", "RGB", [0.0; 3], (0.0, 1.0), "Lambertian diffuse albedo (survey: \"simply adding\" a diffuse part)");
+    KS = rgb("ks", "RGB", [1.0; 3], (0.0, 1.0), "scale of the specular lobe");
+    ROUGHNESS = scalar("roughness", "rms slope m", 0.3, (0.0, 4.0), "Beckmann m = GGX α; below 1e-3 the lobe is a delta mirror");
+    DISTRIBUTION = choice("distribution", Distribution::NAMES, Distribution::Beckmann.name(), "microfacet NDF (`beckmann`: survey eq. 6)");
+    GEOMETRY = choice("geometry", Geometry::NAMES, Geometry::VCavity.name(), "masking-shadowing G (`v_cavity`: survey eq. 8)");
+    FRESNEL = choice("fresnel", Fresnel::NAMES, Fresnel::Dielectric.name(), "Fresnel term at c = wi·h (`dielectric`: survey eq. 7; `conductor`: the exact formula)");
+    IOR = scalar("ior", "—", 1.5, (1.0, 100.0), "relative index, `fresnel = \"dielectric\"` (eq. 7)");
+    // η > 0 is checked in `parse`.
+    ETA = rgb("eta", "RGB", [0.143_036, 0.375_307, 1.442_05], (0.0, 100.0), "real part η of the complex index η + iκ, `fresnel = \"conductor\"` (default gold-like)").range_text("(0, 100]");
+    K = rgb("k", "RGB", [3.983, 2.385_56, 1.603_36], (0.0, 100.0), "imaginary part κ of the complex index, `fresnel = \"conductor\"`");
+    F0 = rgb("f0", "RGB", [0.04; 3], (0.0, 1.0), "normal-incidence reflectance, `fresnel = \"schlick\"`");
+    NORMALIZATION = choice("normalization", Normalization::NAMES, Normalization::Survey.name(), "the specular denominator: `survey` (eq. 9) or `walter`, see below");
+}
 /// Where the survey gives the model (README's model table).
 pub const SURVEY: &str = "eqs. 6–9";
 /// The `brdf report` materials: both normalisations at one gloss.

@@ -107,54 +107,16 @@ impl Default for He {
     }
 }
 
-const SIGMA0: Param = Param::scalar(
-    "sigma0",
-    "µm",
-    0.18,
-    (0.0, 50.0),
-    "rms surface height σ₀ (survey fig. 9: 0.18–0.38 µm)",
-);
-// τ > 0 is checked in `parse`.
-const TAU: Param = Param::scalar(
-    "tau",
-    "µm",
-    3.0,
-    (f32::NEG_INFINITY, 1000.0),
-    "autocorrelation length τ (survey fig. 9: 3.0 µm)",
-)
-.range_text("(0, 1000]");
-// n > 0 is checked in `parse`.
-const IOR: Param = Param::rgb(
-    "ior",
-    "RGB",
-    [1.37, 0.96, 0.62],
-    (f32::NEG_INFINITY, 100.0),
-    "real part n(λ) of the complex index",
-)
-.range_text("(0, 100]");
-const K: Param = Param::rgb(
-    "k",
-    "RGB",
-    [7.62, 6.69, 5.47],
-    (0.0, 100.0),
-    "imaginary part κ(λ) (defaults: approximate aluminium, the survey's fig. 9 material)",
-);
-const WAVELENGTHS: Param = Param::rgb(
-    "wavelengths",
-    "µm per channel",
-    [0.65, 0.55, 0.45],
-    (0.2, 5.0),
-    "λ at which each channel is evaluated",
-);
-const DIFFUSE: Param = Param::rgb(
-    "diffuse",
-    "RGB albedo",
-    [0.0; 3],
-    (0.0, 1.0),
-    "uniform-diffuse a(λ) as an albedo: f_ud = `diffuse`/π (survey eq. 15)",
-);
-/// The scene-file parameters (the table above is generated from them: `brdf::docs`).
-pub const PARAMS: &[Param] = &[SIGMA0, TAU, IOR, K, WAVELENGTHS, DIFFUSE];
+params! {
+    SIGMA0 = scalar("sigma0", "µm", 0.18, (0.0, 50.0), "rms surface height σ₀ (survey fig. 9: 0.18–0.38 µm)");
+    // τ > 0 is checked in `parse`.
+    TAU = scalar("tau", "µm", 3.0, (f32::NEG_INFINITY, 1000.0), "autocorrelation length τ (survey fig. 9: 3.0 µm)").range_text("(0, 1000]");
+    // n > 0 is checked in `parse`.
+    IOR = rgb("ior", "RGB", [1.37, 0.96, 0.62], (f32::NEG_INFINITY, 100.0), "real part n(λ) of the complex index").range_text("(0, 100]");
+    K = rgb("k", "RGB", [7.62, 6.69, 5.47], (0.0, 100.0), "imaginary part κ(λ) (defaults: approximate aluminium, the survey's fig. 9 material)");
+    WAVELENGTHS = rgb("wavelengths", "µm per channel", [0.65, 0.55, 0.45], (0.2, 5.0), "λ at which each channel is evaluated");
+    DIFFUSE = rgb("diffuse", "RGB albedo", [0.0; 3], (0.0, 1.0), "uniform-diffuse a(λ) as an albedo: f_ud = `diffuse`/π (survey eq. 15)");
+}
 /// Where the survey gives the model (README's model table).
 pub const SURVEY: &str = "eqs. 10–15";
 /// The `brdf report` material.

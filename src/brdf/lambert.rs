@@ -20,15 +20,9 @@ pub struct Lambert {
     pub albedo: Vec3,
 }
 
-const ALBEDO: Param = Param::rgb(
-    "albedo",
-    "RGB, unitless",
-    [0.5; 3],
-    (0.0, 1.0),
-    "hemispherical reflectance ρ (f_r = ρ/π, survey eq. 3)",
-);
-/// The scene-file parameters (the table above is generated from them: `brdf::docs`).
-pub const PARAMS: &[Param] = &[ALBEDO];
+params! {
+    ALBEDO = rgb("albedo", "RGB, unitless", [0.5; 3], (0.0, 1.0), "hemispherical reflectance ρ (f_r = ρ/π, survey eq. 3)");
+}
 /// Where the survey gives the model (README's model table).
 pub const SURVEY: &str = "eq. 3";
 /// The `brdf report` material.

@@ -61,30 +61,12 @@ pub struct OrenNayar {
     pub variant: Variant,
 }
 
-const ALBEDO: Param = Param::rgb(
-    "albedo",
-    "RGB, unitless",
-    [0.5; 3],
-    (0.0, 1.0),
-    "facet albedo ρ",
-);
-// The upper end, π/2, is checked in `parse` with a message about degrees.
-const SIGMA: Param = Param::scalar(
-    "sigma",
-    "radians",
-    0.3,
-    (0.0, f32::INFINITY),
-    "std-dev σ of the facet slope angle (σ = 0 is Lambert)",
-)
-.range_text("[0, π/2]");
-const VARIANT: Param = Param::choice(
-    "variant",
-    Variant::NAMES,
-    Variant::Full.name(),
-    "the paper's full model or its qualitative simplification",
-);
-/// The scene-file parameters (the table above is generated from them: `brdf::docs`).
-pub const PARAMS: &[Param] = &[ALBEDO, SIGMA, VARIANT];
+params! {
+    ALBEDO = rgb("albedo", "RGB, unitless", [0.5; 3], (0.0, 1.0), "facet albedo ρ");
+    // The upper end, π/2, is checked in `parse` with a message about degrees.
+    SIGMA = scalar("sigma", "radians", 0.3, (0.0, f32::INFINITY), "std-dev σ of the facet slope angle (σ = 0 is Lambert)").range_text("[0, π/2]");
+    VARIANT = choice("variant", Variant::NAMES, Variant::Full.name(), "the paper's full model or its qualitative simplification");
+}
 /// Where the survey gives the model (README's model table).
 pub const SURVEY: &str = "§2.1.2 (Oren & Nayar 1994)";
 /// The `brdf report` material.

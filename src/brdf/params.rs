@@ -70,6 +70,19 @@ pub trait Choice: Copy + 'static {
     const NAMES: &'static [&'static str];
 }
 
+/// Declares a model's scene-file parameters, one row each, and `PARAMS`, the list of them
+/// in row order (the model's parameter table in its docs and README is generated from it:
+/// `brdf::docs`). A row `NAME = rgb(…)`, `scalar(…)` or `choice(…)`, optionally followed by
+/// `.range_text(…)` or `.default_text(…)`, is `const NAME: Param = Param::rgb(…)…;`: a model may
+/// as well write those constants and `PARAMS` out by hand.
+macro_rules! params {
+    ($($(#[$meta:meta])* $c:ident = $ctor:ident($($arg:expr),+ $(,)?) $(.$then:ident($($targ:expr),*))*;)+) => {
+        $($(#[$meta])* const $c: Param = Param::$ctor($($arg),+)$(.$then($($targ),*))*;)+
+        /// The scene-file parameters (the table above is generated from them: `brdf::docs`).
+        pub const PARAMS: &[Param] = &[$($c),+];
+    };
+}
+
 /// Declares an enum whose variants a scene file names by string, from one list of
 /// `Variant = "scene-file name"` rows: the enum, its [`Choice`] impl (the string → variant
 /// lookup of [`ParamReader::choice_of`]), `NAMES` (the options of its [`Param::choice`]) and
@@ -180,28 +193,23 @@ impl Param {
         name: &'static str,
         unit: &'static str,
         default: [f32; 3],
-        (min, max): (f32, f32),
+        range: (f32, f32),
         meaning: &'static str,
     ) -> Param {
-        Param {
-            min,
-            max,
-            ..Param::new(name, unit, Kind::Rgb(default), meaning)
-        }
+        Param::new(name, unit, Kind::Rgb(default), meaning).within(range)
     }
     /// A scalar parameter in [`min`, `max`].
     pub const fn scalar(
         name: &'static str,
         unit: &'static str,
         default: f32,
-        (min, max): (f32, f32),
+        range: (f32, f32),
         meaning: &'static str,
     ) -> Param {
-        Param {
-            min,
-            max,
-            ..Param::new(name, unit, Kind::Scalar(default), meaning)
-        }
+        Param::new(name, unit, Kind::Scalar(default), meaning).within(range)
+    }
+    const fn within(self, (min, max): (f32, f32)) -> Param {
+        Param { min, max, ..self }
     }
     /// A choice among named options.
     pub const fn choice(

@@ -39,8 +39,8 @@
 //! (0 survey, 1 normalized), `p[2].x` = P_s (lobe-selection probability, computed on the host).
 
 use super::common::{
-    diffuse_specular_pdf, expm1_f, luminance, one_minus_dot, orthonormal_basis, pow_one_minus,
-    reflect_z, same_hemisphere_up, sample_cosine_hemisphere,
+    diffuse_specular_pdf, luminance, one_minus_dot, orthonormal_basis, pow_one_minus, reflect_z,
+    same_hemisphere_up, sample_cosine_hemisphere, sample_power_cosine, specular_probability,
 };
 use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
@@ -71,7 +71,7 @@ impl Phong {
     pub fn new(kd: Vec3, ks: Vec3, exponent: f32, form: Form) -> Phong {
         let es = spec_albedo_estimate(exponent, form);
         let (d, s) = (luminance(kd), luminance(ks) * es);
-        let p_spec = if d + s > 0.0 { s / (d + s) } else { 0.0 };
+        let p_spec = specular_probability(d, s);
         Phong {
             kd,
             ks,
@@ -93,35 +93,12 @@ fn spec_albedo_estimate(n: f32, form: Form) -> f32 {
     }
 }
 
-const KD: Param = Param::rgb(
-    "kd",
-    "RGB, unitless",
-    [0.5; 3],
-    (0.0, 1.0),
-    "diffuse coefficient k_d (f_d = k_d/π)",
-);
-const KS: Param = Param::rgb(
-    "ks",
-    "RGB, unitless",
-    [0.3; 3],
-    (0.0, 1.0),
-    "specular coefficient k_s",
-);
-const EXPONENT: Param = Param::scalar(
-    "exponent",
-    "unitless",
-    20.0,
-    (0.0, 1e6),
-    "shininess n_s (0: dull, ∞: mirror)",
-);
-const FORM: Param = Param::choice(
-    "form",
-    Form::NAMES,
-    Form::Survey.name(),
-    "eq. 4 as written, or the energy-normalised reciprocal lobe",
-);
-/// The scene-file parameters (the table above is generated from them: `brdf::docs`).
-pub const PARAMS: &[Param] = &[KD, KS, EXPONENT, FORM];
+params! {
+    KD = rgb("kd", "RGB, unitless", [0.5; 3], (0.0, 1.0), "diffuse coefficient k_d (f_d = k_d/π)");
+    KS = rgb("ks", "RGB, unitless", [0.3; 3], (0.0, 1.0), "specular coefficient k_s");
+    EXPONENT = scalar("exponent", "unitless", 20.0, (0.0, 1e6), "shininess n_s (0: dull, ∞: mirror)");
+    FORM = choice("form", Form::NAMES, Form::Survey.name(), "eq. 4 as written, or the energy-normalised reciprocal lobe");
+}
 /// Where the survey gives the model (README's model table).
 pub const SURVEY: &str = "§2.1.3, eq. 4";
 /// The `brdf report` materials: both forms at one gloss.
@@ -193,12 +170,8 @@ pub fn sample(m: &Phong, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample
     let wi = if u_lobe < m.p_spec {
         let r = reflect_z(given);
         let (t, b) = orthonormal_basis(r);
-        // cosα = u'^{1/(n+1)}, u' = 1 − u.x in (0, 1].
-        let l = (1.0 - u.x).ln() / (m.exponent + 1.0);
-        let cos_a = l.exp();
-        let sin_a = (-expm1_f(2.0 * l)).max(0.0).sqrt();
-        let phi = 2.0 * PI * u.y;
-        t * (sin_a * phi.cos()) + b * (sin_a * phi.sin()) + r * cos_a
+        let d = sample_power_cosine(u, m.exponent);
+        t * d.x + b * d.y + r * d.z
     } else {
         sample_cosine_hemisphere(u)
     };

@@ -128,63 +128,16 @@ impl Default for Schlick {
     }
 }
 
-const C: Param = Param::rgb(
-    "c",
-    "RGB",
-    [0.8; 3],
-    (0.0, 1.0),
-    "C_λ, reflectance at normal incidence (eq. 18's f_λ)",
-);
-const R: Param = Param::scalar(
-    "r",
-    "—",
-    0.2,
-    (0.0, 1.0),
-    "roughness: 0 mirror, 0.5 purely glossy, 1 Lambertian (continuum form)",
-);
-const P: Param = Param::scalar(
-    "p",
-    "—",
-    1.0,
-    (0.0, 1.0),
-    "isotropy: 1 isotropic, → 0 fully anisotropic (clamped to ≥ 1e-3 inside A)",
-);
-const C2: Param = Param::rgb(
-    "c2",
-    "RGB",
-    [0.5; 3],
-    (0.0, 1.0),
-    "C_λ of the second (lower) layer of eq. 22; giving `c2` makes the material heterogeneous",
-);
-const R2: Param = Param::scalar(
-    "r2",
-    "—",
-    1.0,
-    (0.0, 1.0),
-    "roughness of the second layer (needs `c2`)",
-);
-const P2: Param = Param::scalar(
-    "p2",
-    "—",
-    1.0,
-    (0.0, 1.0),
-    "isotropy of the second layer (needs `c2`)",
-);
-const FORM: Param = Param::choice(
-    "form",
-    Form::NAMES,
-    Form::Continuum.name(),
-    "the directional factor D (eqs. 24, 25, 26)",
-);
-const ROTATION: Param = Param::scalar(
-    "rotation",
-    "degrees",
-    0.0,
-    (-360.0, 360.0),
-    "rotation of the anisotropy axis (tangent x) about the normal",
-);
-/// The scene-file parameters (the table above is generated from them: `brdf::docs`).
-pub const PARAMS: &[Param] = &[C, R, P, C2, R2, P2, FORM, ROTATION];
+params! {
+    C = rgb("c", "RGB", [0.8; 3], (0.0, 1.0), "C_λ, reflectance at normal incidence (eq. 18's f_λ)");
+    R = scalar("r", "—", 0.2, (0.0, 1.0), "roughness: 0 mirror, 0.5 purely glossy, 1 Lambertian (continuum form)");
+    P = scalar("p", "—", 1.0, (0.0, 1.0), "isotropy: 1 isotropic, → 0 fully anisotropic (clamped to ≥ 1e-3 inside A)");
+    C2 = rgb("c2", "RGB", [0.5; 3], (0.0, 1.0), "C_λ of the second (lower) layer of eq. 22; giving `c2` makes the material heterogeneous");
+    R2 = scalar("r2", "—", 1.0, (0.0, 1.0), "roughness of the second layer (needs `c2`)");
+    P2 = scalar("p2", "—", 1.0, (0.0, 1.0), "isotropy of the second layer (needs `c2`)");
+    FORM = choice("form", Form::NAMES, Form::Continuum.name(), "the directional factor D (eqs. 24, 25, 26)");
+    ROTATION = scalar("rotation", "degrees", 0.0, (-360.0, 360.0), "rotation of the anisotropy axis (tangent x) about the normal");
+}
 /// Where the survey gives the model (README's model table).
 pub const SURVEY: &str = "eqs. 18–26";
 /// The `brdf report` material.

@@ -49,7 +49,7 @@
 
 use super::common::{
     diffuse_specular_pdf, luminance, reflect_about, rotate_z, same_hemisphere_up,
-    sample_cosine_hemisphere,
+    sample_cosine_hemisphere, specular_probability,
 };
 use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
@@ -92,7 +92,7 @@ impl Ward {
         rotation: f32,
     ) -> Ward {
         let (d, s) = (luminance(kd), luminance(ks));
-        let p_spec = if d + s > 0.0 { s / (d + s) } else { 0.0 };
+        let p_spec = specular_probability(d, s);
         let (sin_rot, cos_rot) = rotation.to_radians().sin_cos();
         Ward {
             kd,
@@ -129,53 +129,15 @@ impl Ward {
     }
 }
 
-const KD: Param = Param::rgb(
-    "kd",
-    "RGB, unitless",
-    [0.5; 3],
-    (0.0, 1.0),
-    "diffuse coefficient ρd (f_d = ρd/π)",
-);
-const KS: Param = Param::rgb(
-    "ks",
-    "RGB, unitless",
-    [0.3; 3],
-    (0.0, 1.0),
-    "specular coefficient ρs",
-);
-// The alphas' range is checked in `parse`, with one message for both sides.
-const ALPHA_X: Param = Param::scalar(
-    "alpha_x",
-    "unitless (rms slope)",
-    0.1,
-    (f32::NEG_INFINITY, f32::INFINITY),
-    "slope std-dev along the tangent x",
-)
-.range_text("[0.001, 1]");
-const ALPHA_Y: Param = Param::scalar(
-    "alpha_y",
-    "unitless (rms slope)",
-    0.1,
-    (f32::NEG_INFINITY, f32::INFINITY),
-    "slope std-dev along the bitangent y (equal: isotropic eq. 16)",
-)
-.range_text("[0.001, 1]")
-.default_text("= `alpha_x`");
-const VARIANT: Param = Param::choice(
-    "variant",
-    Variant::NAMES,
-    Variant::Ward1992.name(),
-    "normalisation of the specular lobe",
-);
-const ROTATION: Param = Param::scalar(
-    "rotation",
-    "degrees",
-    0.0,
-    (-360.0, 360.0),
-    "rotation of the tangent frame about the normal (anisotropic only)",
-);
-/// The scene-file parameters (the table above is generated from them: `brdf::docs`).
-pub const PARAMS: &[Param] = &[KD, KS, ALPHA_X, ALPHA_Y, VARIANT, ROTATION];
+params! {
+    KD = rgb("kd", "RGB, unitless", [0.5; 3], (0.0, 1.0), "diffuse coefficient ρd (f_d = ρd/π)");
+    KS = rgb("ks", "RGB, unitless", [0.3; 3], (0.0, 1.0), "specular coefficient ρs");
+    // The alphas' range is checked in `parse`, with one message for both sides.
+    ALPHA_X = scalar("alpha_x", "unitless (rms slope)", 0.1, (f32::NEG_INFINITY, f32::INFINITY), "slope std-dev along the tangent x").range_text("[0.001, 1]");
+    ALPHA_Y = scalar("alpha_y", "unitless (rms slope)", 0.1, (f32::NEG_INFINITY, f32::INFINITY), "slope std-dev along the bitangent y (equal: isotropic eq. 16)").range_text("[0.001, 1]").default_text("= `alpha_x`");
+    VARIANT = choice("variant", Variant::NAMES, Variant::Ward1992.name(), "normalisation of the specular lobe");
+    ROTATION = scalar("rotation", "degrees", 0.0, (-360.0, 360.0), "rotation of the tangent frame about the normal (anisotropic only)");
+}
 /// Where the survey gives the model (README's model table).
 pub const SURVEY: &str = "§2.4, eqs. 16–17";
 /// The `brdf report` materials: the three normalisations at one gloss.

@@ -448,17 +448,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
         );
     }
     // Tear down now so that messages raised at device destruction (leaks) count too.
-    if let Some((ctx, compiler)) = gpu {
-        drop(compiler);
-        let msgs = ctx.finish();
-        if !msgs.is_empty() {
-            bail!(
-                "the validation layer reported {} message(s):\n{}",
-                msgs.len(),
-                msgs.join("\n")
-            );
-        }
-    }
+    teardown(gpu)?;
     let part_film = rendered.film.take().map(|film| {
         film::Part::of_render(
             &a.scene.display().to_string(),
@@ -470,21 +460,15 @@ pub fn run(a: RenderArgs) -> Result<()> {
             seconds_render,
         )
     });
-    let provenance = imageio::Provenance {
-        spp: Some(rendered.output.spp),
-        samples: Some(part.samples.clone()),
-        seed: Some(sc.integrator.seed),
-        sampler: Some(sc.integrator.sampler.name().to_string()),
-        max_depth: Some(sc.integrator.max_depth),
-        render_seconds: Some(seconds_render),
-        scene: Some(a.scene.display().to_string()),
-        scene_file_hash: Some(format!("{:016x}", brdfwave::hash::fnv1a64(&scene_bytes))),
-        scene_hash: Some(film::scene_hash(&sc)),
-        overrides: a.set.iter().map(|s| s.text.clone()).collect(),
-        version: Some(film::code_version()),
-        backend: Some(description.backend.to_string()),
-        device: Some(description.device.clone()),
-    };
+    let provenance = provenance(
+        &a,
+        &sc,
+        &part.samples,
+        &rendered,
+        &description,
+        seconds_render,
+        &scene_bytes,
+    );
     outputs.write(&rendered, part_film.as_ref(), &provenance)?;
     let times = Times {
         bvh: seconds_bvh,
@@ -515,6 +499,51 @@ pub fn run(a: RenderArgs) -> Result<()> {
     Ok(())
 }
 
+/// Drops the GPU context and compiler, and fails on the validation layer's messages (raised
+/// up to the device's destruction: leaks count too).
+fn teardown(gpu: Option<(vk::Context, vk::ShaderCompiler)>) -> Result<()> {
+    let Some((ctx, compiler)) = gpu else {
+        return Ok(());
+    };
+    drop(compiler);
+    let msgs = ctx.finish();
+    if !msgs.is_empty() {
+        bail!(
+            "the validation layer reported {} message(s):\n{}",
+            msgs.len(),
+            msgs.join("\n")
+        );
+    }
+    Ok(())
+}
+
+/// The metadata that EXR outputs carry.
+fn provenance(
+    a: &RenderArgs,
+    sc: &Scene,
+    samples: &std::ops::Range<u32>,
+    rendered: &Rendered,
+    description: &Description,
+    seconds_render: f64,
+    scene_bytes: &[u8],
+) -> imageio::Provenance {
+    imageio::Provenance {
+        spp: Some(rendered.output.spp),
+        samples: Some(samples.clone()),
+        seed: Some(sc.integrator.seed),
+        sampler: Some(sc.integrator.sampler.name().to_string()),
+        max_depth: Some(sc.integrator.max_depth),
+        render_seconds: Some(seconds_render),
+        scene: Some(a.scene.display().to_string()),
+        scene_file_hash: Some(format!("{:016x}", brdfwave::hash::fnv1a64(scene_bytes))),
+        scene_hash: Some(film::scene_hash(sc)),
+        overrides: a.set.iter().map(|s| s.text.clone()).collect(),
+        version: Some(film::code_version()),
+        backend: Some(description.backend.to_string()),
+        device: Some(description.device.clone()),
+    }
+}
+
 /// `--threads`: the size of the CPU backend's thread pool, made now, before anything else uses
 /// it; or `LP_NUM_THREADS` for lavapipe, which reads it when the Vulkan instance is made (as
 /// the bench's `-tN` configurations do).
@@ -534,10 +563,7 @@ fn set_threads(backend: Backend, threads: Option<u32>) -> Result<()> {
 /// overrides applied to the document before its checks (`brdfwave::overrides`).
 fn load_scene(path: &Path, sets: &[Set], defines: &[(String, String)]) -> Result<(Scene, Vec<u8>)> {
     if sets.is_empty() {
-        let sc = scene::load_with(path, defines)?;
-        let bytes = std::fs::read(path)
-            .with_context(|| format!("{}: cannot read the scene file", path.display()))?;
-        return Ok((sc, bytes));
+        return Ok(scene::load_read(path, defines)?);
     }
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
     if !ext.eq_ignore_ascii_case("toml") {

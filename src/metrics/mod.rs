@@ -16,7 +16,7 @@
 //!   degree. Radiance above 1 is therefore invisible to it; use relMSE/RMSE for HDR content.
 //! * [`fraction_within`] is the same-seed agreement check (GPU vs CPU with shared random
 //!   numbers).
-//! * [`z_test`] / [`z_test_with`] is the independent-seed statistical test of per-pixel means
+//! * [`z_test_with`] is the independent-seed statistical test of per-pixel means
 //!   (Mitsuba 3 `test_renders.py` style, made two-sample); its verdict rule is documented on
 //!   [`ZTestOptions`].
 
@@ -29,7 +29,7 @@ mod ztest;
 
 pub use verdict::{Metric, Threshold, ThresholdError, Verdict};
 pub use ztest::{
-    binomial_upper_tail, z_test, z_test_with, VarianceModel, ZOutlier, ZTestOptions, ZTestReport,
+    binomial_upper_tail, z_test_with, VarianceModel, ZOutlier, ZTestOptions, ZTestReport,
 };
 
 /// The ε of relMSE, (t − r)² / (r + ε)², as in pbrt-v4 `Image::MRSE`.

@@ -1,4 +1,4 @@
-//! The per-pixel two-sample statistical test of means ([`z_test`], [`z_test_with`]): Mitsuba 3
+//! The per-pixel two-sample statistical test of means ([`z_test_with`]): Mitsuba 3
 //! `test_renders.py` style, made two-sample; the verdict rule is documented on
 //! [`ZTestOptions`].
 
@@ -110,7 +110,7 @@ pub struct ZOutlier {
     pub p: f64,
 }
 
-/// Result of [`z_test`]; see [`ZTestOptions`] for the rule.
+/// Result of [`z_test_with`]; see [`ZTestOptions`] for the rule.
 #[derive(Clone, Debug)]
 pub struct ZTestReport {
     pub width: u32,
@@ -196,25 +196,9 @@ impl fmt::Display for ZTestReport {
     }
 }
 
-/// Per-pixel two-sample test of means with the default [`ZTestOptions`] and significance
-/// `alpha`. `var_*` are per-pixel sample variances of one sample, `n_*` the samples per pixel.
-pub fn z_test(
-    mean_a: &Image,
-    var_a: &Image,
-    n_a: u64,
-    mean_b: &Image,
-    var_b: &Image,
-    n_b: u64,
-    alpha: f64,
-) -> Result<ZTestReport, MetricsError> {
-    let opts = ZTestOptions {
-        alpha,
-        ..ZTestOptions::default()
-    };
-    z_test_with(mean_a, var_a, n_a, mean_b, var_b, n_b, &opts)
-}
-
-/// [`z_test`] with explicit options.
+/// Per-pixel two-sample test of means: `var_*` are per-pixel sample variances of one sample,
+/// `n_*` the samples per pixel ([`ZTestOptions::at_alpha`] for the default options at one
+/// significance).
 pub fn z_test_with(
     mean_a: &Image,
     var_a: &Image,
@@ -312,6 +296,13 @@ pub fn z_test_with(
 }
 
 impl ZTestOptions {
+    /// The default options with significance `alpha`.
+    pub fn at_alpha(alpha: f64) -> Self {
+        ZTestOptions {
+            alpha,
+            ..ZTestOptions::default()
+        }
+    }
     /// Refuses options outside their documented ranges, naming the field.
     fn validate(&self) -> Result<(), MetricsError> {
         let params = [

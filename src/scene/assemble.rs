@@ -5,7 +5,9 @@
 use super::error::SceneError;
 use super::geometry::{degenerate, edge_overflow, Transform};
 use super::obj::{obj_triangles, ObjShape};
-use super::schema::{MaterialTable, RawCamera, RawIntegrator, RawScene, RawShape, Triple, V3};
+use super::schema::{
+    Arr, MaterialTable, RawCamera, RawIntegrator, RawScene, RawShape, RawSphere, Triple, V3,
+};
 use super::spanned::{Cx, Sp};
 use super::{Camera, Emitter, Integrator, Scene, Sphere, Triangle};
 use crate::brdf::params::fmt_num;
@@ -412,33 +414,7 @@ pub(super) fn shape_primitives(
         None => format!("shape {f}"),
     };
 
-    // Exactly one geometry kind.
-    let kinds: Vec<(&str, Option<Range<usize>>)> = [
-        s.quads.as_ref().map(|q| ("quads", q.span())),
-        s.triangles.as_ref().map(|q| ("triangles", q.span())),
-        s.sphere
-            .as_ref()
-            .map(|q| ("sphere", q.span().or(q.value.radius.span()))),
-        s.obj.as_ref().map(|q| ("obj", q.span())),
-        s.ply.as_ref().map(|q| ("ply", q.span())),
-    ]
-    .into_iter()
-    .flatten()
-    .collect();
-    match kinds.as_slice() {
-        [] => {
-            let msg = format!(
-                "{label} has no geometry: give exactly one of quads, triangles, sphere, obj, ply"
-            );
-            return Err(cx.err(shape.span().or(s.material.span()), f, msg));
-        }
-        [_] => {}
-        [(a, _), (b, span), ..] => {
-            let msg =
-                format!("{label} has both {a} and {b}: give exactly one geometry kind per shape");
-            return Err(cx.err(span.clone(), &format!("{f}.{b}"), msg));
-        }
-    }
+    one_geometry_kind(cx, f, shape, &label)?;
     let xf = match &s.transform {
         Some(t) => Some(super::transform::transform(cx, f, t)?),
         None => None,
@@ -484,80 +460,17 @@ pub(super) fn shape_primitives(
         emitter,
     };
     if let Some(quads) = &s.quads {
-        if quads.value.is_empty() {
-            let msg = format!("{label}: the list of quads is empty");
-            return Err(cx.err(quads.span(), &format!("{f}.quads"), msg));
-        }
-        for (k, q) in quads.value.iter().enumerate() {
-            let fq = format!("{f}.quads[{k}]");
-            let mut p = [Vec3::ZERO; 4];
-            for (j, v) in q.value.iter().enumerate() {
-                p[j] = place(cx, q.span(), &fq, v.0)?;
-            }
-            for (half, idx) in [[0, 1, 2], [0, 2, 3]].iter().enumerate() {
-                let t = [p[idx[0]], p[idx[1]], p[idx[2]]];
-                if let Some(msg) = edge_overflow(&t) {
-                    return Err(cx.err(q.span(), &fq, format!("{label}, quad {k}: {msg}")));
-                }
-                if degenerate(&t) {
-                    let msg = format!(
-                        "{label}, quad {k}: its {} triangle (v{}, v{}, v{}) has zero area \
-                         (collinear or repeated vertices)",
-                        ["first", "second"][half],
-                        idx[0],
-                        idx[1],
-                        idx[2]
-                    );
-                    return Err(cx.err(q.span(), &fq, msg));
-                }
-                out.triangles.push(tri(t));
-            }
-        }
+        let tris = &mut out.triangles;
+        polygon_triangles(cx, (f, &label, "quad"), quads, &place, &tri, tris)?;
     }
-    if let Some(tris) = &s.triangles {
-        if tris.value.is_empty() {
-            let msg = format!("{label}: the list of triangles is empty");
-            return Err(cx.err(tris.span(), &format!("{f}.triangles"), msg));
-        }
-        for (k, q) in tris.value.iter().enumerate() {
-            let ft = format!("{f}.triangles[{k}]");
-            let mut t = [Vec3::ZERO; 3];
-            for (j, v) in q.value.iter().enumerate() {
-                t[j] = place(cx, q.span(), &ft, v.0)?;
-            }
-            if let Some(msg) = edge_overflow(&t) {
-                return Err(cx.err(q.span(), &ft, format!("{label}, triangle {k}: {msg}")));
-            }
-            if degenerate(&t) {
-                let msg =
-                    format!("{label}, triangle {k} has zero area (collinear or repeated vertices)");
-                return Err(cx.err(q.span(), &ft, msg));
-            }
-            out.triangles.push(tri(t));
-        }
+    if let Some(listed) = &s.triangles {
+        let tris = &mut out.triangles;
+        polygon_triangles(cx, (f, &label, "triangle"), listed, &place, &tri, tris)?;
     }
     if let Some(sp) = &s.sphere {
-        let r = &sp.value;
-        let mut center = cx.v3(&r.center, &format!("{f}.sphere.center"))?;
-        let fr = format!("{f}.sphere.radius");
-        let mut radius = cx.finite(r.radius.span(), &fr, r.radius.value)?;
-        if radius <= 0.0 {
-            let msg = format!(
-                "{} is out of range: the radius must be > 0",
-                fmt_num(radius)
-            );
-            return Err(cx.err(r.radius.span(), &fr, msg));
-        }
-        if let (Some(xf), Some(t)) = (&xf, &s.transform) {
-            (center, radius) = transformed_sphere(cx, f, t.span(), xf, center, radius)?;
-        }
-        out.spheres.push(Sphere {
-            center,
-            radius,
-            material,
-            emitter,
-            inward: r.inward,
-        });
+        let placed = xf.as_ref().zip(s.transform.as_ref().map(|t| t.span()));
+        let sphere = sphere_primitive(cx, f, &sp.value, placed, (material, emitter))?;
+        out.spheres.push(sphere);
     }
     // A mesh's vertices: placed by the transform, or taken as written (a Mitsuba XML twin's
     // exact geometry), else as they are.
@@ -584,19 +497,143 @@ pub(super) fn shape_primitives(
             material,
             emitter,
         };
-        if use_mtl {
-            let mut mo = super::mtl::MtlOut {
-                materials: &mut out.mtl_materials,
-                emitters: &mut out.emitters,
-                base: out.material_base,
-            };
-            let tris = &mut out.triangles;
-            super::obj::obj_triangles_mtl(cx, &mesh, obj, &xf, tris, Some(&mut mo))?;
-        } else {
-            obj_triangles(cx, &mesh, obj, &xf, &mut out.triangles)?;
+        let mut mo = super::mtl::MtlOut {
+            materials: &mut out.mtl_materials,
+            emitters: &mut out.emitters,
+            base: out.material_base,
+        };
+        let mtl = use_mtl.then_some(&mut mo);
+        obj_triangles(cx, &mesh, obj, &xf, &mut out.triangles, mtl)?;
+    }
+    Ok(())
+}
+
+/// Refuses a shape with no geometry, or with more than one kind.
+fn one_geometry_kind(
+    cx: &Cx,
+    f: &str,
+    shape: &Sp<RawShape>,
+    label: &str,
+) -> Result<(), SceneError> {
+    let s = &shape.value;
+    let kinds: Vec<(&str, Option<Range<usize>>)> = [
+        s.quads.as_ref().map(|q| ("quads", q.span())),
+        s.triangles.as_ref().map(|q| ("triangles", q.span())),
+        s.sphere
+            .as_ref()
+            .map(|q| ("sphere", q.span().or(q.value.radius.span()))),
+        s.obj.as_ref().map(|q| ("obj", q.span())),
+        s.ply.as_ref().map(|q| ("ply", q.span())),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    match kinds.as_slice() {
+        [] => {
+            let msg = format!(
+                "{label} has no geometry: give exactly one of quads, triangles, sphere, obj, ply"
+            );
+            Err(cx.err(shape.span().or(s.material.span()), f, msg))
+        }
+        [_] => Ok(()),
+        [(a, _), (b, span), ..] => {
+            let msg =
+                format!("{label} has both {a} and {b}: give exactly one geometry kind per shape");
+            Err(cx.err(span.clone(), &format!("{f}.{b}"), msg))
+        }
+    }
+}
+
+/// A point of a quad or triangle (its span and field name for messages), placed by the shape's
+/// transform.
+type Place<'a> = dyn Fn(&Cx, Option<Range<usize>>, &str, [f64; 3]) -> Result<Vec3, SceneError> + 'a;
+
+/// The placed vertices of a listed polygon `q` (field `fq`).
+fn placed<const N: usize>(
+    cx: &Cx,
+    fq: &str,
+    q: &Sp<Arr<Arr<f64, 3>, N>>,
+    place: &Place,
+) -> Result<[Vec3; N], SceneError> {
+    let mut p = [Vec3::ZERO; N];
+    for (j, v) in q.value.iter().enumerate() {
+        p[j] = place(cx, q.span(), fq, v.0)?;
+    }
+    Ok(p)
+}
+
+/// A shape's `quads` (`kind` "quad", two triangles each: v0 v1 v2, v0 v2 v3) or `triangles`
+/// (`kind` "triangle"); an empty list, an edge out of range or a zero-area triangle is refused.
+fn polygon_triangles<const N: usize>(
+    cx: &Cx,
+    (f, label, kind): (&str, &str, &str),
+    list: &Sp<Vec<Sp<Arr<Arr<f64, 3>, N>>>>,
+    place: &Place,
+    tri: &dyn Fn([Vec3; 3]) -> Triangle,
+    out: &mut Vec<Triangle>,
+) -> Result<(), SceneError> {
+    let field = format!("{f}.{kind}s");
+    if list.value.is_empty() {
+        let msg = format!("{label}: the list of {kind}s is empty");
+        return Err(cx.err(list.span(), &field, msg));
+    }
+    for (k, q) in list.value.iter().enumerate() {
+        let fq = format!("{field}[{k}]");
+        let p: [Vec3; N] = placed(cx, &fq, q, place)?;
+        for half in 0..N - 2 {
+            let idx = [0, half + 1, half + 2];
+            let t = idx.map(|i| p[i]);
+            if let Some(msg) = edge_overflow(&t) {
+                return Err(cx.err(q.span(), &fq, format!("{label}, {kind} {k}: {msg}")));
+            }
+            if degenerate(&t) {
+                let which = match N {
+                    3 => format!("{label}, {kind} {k} has"),
+                    _ => format!(
+                        "{label}, {kind} {k}: its {} triangle (v{}, v{}, v{}) has",
+                        ["first", "second"][half],
+                        idx[0],
+                        idx[1],
+                        idx[2]
+                    ),
+                };
+                let msg = format!("{which} zero area (collinear or repeated vertices)");
+                return Err(cx.err(q.span(), &fq, msg));
+            }
+            out.push(tri(t));
         }
     }
     Ok(())
+}
+
+/// A shape's `sphere`, placed by the shape's transform (and its span) when it has one.
+fn sphere_primitive(
+    cx: &Cx,
+    f: &str,
+    r: &RawSphere,
+    placed: Option<(&Transform, Option<Range<usize>>)>,
+    (material, emitter): (u32, Option<u32>),
+) -> Result<Sphere, SceneError> {
+    let mut center = cx.v3(&r.center, &format!("{f}.sphere.center"))?;
+    let fr = format!("{f}.sphere.radius");
+    let mut radius = cx.finite(r.radius.span(), &fr, r.radius.value)?;
+    if radius <= 0.0 {
+        let msg = format!(
+            "{} is out of range: the radius must be > 0",
+            fmt_num(radius)
+        );
+        return Err(cx.err(r.radius.span(), &fr, msg));
+    }
+    if let Some((xf, span)) = placed {
+        (center, radius) = transformed_sphere(cx, f, span, xf, center, radius)?;
+    }
+    Ok(Sphere {
+        center,
+        radius,
+        material,
+        emitter,
+        inward: r.inward,
+    })
 }
 
 /// A sphere under a transform: only a similarity keeps it a sphere.

@@ -1,7 +1,12 @@
-//! The geometry that both the shape assembly ([`super::assemble`]) and the OBJ reader
-//! ([`super::obj`]) apply: the shape transform and the triangle checks.
+//! The geometry that the shape assembly ([`super::assemble`]) and the mesh readers
+//! ([`super::obj`], [`super::ply_shape`]) apply: the shape transform, the triangle checks and
+//! the face rules of meshes.
 
-use glam::{DMat3, DVec3, Vec3};
+use super::spanned::Cx;
+use super::Triangle;
+use glam::{DMat3, DVec3, Vec2, Vec3};
+use std::ops::Range;
+use std::path::{Path, PathBuf};
 
 /// A shape's placement. Two forms:
 /// * [`Transform::Trs`], the original TOML form `translate + R_y(angle) · (scale ⊙ p)`,
@@ -153,6 +158,102 @@ pub(super) fn edge_overflow(v: &[Vec3; 3]) -> Option<String> {
         "the triangle {} {} {} has an edge longer than the single-precision range (about 3.4e38)",
         v[0], v[1], v[2]
     ))
+}
+
+/// A mesh file named in a scene: as written when absolute, else relative to the scene's folder.
+pub(super) fn mesh_path(cx: &Cx, name: &str) -> PathBuf {
+    let rel = Path::new(name);
+    if rel.is_absolute() {
+        rel.to_path_buf()
+    } else {
+        cx.dir.join(rel)
+    }
+}
+
+/// The face rules that OBJ and PLY meshes share, with the counts their closing warnings give:
+/// zero-area triangles skipped, vertex normals that are zero or not finite dropped (the
+/// triangle uses its geometric normal), normals opposite to the winding counted, texture
+/// coordinates that are not finite dropped.
+#[derive(Default)]
+pub(super) struct FaceRules {
+    skipped: usize,
+    dropped_normals: usize,
+    flipped: usize,
+    made: usize,
+}
+
+impl FaceRules {
+    /// The triangle of the placed vertices `v` (checked by [`edge_overflow`] first), their
+    /// normals `n` and texture coordinates `uv`, or `None` when it has zero area.
+    pub(super) fn face(
+        &mut self,
+        v: [Vec3; 3],
+        n: Option<[Vec3; 3]>,
+        uv: Option<[Vec2; 3]>,
+        material: u32,
+        emitter: Option<u32>,
+    ) -> Option<Triangle> {
+        if degenerate(&v) {
+            self.skipped += 1;
+            return None;
+        }
+        let n = n.filter(|n| {
+            let usable = n.iter().all(|x| x.is_finite() && *x != Vec3::ZERO);
+            if !usable {
+                self.dropped_normals += 1;
+            } else if (n[0] + n[1] + n[2]).dot(crate::robust::triangle_normal(&v)) < 0.0 {
+                self.flipped += 1;
+            }
+            usable
+        });
+        self.made += 1;
+        Some(Triangle {
+            v,
+            n,
+            uv: uv.filter(|u| u.iter().all(|x| x.is_finite())),
+            material,
+            emitter,
+        })
+    }
+
+    /// The closing warnings of the mesh file `shown` of `format` ("OBJ", "PLY"), read for the
+    /// shape `label`.
+    pub(super) fn warn(
+        &self,
+        cx: &mut Cx,
+        span: Option<Range<usize>>,
+        field: &str,
+        (format, shown, label): (&str, &str, &str),
+    ) {
+        let FaceRules {
+            skipped,
+            dropped_normals,
+            flipped,
+            made,
+        } = *self;
+        if skipped > 0 {
+            let msg = format!("{format} file '{shown}': skipped {skipped} zero-area triangle(s)");
+            cx.warn(span.clone(), field, msg);
+        }
+        if dropped_normals > 0 {
+            let msg = format!(
+                "{format} file '{shown}': {dropped_normals} triangle(s) have zero or invalid vertex normals; \
+                 they use the geometric normal"
+            );
+            cx.warn(span.clone(), field, msg);
+        }
+        if flipped > 0 {
+            let msg = format!(
+                "{format} file '{shown}': {flipped} triangle(s) have vertex normals opposite to their winding \
+                 (the front side follows the counter-clockwise winding)"
+            );
+            cx.warn(span.clone(), field, msg);
+        }
+        if made == 0 {
+            let msg = format!("{label}: {format} file '{shown}' contains no usable triangles");
+            cx.warn(span, field, msg);
+        }
+    }
 }
 
 #[cfg(test)]

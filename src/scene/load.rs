@@ -33,18 +33,24 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
 /// [`load`] with the command line's `-D name=value` parameters of a Mitsuba XML scene (they
 /// override its `<default>`s); a TOML scene takes none.
 pub fn load_with(path: &Path, defines: &[(String, String)]) -> Result<Scene, SceneError> {
-    let source = crate::errors::read_utf8(path).map_err(|source| {
-        // Binary content (a binary PLY mesh, say) fails as UTF-8 before it can fail as TOML.
-        let bytes = std::fs::read(path).unwrap_or_default();
-        match wrong_format(&bytes, path) {
-            Some(e) => e,
-            None => SceneError::Read {
-                file: path.display().to_string(),
-                source,
-            },
-        }
-    })?;
-    load_str_with(&source, path, defines)
+    load_read(path, defines).map(|(scene, _)| scene)
+}
+
+/// [`load_with`], and the bytes of the file it read (the file is read once).
+pub fn load_read(
+    path: &Path,
+    defines: &[(String, String)],
+) -> Result<(Scene, Vec<u8>), SceneError> {
+    let read_error = |source| SceneError::Read {
+        file: path.display().to_string(),
+        source,
+    };
+    let bytes = std::fs::read(path).map_err(read_error)?;
+    // Binary content (a binary PLY mesh, say) fails as UTF-8 before it can fail as TOML.
+    let source = crate::errors::utf8_of(&bytes)
+        .map_err(|e| wrong_format(&bytes, path).unwrap_or_else(|| read_error(e)))?;
+    let scene = load_str_with(source, path, defines)?;
+    Ok((scene, bytes))
 }
 
 /// Whether `path` names a Mitsuba XML scene (by its extension, `.xml` in any case).

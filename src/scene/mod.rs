@@ -166,4 +166,4 @@ impl Triangle {
 }
 
 pub use error::SceneError;
-pub use load::{load, load_str, load_with};
+pub use load::{load, load_read, load_str, load_with};

@@ -3,11 +3,12 @@
 //! and emitter.
 
 use super::error::SceneError;
-use super::geometry::{degenerate, edge_overflow, Transform};
+use super::geometry::{edge_overflow, mesh_path, FaceRules, Transform};
 use super::mtl::{mtl_material, MtlOut};
 use super::spanned::{Cx, Sp};
 use super::Triangle;
 use glam::{Vec2, Vec3};
+use std::ops::Range;
 use std::path::Path;
 
 /// Checks the face indices of an OBJ text line by line (tobj reports no line numbers, and
@@ -94,19 +95,26 @@ pub(super) struct ObjShape {
     pub(super) emitter: Option<u32>,
 }
 
-pub(super) fn obj_triangles(
-    cx: &mut Cx,
-    shape: &ObjShape,
-    obj: &Sp<String>,
-    xf: &Transform,
-    out: &mut Vec<Triangle>,
-) -> Result<(), SceneError> {
-    obj_triangles_mtl(cx, shape, obj, xf, out, None)
+/// Where an OBJ file's messages point: the scene's span and field, and the file as shown.
+struct At<'a> {
+    span: Option<Range<usize>>,
+    field: &'a str,
+    shown: &'a str,
 }
 
-/// [`obj_triangles`], with the MTL materials of the faces when `mtl` is given (the shape's
-/// `mtl = true`: [`super::mtl`]); faces without one get the shape's material and emitter.
-pub(super) fn obj_triangles_mtl(
+impl At<'_> {
+    fn err(&self, cx: &Cx, msg: String) -> SceneError {
+        cx.err(self.span.clone(), self.field, msg)
+    }
+    fn warn(&self, cx: &mut Cx, msg: String) {
+        cx.warn(self.span.clone(), self.field, msg)
+    }
+}
+
+/// The triangles of an OBJ shape, with the MTL materials of the faces when `mtl` is given (the
+/// shape's `mtl = true`: [`super::mtl`]); faces without one get the shape's material and
+/// emitter.
+pub(super) fn obj_triangles(
     cx: &mut Cx,
     shape: &ObjShape,
     obj: &Sp<String>,
@@ -114,40 +122,70 @@ pub(super) fn obj_triangles_mtl(
     out: &mut Vec<Triangle>,
     mut mtl: Option<&mut MtlOut>,
 ) -> Result<(), SceneError> {
-    let fo = shape.field.as_str();
-    let span = obj.span();
-    let rel = Path::new(&obj.value);
-    let full = if rel.is_absolute() {
-        rel.to_path_buf()
-    } else {
-        cx.dir.join(rel)
-    };
+    let full = mesh_path(cx, &obj.value);
     let shown = full.display().to_string();
-    let text = crate::errors::read_utf8(&full).map_err(|e| {
-        cx.err(
-            span.clone(),
-            fo,
-            format!("cannot read OBJ file '{shown}': {e}"),
-        )
-    })?;
-    let uses_mtl = scan_obj(&text).map_err(|(line, msg)| {
-        cx.err(
-            span.clone(),
-            fo,
-            format!("OBJ file '{shown}', line {line}: {msg}"),
-        )
-    })?;
+    let at = At {
+        span: obj.span(),
+        field: shape.field.as_str(),
+        shown: &shown,
+    };
+    let text = crate::errors::read_utf8(&full)
+        .map_err(|e| at.err(cx, format!("cannot read OBJ file '{shown}': {e}")))?;
+    let uses_mtl = scan_obj(&text)
+        .map_err(|(line, msg)| at.err(cx, format!("OBJ file '{shown}', line {line}: {msg}")))?;
     if uses_mtl && mtl.is_none() {
-        let msg = format!("OBJ file '{shown}' refers to MTL materials; they are ignored: every face uses this shape's material (mtl = true uses them)");
-        cx.warn(span.clone(), fo, msg);
+        at.warn(cx, format!("OBJ file '{shown}' refers to MTL materials; they are ignored: every face uses this shape's material (mtl = true uses them)"));
     }
     if !uses_mtl && mtl.is_some() {
-        let msg = format!("OBJ file '{shown}' has no MTL materials (mtllib, usemtl): every face uses this shape's material");
-        cx.warn(span.clone(), fo, msg);
+        at.warn(cx, format!("OBJ file '{shown}' has no MTL materials (mtllib, usemtl): every face uses this shape's material"));
     }
-    // Points (`p`) and polylines (`l`) are not surfaces: tobj's ignore_points / ignore_lines
-    // drop only those of one and two vertices, and `l 1 2 3` became a face. Removed here (the
-    // line numbers stay), and counted.
+    let read_mtl = mtl.is_some() && uses_mtl;
+    let (models, library) = parse_obj(cx, &at, &full, &text, read_mtl)?;
+    // Scene materials and emitters of the library's materials, made when a face uses them.
+    let mut made: Vec<Option<(u32, Option<u32>)>> = vec![None; library.len()];
+    let mut rules = FaceRules::default();
+    for model in &models {
+        let m = &model.mesh;
+        let (material, emitter) = match (m.material_id, mtl.as_deref_mut()) {
+            (Some(id), Some(mo)) if id < library.len() => match made[id] {
+                Some(me) => me,
+                None => {
+                    let me =
+                        mtl_material(cx, at.span.clone(), at.field, &obj.value, &library[id], mo)?;
+                    made[id] = Some(me);
+                    me
+                }
+            },
+            _ => (shape.material, shape.emitter),
+        };
+        let nverts = m.positions.len() / 3;
+        let has_n = !m.normals.is_empty() && m.normals.len() == 3 * nverts;
+        let has_uv = !m.texcoords.is_empty() && m.texcoords.len() == 2 * nverts;
+        for (attribute, given, usable) in [
+            ("normals", !m.normals.is_empty(), has_n),
+            ("texture coordinates", !m.texcoords.is_empty(), has_uv),
+        ] {
+            if given && !usable {
+                let msg = format!(
+                    "OBJ file '{shown}', object '{}': only some vertices have {attribute}; all are ignored",
+                    model.name
+                );
+                at.warn(cx, msg);
+            }
+        }
+        for (t, face) in m.indices.chunks_exact(3).enumerate() {
+            let (v, n, uv) = obj_face(cx, &at, model, (t, face), xf, (has_n, has_uv))?;
+            out.extend(rules.face(v, n, uv, material, emitter));
+        }
+    }
+    rules.warn(cx, at.span.clone(), at.field, ("OBJ", &shown, &shape.label));
+    Ok(())
+}
+
+/// The text without its points (`p`) and polylines (`l`), which are not surfaces: tobj's
+/// ignore_points / ignore_lines drop only those of one and two vertices, and `l 1 2 3` became a
+/// face. The lines stay (empty, so that line numbers keep), and are counted.
+fn without_points_and_lines(text: &str) -> (String, usize, usize) {
     let (mut points, mut polylines) = (0usize, 0usize);
     let text: String = text
         .lines()
@@ -164,11 +202,25 @@ pub(super) fn obj_triangles_mtl(
         })
         .collect::<Vec<_>>()
         .join("\n");
+    (text, points, polylines)
+}
+
+/// tobj's triangulated models of the OBJ text, and its MTL library when `read_mtl` (libraries
+/// are read relative to the OBJ file; without `read_mtl` the loader refuses every library: the
+/// scene file assigns the material).
+fn parse_obj(
+    cx: &mut Cx,
+    at: &At,
+    full: &Path,
+    text: &str,
+    read_mtl: bool,
+) -> Result<(Vec<tobj::Model>, Vec<tobj::Material>), SceneError> {
+    let shown = at.shown;
+    let (text, points, polylines) = without_points_and_lines(text);
     if points + polylines > 0 {
-        let msg = format!(
+        at.warn(cx, format!(
             "OBJ file '{shown}': {points} point and {polylines} line element(s) ('p', 'l') ignored: only faces ('f') are surfaces"
-        );
-        cx.warn(span.clone(), fo, msg);
+        ));
     }
     let opts = tobj::LoadOptions {
         triangulate: true,
@@ -176,10 +228,7 @@ pub(super) fn obj_triangles_mtl(
         ignore_points: true,
         ignore_lines: true,
     };
-    // Without `mtl`, the MTL loader refuses every library: the scene file assigns the material.
-    // With it, libraries are read relative to the OBJ file.
     let obj_dir = full.parent().map(Path::to_path_buf).unwrap_or_default();
-    let read_mtl = mtl.is_some();
     let loaded = std::panic::catch_unwind(|| {
         tobj::load_obj_buf(&mut text.as_bytes(), &opts, |p| match read_mtl {
             true => tobj::load_mtl(obj_dir.join(p)),
@@ -188,164 +237,67 @@ pub(super) fn obj_triangles_mtl(
     });
     let (models, libraries) = match loaded {
         Ok(Ok(m)) => m,
-        Ok(Err(e)) => {
-            return Err(cx.err(span, fo, format!("cannot parse OBJ file '{shown}': {e}")))
-        }
+        Ok(Err(e)) => return Err(at.err(cx, format!("cannot parse OBJ file '{shown}': {e}"))),
         Err(_) => {
-            return Err(cx.err(
-                span,
-                fo,
-                format!("cannot parse OBJ file '{shown}': malformed content"),
-            ))
+            let msg = format!("cannot parse OBJ file '{shown}': malformed content");
+            return Err(at.err(cx, msg));
         }
     };
-
-    let mut library = Vec::new();
-    if read_mtl && uses_mtl {
-        library = libraries.map_err(|e| {
-            let msg = format!("OBJ file '{shown}': cannot read its MTL library (mtllib, relative to the OBJ file): {e}");
-            cx.err(span.clone(), fo, msg)
-        })?;
+    if !read_mtl {
+        return Ok((models, Vec::new()));
     }
-    // Scene materials and emitters of the library's materials, made when a face uses them.
-    let mut made: Vec<Option<(u32, Option<u32>)>> = vec![None; library.len()];
+    let library = libraries.map_err(|e| {
+        at.err(cx, format!("OBJ file '{shown}': cannot read its MTL library (mtllib, relative to the OBJ file): {e}"))
+    })?;
+    Ok((models, library))
+}
 
-    let start = out.len();
-    let (mut skipped, mut dropped_normals, mut flipped) = (0usize, 0usize, 0usize);
-    for model in &models {
-        let m = &model.mesh;
-        let (material, emitter) = match (m.material_id, mtl.as_deref_mut()) {
-            (Some(id), Some(mo)) if id < library.len() => match made[id] {
-                Some(me) => me,
-                None => {
-                    let me = mtl_material(cx, span.clone(), fo, &obj.value, &library[id], mo)?;
-                    made[id] = Some(me);
-                    me
-                }
-            },
-            _ => (shape.material, shape.emitter),
+/// The placed vertices of face `t` of a tobj model (refused when not finite, or when an edge
+/// overflows), with their normals and texture coordinates when the model has them.
+#[allow(clippy::type_complexity)]
+fn obj_face(
+    cx: &Cx,
+    at: &At,
+    model: &tobj::Model,
+    (t, face): (usize, &[u32]),
+    xf: &Transform,
+    (has_n, has_uv): (bool, bool),
+) -> Result<([Vec3; 3], Option<[Vec3; 3]>, Option<[Vec2; 3]>), SceneError> {
+    let (m, shown, name) = (&model.mesh, at.shown, &model.name);
+    let mut v = [Vec3::ZERO; 3];
+    let mut n = [Vec3::ZERO; 3];
+    let mut uv = [Vec2::ZERO; 3];
+    for j in 0..3 {
+        let i = face[j] as usize;
+        let Some(p) = m.positions.get(3 * i..3 * i + 3) else {
+            return Err(at.err(cx, format!("OBJ file '{shown}': vertex index out of range")));
         };
-        let nverts = m.positions.len() / 3;
-        let has_n = !m.normals.is_empty() && m.normals.len() == 3 * nverts;
-        let has_uv = !m.texcoords.is_empty() && m.texcoords.len() == 2 * nverts;
-        if !m.normals.is_empty() && !has_n {
+        let p = Vec3::new(p[0], p[1], p[2]);
+        if !p.is_finite() {
             let msg = format!(
-                "OBJ file '{shown}', object '{}': only some vertices have normals; all are ignored",
-                model.name
+                "OBJ file '{shown}', object '{name}', triangle {t}: vertex {p} is not finite"
             );
-            cx.warn(span.clone(), fo, msg);
+            return Err(at.err(cx, msg));
         }
-        if !m.texcoords.is_empty() && !has_uv {
+        v[j] = xf.point(p);
+        if !v[j].is_finite() {
             let msg = format!(
-                "OBJ file '{shown}', object '{}': only some vertices have texture coordinates; all are ignored",
-                model.name
+                "OBJ file '{shown}': the transform moves vertex {p} out of the single-precision range"
             );
-            cx.warn(span.clone(), fo, msg);
+            return Err(at.err(cx, msg));
         }
-        for (t, face) in m.indices.chunks_exact(3).enumerate() {
-            let mut v = [Vec3::ZERO; 3];
-            let mut n = [Vec3::ZERO; 3];
-            let mut uv = [Vec2::ZERO; 3];
-            for j in 0..3 {
-                let i = face[j] as usize;
-                let Some(p) = m.positions.get(3 * i..3 * i + 3) else {
-                    return Err(cx.err(
-                        span,
-                        fo,
-                        format!("OBJ file '{shown}': vertex index out of range"),
-                    ));
-                };
-                let p = Vec3::new(p[0], p[1], p[2]);
-                if !p.is_finite() {
-                    let msg = format!(
-                        "OBJ file '{shown}', object '{}', triangle {t}: vertex {p} is not finite",
-                        model.name
-                    );
-                    return Err(cx.err(span, fo, msg));
-                }
-                v[j] = xf.point(p);
-                if !v[j].is_finite() {
-                    let msg = format!(
-                        "OBJ file '{shown}': the transform moves vertex {p} out of the single-precision range"
-                    );
-                    return Err(cx.err(span, fo, msg));
-                }
-                if has_n {
-                    n[j] = xf.normal(Vec3::new(
-                        m.normals[3 * i],
-                        m.normals[3 * i + 1],
-                        m.normals[3 * i + 2],
-                    ));
-                }
-                if has_uv {
-                    uv[j] = Vec2::new(m.texcoords[2 * i], m.texcoords[2 * i + 1]);
-                }
-            }
-            if let Some(msg) = edge_overflow(&v) {
-                let msg = format!(
-                    "OBJ file '{shown}', object '{}', triangle {t}: {msg}",
-                    model.name
-                );
-                return Err(cx.err(span, fo, msg));
-            }
-            if degenerate(&v) {
-                skipped += 1;
-                continue;
-            }
-            let mut normals = None;
-            if has_n {
-                if n.iter().all(|x| x.is_finite() && *x != Vec3::ZERO) {
-                    let g = crate::robust::triangle_normal(&v);
-                    if (n[0] + n[1] + n[2]).dot(g) < 0.0 {
-                        flipped += 1;
-                    }
-                    normals = Some(n);
-                } else {
-                    dropped_normals += 1;
-                }
-            }
-            let uv = (has_uv && uv.iter().all(|x| x.is_finite())).then_some(uv);
-            out.push(Triangle {
-                v,
-                n: normals,
-                uv,
-                material,
-                emitter,
-            });
+        if has_n {
+            n[j] = xf.normal(Vec3::from_slice(&m.normals[3 * i..3 * i + 3]));
+        }
+        if has_uv {
+            uv[j] = Vec2::new(m.texcoords[2 * i], m.texcoords[2 * i + 1]);
         }
     }
-    if skipped > 0 {
-        cx.warn(
-            span.clone(),
-            fo,
-            format!("OBJ file '{shown}': skipped {skipped} zero-area triangle(s)"),
-        );
+    if let Some(msg) = edge_overflow(&v) {
+        let msg = format!("OBJ file '{shown}', object '{name}', triangle {t}: {msg}");
+        return Err(at.err(cx, msg));
     }
-    if dropped_normals > 0 {
-        let msg = format!(
-            "OBJ file '{shown}': {dropped_normals} triangle(s) have zero or invalid vertex normals; \
-             they use the geometric normal"
-        );
-        cx.warn(span.clone(), fo, msg);
-    }
-    if flipped > 0 {
-        let msg = format!(
-            "OBJ file '{shown}': {flipped} triangle(s) have vertex normals opposite to their winding \
-             (the front side follows the counter-clockwise winding)"
-        );
-        cx.warn(span.clone(), fo, msg);
-    }
-    if out.len() == start {
-        cx.warn(
-            span,
-            fo,
-            format!(
-                "{}: OBJ file '{shown}' contains no usable triangles",
-                shape.label
-            ),
-        );
-    }
-    Ok(())
+    Ok((v, has_n.then_some(n), has_uv.then_some(uv)))
 }
 
 #[cfg(test)]

@@ -425,6 +425,17 @@ pub fn default_evaluates_as(model: &str, explicit: &Material, a: Vec3, b: Vec3) 
 
 /// Each `(fields, needles)`: the model `name` with these fields is refused with a message that
 /// contains every one of `needles`.
+/// [`rejects_each`] of cases `(fields, field, message)`: each error names `at` (the file, and
+/// the line where every case has one), the field and the message.
+pub fn rejects_fields(name: &str, at: &str, cases: &[(&str, &str, &str)]) {
+    for (fields, field, msg) in cases {
+        rejects(
+            &format!("model = \"{name}\"\n{fields}\n"),
+            &[at, field, msg],
+        );
+    }
+}
+
 pub fn rejects_each<'a, N: AsRef<[&'a str]>>(name: &str, cases: &[(&str, N)]) {
     for (fields, needles) in cases {
         rejects(&format!("model = \"{name}\"\n{fields}\n"), needles.as_ref());

@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 pub mod brdf;
+pub mod cli;
 
 use brdfwave::film::Tile;
 use brdfwave::gpu::GpuOptions;
@@ -105,4 +106,26 @@ pub fn save(name: &str, img: &brdfwave::imageio::Image) -> PathBuf {
 
 pub fn exists(p: &Path) -> bool {
     p.exists()
+}
+
+/// The 1-based line of the first `needle` in `text`.
+pub fn line_of(text: &str, needle: &str) -> usize {
+    let at = text
+        .find(needle)
+        .unwrap_or_else(|| panic!("test bug: '{needle}' not in the text"));
+    text[..at].matches('\n').count() + 1
+}
+
+/// Asserts that the error `msg` about the file `file` starts with `FILE:LINE: `, the line of
+/// `at` in the file's text `src`, and contains every `what`.
+#[track_caller]
+pub fn assert_located(msg: &str, (file, src): (&str, &str), at: &str, what: &[&str]) {
+    let line = line_of(src, at);
+    assert!(
+        msg.starts_with(&format!("{file}:{line}: ")),
+        "want line {line}: {msg}"
+    );
+    for w in what {
+        assert!(msg.contains(w), "want '{w}': {msg}");
+    }
 }

@@ -319,17 +319,17 @@ pub(super) fn bsdf(cx: &Cx, el: &El) -> Result<MaterialTable, SceneError> {
     match kind {
         "diffuse" => {
             t.insert("model".into(), model("lambert"));
-            if let Some(r) = p.take("reflectance") {
-                t.insert("albedo".into(), cx.color_value(r)?);
-            }
+            take_color(cx, &mut p, &mut t, ("reflectance", "albedo"))?;
             p.finish(cx, "reflectance")?;
         }
         "conductor" | "roughconductor" => {
-            conductor(cx, el, kind == "roughconductor", &mut p, &mut t)?;
+            microfacet(cx, el, kind == "roughconductor", &mut p, &mut t)?;
+            conductor(cx, el, &mut p, &mut t)?;
             p.finish(cx, "material, eta, k, specular_reflectance, and for roughconductor distribution, alpha (or equal alpha_u, alpha_v), sample_visible")?;
         }
         "plastic" | "roughplastic" => {
-            plastic(cx, el, kind == "roughplastic", &mut p, &mut t)?;
+            microfacet(cx, el, kind == "roughplastic", &mut p, &mut t)?;
+            plastic(cx, el, &mut p, &mut t)?;
             p.finish(cx, "diffuse_reflectance, specular_reflectance, int_ior, ext_ior, nonlinear = false, and for roughplastic distribution, alpha, sample_visible")?;
         }
         "twosided" => {
@@ -391,6 +391,20 @@ fn put(t: &mut MaterialTable, el: &El, k: &str, v: Value) {
     t.insert(k.into(), sp(el, v));
 }
 
+/// The colour property `from`, when given, as the material's `to`; whether it was given.
+fn take_color(
+    cx: &Cx,
+    p: &mut Props,
+    t: &mut MaterialTable,
+    (from, to): (&str, &str),
+) -> Result<bool, SceneError> {
+    let Some(e) = p.take(from) else {
+        return Ok(false);
+    };
+    t.insert(to.into(), cx.color_value(e)?);
+    Ok(true)
+}
+
 /// The microfacet settings every Mitsuba plugin shares: `distribution` (Beckmann, GGX) and
 /// `alpha` (Mitsuba's Beckmann α is the rms slope m, its GGX α ours), with `alpha_u`/`alpha_v`
 /// only when equal (our Cook–Torrance is isotropic); a smooth plugin is a delta mirror.
@@ -443,18 +457,10 @@ fn microfacet(
     Ok(())
 }
 
-fn conductor(
-    cx: &Cx,
-    el: &El,
-    rough: bool,
-    p: &mut Props,
-    t: &mut MaterialTable,
-) -> Result<(), SceneError> {
-    microfacet(cx, el, rough, p, t)?;
+/// A conductor's Fresnel terms and specular colour (after [`microfacet`]).
+fn conductor(cx: &Cx, el: &El, p: &mut Props, t: &mut MaterialTable) -> Result<(), SceneError> {
     put(t, el, "kd", Value::Float(0.0));
-    if let Some(s) = p.take("specular_reflectance") {
-        t.insert("ks".into(), cx.color_value(s)?);
-    }
+    take_color(cx, p, t, ("specular_reflectance", "ks"))?;
     let rgb = |v: [f32; 3]| Value::Array(v.iter().map(|x| Value::Float(*x as f64)).collect());
     match (p.take("material"), p.take("eta"), p.take("k")) {
         (Some(m), None, None) => match cx.string(m)? {
@@ -492,24 +498,13 @@ fn conductor(
     Ok(())
 }
 
-fn plastic(
-    cx: &Cx,
-    el: &El,
-    rough: bool,
-    p: &mut Props,
-    t: &mut MaterialTable,
-) -> Result<(), SceneError> {
-    microfacet(cx, el, rough, p, t)?;
+/// A plastic's diffuse base, specular colour and index of refraction (after [`microfacet`]).
+fn plastic(cx: &Cx, el: &El, p: &mut Props, t: &mut MaterialTable) -> Result<(), SceneError> {
     put(t, el, "fresnel", Value::String("dielectric".into()));
-    match p.take("diffuse_reflectance") {
-        Some(d) => {
-            t.insert("kd".into(), cx.color_value(d)?);
-        }
-        None => put(t, el, "kd", Value::Float(0.5)),
+    if !take_color(cx, p, t, ("diffuse_reflectance", "kd"))? {
+        put(t, el, "kd", Value::Float(0.5));
     }
-    if let Some(s) = p.take("specular_reflectance") {
-        t.insert("ks".into(), cx.color_value(s)?);
-    }
+    take_color(cx, p, t, ("specular_reflectance", "ks"))?;
     fn ior<'e>(
         cx: &Cx,
         name: &str,

@@ -36,9 +36,23 @@ pub(super) fn shape(
     };
     let material = material(cx, el, &label, &mut p, materials)?;
     let mut raw = raw_shape(el, material);
-    let emitters = p.take_tag("emitter");
-    match emitters.as_slice() {
-        [] => {}
+    raw.emission = area_emitter(cx, &p.take_tag("emitter"))?;
+    let to_world = p.take("to_world");
+    let flip = match p.take("flip_normals") {
+        Some(f) => cx.bool_of(f)?,
+        None => false,
+    };
+    let supported = geometry(cx, el, &kind, &mut p, flip, &mut raw)?;
+    raw.transform = shape_transform(cx, to_world)?;
+    raw.as_written = raw.transform.is_none();
+    p.finish(cx, supported)?;
+    Ok(sp(el, raw))
+}
+
+/// An `area` emitter's radiance (at most one emitter, of that type).
+fn area_emitter(cx: &Cx, emitters: &[&El]) -> Result<Option<Sp<Triple>>, SceneError> {
+    match emitters {
+        [] => Ok(None),
         [e] if e.attr("type") == Some("area") => {
             let mut ep = Props::new(cx, e)?;
             let Some(r) = ep.take("radiance") else {
@@ -49,51 +63,45 @@ pub(super) fn shape(
                 value: Triple(cx.color_of(r)?),
             };
             ep.finish(cx, "radiance")?;
-            raw.emission = Some(c);
+            Ok(Some(c))
         }
-        [e] => return Err(emitter_error(cx, e, true)),
-        [_, e, ..] => return Err(cx.el_err(e, "a second emitter: a shape has at most one")),
+        [e] => Err(emitter_error(cx, e, true)),
+        [_, e, ..] => Err(cx.el_err(e, "a second emitter: a shape has at most one")),
     }
-    let to_world = p.take("to_world");
-    let flip = match p.take("flip_normals") {
-        Some(f) => cx.bool_of(f)?,
-        None => false,
-    };
-    let mut supported = "bsdf or ref, emitter type=\"area\", to_world, flip_normals";
-    match kind.as_str() {
-        "obj" => {
+}
+
+/// The shape's geometry of Mitsuba type `kind` into `raw`; returns the properties it supports
+/// (for the message on an unknown one).
+fn geometry(
+    cx: &mut Cx,
+    el: &El,
+    kind: &str,
+    p: &mut Props,
+    flip: bool,
+    raw: &mut RawShape,
+) -> Result<&'static str, SceneError> {
+    const GENERATED: &str = "bsdf or ref, emitter type=\"area\", to_world, flip_normals";
+    match kind {
+        "obj" | "ply" => {
             let Some(f) = p.take("filename") else {
-                return Err(cx.el_err(
-                    el,
-                    "<shape type=\"obj\"> needs a <string name=\"filename\">",
-                ));
+                let msg = format!("<shape type=\"{kind}\"> needs a <string name=\"filename\">");
+                return Err(cx.el_err(el, msg));
             };
             let name = cx.attr(f, "value")?;
-            raw.obj = Some(sp(f, el.dir.join(name).display().to_string()));
+            let file = Some(sp(f, el.dir.join(name).display().to_string()));
+            if kind == "obj" {
+                raw.obj = file;
+            } else {
+                raw.ply = file;
+            }
             if let Some(n) = p.take("face_normals") {
                 cx.bool_of(n)?;
             }
             if flip {
-                return Err(cx.el_err(el, "flip_normals on an obj mesh is not supported (reverse the faces' winding in the file)"));
+                let a = if kind == "obj" { "an" } else { "a" };
+                return Err(cx.el_err(el, format!("flip_normals on {a} {kind} mesh is not supported (reverse the faces' winding in the file)")));
             }
-            supported = "filename, face_normals, bsdf or ref, emitter type=\"area\", to_world";
-        }
-        "ply" => {
-            let Some(f) = p.take("filename") else {
-                return Err(cx.el_err(
-                    el,
-                    "<shape type=\"ply\"> needs a <string name=\"filename\">",
-                ));
-            };
-            let name = cx.attr(f, "value")?;
-            raw.ply = Some(sp(f, el.dir.join(name).display().to_string()));
-            if let Some(n) = p.take("face_normals") {
-                cx.bool_of(n)?;
-            }
-            if flip {
-                return Err(cx.el_err(el, "flip_normals on a ply mesh is not supported (reverse the faces' winding in the file)"));
-            }
-            supported = "filename, face_normals, bsdf or ref, emitter type=\"area\", to_world";
+            Ok("filename, face_normals, bsdf or ref, emitter type=\"area\", to_world")
         }
         "sphere" => {
             let center = match p.take("center") {
@@ -105,8 +113,7 @@ pub(super) fn shape(
                 None => 1.0,
             };
             raw.sphere = Some(raw_sphere(el, center, radius, flip));
-            supported =
-                "center, radius, bsdf or ref, emitter type=\"area\", to_world, flip_normals";
+            Ok("center, radius, bsdf or ref, emitter type=\"area\", to_world, flip_normals")
         }
         "rectangle" | "cube" => {
             let faces: Vec<[[f64; 3]; 4]> = if kind == "rectangle" {
@@ -127,6 +134,7 @@ pub(super) fn shape(
                 })
                 .collect();
             raw.quads = Some(sp(el, quads));
+            Ok(GENERATED)
         }
         "disk" => {
             let at = |i: usize| {
@@ -143,16 +151,13 @@ pub(super) fn shape(
                 })
                 .collect();
             raw.triangles = Some(sp(el, tris));
+            Ok(GENERATED)
         }
         other => {
             let msg = format!("<shape type=\"{other}\"> is not supported (supported: obj, rectangle, cube, sphere, disk)");
-            return Err(cx.el_err(el, msg));
+            Err(cx.el_err(el, msg))
         }
     }
-    raw.transform = shape_transform(cx, to_world)?;
-    raw.as_written = raw.transform.is_none();
-    p.finish(cx, supported)?;
-    Ok(sp(el, raw))
 }
 
 /// The outward faces of [−1, 1]³: (normal, u, v) with u × v = normal.

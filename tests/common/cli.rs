@@ -1,0 +1,64 @@
+//! The `brdfwave` binary in a subprocess, as the command-line tests run it: in the repository
+//! root, with a test file's own scratch folder and environment.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// How one test file runs the binary.
+pub struct Cli {
+    /// The scratch folder is `brdfwave-TAG-PID` in the system's temporary folder.
+    pub tag: &'static str,
+    /// Whether `BRDFWAVE_CACHE_DIR` is the scratch folder's `cache` (else it is inherited).
+    pub own_cache: bool,
+    /// Variables removed from the environment (`LP_NUM_THREADS`, say).
+    pub env_remove: &'static [&'static str],
+}
+
+impl Cli {
+    /// `name` in the test file's scratch folder (made when missing).
+    pub fn tmp(&self, name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("brdfwave-{}-{}", self.tag, std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        d.join(name)
+    }
+
+    /// Runs `brdfwave ARGS`; fails the test when it panicked.
+    pub fn run(&self, args: &[&str]) -> Output {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_brdfwave"));
+        c.args(args).current_dir(super::repo());
+        if self.own_cache {
+            c.env("BRDFWAVE_CACHE_DIR", self.tmp("cache"));
+        }
+        for v in self.env_remove {
+            c.env_remove(v);
+        }
+        let out = c.output().expect("run brdfwave");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !stderr.contains("panicked"),
+            "brdfwave {args:?} panicked:\n{stderr}"
+        );
+        out
+    }
+
+    /// Runs `args`; asserts the exit status; returns stdout and stderr.
+    #[track_caller]
+    pub fn status(&self, args: &[&str], code: i32) -> (String, String) {
+        let out = self.run(args);
+        let (o, e) = (
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        );
+        assert_eq!(
+            out.status.code(),
+            Some(code),
+            "{args:?}\nstdout:\n{o}\nstderr:\n{e}"
+        );
+        (o, e)
+    }
+}
+
+/// A path as the `&str` of a command-line argument.
+pub fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
