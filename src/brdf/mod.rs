@@ -173,6 +173,11 @@ pub trait Brdf: Debug + Send + Sync {
     fn scatters(&self) -> bool {
         true
     }
+    /// The measured material (its table and sampling lobe), for the GPU upload of its table;
+    /// `None` for the analytic models.
+    fn measured(&self) -> Option<&measured::Measured> {
+        None
+    }
 }
 
 /// A model of the survey: its registry row. Everything a model needs besides its two twin
@@ -242,7 +247,16 @@ registry!(
     he,
     ward,
     schlick,
+    measured,
 );
+
+/// Writes into `dir` the data files that the models' `REPRESENTATIVE` materials name (relative
+/// to `dir`): a measured table is not ours to ship, so the tests, `brdf report` and the docs
+/// make a synthetic one. A model whose representative material needs a file writes it here;
+/// the registry tests parse every representative material against such a directory.
+pub fn write_fixtures(dir: &std::path::Path) -> anyhow::Result<()> {
+    measured::write_fixtures(dir)
+}
 
 /// A named material instance: which model and its parameters.
 #[derive(Clone, Debug)]

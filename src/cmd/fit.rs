@@ -38,7 +38,12 @@ pub struct FitArgs {
 /// The model entries of `--models`.
 fn parse_models(list: Option<&str>) -> Result<Vec<ModelSpec>> {
     let Some(list) = list else {
-        return MODELS.iter().map(|m| ModelSpec::parse(m.name)).collect();
+        // Every analytic model: a measured one has no parameters to fit.
+        return MODELS
+            .iter()
+            .filter(|m| ModelSpec::fittable(m))
+            .map(|m| ModelSpec::parse(m.name))
+            .collect();
     };
     let sep = if list.contains(';') { ';' } else { ',' };
     let specs: Vec<ModelSpec> = list
