@@ -107,8 +107,13 @@ pub fn run(args: FitArgs) -> Result<()> {
     let samples =
         fit::loss::samples(&table, fit::loss::strides(opt.samples), opt.max_theta_deg).len();
     let measured = args.measured.display().to_string();
+    let measured_file = std::fs::canonicalize(&args.measured)
+        .unwrap_or_else(|_| args.measured.clone())
+        .display()
+        .to_string();
     let ctx = report::Context {
         measured: &measured,
+        measured_file: &measured_file,
         samples,
         missing: table.missing(),
         options: &opt,

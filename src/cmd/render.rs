@@ -205,7 +205,10 @@ fn measured_tables(sc: &Scene, gpu: bool) -> Vec<MeasuredTable> {
     let t = brdfwave::gpu::scene_buffers::MeasuredTables::of(&sc.materials);
     let per_table = match gpu {
         true => t.gpu_bytes() / t.tables.len().max(1) as u64,
-        false => t.tables.first().map_or(0, |s| s.table.memory_bytes() as u64),
+        false => t
+            .tables
+            .first()
+            .map_or(0, |s| s.table.memory_bytes() as u64),
     };
     t.tables
         .iter()
@@ -296,7 +299,11 @@ impl std::fmt::Display for RenderSummary {
         }
         if !self.measured_tables.is_empty() {
             let bytes: u64 = self.measured_tables.iter().map(|t| t.bytes).sum();
-            let files: Vec<&str> = self.measured_tables.iter().map(|t| t.file.as_str()).collect();
+            let files: Vec<&str> = self
+                .measured_tables
+                .iter()
+                .map(|t| t.file.as_str())
+                .collect();
             writeln!(
                 f,
                 "measured       {} table(s) held once each, {:.1} MiB: {}",
