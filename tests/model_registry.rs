@@ -82,10 +82,18 @@ fn the_lineup_shows_every_model() {
 /// ranges and docs are the parser's), and no declared default is outside its declared range.
 #[test]
 fn every_model_reads_exactly_its_declared_parameters() {
+    let fixtures = tempfile::tempdir().unwrap();
+    brdfwave::brdf::write_fixtures(fixtures.path()).unwrap();
     for m in MODELS.iter() {
-        // The fields read for a material that gives none.
-        let src = format!(r#"model = "{}", no_such_field = 1"#, m.name);
-        let err = parse_inline(&src).unwrap_err().to_string();
+        // The fields read for a material that gives none (but the file a model requires: its
+        // representative material's, from the fixtures).
+        let src = match reads_a_file(m) {
+            false => format!(r#"model = "{}", no_such_field = 1"#, m.name),
+            true => format!("{}, no_such_field = 1", m.representative[0].1),
+        };
+        let err = parse_inline_at("--material", &src, Some(fixtures.path()))
+            .unwrap_err()
+            .to_string();
         let mut declared: Vec<&str> = m.params.iter().map(|p| p.name).collect();
         declared.sort_unstable();
         assert!(
