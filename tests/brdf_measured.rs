@@ -8,7 +8,6 @@ use brdfwave::brdf::validate::dir_from_theta_deg as dir;
 use brdfwave::brdf::{inline::parse_inline_at, Material};
 use brdfwave::gpu::scene_buffers::MeasuredTables;
 use brdfwave::measured::merl::{MerlTable, CELLS};
-use brdfwave::metrics;
 use common::brdf::{check_sampler, lobe_sampler, SamplerCheck};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
@@ -72,7 +71,7 @@ fn pairs() -> Vec<(Vec3, Vec3)> {
 }
 
 /// A table made from Ward, Cook–Torrance GGX and Lambert evaluates as the model itself, to
-/// within the interpolation error of the grid: 1.5% of the value plus 0.2% of the lobe's peak
+/// within the interpolation error of the grid: 1% of the value plus 0.1% of the lobe's peak
 /// (the √θh spacing puts cells 0.0003 rad apart at the peak, 0.035 rad at θh = 90°).
 #[test]
 fn a_table_evaluates_as_the_model_it_was_made_from() {
@@ -88,7 +87,7 @@ fn a_table_evaluates_as_the_model_it_was_made_from() {
         for (&(wi, wo), f) in pairs.iter().zip(&exact) {
             let g = m.brdf.eval(wi, wo);
             for c in 0..3 {
-                let err = (g[c] - f[c]).abs() / (0.015 * f[c] + 2e-3 * peak);
+                let err = (g[c] - f[c]).abs() / (0.01 * f[c] + 1e-3 * peak);
                 worst = worst.max(err);
                 assert!(err <= 1.0, "{name} {wi} {wo}: table {g}, model {f}");
             }
@@ -110,16 +109,8 @@ fn brdf_eval_on_the_gpu_equals_the_cpu() {
     std::fs::write(tmp.path().join("dirs.csv"), csv).unwrap();
     let material = r#"model = "measured", file = "ggx.binary""#;
     let eval = |backend: &str| -> Vec<Vec<f32>> {
-        let args = [
-            "brdf",
-            "eval",
-            "--material",
-            material,
-            "--dirs",
-            "dirs.csv",
-            "--backend",
-            backend,
-        ];
+        let mut args: Vec<&str> = "brdf eval --dirs dirs.csv --backend".split(' ').collect();
+        args.extend([backend, "--material", material]);
         let text = ok(brdfwave(&args, tmp.path()));
         text.lines()
             .skip(1)
@@ -214,21 +205,11 @@ fn measured_materials_render_on_both_backends_and_share_their_tables() {
 
     (s.width, s.height, s.integrator.spp, s.integrator.max_depth) = (96, 30, 4, 5);
     s.integrator.seed = 11;
-    let ctx = common::context();
-    let (gpu, pipelines) = common::render_gpu(&ctx, &s);
-    let cpu = common::render_cpu(&s);
+    let pipelines = common::same_seed_parity(&s, "measured");
     assert!(
         pipelines.contains(&"shade_measured".to_string()),
         "{pipelines:?}"
     );
-    assert_eq!(gpu.nonfinite_samples + cpu.nonfinite_samples, 0);
-    let agree = metrics::fraction_within(&gpu.mean, &cpu.mean, 2e-3, 1e-4).unwrap();
-    if agree.channel_fraction < 0.98 {
-        common::save("measured-gpu.exr", &gpu.mean);
-        common::save("measured-cpu.exr", &cpu.mean);
-        panic!("need 98% of pixel-channels to agree: {agree}");
-    }
-    common::finish(ctx);
 
     // The summary: two tables of 23.3 MB on the GPU, 17.5 MB on the CPU.
     for (backend, per_table) in [("gpu", CELLS * 16), ("cpu", CELLS * 12)] {
@@ -356,16 +337,11 @@ fn the_readme_workflow_renders_the_measured_material_beside_its_fits() {
     assert!(models.contains(&"measured"), "{models:?}");
     (s.width, s.height, s.integrator.spp, s.integrator.max_depth) = (120, 24, 2, 4);
     s.integrator.seed = 3;
-    let ctx = common::context();
-    let (gpu, pipelines) = common::render_gpu(&ctx, &s);
-    let cpu = common::render_cpu(&s);
+    let pipelines = common::same_seed_parity(&s, "measured-lineup");
     assert!(
         pipelines.contains(&"shade_measured".to_string()),
         "{pipelines:?}"
     );
-    let agree = metrics::fraction_within(&gpu.mean, &cpu.mean, 2e-3, 1e-4).unwrap();
-    assert!(agree.channel_fraction >= 0.98, "{agree}");
-    common::finish(ctx);
 }
 
 /// Words of a command line: single-quoted strings kept whole, as a shell does.

@@ -21,7 +21,10 @@
 //! ([`glsl`]), the parameter tables too ([`docs`]); what cannot be derived (a GPU parity
 //! material, a stress generator, a sphere in `scenes/lineup.toml`, the README rows) fails a
 //! coverage test that names the model (tests/model_registry.rs, tests/brdf_gpu_parity.rs,
-//! tests/docs.rs).
+//! tests/docs.rs). A model whose parameter is a data file (`measured`, a MERL table, which
+//! cannot be shipped) has its representative material name a file that [`write_fixtures`]
+//! writes; the coverage tests build its instances from those files, and `brdf fit`'s lineup
+//! (not `scenes/lineup.toml`, whose spheres are parameter-only) shows it.
 
 /// Implements [`Brdf`] for a model type by forwarding `eval`, `pdf` and `sample` to the free
 /// functions of the model's file, which carry the names and arguments of its GLSL twin
