@@ -181,7 +181,7 @@ fn measured_materials_render_on_both_backends_and_share_their_tables() {
     }
     let path = tmp.path().join("scene.toml");
     std::fs::write(&path, &text).unwrap();
-    let mut s = brdfwave::scene::load(&path).unwrap_or_else(|e| panic!("{e}\n{text}"));
+    let s = brdfwave::scene::load(&path).unwrap_or_else(|e| panic!("{e}\n{text}"));
     let measured: Vec<&Material> = s
         .materials
         .iter()
@@ -203,13 +203,7 @@ fn measured_materials_render_on_both_backends_and_share_their_tables() {
         .count();
     assert_eq!(same, 2, "the two names of ward.binary share one table");
 
-    (s.width, s.height, s.integrator.spp, s.integrator.max_depth) = (96, 30, 4, 5);
-    s.integrator.seed = 11;
-    let pipelines = common::same_seed_parity(&s, "measured");
-    assert!(
-        pipelines.contains(&"shade_measured".to_string()),
-        "{pipelines:?}"
-    );
+    renders_alike_on_both_backends(s, (96, 30, 4, 5), 11, "measured");
 
     // The summary: two tables of 23.3 MB on the GPU, 17.5 MB on the CPU.
     for (backend, per_table) in [("gpu", CELLS * 16), ("cpu", CELLS * 12)] {
@@ -332,12 +326,23 @@ fn the_readme_workflow_renders_the_measured_material_beside_its_fits() {
     }
     let lineup = tmp.path().join("out/fit/lineup.toml");
     assert!(tmp.path().join("out/fit/lineup.png").is_file());
-    let mut s = brdfwave::scene::load(&lineup).unwrap();
+    let s = brdfwave::scene::load(&lineup).unwrap();
     let models: Vec<&str> = s.materials.iter().map(|m| m.model_name()).collect();
     assert!(models.contains(&"measured"), "{models:?}");
-    (s.width, s.height, s.integrator.spp, s.integrator.max_depth) = (120, 24, 2, 4);
-    s.integrator.seed = 3;
-    let pipelines = common::same_seed_parity(&s, "measured-lineup");
+    renders_alike_on_both_backends(s, (120, 24, 2, 4), 3, "measured-lineup");
+}
+
+/// `s` at (width, height, spp, max depth) and `seed`: GPU = CPU at the same seed
+/// (`common::same_seed_parity`), through the measured model's shade pipeline.
+fn renders_alike_on_both_backends(
+    mut s: brdfwave::scene::Scene,
+    (w, h, spp, depth): (u32, u32, u32, u32),
+    seed: u32,
+    stem: &str,
+) {
+    (s.width, s.height, s.integrator.spp, s.integrator.max_depth) = (w, h, spp, depth);
+    s.integrator.seed = seed;
+    let pipelines = common::same_seed_parity(&s, stem);
     assert!(
         pipelines.contains(&"shade_measured".to_string()),
         "{pipelines:?}"
