@@ -4,6 +4,11 @@
 // is chosen like the shade pipelines: "brdf/model.glsl" and BRDF_EVAL / BRDF_PDF / BRDF_SAMPLE.
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
+#ifdef MEASURED_TABLE
+// A measured material's table (shaders/brdf/measured.glsl), at texel 0.
+layout(set = 0, binding = 3, rgba32f) uniform readonly restrict imageBuffer measured_table;
+#define MEASURED_TABLE_DECLARED
+#endif
 #include "brdf/model.glsl"
 layout(local_size_x = 64) in;
 

@@ -291,8 +291,13 @@ pub fn delta_albedo(b: &dyn Brdf, given: Vec3, samples: u32) -> f64 {
     sum / samples as f64
 }
 
-pub fn report_row(label: &str, src: &str) -> Result<(ReportRow, Material)> {
-    let m = crate::brdf::inline::parse_inline(src)?;
+/// The report's row of the material `src`, whose relative file parameters are resolved against
+/// `dir` (the working directory when `None`).
+pub fn report_row(label: &str, src: &str, dir: Option<&Path>) -> Result<(ReportRow, Material)> {
+    let (m, warnings) = crate::brdf::inline::parse_inline_at("--material", src, dir)?;
+    for w in warnings {
+        eprintln!("{w}");
+    }
     let b = m.brdf.as_ref();
     let dir = validate::dir_from_theta_deg;
     // Quadrature covers the non-delta lobes; delta (mirror) lobes are added by sampling.

@@ -79,12 +79,13 @@ fn fit_writes_tables_materials_plots_and_a_lineup_that_loads() {
     assert!(first.starts_with("1,ward,"), "{csv}");
     let err: f64 = first.split(',').nth(2).unwrap().parse().unwrap();
     assert!(err < 1e-3, "{csv}");
-    // The lineup is a scene: it loads, with one sphere per fitted model, and renders.
+    // The lineup is a scene: it loads, with the measured material and one sphere per fitted
+    // model, and renders.
     let lineup = dir.join("lineup.toml");
     let scene = brdfwave::scene::load(&lineup).unwrap();
-    assert_eq!(scene.spheres.len(), 3);
-    let text = std::fs::read_to_string(&lineup).unwrap();
-    assert!(text.contains("The measured material itself is not in the lineup"));
+    assert_eq!(scene.spheres.len(), 4);
+    let first = &scene.materials[scene.spheres[0].material as usize];
+    assert_eq!(first.model_name(), "measured");
     let png = tmp.path().join("lineup.png");
     let mut args = vec![
         "render",

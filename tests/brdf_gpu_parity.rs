@@ -10,7 +10,7 @@
 
 mod common;
 use brdfwave::brdf::validate::dir_from_theta_deg as dir;
-use brdfwave::brdf::{inline::parse_inline, MODELS};
+use brdfwave::brdf::{inline::parse_inline_at, MODELS};
 use brdfwave::gpu::brdf_probe;
 use brdfwave::vk::ShaderCompiler;
 use glam::{Vec2, Vec3};
@@ -35,6 +35,8 @@ const MATERIALS: &[&str] = &[
     r#"model = "schlick", c = [0.9, 0.7, 0.5], r = 0.1, p = 1.0"#,
     r#"model = "schlick", c = 0.8, r = 0.7, p = 0.2, rotation = 45"#,
     r#"model = "schlick", c = 0.3, r = 0.3, p = 1.0, c2 = 0.9, r2 = 0.6, p2 = 0.5, form = "attenuated""#,
+    // A synthetic table of the registry's fixtures (`brdf::write_fixtures`).
+    r#"model = "measured", file = "measured-ward.binary""#,
 ];
 
 fn grid() -> Vec<Vec3> {
@@ -104,8 +106,11 @@ fn gpu_and_cpu_agree_on_eval_pdf_and_sample_for_every_model() {
     pairs.push((Vec3::new(0.3, 0.1, -0.948_683_3), dir(30.0, 10.0)));
     pairs.push((dir(30.0, 10.0), Vec3::new(0.3, 0.1, -0.948_683_3)));
     let mut failures = Vec::new();
+    let fixtures = tempfile::tempdir().unwrap();
+    brdfwave::brdf::write_fixtures(fixtures.path()).unwrap();
     for src in MATERIALS {
-        let m = parse_inline(src).unwrap_or_else(|e| panic!("{src}: {e:#}"));
+        let (m, _) = parse_inline_at("--material", src, Some(fixtures.path()))
+            .unwrap_or_else(|e| panic!("{src}: {e:#}"));
         let gpu = brdf_probe::eval(&ctx, &compiler, &m, &pairs).unwrap();
         let cpu: Vec<(Vec3, f32)> = pairs
             .iter()

@@ -141,8 +141,10 @@ fn every_closed_form_model_recovers_its_parameters() {
 #[test]
 fn ward_data_is_fitted_best_by_ward() {
     let t = table(r#"model = "ward", kd = [0.15, 0.2, 0.1], ks = 0.3, alpha_x = 0.1"#);
+    // Every analytic model (a measured table has nothing to fit).
     let specs: Vec<ModelSpec> = brdfwave::brdf::MODELS
         .iter()
+        .filter(|m| ModelSpec::fittable(m))
         .map(|m| ModelSpec::parse(m.name).unwrap())
         .collect();
     let t0 = std::time::Instant::now();

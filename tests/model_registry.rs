@@ -5,8 +5,15 @@
 //! tests/docs.rs; the lineup's pipelines: tests/render_models.rs.)
 
 mod common;
-use brdfwave::brdf::{glsl, inline::parse_inline, Kind, MODELS};
+use brdfwave::brdf::{glsl, inline::parse_inline, inline::parse_inline_at, Kind, MODELS};
 use std::collections::BTreeMap;
+
+/// Whether the model reads its data from a file (a measured table): such a model has no
+/// parameter-only material, so the coverage rules build its instances from the files
+/// `brdf::write_fixtures` writes.
+fn reads_a_file(m: &brdfwave::brdf::ModelInfo) -> bool {
+    m.params.iter().any(|p| p.kind == Kind::File)
+}
 
 /// The stress test's random materials (`stress::random_material`) cover every model, and each
 /// generated material is of the model asked for.
@@ -18,7 +25,8 @@ fn stress_generates_materials_of_every_model() {
         match brdfwave::stress::random_material_of(m.name, &mut r) {
             None => missing.push(m.name),
             Some(src) => {
-                let mat = parse_inline(&src).unwrap_or_else(|e| panic!("{src}: {e:#}"));
+                let mat = brdfwave::stress::quiet_material(&src)
+                    .unwrap_or_else(|e| panic!("{src}: {e:#}"));
                 assert_eq!(mat.model, i, "{}: generated {src}", m.name);
             }
         }
@@ -29,9 +37,13 @@ fn stress_generates_materials_of_every_model() {
     );
 }
 
-/// `brdf report` measures at least one material of every model, each of its own model.
+/// `brdf report` measures at least one material of every model, each of its own model; the
+/// data files they name are the registry's fixtures (`brdf::write_fixtures`, which `brdf
+/// report` writes too).
 #[test]
 fn the_report_measures_every_model() {
+    let fixtures = tempfile::tempdir().unwrap();
+    brdfwave::brdf::write_fixtures(fixtures.path()).unwrap();
     for (i, m) in MODELS.iter().enumerate() {
         assert!(
             !m.representative.is_empty(),
@@ -39,7 +51,8 @@ fn the_report_measures_every_model() {
             m.name
         );
         for (label, src) in m.representative {
-            let mat = parse_inline(src).unwrap_or_else(|e| panic!("{label}: {e:#}"));
+            let (mat, _) = parse_inline_at("--material", src, Some(fixtures.path()))
+                .unwrap_or_else(|e| panic!("{label}: {e:#}"));
             assert_eq!(mat.model, i, "{}: {label} is another model's", m.name);
         }
     }
@@ -48,13 +61,15 @@ fn the_report_measures_every_model() {
     assert_eq!(distinct.len(), labels.len(), "report labels repeat");
 }
 
-/// scenes/lineup.toml shows every model side by side.
+/// scenes/lineup.toml shows every analytic model side by side. A measured model's table cannot
+/// be shipped: `brdf fit`'s lineup shows it beside its fits instead (tests/brdf_measured.rs
+/// renders that lineup on both backends).
 #[test]
 fn the_lineup_shows_every_model() {
     let scene = brdfwave::scene::load(&common::repo().join("scenes/lineup.toml")).unwrap();
     let shown = scene.shaded_models();
     let missing: Vec<&str> = (0..MODELS.len())
-        .filter(|i| !shown.contains(i))
+        .filter(|&i| !shown.contains(&i) && !reads_a_file(&MODELS[i]))
         .map(|i| MODELS[i].name)
         .collect();
     assert!(
@@ -67,10 +82,18 @@ fn the_lineup_shows_every_model() {
 /// ranges and docs are the parser's), and no declared default is outside its declared range.
 #[test]
 fn every_model_reads_exactly_its_declared_parameters() {
+    let fixtures = tempfile::tempdir().unwrap();
+    brdfwave::brdf::write_fixtures(fixtures.path()).unwrap();
     for m in MODELS.iter() {
-        // The fields read for a material that gives none.
-        let src = format!(r#"model = "{}", no_such_field = 1"#, m.name);
-        let err = parse_inline(&src).unwrap_err().to_string();
+        // The fields read for a material that gives none (but the file a model requires: its
+        // representative material's, from the fixtures).
+        let src = match reads_a_file(m) {
+            false => format!(r#"model = "{}", no_such_field = 1"#, m.name),
+            true => format!("{}, no_such_field = 1", m.representative[0].1),
+        };
+        let err = parse_inline_at("--material", &src, Some(fixtures.path()))
+            .unwrap_err()
+            .to_string();
         let mut declared: Vec<&str> = m.params.iter().map(|p| p.name).collect();
         declared.sort_unstable();
         assert!(
@@ -84,9 +107,14 @@ fn every_model_reads_exactly_its_declared_parameters() {
                 source: "",
                 material: "m",
                 span: 0..0,
+                dir: None,
             };
             let mut r = brdfwave::brdf::ParamReader::new(origin, BTreeMap::new());
-            (m.parse)(&mut r).unwrap();
+            // Only a required file parameter may refuse the empty material.
+            if let Err(e) = (m.parse)(&mut r) {
+                assert!(reads_a_file(m), "{}: {e}", m.name);
+                assert!(e.to_string().contains("field 'file': missing"), "{e}");
+            }
             r.names_read().join(", ")
         };
         assert_eq!(
@@ -99,6 +127,8 @@ fn every_model_reads_exactly_its_declared_parameters() {
             let value = match p.kind {
                 Kind::Rgb(c) => format!("[{:?}, {:?}, {:?}]", c[0], c[1], c[2]),
                 Kind::Scalar(x) => format!("{x:?}"),
+                // A file has no default: the registry's fixtures cover it (the report test).
+                Kind::File => continue,
                 Kind::Choice(options, d) => {
                     assert!(
                         options.contains(&d),

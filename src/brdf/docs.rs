@@ -30,6 +30,7 @@ fn default_text(p: &Param) -> String {
         Kind::Rgb(c) => format!("`[{}, {}, {}]`", num(c[0]), num(c[1]), num(c[2])),
         Kind::Scalar(x) => format!("`{}`", num(x)),
         Kind::Choice(_, d) => format!("`\"{d}\"`"),
+        Kind::File => "required".to_string(),
     }
 }
 
@@ -43,6 +44,7 @@ fn short_default(p: &Param) -> String {
         Kind::Rgb(c) => format!("[{}, {}, {}]", num(c[0]), num(c[1]), num(c[2])),
         Kind::Scalar(x) => num(x),
         Kind::Choice(_, d) => d.to_string(),
+        Kind::File => "required".to_string(),
     }
 }
 

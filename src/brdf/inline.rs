@@ -28,6 +28,16 @@ pub fn parse_inline(src: &str) -> Result<Material> {
 /// [`parse_inline`] for fields that come from `from` (named in messages), returning the
 /// material's warnings instead of printing them.
 pub fn parse_inline_from(from: &str, src: &str) -> Result<(Material, Vec<String>)> {
+    parse_inline_at(from, src, None)
+}
+
+/// [`parse_inline_from`] with relative file parameters resolved against `dir` (the working
+/// directory when `None`).
+pub fn parse_inline_at(
+    from: &str,
+    src: &str,
+    dir: Option<&std::path::Path>,
+) -> Result<(Material, Vec<String>)> {
     // Comma-separated fields are the inside of an inline table; newline-separated fields are a
     // table body. Try the first, then the second.
     let wrapped = format!("material = {{ {} }}", src.trim());
@@ -51,6 +61,7 @@ pub fn parse_inline_from(from: &str, src: &str) -> Result<(Material, Vec<String>
         source: &source,
         material: "inline",
         span: 0..source.len(),
+        dir,
     };
     Ok(parse_material(origin, fields)?)
 }

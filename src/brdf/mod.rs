@@ -21,7 +21,10 @@
 //! ([`glsl`]), the parameter tables too ([`docs`]); what cannot be derived (a GPU parity
 //! material, a stress generator, a sphere in `scenes/lineup.toml`, the README rows) fails a
 //! coverage test that names the model (tests/model_registry.rs, tests/brdf_gpu_parity.rs,
-//! tests/docs.rs).
+//! tests/docs.rs). A model whose parameter is a data file (`measured`, a MERL table, which
+//! cannot be shipped) has its representative material name a file that [`write_fixtures`]
+//! writes; the coverage tests build its instances from those files, and `brdf fit`'s lineup
+//! (not `scenes/lineup.toml`, whose spheres are parameter-only) shows it.
 
 /// Implements [`Brdf`] for a model type by forwarding `eval`, `pdf` and `sample` to the free
 /// functions of the model's file, which carry the names and arguments of its GLSL twin
@@ -173,6 +176,11 @@ pub trait Brdf: Debug + Send + Sync {
     fn scatters(&self) -> bool {
         true
     }
+    /// The measured material (its table and sampling lobe), for the GPU upload of its table;
+    /// `None` for the analytic models.
+    fn measured(&self) -> Option<&measured::Measured> {
+        None
+    }
 }
 
 /// A model of the survey: its registry row. Everything a model needs besides its two twin
@@ -242,7 +250,16 @@ registry!(
     he,
     ward,
     schlick,
+    measured,
 );
+
+/// Writes into `dir` the data files that the models' `REPRESENTATIVE` materials name (relative
+/// to `dir`): a measured table is not ours to ship, so the tests, `brdf report` and the docs
+/// make a synthetic one. A model whose representative material needs a file writes it here;
+/// the registry tests parse every representative material against such a directory.
+pub fn write_fixtures(dir: &std::path::Path) -> anyhow::Result<()> {
+    measured::write_fixtures(dir)
+}
 
 /// A named material instance: which model and its parameters.
 #[derive(Clone, Debug)]

@@ -8,6 +8,7 @@
 use glam::Vec3;
 use std::collections::{BTreeMap, BTreeSet};
 use std::ops::Range;
+use std::path::{Path, PathBuf};
 use toml::{Spanned, Value};
 
 /// A material definition error, already formatted as `file:line: material 'x', field 'y': …`.
@@ -26,6 +27,9 @@ pub struct Origin<'a> {
     pub material: &'a str,
     /// Span of the material's table, for errors about the table as a whole.
     pub span: Range<usize>,
+    /// The directory a relative [`Kind::File`] parameter is resolved against: the scene file's
+    /// directory; `None` for the working directory (an inline `--material`).
+    pub dir: Option<&'a Path>,
 }
 
 /// Line number (1-based) of a byte offset in `source`.
@@ -144,6 +148,9 @@ pub enum Kind {
     Scalar(f32),
     /// One of the options, by name.
     Choice(&'static [&'static str], &'static str),
+    /// A path to a data file (a measured material's table), required: relative to the scene
+    /// file's directory, or to the working directory for an inline `--material`.
+    File,
 }
 
 /// One parameter of a model, declared once in the model's file (`PARAMS`): the parser reads
@@ -219,6 +226,14 @@ impl Param {
         meaning: &'static str,
     ) -> Param {
         Param::new(name, "—", Kind::Choice(options, default), meaning)
+    }
+    /// A required file parameter ([`Kind::File`]); `what` names the format in the docs' range.
+    pub const fn file(name: &'static str, what: &'static str, meaning: &'static str) -> Param {
+        Param {
+            default_text: Some("required"),
+            range_text: Some(what),
+            ..Param::new(name, "path", Kind::File, meaning)
+        }
     }
     /// The docs' default text, for a default the model's `parse` derives.
     pub const fn default_text(self, text: &'static str) -> Param {
@@ -309,6 +324,32 @@ impl<'a> ParamReader<'a> {
             }
             _ => panic!("parameter {} is not declared as a choice", p.name),
         }
+    }
+
+    /// A file parameter, required: the path as written, resolved against [`Origin::dir`]. Only
+    /// its form is checked here (a non-empty string); the model reads the file and reports
+    /// what is wrong with it through [`ParamReader::error`].
+    pub fn file_of(&mut self, p: &Param) -> Result<PathBuf, ParamError> {
+        assert_eq!(p.kind, Kind::File, "parameter {} is not a file", p.name);
+        let Some(v) = self.take(p.name).cloned() else {
+            return Err(self.error(
+                p.name,
+                "missing: this model reads its data from a file (file = \"path\")",
+            ));
+        };
+        let s = v.as_str().ok_or_else(|| {
+            self.error(
+                p.name,
+                format!("expected a path as a string, found {}", v.type_str()),
+            )
+        })?;
+        if s.is_empty() {
+            return Err(self.error(p.name, "the path is empty"));
+        }
+        Ok(match self.origin.dir {
+            Some(dir) => dir.join(s),
+            None => PathBuf::from(s),
+        })
     }
 
     /// `file:line: material 'name', field 'key': msg`.

@@ -33,6 +33,7 @@ pub fn material_from_toml(file: &str, src: &str) -> Result<(Material, Vec<String
         source: src,
         material: "m",
         span: 0..src.len(),
+        dir: None,
     };
     parse_material(origin, fields).map_err(|e| e.to_string())
 }

@@ -202,10 +202,14 @@ fn report(out: &Path, no_gpu: bool, device: Option<String>) -> Result<()> {
         let compiler = vk::ShaderCompiler::new()?;
         Some((ctx, compiler))
     };
+    // The data files the representative materials name (a synthetic MERL table), made for the
+    // report in a temporary directory: measured data is not shipped.
+    let fixtures = tempfile::tempdir()?;
+    brdfwave::brdf::write_fixtures(fixtures.path())?;
     let mut rows = Vec::new();
     for (label, src) in tools::representative() {
         eprintln!("measuring {label}");
-        let (mut row, m) = tools::report_row(label, src)?;
+        let (mut row, m) = tools::report_row(label, src, Some(fixtures.path()))?;
         if let Some((ctx, compiler)) = &gpu {
             row.ns_per_eval_gpu = Some(brdfwave::gpu::brdf_probe::eval_cost(ctx, compiler, &m)?);
         }

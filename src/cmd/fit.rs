@@ -38,7 +38,12 @@ pub struct FitArgs {
 /// The model entries of `--models`.
 fn parse_models(list: Option<&str>) -> Result<Vec<ModelSpec>> {
     let Some(list) = list else {
-        return MODELS.iter().map(|m| ModelSpec::parse(m.name)).collect();
+        // Every analytic model: a measured one has no parameters to fit.
+        return MODELS
+            .iter()
+            .filter(|m| ModelSpec::fittable(m))
+            .map(|m| ModelSpec::parse(m.name))
+            .collect();
     };
     let sep = if list.contains(';') { ';' } else { ',' };
     let specs: Vec<ModelSpec> = list
@@ -102,8 +107,13 @@ pub fn run(args: FitArgs) -> Result<()> {
     let samples =
         fit::loss::samples(&table, fit::loss::strides(opt.samples), opt.max_theta_deg).len();
     let measured = args.measured.display().to_string();
+    let measured_file = std::fs::canonicalize(&args.measured)
+        .unwrap_or_else(|_| args.measured.clone())
+        .display()
+        .to_string();
     let ctx = report::Context {
         measured: &measured,
+        measured_file: &measured_file,
         samples,
         missing: table.missing(),
         options: &opt,

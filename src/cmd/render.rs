@@ -186,8 +186,37 @@ struct RenderSummary {
     nonfinite_by_stage: Vec<StageCount>,
     mean_radiance: [f64; 3],
     stage_seconds: Vec<StageSeconds>,
+    /// The distinct measured tables, each held once, and the memory each takes on this
+    /// backend (GPU: an RGBA32F texel per cell; CPU: three f32 planes).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    measured_tables: Vec<MeasuredTable>,
     outputs: Vec<String>,
     variance_output: Option<String>,
+}
+
+#[derive(Serialize)]
+struct MeasuredTable {
+    file: String,
+    bytes: u64,
+}
+
+/// The scene's distinct measured tables with their memory on the backend.
+fn measured_tables(sc: &Scene, gpu: bool) -> Vec<MeasuredTable> {
+    let t = brdfwave::gpu::scene_buffers::MeasuredTables::of(&sc.materials);
+    let per_table = match gpu {
+        true => t.gpu_bytes() / t.tables.len().max(1) as u64,
+        false => t
+            .tables
+            .first()
+            .map_or(0, |s| s.table.memory_bytes() as u64),
+    };
+    t.tables
+        .iter()
+        .map(|s| MeasuredTable {
+            file: s.path.display().to_string(),
+            bytes: per_table,
+        })
+        .collect()
 }
 
 #[derive(Serialize)]
@@ -267,6 +296,21 @@ impl std::fmt::Display for RenderSummary {
                 .map(|e| format!("{} {:.3}", e.stage, e.seconds))
                 .collect();
             writeln!(f, "stages (s)     {}", parts.join(", "))?;
+        }
+        if !self.measured_tables.is_empty() {
+            let bytes: u64 = self.measured_tables.iter().map(|t| t.bytes).sum();
+            let files: Vec<&str> = self
+                .measured_tables
+                .iter()
+                .map(|t| t.file.as_str())
+                .collect();
+            writeln!(
+                f,
+                "measured       {} table(s) held once each, {:.1} MiB: {}",
+                files.len(),
+                bytes as f64 / (1 << 20) as f64,
+                files.join(", ")
+            )?;
         }
         for o in self.outputs.iter().chain(&self.variance_output) {
             writeln!(f, "wrote          {o}")?;
@@ -675,6 +719,7 @@ fn summary(
                 seconds: *seconds,
             })
             .collect(),
+        measured_tables: measured_tables(sc, d.gpu.is_some()),
         outputs: outputs
             .outs
             .iter()

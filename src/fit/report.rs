@@ -29,6 +29,9 @@ pub fn material_names(fits: &[ModelFit]) -> Vec<String> {
 /// What the run compared, for the heads of the files.
 pub struct Context<'a> {
     pub measured: &'a str,
+    /// The measured file as the lineup's `measured` material names it (an absolute path, so
+    /// that the scene renders from any directory).
+    pub measured_file: &'a str,
     pub samples: usize,
     pub missing: usize,
     pub options: &'a FitOptions,
@@ -154,19 +157,17 @@ pub fn materials_toml(fits: &[ModelFit], ctx: &Context) -> String {
     )
 }
 
-/// `lineup.toml`: one sphere per fitted model in rank order, best on the left, under the light
-/// and environment of `scenes/lineup.toml`.
+/// `lineup.toml`: the measured material itself on the left, then one sphere per fitted model in
+/// rank order, best first, under the light and environment of `scenes/lineup.toml`.
 pub fn lineup_scene(fits: &[ModelFit], ctx: &Context) -> String {
     let names = material_names(fits);
     let order = ranking(fits);
-    let n = order.len().max(1);
+    let n = order.len() + 1;
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "# The survey's models fitted to {} by `brdfwave brdf fit`, one sphere each, best fit on \
-         the left:\n# {}.\n# The measured material itself is not in the lineup: brdfwave does not \
-         render measured tables yet\n# (there is no `measured` model); compare these spheres \
-         with each other and the plots.\n",
+        "# The survey's models fitted to {} by `brdfwave brdf fit`, one sphere each: the measured \
+         material\n# itself (model \"measured\") on the left, then the fits, best first:\n# {}.\n",
         ctx.measured,
         order
             .iter()
@@ -184,6 +185,11 @@ pub fn lineup_scene(fits: &[ModelFit], ctx: &Context) -> String {
         (9.0 * n as f32 / 8.0).max(4.0),
         (80 * n as u32).clamp(240, 1280)
     );
+    let _ = writeln!(
+        s,
+        "[materials.measured]\nmodel = \"measured\"\nfile = {}\n",
+        toml::Value::String(ctx.measured_file.to_string())
+    );
     s.push_str(&material_tables(fits, &names));
     s.push_str(
         "[[shapes]]\nname = \"floor\"\nmaterial = \"floor\"\nquads = [[[-20.0, 0.0, -20.0], \
@@ -191,14 +197,14 @@ pub fn lineup_scene(fits: &[ModelFit], ctx: &Context) -> String {
          name = \"light\"\nmaterial = \"light\"\nemission = [6.0, 6.0, 6.0]\nquads = [[[-5.0, \
          6.0, -4.0], [5.0, 6.0, -4.0], [5.0, 6.0, 1.0], [-5.0, 6.0, 1.0]]]\n",
     );
-    for (k, &i) in order.iter().enumerate() {
-        // Image x runs to the camera's right, which is world −x here: the best fit at +x.
+    let spheres = std::iter::once("measured").chain(order.iter().map(|&i| names[i].as_str()));
+    for (k, name) in spheres.enumerate() {
+        // Image x runs to the camera's right, which is world −x here: the first sphere at +x.
         let x = (n as f32 - 1.0) / 2.0 - k as f32;
         let _ = writeln!(
             s,
-            "\n[[shapes]]\nname = \"{0}\"\nmaterial = \"{0}\"\nsphere = {{ center = [{x:.1}, \
-             0.45, 0.0], radius = 0.45 }}",
-            names[i]
+            "\n[[shapes]]\nname = \"{name}\"\nmaterial = \"{name}\"\nsphere = {{ center = [{x:.1}, \
+             0.45, 0.0], radius = 0.45 }}"
         );
     }
     s

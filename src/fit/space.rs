@@ -83,6 +83,11 @@ impl std::fmt::Debug for ModelSpec {
 }
 
 impl ModelSpec {
+    /// Whether the model has parameters to fit: not a measured table (a file parameter).
+    pub fn fittable(model: &ModelInfo) -> bool {
+        !model.params.iter().any(|p| p.kind == Kind::File)
+    }
+
     /// `name` or `name field = value, …` (fields are TOML, as in a scene file).
     pub fn parse(text: &str) -> Result<ModelSpec> {
         let text = text.trim();
@@ -97,6 +102,9 @@ impl ModelSpec {
                 names.join(", ")
             )
         })?;
+        if !Self::fittable(model) {
+            bail!("--models: '{name}' is a measured table, not a model with parameters to fit");
+        }
         let keys = toml::from_str::<toml::Table>(&format!("m = {{ {fixed} }}"))
             .ok()
             .and_then(|t| t.get("m").and_then(|m| m.as_table()).cloned())
@@ -193,7 +201,7 @@ fn default_of(param: &Param) -> Option<Vec3> {
     match param.kind {
         Kind::Rgb(d) => Some(Vec3::from_array(d)),
         Kind::Scalar(d) => Some(Vec3::splat(d)),
-        Kind::Choice(..) => None,
+        Kind::Choice(..) | Kind::File => None,
     }
 }
 

@@ -3,7 +3,7 @@
 
 use crate::brdf::{BrdfSample, Material, MODELS};
 use crate::gpu::scene_buffers;
-use crate::vk::{Context, ShaderCompiler};
+use crate::vk::{Buffer, Context, Resource, ShaderCompiler};
 use anyhow::Result;
 use ash::vk;
 use glam::{Vec2, Vec3};
@@ -37,7 +37,12 @@ impl<'a> Probe<'a> {
         let name = MODELS[m.model].name;
         let (defines, overrides) = crate::gpu::model_shader_inputs(m.model, m.brdf.defines());
         let spirv = compiler.compile("brdf_probe.comp", &defines, &overrides)?;
-        let pipeline = ctx.create_compute_pipeline(&format!("probe_{name}"), &spirv, 3, 12)?;
+        let mut kinds = vec![vk::DescriptorType::STORAGE_BUFFER; 3];
+        if m.brdf.measured().is_some() {
+            kinds.push(vk::DescriptorType::STORAGE_TEXEL_BUFFER);
+        }
+        let pipeline =
+            ctx.create_compute_pipeline_with(&format!("probe_{name}"), &spirv, &kinds, 12)?;
         Ok(Probe {
             ctx,
             pipeline: Some(pipeline),
@@ -48,35 +53,50 @@ impl<'a> Probe<'a> {
     /// Runs the kernel over `inputs`; returns the outputs and the kernel's GPU time in seconds
     /// (timestamps).
     fn run(&self, inputs: &[[f32; 4]], mode: u32, reps: u32) -> Result<(Vec<[f32; 4]>, f64)> {
+        let mut buffers = Vec::new();
+        let result = self.run_with(&mut buffers, inputs, mode, reps);
+        for b in buffers {
+            self.ctx.destroy_buffer(b);
+        }
+        result
+    }
+
+    /// [`Probe::run`] with the buffers it creates pushed to `buffers` (the caller destroys
+    /// them): the material record, the inputs, the outputs, and a measured material's table.
+    fn run_with(
+        &self,
+        buffers: &mut Vec<Buffer>,
+        inputs: &[[f32; 4]],
+        mode: u32,
+        reps: u32,
+    ) -> Result<(Vec<[f32; 4]>, f64)> {
         let ctx = self.ctx;
         let pipeline = self.pipeline.as_ref().expect("live probe");
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-        let record = scene_buffers::material_records_of(std::slice::from_ref(self.material));
-        let mat = ctx.create_buffer_with_data("probe_material", &record, storage)?;
-        let inp = match ctx.create_buffer_with_data("probe_inputs", inputs, storage) {
-            Ok(b) => b,
-            Err(e) => {
-                ctx.destroy_buffer(mat);
-                return Err(e);
-            }
-        };
+        let materials = std::slice::from_ref(self.material);
+        let record = scene_buffers::material_records_of(materials);
+        buffers.push(ctx.create_buffer_with_data("probe_material", &record, storage)?);
+        buffers.push(ctx.create_buffer_with_data("probe_inputs", inputs, storage)?);
         // Device memory, read back through a staging copy: written to host memory, the kernel
         // would time PCIe writes on a discrete GPU rather than the BRDF.
-        let out = match ctx.create_buffer(
-            "probe_outputs",
-            (inputs.len() * 16) as u64,
-            storage,
-            MemoryLocation::GpuOnly,
-        ) {
-            Ok(b) => b,
-            Err(e) => {
-                ctx.destroy_buffer(mat);
-                ctx.destroy_buffer(inp);
-                return Err(e);
-            }
+        let bytes = (inputs.len() * 16) as u64;
+        let gpu = MemoryLocation::GpuOnly;
+        buffers.push(ctx.create_buffer("probe_outputs", bytes, storage, gpu)?);
+        let measured = self.material.brdf.measured().is_some();
+        let view = if measured {
+            let texels = scene_buffers::MeasuredTables::of(materials).texels();
+            let usage = vk::BufferUsageFlags::STORAGE_TEXEL_BUFFER;
+            buffers.push(ctx.create_buffer_with_data("probe_table", &texels, usage)?);
+            Some(ctx.create_buffer_view(&buffers[3], vk::Format::R32G32B32A32_SFLOAT)?)
+        } else {
+            None
         };
         let result = (|| {
-            let set = ctx.create_descriptor_set(pipeline, &[&mat, &inp, &out])?;
+            let mut resources: Vec<Resource> = buffers[..3].iter().map(Resource::Buffer).collect();
+            if let Some(v) = view {
+                resources.push(Resource::Texels(&buffers[3], v));
+            }
+            let set = ctx.create_descriptor_set_with(pipeline, &resources)?;
             let mut rec = ctx.begin()?;
             rec.bind(pipeline, set);
             let count = (inputs.len() / 2) as u32;
@@ -88,11 +108,11 @@ impl<'a> Probe<'a> {
             let stamps = ctx.read_timestamps()?;
             let seconds = stamps.last().map(|s| s.1).unwrap_or(0.0)
                 - stamps.first().map(|s| s.1).unwrap_or(0.0);
-            Ok((ctx.download(&out)?, seconds))
+            Ok((ctx.download(&buffers[2])?, seconds))
         })();
-        ctx.destroy_buffer(mat);
-        ctx.destroy_buffer(inp);
-        ctx.destroy_buffer(out);
+        if let Some(v) = view {
+            ctx.destroy_buffer_view(v);
+        }
         result
     }
 }

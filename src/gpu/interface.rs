@@ -168,7 +168,10 @@ fn declaration(b: Binding) -> String {
             format!("layout(std430, {at}) buffer {block} {{ {element} {name}[]; }};")
         }
     };
-    format!("// {}: {about}\n{decl}\n", b.name())
+    match b.condition() {
+        Some(c) => format!("// {}: {about}\n#ifdef {c}\n{decl}\n#endif\n", b.name()),
+        None => format!("// {}: {about}\n{decl}\n", b.name()),
+    }
 }
 
 /// `counter_<name>(…)`: the position of a [`CounterBlock`]'s entry, the formula of

@@ -164,6 +164,9 @@ pub(super) fn create_buffers<'a>(
                 gpu,
             )?,
             Binding::Film | Binding::Film2 => ctx.create_buffer(name, film_bytes, usage, gpu)?,
+            Binding::MeasuredTable => data(bytemuck::cast_slice(
+                &scene_buffers::MeasuredTables::of(&scene.materials).texels(),
+            ))?,
         };
         owned.buffers.push(buffer);
         let view = match b.kind() {

@@ -58,11 +58,13 @@ pub enum Binding {
     Args,
     Film,
     Film2,
+    // Measured materials' tables, read only (declared under MEASURED_TABLE only).
+    MeasuredTable,
 }
 
 impl Binding {
     /// Every binding, in binding-number order.
-    pub const ALL: [Binding; 22] = [
+    pub const ALL: [Binding; 23] = [
         Binding::BvhNodes,
         Binding::BvhPrims,
         Binding::Triangles,
@@ -85,6 +87,7 @@ impl Binding {
         Binding::Args,
         Binding::Film,
         Binding::Film2,
+        Binding::MeasuredTable,
     ];
 
     /// The binding number.
@@ -117,6 +120,7 @@ impl Binding {
             Binding::Args => "args",
             Binding::Film => "film",
             Binding::Film2 => "film2",
+            Binding::MeasuredTable => "measured_table",
         }
     }
 
@@ -129,6 +133,7 @@ impl Binding {
             | Binding::TriAttrs
             | Binding::Materials
             | Binding::Emitters => Kind::ReadImage(F::R32G32B32A32_UINT),
+            Binding::MeasuredTable => Kind::ReadImage(F::R32G32B32A32_SFLOAT),
             Binding::BvhPrims => Kind::ReadImage(F::R32_UINT),
             Binding::Lights => Kind::ReadImage(F::R32G32_UINT),
             Binding::Globals => Kind::Uniform,
@@ -180,6 +185,17 @@ impl Binding {
             Binding::Args => ("args", "indirect dispatch arguments (x, y, z, pad) per `Args` slot"),
             Binding::Film => ("film", "running sums of radiance per pixel, .w the scale exponent k (accumulate.comp)"),
             Binding::Film2 => ("film2", "running sums of radiance² per pixel"),
+            Binding::MeasuredTable => ("measured_table", "one texel per MERL cell of every distinct measured table, (f_r red, green, blue, unused), negative = missing (src/brdf/measured.rs)"),
+        }
+    }
+
+    /// The define under which the binding is declared, for one only some kernels read: a
+    /// scene without measured materials compiles the kernels it compiled before the binding
+    /// existed.
+    pub fn condition(self) -> Option<&'static str> {
+        match self {
+            Binding::MeasuredTable => Some("MEASURED_TABLE"),
+            _ => None,
         }
     }
 

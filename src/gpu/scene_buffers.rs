@@ -84,10 +84,12 @@ pub fn material_records_of(materials: &[Material]) -> Vec<[u32; RECORD_WORDS]> {
 }
 
 fn records(materials: &[Material], queue_slot: &[u32]) -> Vec<[u32; RECORD_WORDS]> {
+    let tables = MeasuredTables::of(materials);
     materials
         .iter()
         .zip(queue_slot)
-        .map(|(m, &slot)| {
+        .zip(&tables.first_texel)
+        .map(|((m, &slot), first)| {
             let mut r = [0u32; RECORD_WORDS];
             r[0] = m.model as u32;
             r[1] = slot;
@@ -95,9 +97,68 @@ fn records(materials: &[Material], queue_slot: &[u32]) -> Vec<[u32; RECORD_WORDS
             for (k, p) in m.brdf.pack().0.iter().enumerate() {
                 r[4 + k] = p.to_bits();
             }
+            // A measured material's p[0].x: its table's first texel (src/brdf/measured.rs).
+            if let Some(t) = first {
+                r[4] = *t;
+            }
             r
         })
         .collect()
+}
+
+/// The distinct measured tables of a set of materials, each uploaded once: materials naming
+/// the same file share its table (`brdf::measured::load_shared`), and a table is told apart by
+/// its canonical path.
+pub struct MeasuredTables {
+    /// The tables in the order the materials first name them.
+    pub tables: Vec<std::sync::Arc<crate::brdf::measured::Shared>>,
+    /// Per material, the first texel of its table in [`MeasuredTables::texels`] (measured
+    /// materials only).
+    pub first_texel: Vec<Option<u32>>,
+}
+
+impl MeasuredTables {
+    pub fn of(materials: &[Material]) -> MeasuredTables {
+        let mut tables: Vec<std::sync::Arc<crate::brdf::measured::Shared>> = Vec::new();
+        let first_texel = materials
+            .iter()
+            .map(|m| {
+                let shared = &m.brdf.measured()?.shared;
+                let k = match tables.iter().position(|t| t.path == shared.path) {
+                    Some(k) => k,
+                    None => {
+                        tables.push(shared.clone());
+                        tables.len() - 1
+                    }
+                };
+                Some((k * crate::measured::merl::CELLS) as u32)
+            })
+            .collect();
+        MeasuredTables {
+            tables,
+            first_texel,
+        }
+    }
+
+    /// One RGBA texel per cell of each table, (red, green, blue, 0), in the file's cell order;
+    /// a single zero texel when there is no table (a buffer cannot be empty).
+    pub fn texels(&self) -> Vec<[f32; 4]> {
+        use crate::measured::merl::CELLS;
+        let mut out = Vec::with_capacity((self.tables.len() * CELLS).max(1));
+        for t in &self.tables {
+            let v = t.table.values();
+            out.extend((0..CELLS).map(|i| [v[i], v[CELLS + i], v[2 * CELLS + i], 0.0]));
+        }
+        if out.is_empty() {
+            out.push([0.0; 4]);
+        }
+        out
+    }
+
+    /// Bytes the tables take on the GPU (0 without measured materials).
+    pub fn gpu_bytes(&self) -> u64 {
+        (self.tables.len() * crate::measured::merl::CELLS * 16) as u64
+    }
 }
 
 pub fn light_data(lights: &LightTable) -> Vec<[u32; 2]> {

@@ -301,6 +301,7 @@ fn materials(
             source,
             material: &name,
             span: table_span.start - at..table_span.end - at,
+            dir: Some(&cx.dir),
         };
         let (mut m, w) = brdf::parse_material(origin, fields)?;
         m.twosided = twosided;

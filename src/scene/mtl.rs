@@ -96,6 +96,7 @@ pub(super) fn mtl_material(
         source: cx.source,
         material: &name,
         span: s.clone(),
+        dir: Some(&cx.dir),
     };
     let (material, warnings) = brdf::parse_material(origin, fields)?;
     cx.warnings.extend(warnings);

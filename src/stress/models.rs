@@ -112,8 +112,40 @@ pub fn random_material_of(model: &str, r: &mut Rng) -> Option<String> {
                 r.range(-360.0, 360.0)
             )
         }
+        "measured" => measured_material(r),
         _ => return None,
     })
+}
+
+/// The analytic materials a stress case's measured table is made from: a broad and a narrow
+/// Ward lobe, a GGX conductor and a diffuse surface (a bounded set, so that the files written
+/// stay few).
+const MEASURED_SOURCES: [&str; 4] = [
+    crate::brdf::measured::FIXTURE_SOURCE,
+    r#"model = "ward", kd = 0.0, ks = 0.9, alpha_x = 0.01, alpha_y = 0.01"#,
+    r#"model = "cook_torrance", kd = 0.0, ks = 1.0, roughness = 0.05, distribution = "ggx", fresnel = "schlick", f0 = [0.95, 0.6, 0.3]"#,
+    r#"model = "lambert", albedo = [0.9, 0.5, 0.1]"#,
+];
+
+/// A measured material whose table is one of [`MEASURED_SOURCES`], as a synthetic MERL file in
+/// the temporary directory (written by the first run that needs it, atomically, and reused:
+/// the writer is deterministic). When the file cannot be written, the material names a missing
+/// file and is refused like any invalid random material.
+fn measured_material(r: &mut Rng) -> String {
+    let k = (r.next_u64() % MEASURED_SOURCES.len() as u64) as usize;
+    let dir = std::env::temp_dir().join("brdfwave-stress-measured");
+    let path = dir.join(format!("measured-{k}.binary"));
+    let size = std::fs::metadata(&path).map(|m| m.len()).ok();
+    if size != Some(crate::measured::merl::FILE_BYTES) && std::fs::create_dir_all(&dir).is_ok() {
+        if let Ok((m, _)) = crate::brdf::inline::parse_inline_from("stress", MEASURED_SOURCES[k]) {
+            let table = crate::measured::merl::MerlTable::from_brdf(m.brdf.as_ref());
+            let _ = table.write(&path);
+        }
+    }
+    format!(
+        r#"model = "measured", file = "{}""#,
+        path.display().to_string().replace('\\', "/")
+    )
 }
 
 /// A unit direction in the upper hemisphere, often extreme: normal incidence, grazing down to

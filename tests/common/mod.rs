@@ -6,6 +6,7 @@ pub mod cli;
 
 use brdfwave::film::Tile;
 use brdfwave::gpu::GpuOptions;
+use brdfwave::metrics;
 use brdfwave::output::RenderOutput;
 use brdfwave::render::{self, Backend, RenderRequest};
 use brdfwave::scene::{self, Scene};
@@ -78,6 +79,30 @@ pub fn render_gpu_wave(ctx: &Context, s: &Scene, wave_paths: u32) -> (RenderOutp
         msgs.join("\n")
     );
     (out, pipelines)
+}
+
+/// Renders `s` on the GPU and on the CPU at the same seed (the two follow the same paths) and
+/// requires 98% of the pixel-channels to agree (2e-3 relative, 1e-4 absolute) and no non-finite
+/// sample on either side; on failure saves `<stem>-gpu.exr`, `<stem>-cpu.exr` and an error map.
+/// Returns the names of the GPU pipelines built.
+pub fn same_seed_parity(s: &Scene, stem: &str) -> Vec<String> {
+    let ctx = context();
+    let (gpu, pipelines) = render_gpu(&ctx, s);
+    let cpu = render_cpu(s);
+    assert_eq!(gpu.nonfinite_samples, 0, "{stem}: GPU non-finite samples");
+    assert_eq!(cpu.nonfinite_samples, 0, "{stem}: CPU non-finite samples");
+    let agree = metrics::fraction_within(&gpu.mean, &cpu.mean, 2e-3, 1e-4).unwrap();
+    if agree.channel_fraction < 0.98 {
+        save(&format!("{stem}-gpu.exr"), &gpu.mean);
+        save(&format!("{stem}-cpu.exr"), &cpu.mean);
+        save(
+            &format!("{stem}-error.png"),
+            &metrics::error_map(&gpu.mean, &cpu.mean).unwrap(),
+        );
+        panic!("{stem}: need 98% of pixel-channels to agree: {agree}");
+    }
+    finish(ctx);
+    pipelines
 }
 
 /// Tear the context down and fail on any validation message, including those raised at device
