@@ -1,7 +1,15 @@
 //! The emitter table both renderers sample for next-event estimation.
 //!
 //! Every emissive primitive is a light; one is chosen with probability proportional to
-//! area × luminance(radiance), then a point uniformly by area on it. With that choice the
+//! area × luminance(radiance), then a point uniformly by area on it. Two consecutive emissive
+//! triangles that split a quad along its diagonal, (v0, v1, v2) and (v0, v2, v3) of one
+//! emitter and of equal area, are one light (entry [`PAIR_BIT`] | the first triangle): its
+//! point takes both numbers of one 2-D sample over the unit square, the half below the diagonal
+//! mapped to the first triangle and the half above to the second, each by a linear map of
+//! determinant one. The square's stratification (a (0,2)-net under the `sobol` sampler) then
+//! covers the whole quad, continuous across the shared diagonal, as Mitsuba 3's `rectangle`
+//! emitter samples its parameter square; choosing one of the two triangles with a separate,
+//! independently padded number would break it. With that choice the
 //! solid-angle density of a light point seen from x is
 //!
 //! p(ω) = lum(Le) / W · d² / |cos θ_light|,  W = Σ area·lum(Le),
@@ -30,6 +38,46 @@ use glam::Vec3;
 /// has only [`SPHERE_BIT`], and no scene has 2^30 spheres). GLSL twin: `DELTA_TAG`.
 pub const DELTA_TAG: u32 = 0xC000_0000;
 
+/// The tag of an entry that is a pair of triangles, `first | PAIR_BIT`, the second triangle
+/// being `first + 1` (see the module's text). GLSL twin: `PAIR_BIT`.
+pub const PAIR_BIT: u32 = 0x4000_0000;
+
+/// The largest relative difference of the two areas for which two triangles are sampled as a
+/// pair. Each gets half the samples, a density 1/(2·A_i) per unit area where the table assumes
+/// 1/(A_1 + A_2): the images are off by at most this fraction, far below f32 rounding of the
+/// radiance sums. A quad's halves computed from f32 vertices differ by about 1e-7.
+pub const PAIR_AREA_TOLERANCE: f64 = 1e-6;
+
+/// Whether triangles `i` and `i + 1` of the scene are sampled as one light: the same emitter,
+/// (v0, v1, v2) and (v0, v2, v3) sharing the diagonal v0–v2, areas within
+/// [`PAIR_AREA_TOLERANCE`], and an index below the tag bits.
+pub fn pairs_with_next(scene: &Scene, i: usize) -> bool {
+    let (Some(a), Some(b)) = (scene.triangles.get(i), scene.triangles.get(i + 1)) else {
+        return false;
+    };
+    let (aa, ab) = (a.area(), b.area());
+    a.emitter.is_some()
+        && a.emitter == b.emitter
+        && i + 1 < PAIR_BIT as usize
+        && a.v[0] == b.v[0]
+        && a.v[2] == b.v[1]
+        && aa > 0.0
+        && (aa - ab).abs() <= PAIR_AREA_TOLERANCE * (aa + ab)
+}
+
+/// How the 2-D sample (u1, u2) of a pair picks its triangle and point: `(second, b1, b2)`, the
+/// barycentric weights of vertices 1 and 2 of the chosen triangle. Below the diagonal
+/// (u2 ≤ u1) the first, (b1, b2) = (u1 − u2, u2); above it the second, (u1, u2 − u1). Both
+/// maps have determinant one, so each triangle is sampled uniformly with probability 1/2.
+/// GLSL twin: the first lines of `sample_triangle_pair_light` (surface.glsl).
+pub fn pair_barycentrics(u1: f32, u2: f32) -> (bool, f32, f32) {
+    if u2 > u1 {
+        (true, u1, u2 - u1)
+    } else {
+        (false, u1 - u2, u2)
+    }
+}
+
 /// A point or directional light as both renderers sample it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DeltaEntry {
@@ -48,7 +96,8 @@ pub use crate::brdf::common::luminance;
 
 #[derive(Clone, Debug, Default)]
 pub struct LightTable {
-    /// Primitive references (triangle index, or sphere index | SPHERE_BIT).
+    /// Primitive references: a triangle index, a pair's first triangle | [`PAIR_BIT`], a sphere
+    /// index | SPHERE_BIT, or a delta light's `DELTA_TAG | k`.
     pub prims: Vec<u32>,
     /// Inclusive CDF over `prims`; the last entry is exactly 1.
     pub cdf: Vec<f32>,
@@ -67,14 +116,23 @@ impl LightTable {
     pub fn build(scene: &Scene) -> LightTable {
         let mut prims = Vec::new();
         let mut weights = Vec::new();
-        for (i, t) in scene.triangles.iter().enumerate() {
+        let mut i = 0;
+        while i < scene.triangles.len() {
+            let t = &scene.triangles[i];
+            let pair = pairs_with_next(scene, i);
             if let Some(e) = t.emitter {
-                let w = t.area() * luminance(scene.emitters[e as usize].radiance) as f64;
+                let area = if pair {
+                    t.area() + scene.triangles[i + 1].area()
+                } else {
+                    t.area()
+                };
+                let w = area * luminance(scene.emitters[e as usize].radiance) as f64;
                 if w > 0.0 {
-                    prims.push(i as u32);
+                    prims.push(if pair { i as u32 | PAIR_BIT } else { i as u32 });
                     weights.push(w);
                 }
             }
+            i += if pair { 2 } else { 1 };
         }
         for (i, s) in scene.spheres.iter().enumerate() {
             if let Some(e) = s.emitter {
@@ -172,6 +230,24 @@ impl LightTable {
         self.prims.is_empty()
     }
 
+    /// Which kinds of area lights the table holds, for the shaders' compile-time choice:
+    /// (single triangles, triangle pairs, spheres).
+    pub fn area_kinds(&self) -> (bool, bool, bool) {
+        let mut k = (false, false, false);
+        for &p in &self.prims {
+            if p & DELTA_TAG == DELTA_TAG {
+                continue;
+            } else if p & SPHERE_BIT != 0 {
+                k.2 = true;
+            } else if p & PAIR_BIT != 0 {
+                k.1 = true;
+            } else {
+                k.0 = true;
+            }
+        }
+        k
+    }
+
     /// Index of the light chosen by `u` in [0, 1): the first entry whose CDF exceeds `u`
     /// (binary search; the GLSL twin runs the same loop).
     pub fn select(&self, u: f32) -> usize {
@@ -223,6 +299,8 @@ mod tests {
         let glsl = include_str!("../shaders/wavefront/surface.glsl");
         let tag = crate::robust::glsl_define(glsl, "surface.glsl", "DELTA_TAG");
         assert_eq!(tag, format!("{DELTA_TAG:#010X}u").replace("0X", "0x"));
+        let pair = crate::robust::glsl_define(glsl, "surface.glsl", "PAIR_BIT");
+        assert_eq!(pair, format!("{PAIR_BIT:#010X}u").replace("0X", "0x"));
     }
 
     /// Weights by power/π: a unit-area emitter of radiance 1 (π), a point light of intensity
@@ -240,11 +318,15 @@ mod tests {
             [[lights]]\ntype = \"directional\"\ndirection = [0, 0, -1]\nirradiance = 0.3333333333333333\n";
         let s = crate::scene::load_str(src, std::path::Path::new("t.toml")).unwrap();
         let t = LightTable::build(&s);
-        assert_eq!(t.prims.len(), 4);
+        assert_eq!(t.prims.len(), 3);
+        assert_eq!(
+            t.prims[0], PAIR_BIT,
+            "the quad's two triangles are one light"
+        );
         assert_eq!(t.delta_base, 1);
-        assert_eq!(t.prims[2], DELTA_TAG | 1);
-        assert_eq!(t.prims[3], DELTA_TAG | 3);
-        let expect = [1.0 / 6.0, 1.0 / 3.0, 2.0 / 3.0, 1.0];
+        assert_eq!(t.prims[1], DELTA_TAG | 1);
+        assert_eq!(t.prims[2], DELTA_TAG | 3);
+        let expect = [1.0 / 3.0, 2.0 / 3.0, 1.0];
         for (c, e) in t.cdf.iter().zip(&expect) {
             assert!((c - e).abs() < 1e-6, "{:?}", t.cdf);
         }
@@ -252,8 +334,64 @@ mod tests {
             assert!((d.select_prob - 1.0 / 3.0).abs() < 1e-6, "{d:?}");
         }
         assert!(t.delta[1].directional && t.delta[1].v == Vec3::Z);
-        assert_eq!(t.delta_at(t.prims[3]), Some(&t.delta[1]));
+        assert_eq!(t.delta_at(t.prims[2]), Some(&t.delta[1]));
         assert_eq!(t.delta_at(t.prims[0]), None);
         assert!((t.select_density[0] - 1.0 / 3.0).abs() < 1e-6);
+    }
+
+    /// The pair map is the parallelogram's bilinear parameterization v0 + u1·(v1 − v0) +
+    /// u2·(v3 − v0) on both halves (continuous across the diagonal, as a rectangle emitter
+    /// samples its parameter square), and gives each triangle half of a uniform grid.
+    #[test]
+    fn a_pair_is_sampled_as_its_parallelogram() {
+        let (v0, v1, v2, v3) = (
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(2.5, 1.0, 0.0),
+            Vec3::new(0.5, 1.0, 0.0),
+        );
+        let n = 64;
+        let mut seconds = 0;
+        for i in 0..n {
+            for j in 0..n {
+                let (u1, u2) = ((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                let (second, b1, b2) = pair_barycentrics(u1, u2);
+                assert!(b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0);
+                let [a, b, c] = if second { [v0, v2, v3] } else { [v0, v1, v2] };
+                let p = a + b1 * (b - a) + b2 * (c - a);
+                let want = v0 + u1 * (v1 - v0) + u2 * (v3 - v0);
+                assert!((p - want).length() < 1e-5, "{u1} {u2}: {p} vs {want}");
+                seconds += second as u32;
+            }
+        }
+        assert_eq!(seconds, n * (n - 1) / 2, "the half above the diagonal");
+    }
+
+    /// Only consecutive emissive triangles of one emitter that share the diagonal and have
+    /// equal areas are paired; the pair carries both areas' weight.
+    #[test]
+    fn only_halves_of_a_quad_are_paired() {
+        let scene = |quad: &str, emission2: &str| {
+            let src = format!(
+                "[camera]\nposition = [0, 0, 5]\ntarget = [0, 0, 0]\nfov_y = 30\n\
+                 [film]\nwidth = 4\nheight = 4\n[materials.m]\nmodel = \"lambert\"\n\
+                 [[shapes]]\nmaterial = \"m\"\nemission = 1\nquads = [{quad}]\n\
+                 [[shapes]]\nmaterial = \"m\"\nemission = {emission2}\n\
+                 triangles = [[[5, 0, 0], [6, 0, 0], [6, 1, 0]], [[5, 0, 0], [6, 1, 0], [5, 1, 0]]]\n"
+            );
+            crate::scene::load_str(&src, std::path::Path::new("t.toml")).unwrap()
+        };
+        // A unit square, then two triangles of the same shape but another emitter... of the
+        // same radiance: the second shape's triangles pair among themselves, not with the quad.
+        let s = scene("[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]", "1");
+        let t = LightTable::build(&s);
+        assert_eq!(t.prims, [PAIR_BIT, 2 | PAIR_BIT]);
+        assert_eq!(t.area_kinds(), (false, true, false));
+        assert!((t.cdf[0] - 0.5).abs() < 1e-6);
+        // A trapezoid's halves differ in area: two single lights.
+        let s = scene("[[0, 0, 0], [2, 0, 0], [1, 1, 0], [0, 1, 0]]", "0");
+        let t = LightTable::build(&s);
+        assert_eq!(t.prims, [0, 1]);
+        assert_eq!(t.area_kinds(), (true, false, false));
     }
 }

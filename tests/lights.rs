@@ -231,3 +231,39 @@ fn light_tables_are_checked() {
         assert!(e.contains(want), "{lights:?}\n  gave: {e}\n  want: {want}");
     }
 }
+
+/// The form factor from a point to the rectangle [0, a] × [0, b] in a parallel plane at height
+/// h, one corner above the point (Howell's catalogue, configuration B-3; e.g. Siegel & Howell,
+/// "Thermal Radiation Heat Transfer"), signed by the quadrant of (a, b).
+fn corner_form_factor(a: f64, b: f64, h: f64) -> f64 {
+    let (x, y) = (a.abs() / h, b.abs() / h);
+    let (sx, sy) = ((1.0 + x * x).sqrt(), (1.0 + y * y).sqrt());
+    let f = (x / sx * (y / sx).atan() + y / sy * (x / sy).atan()) / (2.0 * std::f64::consts::PI);
+    a.signum() * b.signum() * f
+}
+
+/// A square lamp (one quad: two triangles sampled as one light, `lights::PAIR_BIT`) facing
+/// down over the floor, out of the camera's view: every floor pixel has L = ρ · Le · F, F the
+/// point-to-rectangle form factor. Checks that the pair's one 2-D sample covers the quad
+/// uniformly (a wrong split or density would be off by far more than the tolerance), on the CPU
+/// and both GPU integrators.
+#[test]
+fn a_quad_lamp_gives_the_form_factor_irradiance() {
+    let (x0, x1, z0, z1, h) = (1.6f64, 2.6f64, -0.5f64, 0.5f64, 1.0f64);
+    let lamp = format!(
+        "[materials.lamp]\nmodel = \"lambert\"\nalbedo = 0\n\
+         [[shapes]]\nmaterial = \"lamp\"\nemission = [3, 2, 1]\n\
+         quads = [[[{x0}, {h}, {z0}], [{x1}, {h}, {z0}], [{x1}, {h}, {z1}], [{x0}, {h}, {z1}]]]\n"
+    );
+    let mut s = floor_scene("", &lamp);
+    s.integrator.spp = 1024;
+    let lights = brdfwave::lights::LightTable::build(&s);
+    assert_eq!(lights.prims.len(), 1, "the quad is one light");
+    assert_ne!(lights.prims[0] & brdfwave::lights::PAIR_BIT, 0);
+    check(&s, 0.01, |p| {
+        let (px, pz) = (p.x as f64, p.z as f64);
+        let g = |x: f64, z: f64| corner_form_factor(x - px, z - pz, h);
+        let f = g(x1, z1) - g(x0, z1) - g(x1, z0) + g(x0, z0);
+        ALBEDO * Vec3::new(3.0, 2.0, 1.0) * f as f32
+    });
+}

@@ -148,14 +148,11 @@ LightSample sample_sphere_light(uint i, float u1, float u2) {
     return ls;
 }
 
-LightSample sample_triangle_light(uint prim, float u1, float u2) {
+// A point at barycentric weights (b1, b2) of emissive triangle `prim`.
+LightSample triangle_light_at(uint prim, float b1, float b2) {
     LightSample ls;
     vec4 a, b, c;
     triangle_texels(prim, a, b, c);
-    float su = sqrt(u1);
-    float b0 = 1.0 - su;
-    float b1 = u2 * su;
-    float b2 = 1.0 - b0 - b1;
     triangle_point(a.xyz, b.xyz, c.xyz, b1, b2, ls.p, ls.p_err);
     ls.n = triangle_normal(a.xyz, b.xyz, c.xyz);
     ls.radiance = emitter(floatBitsToUint(b.w)).xyz;
@@ -163,20 +160,47 @@ LightSample sample_triangle_light(uint prim, float u1, float u2) {
     return ls;
 }
 
+LightSample sample_triangle_light(uint prim, float u1, float u2) {
+    float su = sqrt(u1);
+    float b0 = 1.0 - su;
+    float b1 = u2 * su;
+    return triangle_light_at(prim, b1, 1.0 - b0 - b1);
+}
+
+// A pair of triangles (v0, v1, v2), (v0, v2, v3) sampled as one light by one 2-D sample
+// (src/lights.rs): the half of the unit square below the diagonal (u2 <= u1) maps to the first
+// triangle, (b1, b2) = (u1 - u2, u2), the half above to the second, (u1, u2 - u1). Rust twin:
+// lights::pair_barycentrics.
+#define PAIR_BIT 0x40000000u
+
+LightSample sample_triangle_pair_light(uint first, float u1, float u2) {
+    bool second = u2 > u1;
+    float b1 = second ? u1 : u1 - u2;
+    float b2 = second ? u2 - u1 : u2;
+    return triangle_light_at(first + (second ? 1u : 0u), b1, b2);
+}
+
 // A point on an emitter: only the kinds of emitters the scene has are compiled in
-// (LIGHT_SPHERES, LIGHT_TRIANGLES; both when neither is defined).
-#if !defined(LIGHT_SPHERES) && !defined(LIGHT_TRIANGLES)
+// (LIGHT_SPHERES, LIGHT_TRIANGLES, LIGHT_TRIANGLE_PAIRS; all three when none is defined).
+// Delta-light entries never reach it (scatter.glsl tests DELTA_TAG first).
+#if !defined(LIGHT_SPHERES) && !defined(LIGHT_TRIANGLES) && !defined(LIGHT_TRIANGLE_PAIRS)
 #define LIGHT_SPHERES
 #define LIGHT_TRIANGLES
+#define LIGHT_TRIANGLE_PAIRS
 #endif
 LightSample sample_light(float u_sel, float u1, float u2) {
     uint prim = light_entry(select_light(u_sel)).x;
-#if defined(LIGHT_SPHERES) && defined(LIGHT_TRIANGLES)
+#if defined(LIGHT_SPHERES) && (defined(LIGHT_TRIANGLES) || defined(LIGHT_TRIANGLE_PAIRS))
     if ((prim & SPHERE_BIT) != 0u) return sample_sphere_light(prim & ~SPHERE_BIT, u1, u2);
-    return sample_triangle_light(prim, u1, u2);
 #elif defined(LIGHT_SPHERES)
     return sample_sphere_light(prim & ~SPHERE_BIT, u1, u2);
-#else
+#endif
+#if defined(LIGHT_TRIANGLE_PAIRS) && defined(LIGHT_TRIANGLES)
+    if ((prim & PAIR_BIT) != 0u) return sample_triangle_pair_light(prim & ~PAIR_BIT, u1, u2);
+    return sample_triangle_light(prim, u1, u2);
+#elif defined(LIGHT_TRIANGLE_PAIRS)
+    return sample_triangle_pair_light(prim & ~PAIR_BIT, u1, u2);
+#elif defined(LIGHT_TRIANGLES)
     return sample_triangle_light(prim, u1, u2);
 #endif
 }

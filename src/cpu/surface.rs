@@ -2,7 +2,7 @@
 //! GLSL twin: `shaders/wavefront/surface.glsl` (surfaces and light sampling).
 
 use crate::bvh::{Hit, SPHERE_BIT};
-use crate::lights::{DeltaEntry, LightTable};
+use crate::lights::{pair_barycentrics, DeltaEntry, LightTable, PAIR_BIT};
 use crate::robust::{pull_inside, sphere_point, triangle_point};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
@@ -152,7 +152,8 @@ pub struct LightSample {
     pub density: f32,
 }
 
-/// Choose an emissive primitive by power and a point uniformly by area on it.
+/// Choose an emissive primitive by power and a point uniformly by area on it (a pair of
+/// triangles by one 2-D sample over both, [`pair_barycentrics`]).
 pub fn sample_light(
     scene: &Scene,
     lights: &LightTable,
@@ -177,11 +178,16 @@ pub fn sample_light(
             density: lights.select_density[e as usize],
         }
     } else {
-        let t = &scene.triangles[prim as usize];
-        let su = u1.sqrt();
-        let b0 = 1.0 - su;
-        let b1 = u2 * su;
-        let b2 = 1.0 - b0 - b1;
+        let (t, b1, b2) = if prim & PAIR_BIT != 0 {
+            let (second, b1, b2) = pair_barycentrics(u1, u2);
+            let first = (prim & !PAIR_BIT) as usize;
+            (&scene.triangles[first + second as usize], b1, b2)
+        } else {
+            let su = u1.sqrt();
+            let b0 = 1.0 - su;
+            let b1 = u2 * su;
+            (&scene.triangles[prim as usize], b1, 1.0 - b0 - b1)
+        };
         let e = t.emitter.expect("light table holds emitters only");
         let (p, p_err) = triangle_point(&t.v, b1, b2);
         LightSample {

@@ -381,7 +381,8 @@ pub(super) fn build_kernels<'a>(
 }
 
 /// The `#define`s that compile in only what the scene has: the primitive kinds (BVH_TRIANGLES,
-/// BVH_SPHERES), the emitter kinds (LIGHT_TRIANGLES, LIGHT_SPHERES), per-vertex shading normals
+/// BVH_SPHERES), the kinds of light-table entries (LIGHT_TRIANGLES, LIGHT_TRIANGLE_PAIRS,
+/// LIGHT_SPHERES: src/lights.rs), per-vertex shading normals
 /// and texture coordinates (SCENE_SHADING_NORMALS, SCENE_UVS), point and directional lights
 /// (SCENE_DELTA_LIGHTS), two-sided materials (SCENE_TWOSIDED), Russian roulette
 /// (RUSSIAN_ROULETTE). On lavapipe both sides of every branch run for all lanes, so code for
@@ -394,12 +395,14 @@ pub fn scene_features(scene: &Scene) -> Vec<&'static str> {
     if !scene.spheres.is_empty() {
         f.push("BVH_SPHERES");
     }
-    let lit_tris = scene.triangles.iter().any(|t| t.emitter.is_some());
-    let lit_spheres = scene.spheres.iter().any(|s| s.emitter.is_some());
-    if lit_tris || !lit_spheres {
+    let (single, pairs, spheres) = crate::lights::LightTable::build(scene).area_kinds();
+    if single || !(pairs || spheres) {
         f.push("LIGHT_TRIANGLES");
     }
-    if lit_spheres {
+    if pairs {
+        f.push("LIGHT_TRIANGLE_PAIRS");
+    }
+    if spheres {
         f.push("LIGHT_SPHERES");
     }
     if scene.triangles.iter().any(|t| t.n.is_some()) {
@@ -458,7 +461,8 @@ mod tests {
         };
         assert_eq!(
             scene_features(&load("cornell-box.toml")),
-            ["BVH_TRIANGLES", "LIGHT_TRIANGLES"]
+            ["BVH_TRIANGLES", "LIGHT_TRIANGLE_PAIRS"],
+            "the light quad is one pair of triangles"
         );
         let lineup = scene_features(&load("lineup.toml"));
         assert!(lineup.contains(&"BVH_SPHERES"), "{lineup:?}");
