@@ -1,7 +1,12 @@
 //! brdfwave: a Vulkan compute wavefront path tracer and an independent CPU reference renderer
 //! for comparing the surface models of the survey "Physically correct surface models".
 //!
+//! For callers, [`api`] is the entry point: `Scene::load(path)`, then
+//! `api::render(&scene, &Options)` gives the image and its statistics (README.md, "Using
+//! brdfwave as a library"; `examples/render_scene.rs`).
+//!
 //! Where to find things:
+//! * `api` — the library entry point above, over `scene` and `render`;
 //! * `scene` — scene format and loader (`scenes/README.md` documents the TOML);
 //!   `overrides` — `render --set KEY=VALUE`, edits of the scene document before its checks;
 //! * `brdf` — one file per reflectance model (GLSL twins in `shaders/brdf/`);
@@ -48,6 +53,7 @@ macro_rules! eprint {
     }};
 }
 
+pub mod api;
 pub mod bench;
 pub mod brdf;
 pub mod brdf_tools;
