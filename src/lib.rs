@@ -33,7 +33,9 @@
 //! * `outfile` — the atomic writer of every file, and the up-front checks of output paths;
 //! * `hash` — the stable hash (FNV-1a) of cache keys and of the scene hash of partial films;
 //! * `errors` — how errors read on the command line;
-//! * `bench`, `plot` — `brdfwave bench`: run time against error, and its log-log chart
+//! * `plot` — the figures (`plotters`, SVG or PNG with the embedded DejaVu Sans, each with its
+//!   data as CSV): line charts, polar plots, heat maps with colour bars, and `brdf plot`'s;
+//! * `bench` — `brdfwave bench`: run time against error, and its log-log chart
 //!   (`src/bench/`: the run in `mod.rs`, and `config`, `runner`, `mitsuba` (the Mitsuba 3
 //!   peer), `reference`, `tables` (bench.md's summary), `scaling`).
 
