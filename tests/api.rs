@@ -68,9 +68,7 @@ fn the_gpu_api_renders_the_cli_image() {
 /// Bad options are refused with the option's name, not a panic; a missing scene names its file.
 #[test]
 fn bad_options_and_files_are_errors() {
-    let e = Scene::load("no/such/scene.toml")
-        .err()
-        .expect("missing file");
+    let e = Scene::load("no/such/scene.toml").expect_err("missing file");
     assert!(format!("{e:#}").contains("no/such/scene.toml"), "{e:#}");
     let scene = Scene::load(common::repo().join("scenes/cornell-box.toml")).unwrap();
     let zero = Options {
