@@ -94,7 +94,16 @@ fn every_kind_writes_png_svg_and_the_brdf_values_as_csv() {
                 }
             }
             match ext {
-                "png" => check_png(&out),
+                "png" => {
+                    check_png(&out);
+                    let size = image::image_dimensions(&out).unwrap();
+                    let want = if matches!(kind, "polar" | "albedo") {
+                        (960, 600)
+                    } else {
+                        (980, 480)
+                    };
+                    assert_eq!(size, want, "{kind}");
+                }
                 _ => check_svg(&out, kind),
             }
         }
@@ -105,7 +114,7 @@ fn every_kind_writes_png_svg_and_the_brdf_values_as_csv() {
 fn check_png(path: &Path) {
     let img = image::open(path).unwrap().to_rgb8();
     assert!(
-        img.width() >= 900 && img.height() >= 450,
+        img.width() >= 500 && img.height() >= 450,
         "{:?}",
         img.dimensions()
     );
@@ -179,4 +188,81 @@ fn bad_kinds_extensions_and_scales_are_clear_errors() {
     let e = err("polar", "a.png", &["--scale", "ln"]);
     assert!(e.contains("unknown scale 'ln'"), "{e}");
     assert!(!dir.path().join("a.jpg").exists() && !dir.path().join("a.csv").exists());
+}
+
+/// Renders the Cornell box on the CPU at 24x20, 2 spp, with `seed`, into `path`.
+fn render(path: &Path, seed: &str) {
+    let o = Command::new(env!("CARGO_BIN_EXE_brdfwave"))
+        .args(["render", "scenes/cornell-box.toml", "--backend", "cpu"])
+        .args([
+            "--res", "24x20", "--spp", "2", "--seed", seed, "--quiet", "--out",
+        ])
+        .arg(path)
+        .current_dir(common::repo())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+/// `diff --error-map FILE.png|svg` and `--triptych` draw the FLIP map with its colour bar; the
+/// CSV beside holds the FLIP value of every pixel, as `brdfwave::metrics::flip_map` computes it.
+#[test]
+fn the_error_map_and_triptych_are_figures_with_the_flip_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a.exr"), dir.path().join("b.exr"));
+    render(&a, "1");
+    render(&b, "2");
+    let (map_png, map_svg, tri) = (
+        dir.path().join("map.png"),
+        dir.path().join("map.svg"),
+        dir.path().join("tri.png"),
+    );
+    let o = Command::new(env!("CARGO_BIN_EXE_brdfwave"))
+        .arg("diff")
+        .args([&a, &b])
+        .arg("--error-map")
+        .arg(&map_png)
+        .arg("--triptych")
+        .arg(&tri)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (ia, ib) = (
+        brdfwave::imageio::read(&a).unwrap(),
+        brdfwave::imageio::read(&b).unwrap(),
+    );
+    let flip = brdfwave::metrics::flip_map(&ia, &ib).unwrap();
+    for p in [&map_png, &tri] {
+        let (_, rows) = csv(&p.with_extension("csv"));
+        assert_eq!(rows.len(), 24 * 20);
+        for (r, &f) in rows.iter().zip(&flip) {
+            assert_eq!(r[2] as f32, f, "{r:?}");
+        }
+        check_png(p);
+    }
+    // The triptych is three panels and the colour bar wide.
+    let wide = image::open(&tri).unwrap().width();
+    assert!(wide > 2 * image::open(&map_png).unwrap().width(), "{wide}");
+    let o = Command::new(env!("CARGO_BIN_EXE_brdfwave"))
+        .arg("diff")
+        .args([&a, &b])
+        .arg("--error-map")
+        .arg(&map_svg)
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    let svg = std::fs::read_to_string(&map_svg).unwrap();
+    assert!(svg.contains("FLIP error") && svg.contains("x (pixels)"));
+    let o = Command::new(env!("CARGO_BIN_EXE_brdfwave"))
+        .arg("diff")
+        .args([&a, &b])
+        .arg("--triptych")
+        .arg(dir.path().join("tri.exr"))
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && e.contains("--triptych") && e.contains("unknown extension"),
+        "{e}"
+    );
 }

@@ -66,6 +66,13 @@ pub fn number(v: f64) -> String {
     }
 }
 
+/// The caption's font size: 22, smaller for a title too long for the width (down to 11).
+fn title_size<DB: DrawingBackend>(title: &str, area: &DrawingArea<DB, Shift>) -> u32 {
+    let chars = title.chars().count().max(1) as u32;
+    // DejaVu Sans averages about 0.55 em per character.
+    (area.dim_in_pixel().0 * 9 / (5 * chars)).clamp(11, 22)
+}
+
 /// The drawable points of a series on these scales.
 fn drawable(s: &Series, x: Scale, y: Scale) -> Vec<(f64, f64)> {
     let ok = |v: f64, sc: Scale| v.is_finite() && (sc == Scale::Linear || v > 0.0);
@@ -141,7 +148,7 @@ where
     Y::CoordDescType: ValueFormatter<f64>,
 {
     let mut chart = ChartBuilder::on(root)
-        .caption(&c.title, (FAMILY, 22))
+        .caption(&c.title, (FAMILY, title_size(&c.title, root)))
         .margin(16)
         .x_label_area_size(50)
         .y_label_area_size(80)
