@@ -1,7 +1,12 @@
 //! brdfwave: a Vulkan compute wavefront path tracer and an independent CPU reference renderer
 //! for comparing the surface models of the survey "Physically correct surface models".
 //!
+//! For callers, [`api`] is the entry point: `Scene::load(path)`, then
+//! `api::render(&scene, &Options)` gives the image and its statistics (README.md, "Using
+//! brdfwave as a library"; `examples/render_scene.rs`).
+//!
 //! Where to find things:
+//! * `api` — the library entry point above, over `scene` and `render`;
 //! * `scene` — scene format and loader (`scenes/README.md` documents the TOML);
 //!   `overrides` — `render --set KEY=VALUE`, edits of the scene document before its checks;
 //! * `brdf` — one file per reflectance model (GLSL twins in `shaders/brdf/`);
@@ -28,7 +33,9 @@
 //! * `outfile` — the atomic writer of every file, and the up-front checks of output paths;
 //! * `hash` — the stable hash (FNV-1a) of cache keys and of the scene hash of partial films;
 //! * `errors` — how errors read on the command line;
-//! * `bench`, `plot` — `brdfwave bench`: run time against error, and its log-log chart
+//! * `plot` — the figures (`plotters`, SVG or PNG with the embedded DejaVu Sans, each with its
+//!   data as CSV): line charts, polar plots, heat maps with colour bars, and `brdf plot`'s;
+//! * `bench` — `brdfwave bench`: run time against error, and its log-log chart
 //!   (`src/bench/`: the run in `mod.rs`, and `config`, `runner`, `mitsuba` (the Mitsuba 3
 //!   peer), `reference`, `tables` (bench.md's summary), `scaling`).
 
@@ -48,6 +55,7 @@ macro_rules! eprint {
     }};
 }
 
+pub mod api;
 pub mod bench;
 pub mod brdf;
 pub mod brdf_tools;

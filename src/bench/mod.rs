@@ -429,7 +429,23 @@ fn write_csv(o: &BenchOptions, records: &[PassRecord]) -> Result<()> {
     Ok(())
 }
 
-/// `bench.png`: relMSE against render time, log-log, one curve per configuration.
+/// The machine, in words: the CPU's model name and its hardware threads.
+fn machine() -> String {
+    let model = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split_once(':'))
+                .map(|(_, m)| m.trim().to_string())
+        })
+        .unwrap_or_else(|| std::env::consts::ARCH.to_string());
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    format!("{model}, {threads} threads")
+}
+
+/// `bench.png`: relMSE against render time, log-log, one curve per configuration, titled with
+/// the machine and the Vulkan device.
 fn write_plot(
     o: &BenchOptions,
     sc: &Scene,
@@ -447,16 +463,40 @@ fn write_plot(
                 .collect(),
         })
         .collect();
+    // The machine and the Vulkan device (for lavapipe its LLVM version) the times were taken on.
+    let devices: Vec<&str> = details
+        .iter()
+        .map(|(_, d)| d.device.as_str())
+        .filter(|d| !d.is_empty())
+        .fold(Vec::new(), |mut v, d| {
+            if !v.contains(&d) {
+                v.push(d);
+            }
+            v
+        });
     let title = format!(
-        "{} {}x{}, max depth {}: relMSE against render time",
+        "{} {}x{}, max depth {}: relMSE against time; {}; {}",
         o.scene.file_name().and_then(|s| s.to_str()).unwrap_or(""),
         sc.width,
         sc.height,
-        sc.integrator.max_depth
+        sc.integrator.max_depth,
+        machine(),
+        devices.join(", ")
     );
-    let img = plot::log_log(&title, "seconds", "relMSE", &series);
-    let mut png = Vec::new();
-    img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
-    crate::outfile::write(&o.out.join("bench.png"), &png)?;
+    let chart = plot::LineChart {
+        title,
+        x_label: "render time (s)".into(),
+        y_label: "relMSE".into(),
+        x_scale: plot::Scale::Log,
+        y_scale: plot::Scale::Log,
+        x_range: None,
+        series,
+    };
+    // Its data is bench.csv, beside it (every pass's seconds and relMSE, written above).
+    plot::write_figure(
+        &o.out.join("bench.png"),
+        "bench.png",
+        &plot::Figure::Lines(chart),
+    )?;
     Ok(())
 }

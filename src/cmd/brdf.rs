@@ -6,7 +6,6 @@ use anyhow::{bail, Context as _, Result};
 use brdfwave::brdf::inline::parse_inline;
 use brdfwave::brdf_tools as tools;
 use brdfwave::{
-    imageio,
     outfile::{self, Output},
     vk,
 };
@@ -35,15 +34,28 @@ pub enum BrdfCommand {
         #[arg(long, value_parser = parse_device)]
         device: Option<String>,
     },
-    /// Plot the lobe: polar plot of f·cosθo in the plane of incidence and a hemisphere image.
+    /// Plot materials, overlaid with a legend: the polar plot in the plane of incidence, the
+    /// θh×θd slice, the albedo against θi, or the hemisphere image; the data goes beside the
+    /// plot as CSV (same stem, .csv).
     Plot {
-        /// The material as an inline TOML table, as for `brdf eval`.
-        #[arg(long)]
-        material: String,
-        /// Angle of incidence in degrees, in [0, 90).
-        #[arg(long, allow_hyphen_values = true)]
+        /// A material as an inline TOML table, as for `brdf eval`; may be given several times
+        /// (one curve or panel each).
+        #[arg(long, required = true)]
+        material: Vec<String>,
+        /// What to draw: `polar` (f in the plane of incidence), `slice` (f over θh×θd at
+        /// φd = 90°, the BRDF Explorer's image slice), `albedo` (against θi) or `hemisphere`
+        /// (f·cosθo over the directions seen from above).
+        #[arg(long, value_enum, default_value = "polar")]
+        kind: PlotKind,
+        /// Angle of incidence in degrees, in [0, 90) (polar and hemisphere plots).
+        #[arg(long, allow_hyphen_values = true, default_value = "45")]
         theta_i: f32,
-        /// Output image: .png (as drawn, sRGB), .exr or .pfm (the same colours, linear).
+        /// Value scale: `lin` or `log` (default: lin for polar and albedo, log for slice and
+        /// hemisphere).
+        #[arg(long, value_parser = brdfwave::plot::Scale::parse)]
+        scale: Option<brdfwave::plot::Scale>,
+        /// Output: .svg or .png; .exr or .pfm for the drawn picture as linear values. Missing
+        /// directories are created.
         #[arg(long)]
         out: PathBuf,
     },
@@ -86,9 +98,11 @@ pub fn run(cmd: BrdfCommand) -> Result<()> {
         } => eval(&material, &dirs, backend, out.as_deref(), device),
         BrdfCommand::Plot {
             material,
+            kind,
             theta_i,
+            scale,
             out,
-        } => plot(&material, theta_i, &out),
+        } => plot(&material, kind, theta_i, scale, &out),
         BrdfCommand::Report {
             out,
             no_gpu,
@@ -152,19 +166,61 @@ fn eval(
     Ok(())
 }
 
-/// `brdf plot`: the lobe at one angle of incidence.
-fn plot(material: &str, theta_i: f32, out: &Path) -> Result<()> {
+/// What `brdf plot` draws.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum PlotKind {
+    Polar,
+    Slice,
+    Albedo,
+    Hemisphere,
+}
+
+/// `brdf plot`: the materials overlaid in one figure, and its data as CSV.
+fn plot(
+    materials: &[String],
+    kind: PlotKind,
+    theta_i: f32,
+    scale: Option<brdfwave::plot::Scale>,
+    out: &Path,
+) -> Result<()> {
+    use brdfwave::plot::{self, lobe, Scale};
     if !(0.0..90.0).contains(&theta_i) {
         bail!("--theta-i must be in [0, 90) degrees, got {theta_i}");
     }
-    imageio::Format::from_path(out).context("--out")?;
-    outfile::prepare(&[Output {
-        option: "--out",
-        path: out,
-    }])?;
-    let m = parse_inline(material)?;
-    tools::write_plot(out, &tools::plot_lobe(m.brdf.as_ref(), theta_i))?;
-    outln!("wrote {}", out.display())?;
+    plot::Format::of(out, "--out")?;
+    let csv = plot::csv_path(out);
+    outfile::prepare(&[
+        Output {
+            option: "--out",
+            path: out,
+        },
+        Output {
+            option: "--out (its CSV)",
+            path: &csv,
+        },
+    ])?;
+    let parsed = materials
+        .iter()
+        .enumerate()
+        .map(|(k, m)| parse_inline(m).with_context(|| format!("--material {}", k + 1)))
+        .collect::<Result<Vec<_>>>()?;
+    let plotted: Vec<lobe::Plotted> = materials
+        .iter()
+        .zip(&parsed)
+        .map(|(label, m)| lobe::Plotted {
+            label: label.replace('"', ""),
+            brdf: m.brdf.as_ref(),
+        })
+        .collect();
+    let t = theta_i as f64;
+    let (figure, data) = match kind {
+        PlotKind::Polar => lobe::polar(&plotted, t, scale.unwrap_or(Scale::Linear)),
+        PlotKind::Slice => lobe::slice(&plotted, scale.unwrap_or(Scale::Log)),
+        PlotKind::Albedo => lobe::albedo(&plotted, scale.unwrap_or(Scale::Linear)),
+        PlotKind::Hemisphere => lobe::hemisphere(&plotted, t, scale.unwrap_or(Scale::Log)),
+    };
+    plot::write(out, "--out", &figure, &data)?;
+    outln!("wrote {} and {}", out.display(), csv.display())?;
     Ok(())
 }
 

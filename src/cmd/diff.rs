@@ -7,6 +7,7 @@ use brdfwave::{
     imageio::{self, Image, Layered, Provenance},
     metrics::{self, Metric, Threshold, VarianceModel, ZTestOptions, ZTestReport},
     outfile::{self, Output},
+    plot,
 };
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -17,9 +18,15 @@ pub struct DiffArgs {
     test: PathBuf,
     /// The reference image, the same size.
     reference: PathBuf,
-    /// Write an error map image.
+    /// Write the error map (the per-pixel FLIP error): .svg or .png draw it with axes and a
+    /// colour bar labelled with its range, its values going beside it as CSV (same stem,
+    /// .csv); .exr or .pfm hold the colour-mapped pixels only, at the image's size.
     #[arg(long, value_name = "FILE")]
     error_map: Option<PathBuf>,
+    /// Write the test image, the reference and the error map side by side (.svg or .png), with
+    /// the error's colour bar; the error values go beside it as CSV.
+    #[arg(long, value_name = "FILE")]
+    triptych: Option<PathBuf>,
     /// Print the metrics as one JSON object on stdout.
     #[arg(long)]
     json: bool,
@@ -101,9 +108,18 @@ fn parse_alpha(s: &str) -> std::result::Result<f64, String> {
 /// The images the command may write, each checked before anything is computed.
 fn prepare_outputs(a: &DiffArgs) -> Result<()> {
     let mut planned = Vec::new();
-    for (option, path) in [("--error-map", &a.error_map), ("--p-map", &a.p_map)] {
+    let mut csvs = Vec::new();
+    for (option, path) in [
+        ("--error-map", &a.error_map),
+        ("--p-map", &a.p_map),
+        ("--triptych", &a.triptych),
+    ] {
         let Some(p) = path else { continue };
-        imageio::Format::from_path(p).context(option)?;
+        if is_figure(option, p)? {
+            csvs.push((option, plot::csv_path(p)));
+        } else {
+            imageio::Format::from_path(p).context(option)?;
+        }
         for (name, input) in [("TEST", &a.test), ("REFERENCE", &a.reference)] {
             if outfile::resolve(p) == outfile::resolve(input) {
                 bail!(
@@ -116,8 +132,83 @@ fn prepare_outputs(a: &DiffArgs) -> Result<()> {
         }
         planned.push(Output { option, path: p });
     }
+    planned.extend(csvs.iter().map(|(option, path)| Output { option, path }));
     outfile::prepare(&planned)?;
     Ok(())
+}
+
+/// Whether `path` of `option` is a drawn figure (.svg, .png: the error map and the triptych)
+/// rather than an image of the pixels (the error map's .exr and .pfm, the p-value map).
+fn is_figure(option: &str, path: &Path) -> Result<bool> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    match option {
+        "--triptych" => {
+            if !matches!(ext.as_str(), "svg" | "png") {
+                bail!(
+                    "--triptych {}: unknown extension '.{ext}': the triptych is .svg or .png",
+                    path.display()
+                );
+            }
+            Ok(true)
+        }
+        "--error-map" => Ok(matches!(ext.as_str(), "svg" | "png")),
+        _ => Ok(false),
+    }
+}
+
+/// The error map figure: the FLIP error per pixel, with the test and reference images before
+/// it for the triptych; and its CSV (x, y from the top-left, flip).
+fn error_figure(
+    test: &Image,
+    reference: &Image,
+    flip: &[f32],
+    triptych: bool,
+) -> (plot::Figure, String) {
+    let (w, h) = (test.width as usize, test.height as usize);
+    let (lo, hi) = flip
+        .iter()
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    let mut panels = Vec::new();
+    if triptych {
+        for (label, img) in [("test", test), ("reference", reference)] {
+            let srgb = img.to_srgb8();
+            panels.push(plot::Panel {
+                label: label.into(),
+                width: w,
+                height: h,
+                pixels: plot::Pixels::Rgb(
+                    srgb.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+                ),
+            });
+        }
+    }
+    panels.push(plot::Panel {
+        label: format!("FLIP error, {lo:.4} to {hi:.4}"),
+        width: w,
+        height: h,
+        pixels: plot::Pixels::Values(flip.iter().map(|&v| v as f64).collect()),
+    });
+    let mut csv = String::from("x,y,flip\n");
+    for (i, v) in flip.iter().enumerate() {
+        csv.push_str(&format!("{},{},{v}\n", i % w, i / w));
+    }
+    let figure = plot::Figure::Heat(plot::HeatMap {
+        title: "Error map: LDR-FLIP (Andersson et al., 2020)".into(),
+        x_label: "x (pixels)".into(),
+        y_label: "y (pixels, from the bottom)".into(),
+        x_range: (0.0, w as f64),
+        y_range: (0.0, h as f64),
+        value_label: "FLIP error".into(),
+        scale: plot::Scale::Linear,
+        panels,
+    });
+    (figure, csv)
 }
 
 pub fn run(a: DiffArgs) -> Result<()> {
@@ -153,7 +244,17 @@ pub fn run(a: DiffArgs) -> Result<()> {
         None
     };
     if let Some(p) = &a.error_map {
-        imageio::write(p, &metrics::error_map(test, reference)?)?;
+        if is_figure("--error-map", p)? {
+            let (fig, csv) =
+                error_figure(test, reference, &metrics::flip_map(test, reference)?, false);
+            plot::write(p, "--error-map", &fig, &csv)?;
+        } else {
+            imageio::write(p, &metrics::error_map(test, reference)?)?;
+        }
+    }
+    if let Some(p) = &a.triptych {
+        let (fig, csv) = error_figure(test, reference, &metrics::flip_map(test, reference)?, true);
+        plot::write(p, "--triptych", &fig, &csv)?;
     }
     if let (Some(p), Some(z)) = (&a.p_map, &z) {
         imageio::write(p, &z.p_map)?;

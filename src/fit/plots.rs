@@ -5,7 +5,7 @@ use super::ModelFit;
 use crate::brdf::Brdf;
 use crate::lights::luminance;
 use crate::measured::merl::{self, MerlTable, PHI_D, THETA_D, THETA_H};
-use crate::plot::{self, Series};
+use crate::plot::{self, Figure, HeatMap, LineChart, Panel, Pixels, Scale, Series};
 use glam::Vec3;
 use image::{Rgb, RgbImage};
 
@@ -45,15 +45,16 @@ pub fn incidence(table: &MerlTable, fit: &ModelFit) -> RgbImage {
                     points: incidence_curve(|a, b| fit.brdf.eval(a, b), ti),
                 },
             ];
-            plot::lin_log(
-                &format!(
-                    "plane of incidence, theta_i = {ti} deg (mirror direction at theta_o = -{ti})"
-                ),
-                "theta_o (deg)",
-                "luminance of f_r (1/sr)",
-                (-90.0, 90.0, 30.0),
-                &series,
-            )
+            let chart = LineChart {
+                title: format!("plane of incidence, θi = {ti}° (mirror direction at θo = −{ti}°)"),
+                x_label: "θo (degrees)".into(),
+                y_label: "luminance of f (1/sr)".into(),
+                x_scale: Scale::Linear,
+                y_scale: Scale::Log,
+                x_range: Some((-90.0, 90.0)),
+                series: series.to_vec(),
+            };
+            plot::render_rgb(&Figure::Lines(chart)).expect("a line chart draws into a bitmap")
         })
         .collect();
     let (w, h) = (panels[0].width(), panels[0].height());
@@ -121,56 +122,40 @@ fn diverging(t: f32) -> Rgb<u8> {
 /// peak), one panel per φd of [`SLICES`], coloured by the signed cube-root error on the scale
 /// ±`scale`; grey outside the domain.
 pub fn error_slices(table: &MerlTable, fit: &ModelFit, max_theta_deg: f32, scale: f32) -> RgbImage {
-    const CELL: u32 = 3;
-    const MARGIN: u32 = 40;
-    let (pw, ph) = (THETA_D as u32 * CELL, THETA_H as u32 * CELL);
-    let w = MARGIN + SLICES.len() as u32 * (pw + MARGIN);
-    let h = ph + 3 * MARGIN;
-    let mut img = RgbImage::from_pixel(w, h, Rgb([255, 255, 255]));
-    let black = Rgb([0, 0, 0]);
     let scale = scale.max(1e-6);
-    for (k, &ip) in SLICES.iter().enumerate() {
-        let x0 = MARGIN + k as u32 * (pw + MARGIN);
-        let y0 = 2 * MARGIN;
-        for ih in 0..THETA_H {
-            for id in 0..THETA_D {
-                let c = match cell_error(table, fit.brdf.as_ref(), (ih, id, ip), max_theta_deg) {
-                    Some(e) => diverging(e / scale),
-                    None => Rgb([190, 190, 190]),
-                };
-                for dy in 0..CELL {
-                    for dx in 0..CELL {
-                        let y = y0 + ph - 1 - (ih as u32 * CELL + dy);
-                        img.put_pixel(x0 + id as u32 * CELL + dx, y, c);
+    let panels = SLICES
+        .iter()
+        .map(|&ip| {
+            // Row 0 at the top: the largest θh index.
+            let pixels = (0..THETA_H * THETA_D)
+                .map(|i| {
+                    let (ih, id) = (THETA_H - 1 - i / THETA_D, i % THETA_D);
+                    match cell_error(table, fit.brdf.as_ref(), (ih, id, ip), max_theta_deg) {
+                        Some(e) => diverging(e / scale).0,
+                        None => [190, 190, 190],
                     }
-                }
+                })
+                .collect();
+            Panel {
+                label: format!("φd = {}°", (ip as f32 + 0.5) * 180.0 / PHI_D as f32),
+                width: THETA_D,
+                height: THETA_H,
+                pixels: Pixels::Rgb(pixels),
             }
-        }
-        let phi = (ip as f32 + 0.5) * 180.0 / PHI_D as f32;
-        plot::text(
-            &mut img,
-            x0 as i32,
-            (y0 - 14) as i32,
-            &format!("phi_d = {phi} deg"),
-            black,
-        );
-        plot::text(
-            &mut img,
-            x0 as i32,
-            (y0 + ph + 6) as i32,
-            "theta_d 0 .. 90 deg",
-            black,
-        );
-    }
-    plot::text(
-        &mut img,
-        MARGIN as i32,
-        10,
-        &format!(
-            "{}: cbrt(f cos) fit - measured; red high, blue low, +-{scale:.3}; up: sqrt theta_h",
+        })
+        .collect();
+    let figure = Figure::Heat(HeatMap {
+        title: format!(
+            "{}: ∛(f cos) fit − measured; red high, blue low, ±{scale:.3}; grey outside the domain",
             fit.space.spec.label()
         ),
-        black,
-    );
-    img
+        x_label: "θd (degrees)".into(),
+        y_label: "√θh index".into(),
+        x_range: (0.0, 90.0),
+        y_range: (0.0, THETA_H as f64),
+        value_label: String::new(),
+        scale: Scale::Linear,
+        panels,
+    });
+    plot::render_rgb(&figure).expect("a heat map draws into a bitmap")
 }
