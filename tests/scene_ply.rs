@@ -306,6 +306,41 @@ fn ply_shapes_equal_the_same_mesh_as_obj() {
     }
 }
 
+/// `face_normals = true` (Mitsuba's `face_normals`) drops the file's vertex normals on both
+/// mesh formats, keeping the geometry; on other shapes it is refused with its line.
+#[test]
+fn face_normals_drop_the_vertex_normals() {
+    let mesh = sample_mesh();
+    let files: [(&str, Vec<u8>); 2] = [
+        ("m.obj", obj_text(&mesh).into_bytes()),
+        ("m.ply", write(&mesh, FORMATS[0])),
+    ];
+    for (name, bytes) in &files {
+        let kind = &name[2..];
+        let with = scene_with(&[(name, bytes)], &format!("{kind} = \"{name}\"")).unwrap();
+        assert!(with.triangles.iter().all(|t| t.n.is_some()), "{name}");
+        let flat = scene_with(
+            &[(name, bytes)],
+            &format!("{kind} = \"{name}\"\nface_normals = true"),
+        )
+        .unwrap();
+        assert!(flat.triangles.iter().all(|t| t.n.is_none()), "{name}");
+        let strip = |s: &brdfwave::scene::Scene| -> Vec<[Vec3; 3]> {
+            s.triangles.iter().map(|t| t.v).collect()
+        };
+        assert_eq!(strip(&with), strip(&flat), "{name}: the same geometry");
+    }
+    let err = scene_with(
+        &[],
+        "quads = [[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]]\nface_normals = true",
+    )
+    .unwrap_err();
+    assert!(
+        err.contains("s.toml:") && err.contains("face_normals applies only to obj and ply shapes"),
+        "{err}"
+    );
+}
+
 #[test]
 fn ply_shape_errors_name_the_scene_line_and_the_file() {
     let e = scene_with(&[], "ply = \"missing.ply\"").unwrap_err();

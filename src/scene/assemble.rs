@@ -439,6 +439,15 @@ pub(super) fn shape_primitives(
         Some(m) => m.value,
         None => false,
     };
+    let face_normals = match &s.face_normals {
+        Some(n) if s.obj.is_none() && s.ply.is_none() => {
+            let msg = "face_normals applies only to obj and ply shapes";
+            return Err(cx.err(n.span().or(shape.span()), &format!("{f}.face_normals"), msg));
+        }
+        Some(n) => n.value,
+        None => false,
+    };
+    let first_mesh_triangle = out.triangles.len();
 
     let emitter = match &s.emission {
         Some(e) => {
@@ -505,6 +514,11 @@ pub(super) fn shape_primitives(
         };
         let mtl = use_mtl.then_some(&mut mo);
         obj_triangles(cx, &mesh, obj, &xf, &mut out.triangles, mtl)?;
+    }
+    if face_normals {
+        for t in &mut out.triangles[first_mesh_triangle..] {
+            t.n = None;
+        }
     }
     Ok(())
 }

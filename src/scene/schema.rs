@@ -89,6 +89,9 @@ pub(super) struct RawShape {
     pub(super) ply: Option<Sp<String>>,
     /// Use the OBJ file's MTL materials (only with `obj`).
     pub(super) mtl: Option<Sp<bool>>,
+    /// Ignore the mesh file's vertex normals and shade with the geometric normal (only with
+    /// `obj` or `ply`; Mitsuba's `face_normals`).
+    pub(super) face_normals: Option<Sp<bool>>,
     pub(super) transform: Option<Sp<RawTransform>>,
     /// Set by the Mitsuba reader for an OBJ without `to_world`: its vertices are world space
     /// as written, taken bit for bit ([`super::geometry::Transform::AsWritten`]).

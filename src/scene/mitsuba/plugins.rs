@@ -582,6 +582,7 @@ pub(super) fn raw_shape(el: &El, material: Sp<String>) -> RawShape {
         obj: None,
         ply: None,
         mtl: None,
+        face_normals: None,
         transform: None,
         as_written: false,
     }

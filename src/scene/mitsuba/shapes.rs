@@ -95,7 +95,7 @@ fn geometry(
                 raw.ply = file;
             }
             if let Some(n) = p.take("face_normals") {
-                cx.bool_of(n)?;
+                raw.face_normals = Some(sp(n, cx.bool_of(n)?));
             }
             if flip {
                 let a = if kind == "obj" { "an" } else { "a" };
