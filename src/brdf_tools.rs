@@ -95,7 +95,7 @@ pub fn eval_cpu(m: &Material, pairs: &[(Vec3, Vec3)]) -> Vec<(Vec3, f32)> {
         .collect()
 }
 
-/// Writes a plot from [`plot_lobe`] in the format of `path`'s extension (see
+/// Writes a drawn picture in the format of `path`'s extension (see
 /// [`crate::imageio`]): a PNG holds the drawn sRGB colours exactly, an EXR or PFM the same
 /// colours decoded to linear values; any other extension is refused.
 pub fn write_plot(path: &Path, img: &image::RgbImage) -> Result<()> {
@@ -123,116 +123,6 @@ pub fn prepare_report_dir(dir: &Path) -> Result<()> {
         })
         .collect();
     crate::outfile::prepare(&outputs)
-}
-
-fn heat(t: f32) -> [u8; 3] {
-    // Black → red → yellow → white.
-    let t = t.clamp(0.0, 1.0);
-    let r = (t * 3.0).min(1.0);
-    let g = (t * 3.0 - 1.0).clamp(0.0, 1.0);
-    let b = (t * 3.0 - 2.0).clamp(0.0, 1.0);
-    [(r * 255.0) as u8, (g * 255.0) as u8, (b * 255.0) as u8]
-}
-
-/// A lobe picture: left, a polar plot of luminance(f·cosθo) in the plane of incidence (wi at
-/// `theta_i_deg` on the +x side, the mirror direction on the −x side); right, the hemisphere of
-/// wo seen from above (orthographic, x right, y up) coloured by f·cosθo on a log scale. Both
-/// panels draw local +x to the right, so the light comes from the upper right in the polar plot
-/// and the mirror lobe sits on the left half of the hemisphere image.
-pub fn plot_lobe(b: &dyn Brdf, theta_i_deg: f32) -> image::RgbImage {
-    let size = 512u32;
-    let mut img = image::RgbImage::from_pixel(2 * size, size, image::Rgb([255, 255, 255]));
-    let ti = theta_i_deg.to_radians();
-    let wi = Vec3::new(ti.sin(), 0.0, ti.cos());
-    let value = |wo: Vec3| luminance(b.eval(wi, wo)) * wo.z.max(0.0);
-    // Polar plot.
-    let n = 2000;
-    let samples: Vec<(f32, f32)> = (0..=n)
-        .map(|k| {
-            let th = -std::f32::consts::FRAC_PI_2 + std::f32::consts::PI * k as f32 / n as f32;
-            (th, value(Vec3::new(th.sin(), 0.0, th.cos())))
-        })
-        .collect();
-    let vmax = samples
-        .iter()
-        .map(|s| s.1)
-        .fold(0.0f32, f32::max)
-        .max(1e-12);
-    let (cx, cy, rad) = (size as f32 / 2.0, size as f32 * 0.9, size as f32 * 0.45);
-    let put = |img: &mut image::RgbImage, x: f32, y: f32, c: [u8; 3]| {
-        if x >= 0.0 && y >= 0.0 && (x as u32) < size && (y as u32) < size {
-            img.put_pixel(x as u32, y as u32, image::Rgb(c));
-        }
-    };
-    for k in 0..=400 {
-        let t = k as f32 / 400.0;
-        put(&mut img, cx + (t - 0.5) * 2.0 * rad, cy, [160, 160, 160]); // surface
-        put(
-            &mut img,
-            cx + t * rad * ti.sin(),
-            cy - t * rad * ti.cos(),
-            [60, 60, 220],
-        ); // wi
-        for ring in [0.25f32, 0.5, 0.75, 1.0] {
-            let a = std::f32::consts::PI * t;
-            put(
-                &mut img,
-                cx + ring * rad * a.cos(),
-                cy - ring * rad * a.sin(),
-                [225, 225, 225],
-            );
-        }
-    }
-    for w in samples.windows(2) {
-        for s in 0..8 {
-            let f = s as f32 / 8.0;
-            let th = w[0].0 * (1.0 - f) + w[1].0 * f;
-            let r = (w[0].1 * (1.0 - f) + w[1].1 * f) / vmax * rad;
-            // Local +x is drawn to the right, as in the hemisphere panel: the light (blue) comes
-            // from the upper right and the mirror lobe leaves to the upper left.
-            put(
-                &mut img,
-                cx + r * th.sin(),
-                cy - r * th.cos(),
-                [200, 30, 30],
-            );
-        }
-    }
-    // Hemisphere image.
-    let mut vals = vec![0f32; (size * size) as usize];
-    let mut hmax = 0f32;
-    for py in 0..size {
-        for px in 0..size {
-            let x = 2.0 * (px as f32 + 0.5) / size as f32 - 1.0;
-            let y = 1.0 - 2.0 * (py as f32 + 0.5) / size as f32;
-            let r2 = x * x + y * y;
-            if r2 < 1.0 {
-                let v = value(Vec3::new(x, y, (1.0 - r2).sqrt()));
-                vals[(py * size + px) as usize] = v;
-                hmax = hmax.max(v);
-            }
-        }
-    }
-    for py in 0..size {
-        for px in 0..size {
-            let x = 2.0 * (px as f32 + 0.5) / size as f32 - 1.0;
-            let y = 1.0 - 2.0 * (py as f32 + 0.5) / size as f32;
-            let c = if x * x + y * y >= 1.0 {
-                [255, 255, 255]
-            } else {
-                let v = vals[(py * size + px) as usize];
-                // Four decades below the maximum map to black.
-                let t = if v > 0.0 && hmax > 0.0 {
-                    1.0 + (v / hmax).log10() / 4.0
-                } else {
-                    0.0
-                };
-                heat(t)
-            };
-            img.put_pixel(size + px, py, image::Rgb(c));
-        }
-    }
-    img
 }
 
 /// Three significant digits without an exponent: 5670, 4.28, 0.00431 (GPU costs span 10⁶).

@@ -72,6 +72,25 @@ fn fit_writes_tables_materials_plots_and_a_lineup_that_loads() {
             let img = image::open(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
             assert!(img.width() > 100 && img.height() > 100);
         }
+        // Each plot's data beside it: 4 panels × 179 angles; 3 slices × 90 × 90 cells.
+        let plane = std::fs::read_to_string(dir.join(format!("plane_{m}.csv"))).unwrap();
+        assert!(plane.starts_with("theta_i,theta_o,measured,fit\n"), "{m}");
+        assert_eq!(plane.lines().count(), 1 + 4 * 179, "{m}");
+        let error = std::fs::read_to_string(dir.join(format!("error_{m}.csv"))).unwrap();
+        assert_eq!(error.lines().count(), 1 + 3 * 90 * 90, "{m}");
+        if m == "ward" {
+            // Ward's data fitted by Ward: fit and measurement agree in the plane of incidence
+            // (normal incidence, 20° off), and every error in the domain is small.
+            let row = plane.lines().find(|l| l.starts_with("0,20,")).unwrap();
+            let v: Vec<f64> = row.split(',').map(|x| x.parse().unwrap()).collect();
+            assert!((v[2] - v[3]).abs() <= 0.05 * v[2], "{row}");
+            let worst = error
+                .lines()
+                .skip(1)
+                .filter_map(|l| l.rsplit(',').next().unwrap().parse::<f64>().ok())
+                .fold(0.0f64, |a, e| a.max(e.abs()));
+            assert!(worst > 0.0 && worst < 0.05, "worst cube-root error {worst}");
+        }
     }
     // Ward's data: Ward first in the CSV, with a tiny error.
     let csv = std::fs::read_to_string(dir.join("fit.csv")).unwrap();

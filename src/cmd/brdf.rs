@@ -269,10 +269,15 @@ fn report(out: &Path, no_gpu: bool, device: Option<String>) -> Result<()> {
         if let Some((ctx, compiler)) = &gpu {
             row.ns_per_eval_gpu = Some(brdfwave::gpu::brdf_probe::eval_cost(ctx, compiler, &m)?);
         }
-        tools::write_plot(
-            &out.join(format!("lobe_{}.png", tools::slug(label))),
-            &tools::plot_lobe(m.brdf.as_ref(), 45.0),
-        )?;
+        // The lobe in the plane of incidence at θi = 45°, as `brdf plot --kind polar` draws it.
+        use brdfwave::plot::{self, lobe, Scale};
+        let plotted = [lobe::Plotted {
+            label: label.to_string(),
+            brdf: m.brdf.as_ref(),
+        }];
+        let (figure, data) = lobe::polar(&plotted, 45.0, Scale::Linear);
+        let path = out.join(format!("lobe_{}.png", tools::slug(label)));
+        plot::write(&path, "--out", &figure, &data)?;
         rows.push(row);
     }
     let device_name = gpu.as_ref().map(|(c, _)| c.device_name.clone());
@@ -281,7 +286,7 @@ fn report(out: &Path, no_gpu: bool, device: Option<String>) -> Result<()> {
     outfile::write(&out.join("report.csv"), tools::report_csv(&rows).as_bytes())?;
     out!("{md}")?;
     outln!(
-        "\nwrote {}/report.md, report.csv and lobe_*.png",
+        "\nwrote {}/report.md, report.csv and lobe_*.png (with their data, lobe_*.csv)",
         out.display()
     )?;
     Ok(())

@@ -156,6 +156,11 @@ fn write_pictures(
             &dir.join(format!("error_{slug}.png")),
             &plots::error_slices(table, f, opt.max_theta_deg, scale),
         )?;
+        // Every plot's data beside it.
+        let csv = plots::incidence_csv(table, f);
+        outfile::write(&dir.join(format!("plane_{slug}.csv")), csv.as_bytes())?;
+        let csv = plots::error_slices_csv(table, f, opt.max_theta_deg);
+        outfile::write(&dir.join(format!("error_{slug}.csv")), csv.as_bytes())?;
     }
     Ok(())
 }

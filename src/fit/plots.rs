@@ -70,6 +70,43 @@ pub fn incidence(table: &MerlTable, fit: &ModelFit) -> RgbImage {
     img
 }
 
+/// The data of [`incidence`]: `theta_i,theta_o,measured,fit` (degrees; luminance of f, 1/sr),
+/// one row per θo of each panel.
+pub fn incidence_csv(table: &MerlTable, fit: &ModelFit) -> String {
+    let mut s = String::from("theta_i,theta_o,measured,fit\n");
+    for &ti in &THETA_I {
+        let measured = incidence_curve(|a, b| table.lookup(a, b), ti);
+        let fitted = incidence_curve(|a, b| fit.brdf.eval(a, b), ti);
+        for ((t, m), (_, f)) in measured.iter().zip(&fitted) {
+            s.push_str(&format!("{ti},{t},{m},{f}\n"));
+        }
+    }
+    s
+}
+
+/// The data of [`error_slices`]: `phi_d,theta_h_index,theta_d_index,theta_h,theta_d,error`
+/// (degrees at the cell centres; the signed cube-root error, empty outside the domain).
+pub fn error_slices_csv(table: &MerlTable, fit: &ModelFit, max_theta_deg: f32) -> String {
+    let mut s = String::from("phi_d,theta_h_index,theta_d_index,theta_h,theta_d,error\n");
+    for ip in SLICES {
+        for ih in 0..THETA_H {
+            for id in 0..THETA_D {
+                let (th, td, pd) = merl::cell_centre(ih, id, ip);
+                let e = cell_error(table, fit.brdf.as_ref(), (ih, id, ip), max_theta_deg);
+                let e = e.map_or(String::new(), |e| e.to_string());
+                let deg = |r: f32| r.to_degrees();
+                s.push_str(&format!(
+                    "{},{ih},{id},{},{},{e}\n",
+                    deg(pd),
+                    deg(th),
+                    deg(td)
+                ));
+            }
+        }
+    }
+    s
+}
+
 /// The signed cube-root error (fit − measured) of cell (ih, id, ip), the mean over channels;
 /// `None` outside the domain (a direction beyond `max_theta_deg`, or a missing value).
 pub fn cell_error(
