@@ -211,6 +211,33 @@ fn error_figure(
     (figure, csv)
 }
 
+/// The image outputs: `--error-map` (a figure with a colour bar, or the raw colour-mapped
+/// pixels as EXR/PFM), `--triptych` and `--p-map`.
+fn write_maps(
+    a: &DiffArgs,
+    test: &imageio::Image,
+    reference: &imageio::Image,
+    z: Option<&ZTestReport>,
+) -> Result<()> {
+    if let Some(p) = &a.error_map {
+        if is_figure("--error-map", p)? {
+            let (fig, csv) =
+                error_figure(test, reference, &metrics::flip_map(test, reference)?, false);
+            plot::write(p, "--error-map", &fig, &csv)?;
+        } else {
+            imageio::write(p, &metrics::error_map(test, reference)?)?;
+        }
+    }
+    if let Some(p) = &a.triptych {
+        let (fig, csv) = error_figure(test, reference, &metrics::flip_map(test, reference)?, true);
+        plot::write(p, "--triptych", &fig, &csv)?;
+    }
+    if let (Some(p), Some(z)) = (&a.p_map, z) {
+        imageio::write(p, &z.p_map)?;
+    }
+    Ok(())
+}
+
 pub fn run(a: DiffArgs) -> Result<()> {
     let uses_over = a.max.iter().any(|t| t.metric == Metric::Over);
     if !uses_over && (a.tolerance.is_some() || a.rel_tolerance.is_some()) {
@@ -243,22 +270,7 @@ pub fn run(a: DiffArgs) -> Result<()> {
     } else {
         None
     };
-    if let Some(p) = &a.error_map {
-        if is_figure("--error-map", p)? {
-            let (fig, csv) =
-                error_figure(test, reference, &metrics::flip_map(test, reference)?, false);
-            plot::write(p, "--error-map", &fig, &csv)?;
-        } else {
-            imageio::write(p, &metrics::error_map(test, reference)?)?;
-        }
-    }
-    if let Some(p) = &a.triptych {
-        let (fig, csv) = error_figure(test, reference, &metrics::flip_map(test, reference)?, true);
-        plot::write(p, "--triptych", &fig, &csv)?;
-    }
-    if let (Some(p), Some(z)) = (&a.p_map, &z) {
-        imageio::write(p, &z.p_map)?;
-    }
+    write_maps(&a, test, reference, z.as_ref())?;
     let failed: Vec<String> = verdicts
         .iter()
         .filter(|v| !v.pass)
