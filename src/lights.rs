@@ -55,11 +55,11 @@ pub fn pairs_with_next(scene: &Scene, i: usize) -> bool {
     let (Some(a), Some(b)) = (scene.triangles.get(i), scene.triangles.get(i + 1)) else {
         return false;
     };
+    if a.emitter.is_none() || a.emitter != b.emitter || i + 1 >= PAIR_BIT as usize {
+        return false;
+    }
     let (aa, ab) = (a.area(), b.area());
-    a.emitter.is_some()
-        && a.emitter == b.emitter
-        && i + 1 < PAIR_BIT as usize
-        && a.v[0] == b.v[0]
+    a.v[0] == b.v[0]
         && a.v[2] == b.v[1]
         && aa > 0.0
         && (aa - ab).abs() <= PAIR_AREA_TOLERANCE * (aa + ab)

@@ -13,6 +13,8 @@ const BLOCK: usize = 16;
 /// the peer's standard errors (15 degrees of freedom).
 const MI_RENDERS: usize = 16;
 const MI_SPP: usize = 4;
+/// Rec. 709 luminance weights, on both sides of the comparison.
+const LUM: [f64; 3] = [0.2126, 0.7152, 0.0722];
 
 /// Mitsuba's block means of luminance (Rec. 709), one row per render, or `None` when Mitsuba
 /// 3 cannot be imported.
@@ -28,12 +30,13 @@ mi.set_variant("scalar_rgb")
 scene = mi.load_file({xml:?})
 for seed in range({MI_RENDERS}):
     a = np.array(mi.render(scene, spp={MI_SPP}, seed=seed), dtype=np.float64)[..., :3]
-    lum = a @ np.array([0.2126, 0.7152, 0.0722])
+    lum = a @ np.array({lum:?})
     h, w = lum.shape
     b = lum.reshape(h // {BLOCK}, {BLOCK}, w // {BLOCK}, {BLOCK}).mean(axis=(1, 3))
     print(" ".join(repr(float(v)) for v in b.ravel()))
 "#,
-        xml = xml.display().to_string()
+        xml = xml.display().to_string(),
+        lum = LUM
     );
     let out = Command::new("python3")
         .args(["-c", &script])
@@ -62,7 +65,7 @@ for seed in range({MI_RENDERS}):
 fn worst_z(ours: &imageio::Layered, spp: f64, scale: f64, peer: &[Vec<f64>]) -> f64 {
     let (w, h) = (ours.image.width as usize, ours.image.height as usize);
     let var = ours.variance.as_ref().expect("a variance layer");
-    let lum = |c: [f32; 3]| 0.2126 * c[0] as f64 + 0.7152 * c[1] as f64 + 0.0722 * c[2] as f64;
+    let lum = |c: [f32; 3]| (0..3).map(|i| LUM[i] * c[i] as f64).sum::<f64>();
     let (bw, n) = (w / BLOCK, (BLOCK * BLOCK) as f64);
     let k = peer.len() as f64;
     let mut worst = 0.0f64;
@@ -76,9 +79,9 @@ fn worst_z(ours: &imageio::Layered, spp: f64, scale: f64, peer: &[Vec<f64>]) -> 
                 // correlated channels (one path's RGB are strongly correlated): a generous
                 // variance, a lenient test.
                 let c = var.get(x as u32, y as u32);
-                let sd = 0.2126 * (c[0].max(0.0) as f64).sqrt()
-                    + 0.7152 * (c[1].max(0.0) as f64).sqrt()
-                    + 0.0722 * (c[2].max(0.0) as f64).sqrt();
+                let sd = (0..3)
+                    .map(|i| LUM[i] * (c[i].max(0.0) as f64).sqrt())
+                    .sum::<f64>();
                 v += sd * sd;
             }
         }

@@ -244,6 +244,7 @@ fn merl(material: &str, out: &Path) -> Result<()> {
 
 /// `brdf report`: every model at its representative parameters.
 fn report(out: &Path, no_gpu: bool, device: Option<String>) -> Result<()> {
+    use brdfwave::plot::{self, lobe, Scale};
     if no_gpu {
         warn_gpu_only(&[("--device", device.is_some())]);
     }
@@ -270,7 +271,6 @@ fn report(out: &Path, no_gpu: bool, device: Option<String>) -> Result<()> {
             row.ns_per_eval_gpu = Some(brdfwave::gpu::brdf_probe::eval_cost(ctx, compiler, &m)?);
         }
         // The lobe in the plane of incidence at θi = 45°, as `brdf plot --kind polar` draws it.
-        use brdfwave::plot::{self, lobe, Scale};
         let plotted = [lobe::Plotted {
             label: label.to_string(),
             brdf: m.brdf.as_ref(),
