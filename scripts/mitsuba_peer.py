@@ -1,14 +1,13 @@
 """Mitsuba 3 as a peer configuration of `brdfwave bench`.
 
-Usage: python3 mitsuba_peer.py VARIANT SAMPLER SCENE.json OUTDIR
+Usage: python3 mitsuba_peer.py VARIANT SAMPLER SCENE.xml OUTDIR
 
-SCENE.json is written by `brdfwave bench` from the scene it benchmarks: triangle meshes, each
-with its Mitsuba BSDF (`diffuse` with an RGB albedo, or `roughconductor` with a distribution,
-alpha and RGB eta/k) and an optional one-sided RGB emitter, a pinhole camera (vertical field of
-view), the image size and the maximum depth. The scene is rendered with Mitsuba's `path`
-integrator (max_depth = brdfwave's max_depth: both count path segments, the camera segment
-first; Russian roulette off), the sampler plugin SAMPLER (`independent`, `stratified`,
-`multijitter`, `orthogonal` or `ldsampler`) and a box pixel filter one pixel wide.
+SCENE.xml is the benchmarked scene as `brdfwave convert --to mitsuba` writes it (its meshes in
+OBJ files beside it): Mitsuba's `path` integrator with max_depth = brdfwave's max_depth (both
+count path segments, the camera segment first) and Russian roulette off, a box pixel filter
+one pixel wide. This script only replaces the sensor's sampler by the plugin SAMPLER
+(`independent`, `stratified`, `multijitter`, `orthogonal` or `ldsampler`); the sample count
+comes with each render.
 
 Protocol, one line each way (so that the benchmark can interleave this process's renders with
 its own configurations). The first line this script writes is
@@ -24,7 +23,6 @@ RGB, EXR); `quit` ends it. The kernels of the samplers other than `independent` 
 sample count (Dr.Jit compiles a new kernel for each one), so the first render of each count
 is a warm-up, untimed, and COMPILE_SECONDS is how much longer it took than the timed one.
 """
-import json
 import os
 import sys
 import time
@@ -33,66 +31,17 @@ import time
 PLAIN_SPP = 64
 
 
-def bsdf(b):
-    rgb = lambda v: {"type": "rgb", "value": v}
-    if b["type"] == "diffuse":
-        return {"type": "diffuse", "reflectance": rgb(b["albedo"])}
-    if b["type"] == "roughconductor":
-        return {
-            "type": "roughconductor",
-            "distribution": b["distribution"],
-            "alpha": b["alpha"],
-            "eta": rgb(b["eta"]),
-            "k": rgb(b["k"]),
-            "sample_visible": True,
-        }
-    raise ValueError(f"unknown BSDF {b['type']}")
+def load_scene(mi, xml_path, sampler):
+    import xml.etree.ElementTree as ET
 
-
-def load_scene(mi, desc, folder, sampler):
-    shapes = {}
-    for i, m in enumerate(desc["meshes"]):
-        path = os.path.join(folder, f"mesh{i}.obj")
-        with open(path, "w") as f:
-            for v in m["vertices"]:
-                f.write(f"v {v[0]!r} {v[1]!r} {v[2]!r}\n")
-            for t in range(len(m["vertices"]) // 3):
-                f.write(f"f {3 * t + 1} {3 * t + 2} {3 * t + 3}\n")
-        shape = {
-            "type": "obj",
-            "filename": path,
-            "face_normals": True,
-            "bsdf": bsdf(m["bsdf"]),
-        }
-        if m.get("radiance") is not None:
-            shape["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": m["radiance"]}}
-        shapes[f"mesh{i}"] = shape
-    cam = desc["camera"]
-    scene = {
-        "type": "scene",
-        "integrator": {"type": "path", "max_depth": desc["max_depth"], "rr_depth": 2**30},
-        "sensor": {
-            "type": "perspective",
-            "fov_axis": "y",
-            "fov": cam["fov_y"],
-            "to_world": mi.ScalarTransform4f().look_at(
-                origin=cam["position"], target=cam["target"], up=cam["up"]
-            ),
-            "film": {
-                "type": "hdrfilm",
-                "width": desc["width"],
-                "height": desc["height"],
-                "rfilter": {"type": "box"},
-                "pixel_format": "rgb",
-            },
-            "sampler": {"type": sampler, "sample_count": 1},
-        },
-    }
-    env = desc.get("environment")
-    if env and any(c > 0 for c in env):
-        scene["environment"] = {"type": "constant", "radiance": {"type": "rgb", "value": env}}
-    scene.update(shapes)
-    return mi.load_dict(scene)
+    root = ET.parse(xml_path).getroot()
+    for sensor in root.iter("sensor"):
+        for old in sensor.findall("sampler"):
+            sensor.remove(old)
+        ET.SubElement(sensor, "sampler", {"type": sampler})
+    # The meshes' file names are relative to the XML's folder.
+    mi.Thread.thread().file_resolver().prepend(os.path.dirname(os.path.abspath(xml_path)))
+    return mi.load_string(ET.tostring(root, encoding="unicode"))
 
 
 def main():
@@ -105,9 +54,7 @@ def main():
         # Mitsuba logs to stdout, which carries the protocol: warnings (e.g. a sample count
         # rounded up to a square) would break it.
         mi.set_log_level(mi.LogLevel.Error)
-        with open(scene_path) as f:
-            desc = json.load(f)
-        scene = load_scene(mi, desc, out, sampler)
+        scene = load_scene(mi, scene_path, sampler)
 
         def render(spp, seed):
             t = time.perf_counter()

@@ -1,12 +1,11 @@
 //! The Mitsuba 3 peer: [`MitsubaRunner`] drives `scripts/mitsuba_peer.py` (embedded) over
-//! its line protocol; the scene as Mitsuba JSON with its BSDFs; libLLVM discovery for Dr.Jit.
+//! its line protocol, on the scene as `brdfwave convert --to mitsuba` writes it; libLLVM
+//! discovery for Dr.Jit.
 
 use super::runner::Runner;
 use super::Details;
 use crate::imageio::{self, Image};
-use crate::scene::{Scene, Triangle};
 use anyhow::{anyhow, bail, Context as _, Result};
-use glam::Vec3;
 use std::io::{BufRead, BufReader, Write as _};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
@@ -32,7 +31,7 @@ impl MitsubaRunner {
     pub(super) fn start(
         variant: &str,
         sampler: &str,
-        scene_json: &Path,
+        scene_xml: &Path,
         dir: &Path,
     ) -> Result<MitsubaRunner> {
         let script = dir.join("mitsuba_peer.py");
@@ -42,7 +41,7 @@ impl MitsubaRunner {
         cmd.arg(&script)
             .arg(variant)
             .arg(sampler)
-            .arg(scene_json)
+            .arg(scene_xml)
             .arg(dir)
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
@@ -164,97 +163,6 @@ fn newest_libllvm() -> Option<PathBuf> {
         .flat_map(|v| [format!("libLLVM.so.{v}.1"), format!("libLLVM-{v}.so")])
         .map(|n| dir.join(n))
         .find(|p| p.exists())
-}
-
-/// A material as a Mitsuba 3 BSDF (`mitsuba_peer.py` builds the plugin), or why it has none:
-/// Lambert is `diffuse`; Cook–Torrance with Walter et al.'s normalisation, a Beckmann or GGX
-/// distribution, Smith shadowing, conductor Fresnel, no diffuse part and a white specular
-/// scale is `roughconductor` (Mitsuba's Smith G1 for Beckmann is exact where ours is Walter et
-/// al. 2007's rational approximation, within 0.35 %). Anything else has no Mitsuba twin.
-fn mitsuba_bsdf(m: &crate::brdf::Material) -> Result<serde_json::Value> {
-    use crate::brdf::cook_torrance::{
-        CookTorrance, Distribution, Fresnel, Geometry, Normalization,
-    };
-    use crate::brdf::lambert::Lambert;
-    let any = m.brdf.as_any();
-    if let Some(l) = any.downcast_ref::<Lambert>() {
-        return Ok(serde_json::json!({"type": "diffuse", "albedo": l.albedo.to_array()}));
-    }
-    if let Some(c) = any.downcast_ref::<CookTorrance>() {
-        if c.kd == Vec3::ZERO
-            && c.ks == Vec3::ONE
-            && c.normalization == Normalization::Walter
-            && c.geometry == Geometry::Smith
-            && c.fresnel == Fresnel::Conductor
-            && c.roughness > 0.0
-        {
-            let distribution = match c.distribution {
-                Distribution::Beckmann => "beckmann",
-                Distribution::Ggx => "ggx",
-            };
-            return Ok(serde_json::json!({
-                "type": "roughconductor",
-                "distribution": distribution,
-                "alpha": c.roughness,
-                "eta": c.eta.to_array(),
-                "k": c.k.to_array(),
-            }));
-        }
-        bail!("the Mitsuba configurations take Cook–Torrance only as a rough conductor (Walter normalisation, Smith G, conductor Fresnel, kd = 0, ks = 1)");
-    }
-    bail!(
-        "the Mitsuba configurations take Lambert and rough-conductor materials only (this scene has {})",
-        m.model_name()
-    )
-}
-
-/// The scene as `mitsuba_peer.py` reads it, or why it cannot be: meshes of triangles grouped
-/// by (material, emitter), each with its BSDF ([`mitsuba_bsdf`]), the camera, the image size,
-/// the depth.
-pub(super) fn mitsuba_scene_json(s: &Scene) -> Result<String> {
-    if !s.spheres.is_empty() {
-        bail!("the Mitsuba configurations take triangle scenes only (this one has spheres)");
-    }
-    let bsdfs = s
-        .materials
-        .iter()
-        .map(mitsuba_bsdf)
-        .collect::<Result<Vec<_>>>()?;
-    // (material, emitter) and the triangles that have them.
-    type Group<'t> = ((u32, Option<u32>), Vec<&'t Triangle>);
-    let mut groups: Vec<Group> = Vec::new();
-    for t in &s.triangles {
-        let key = (t.material, t.emitter);
-        match groups.iter_mut().find(|(k, _)| *k == key) {
-            Some((_, v)) => v.push(t),
-            None => groups.push((key, vec![t])),
-        }
-    }
-    let meshes: Vec<serde_json::Value> = groups
-        .iter()
-        .map(|((mat, em), tris)| {
-            serde_json::json!({
-                "bsdf": bsdfs[*mat as usize],
-                "radiance": em.map(|e| s.emitters[e as usize].radiance.to_array()),
-                "vertices": tris.iter().flat_map(|t| t.v.iter().map(|v| v.to_array())).collect::<Vec<_>>(),
-            })
-        })
-        .collect();
-    let c = &s.camera;
-    Ok(serde_json::json!({
-        "width": s.width,
-        "height": s.height,
-        "max_depth": s.integrator.max_depth,
-        "camera": {
-            "position": c.position.to_array(),
-            "target": c.target.to_array(),
-            "up": c.up.to_array(),
-            "fov_y": c.fov_y_deg,
-        },
-        "environment": s.environment.to_array(),
-        "meshes": meshes,
-    })
-    .to_string())
 }
 
 /// Whether `python3 -c "import mitsuba"` works.

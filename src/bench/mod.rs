@@ -147,8 +147,8 @@ pub fn run(o: &BenchOptions) -> Result<String> {
     let mut notes: Vec<String> = Vec::new();
     let contexts = contexts(o)?;
     let compiler = ShaderCompiler::new()?;
-    let mitsuba_json = o.out.join("mitsuba_scene.json");
-    let mitsuba_ok = mitsuba_setup(o, &sc, &mitsuba_json);
+    let mitsuba_xml = o.out.join("mitsuba_scene.xml");
+    let mitsuba_ok = mitsuba_setup(o, &sc, &mitsuba_xml);
     let scenes = config_scenes(o, &sc);
     let mut runners = runners(
         o,
@@ -157,7 +157,7 @@ pub fn run(o: &BenchOptions) -> Result<String> {
         &bvh,
         &compiler,
         &mitsuba_ok,
-        &mitsuba_json,
+        &mitsuba_xml,
         &mut notes,
     )?;
 
@@ -224,17 +224,28 @@ fn contexts(o: &BenchOptions) -> Result<Vec<Option<Context>>> {
 }
 
 /// Whether the Mitsuba configurations (if any) can run: Mitsuba installed and the scene
-/// written to `mitsuba_json` in its form.
-fn mitsuba_setup(o: &BenchOptions, sc: &Scene, mitsuba_json: &Path) -> Result<()> {
+/// written to `mitsuba_xml` as `brdfwave convert --to mitsuba` writes it (the meshes beside it
+/// in `mitsuba_scene-meshes/`), so the peer renders what a user's converted scene gives.
+fn mitsuba_setup(o: &BenchOptions, sc: &Scene, mitsuba_xml: &Path) -> Result<()> {
+    use crate::scene::mitsuba::write;
     match o.configs.iter().any(|c| matches!(c, Config::Mitsuba { .. })) {
         false => Ok(()),
         true if !mitsuba::mitsuba_installed() => Err(anyhow!(
             "python3 cannot import mitsuba (pip install mitsuba numpy; the llvm variant also needs libLLVM 16 or newer, e.g. Debian's libllvm19)"
         )),
-        true => mitsuba::mitsuba_scene_json(sc).and_then(|j| {
-            std::fs::write(mitsuba_json, j)
-                .with_context(|| format!("writing {}", mitsuba_json.display()))
-        }),
+        true => {
+            let dir = mitsuba_xml.parent().unwrap_or(Path::new("."));
+            let converted = write::to_mitsuba(sc, "mitsuba_scene-meshes", write::Options::default())
+                .map_err(|e| anyhow!("the Mitsuba configurations need the scene as Mitsuba 3 XML: {e}"))?;
+            std::fs::create_dir_all(dir.join("mitsuba_scene-meshes"))
+                .with_context(|| format!("creating {}", dir.display()))?;
+            for (name, text) in &converted.meshes {
+                let path = dir.join(name);
+                std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))?;
+            }
+            std::fs::write(mitsuba_xml, &converted.xml)
+                .with_context(|| format!("writing {}", mitsuba_xml.display()))
+        }
     }
 }
 
@@ -262,7 +273,7 @@ fn runners<'a>(
     bvh: &'a Bvh,
     compiler: &'a ShaderCompiler,
     mitsuba_ok: &Result<()>,
-    mitsuba_json: &Path,
+    mitsuba_xml: &Path,
     notes: &mut Vec<String>,
 ) -> Result<Vec<Named<'a>>> {
     let mut runners: Vec<Named<'a>> = Vec::new();
@@ -275,7 +286,7 @@ fn runners<'a>(
             bvh,
             compiler,
             mitsuba_ok,
-            mitsuba_json,
+            mitsuba_xml,
             &o.out,
         );
         match runner {

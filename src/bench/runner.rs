@@ -76,7 +76,7 @@ pub(super) fn runner<'a>(
     bvh: &'a Bvh,
     compiler: &'a ShaderCompiler,
     mitsuba_ok: &Result<()>,
-    mitsuba_json: &Path,
+    mitsuba_xml: &Path,
     out: &Path,
 ) -> Result<Box<dyn Runner + 'a>> {
     match (c, ctx) {
@@ -105,7 +105,7 @@ pub(super) fn runner<'a>(
             })
         }
         (Config::Mitsuba { variant, sampler }, _) => match mitsuba_ok {
-            Ok(()) => MitsubaRunner::start(variant, sampler, mitsuba_json, out)
+            Ok(()) => MitsubaRunner::start(variant, sampler, mitsuba_xml, out)
                 .map(|r| Box::new(r) as Box<dyn Runner>),
             Err(e) => Err(anyhow!("{e}")),
         },

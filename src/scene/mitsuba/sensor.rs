@@ -213,8 +213,8 @@ fn sampler(cx: &mut Cx, s: &El, integrator: &mut RawIntegrator) -> Result<(), Sc
     let kind = cx.attr(s, "type")?;
     let ours = match kind {
         "independent" => "independent",
-        "ldsampler" => "sobol",
-        "stratified" | "multijitter" | "orthogonal" => {
+        "ldsampler" | "multijitter" => "sobol",
+        "stratified" | "orthogonal" => {
             let msg = format!(
                 "{} is rendered with brdfwave's Sobol' sampler",
                 s.describe()
@@ -223,7 +223,7 @@ fn sampler(cx: &mut Cx, s: &El, integrator: &mut RawIntegrator) -> Result<(), Sc
             "sobol"
         }
         other => {
-            let msg = format!("<sampler type=\"{other}\"> is not supported (supported: independent, ldsampler, and stratified, multijitter, orthogonal as Sobol')");
+            let msg = format!("<sampler type=\"{other}\"> is not supported (supported: independent, ldsampler and multijitter as Sobol', and stratified, orthogonal as Sobol' with a warning)");
             return Err(cx.el_err(s, msg));
         }
     };
