@@ -370,3 +370,76 @@ fn shell_words(line: &str) -> Vec<String> {
     }
     words
 }
+
+/// `convert --brdfwave-plugins` writes a measured material's table as the XML must name it:
+/// relative to the XML's folder when the table lies below it, else absolute; either XML loads
+/// to the same table and renders as the TOML scene does.
+#[test]
+fn converted_xml_names_the_table_from_where_it_is_written() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(tmp.path().join("scene/data")).unwrap();
+    std::fs::create_dir_all(tmp.path().join("elsewhere")).unwrap();
+    write_table(tmp.path(), "scene/data/ward.binary", WARD);
+    let toml = "[camera]\nposition = [0, 0, 4]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_y = 40\n\
+                [film]\nwidth = 16\nheight = 16\n[integrator]\nspp = 4\nmax_depth = 3\n\
+                [materials.m]\nmodel = \"measured\"\nfile = \"data/ward.binary\"\n\
+                [[shapes]]\nsphere = { center = [0, 0, 0], radius = 1 }\nmaterial = \"m\"\n\
+                [environment]\nradiance = 1\n";
+    std::fs::write(tmp.path().join("scene/s.toml"), toml).unwrap();
+    let mut images = Vec::new();
+    for (xml, named) in [
+        ("scene/s.xml", "data/ward.binary".to_string()),
+        (
+            "elsewhere/s.xml",
+            tmp.path()
+                .join("scene/data/ward.binary")
+                .canonicalize()
+                .unwrap()
+                .display()
+                .to_string(),
+        ),
+    ] {
+        ok(brdfwave(
+            &[
+                "convert",
+                "scene/s.toml",
+                "--to",
+                "mitsuba",
+                xml,
+                "--brdfwave-plugins",
+            ],
+            tmp.path(),
+        ));
+        let text = std::fs::read_to_string(tmp.path().join(xml)).unwrap();
+        let line = format!("<string name=\"file\" value=\"{named}\"/>");
+        assert!(text.contains(&line), "{xml} lacks {line}:\n{text}");
+        let exr = format!("{xml}.exr");
+        ok(brdfwave(
+            &["render", xml, "--backend", "cpu", "--quiet", "--out", &exr],
+            tmp.path(),
+        ));
+        images.push(pixels(&tmp.path().join(exr)));
+    }
+    ok(brdfwave(
+        &[
+            "render",
+            "scene/s.toml",
+            "--backend",
+            "cpu",
+            "--quiet",
+            "--out",
+            "toml.exr",
+        ],
+        tmp.path(),
+    ));
+    let toml_image = pixels(&tmp.path().join("toml.exr"));
+    assert!(
+        images.iter().all(|i| *i == toml_image),
+        "the XML renders differ from the TOML's"
+    );
+}
+
+/// An EXR's pixels (its header names the scene file, which differs).
+fn pixels(exr: &Path) -> Vec<[f32; 3]> {
+    brdfwave::imageio::read_layered(exr).unwrap().image.data
+}

@@ -49,6 +49,7 @@ fn xml_twins_are_what_convert_writes() {
                 &mesh_dir,
                 Options {
                     brdfwave_plugins: true,
+                    ..Options::default()
                 },
             )
             .unwrap(),

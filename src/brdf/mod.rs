@@ -309,3 +309,13 @@ pub fn parse_material(
 pub fn model_names() -> Vec<&'static str> {
     MODELS.iter().map(|m| m.name).collect()
 }
+
+/// Whether parameter `param` of model `model` names a file ([`params::Kind::File`]), which a
+/// scene resolves against its own directory.
+pub fn is_file_param(model: &str, param: &str) -> bool {
+    MODELS
+        .iter()
+        .filter(|m| m.name == model)
+        .flat_map(|m| m.params.iter())
+        .any(|p| p.name == param && p.kind == params::Kind::File)
+}

@@ -48,6 +48,7 @@ pub fn run(a: ConvertArgs) -> Result<()> {
     let mesh_dir = format!("{stem}-meshes");
     let opts = write::Options {
         brdfwave_plugins: a.brdfwave_plugins,
+        xml_dir: Some(outfile::parent_dir(&a.out).to_path_buf()),
     };
     let converted = write::to_mitsuba(&sc, &mesh_dir, opts)
         .map_err(|e| anyhow::anyhow!("{}: {e}", a.scene.display()))?;

@@ -366,6 +366,11 @@ pub(super) fn bsdf(cx: &Cx, el: &El) -> Result<MaterialTable, SceneError> {
                     "float" => sp(c, Value::Float(cx.float(c)?)),
                     "integer" => sp(c, Value::Integer(cx.integer(c)?)),
                     "boolean" => sp(c, Value::Boolean(cx.bool_of(c)?)),
+                    // A file (a measured table) is relative to the element's own file.
+                    "string" if crate::brdf::is_file_param(name, n) => {
+                        let file = c.dir.join(cx.string(c)?);
+                        sp(c, Value::String(file.display().to_string()))
+                    }
                     "string" => sp(c, Value::String(cx.string(c)?.to_string())),
                     "rgb" => cx.color_value(c)?,
                     _ => {

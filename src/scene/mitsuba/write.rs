@@ -22,12 +22,17 @@ use crate::brdf::lambert::Lambert;
 use crate::scene::{DeltaLight, Scene, Sphere, Triangle};
 use glam::Vec3;
 use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
 
 /// How to write what Mitsuba lacks.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Debug, Default)]
 pub struct Options {
     /// Write the models Mitsuba lacks under brdfwave's own plugin names instead of refusing.
     pub brdfwave_plugins: bool,
+    /// The directory the XML file goes to: a model's file parameter (a measured table) is
+    /// written relative to it when the file lies below it, else as an absolute path. `None`:
+    /// the scene file's directory.
+    pub xml_dir: Option<std::path::PathBuf>,
 }
 
 /// The converted scene: the XML text and the OBJ files it refers to, `(name, text)` with names
@@ -40,6 +45,7 @@ pub struct Converted {
 /// `s` as Mitsuba 3 XML; `mesh_dir` is the directory (relative to the XML file) the OBJ files
 /// go to. The error says which material Mitsuba cannot express.
 pub fn to_mitsuba(s: &Scene, mesh_dir: &str, opts: Options) -> Result<Converted, String> {
+    let scene_dir = s.path.parent().unwrap_or(Path::new("."));
     let mut x = String::new();
     let _ = writeln!(x, "<?xml version=\"1.0\" encoding=\"utf-8\"?>");
     let _ = writeln!(
@@ -52,7 +58,7 @@ pub fn to_mitsuba(s: &Scene, mesh_dir: &str, opts: Options) -> Result<Converted,
     sensor(&mut x, s);
     for (i, m) in s.materials.iter().enumerate() {
         let name = &s.material_names[i];
-        let b = bsdf(m, name, s.material_params.get(i), opts)?;
+        let b = bsdf(m, name, s.material_params.get(i), &opts, scene_dir)?;
         x.push_str(&if m.twosided { twosided(&b, name) } else { b });
     }
     if s.environment != Vec3::ZERO {
@@ -121,6 +127,21 @@ pub fn to_mitsuba(s: &Scene, mesh_dir: &str, opts: Options) -> Result<Converted,
 
 /// A two-sided material: its BSDF element (`b`, as [`bsdf`] writes it) nested, without its id,
 /// in a `twosided` BSDF that takes the id.
+/// A file parameter as the scene gave it (relative to the scene file's directory `s_dir`), as
+/// the XML in `xml_dir` must name it: relative to `xml_dir` when the file lies below it, else
+/// absolute (so that the XML may be written anywhere).
+fn file_for_xml(s_dir: &Path, given: &str, xml_dir: Option<&Path>) -> String {
+    let full = s_dir.join(given);
+    let full = full.canonicalize().unwrap_or(full);
+    let dir = xml_dir.unwrap_or(s_dir);
+    let dir = dir.canonicalize().unwrap_or_else(|_| dir.to_path_buf());
+    let p: PathBuf = match full.strip_prefix(&dir) {
+        Ok(rel) => rel.to_path_buf(),
+        Err(_) => std::path::absolute(&full).unwrap_or(full),
+    };
+    p.to_string_lossy().into_owned()
+}
+
 fn twosided(b: &str, name: &str) -> String {
     let id = format!(" id=\"{}\"", attr(name));
     let inner: String = b
@@ -203,7 +224,8 @@ fn bsdf(
     m: &crate::brdf::Material,
     name: &str,
     params: Option<&std::collections::BTreeMap<String, toml::Value>>,
-    opts: Options,
+    opts: &Options,
+    s_dir: &Path,
 ) -> Result<String, String> {
     let id = attr(name);
     let any = m.brdf.as_any();
@@ -238,6 +260,10 @@ fn bsdf(
             toml::Value::Float(f) => format!("<float name=\"{k}\" value=\"{}\"/>", *f as f32),
             toml::Value::Integer(i) => format!("<integer name=\"{k}\" value=\"{i}\"/>"),
             toml::Value::Boolean(t) => format!("<boolean name=\"{k}\" value=\"{t}\"/>"),
+            toml::Value::String(t) if crate::brdf::is_file_param(m.model_name(), &k) => format!(
+                "<string name=\"{k}\" value=\"{}\"/>",
+                attr(&file_for_xml(s_dir, t, opts.xml_dir.as_deref()))
+            ),
             toml::Value::String(t) => format!("<string name=\"{k}\" value=\"{}\"/>", attr(t)),
             toml::Value::Array(a) if a.len() == 3 => {
                 let n: Vec<String> = a
