@@ -5,8 +5,11 @@
 #      sampler of ours and of the peer (Mitsuba 3, when installed), each to at least 256 spp,
 #      against an 8192-spp reference: relMSE at equal spp and the equal-time error;
 #      the diffuse run also has the scene-size study (--scaling);
-#   2. schedules and threads: wavefront, megakernel, lavapipe on 1 and 2 threads.
-# About 20 minutes on a 2-core machine once the references are cached; rendering them takes
+#   2. the big scene: the Cornell box with a bumpy sphere of 1M triangles (scripts/bumpy-scene.py
+#      writes it to out/bumpy), ours beside Mitsuba's llvm and scalar variants: set-up and
+#      paths/s (its reference is a short one: the relMSE there is not the point);
+#   3. schedules and threads: wavefront, megakernel, lavapipe on 1 and 2 threads.
+# About 25 minutes on a 2-core machine once the references are cached; rendering them takes
 # about 13 minutes each the first time (the CPU reference, 8192 spp; cached after that, keyed
 # on the executable). BENCH_REFS=DIR takes them from DIR/cornell-box.exr and
 # DIR/cornell-box-glossy.exr instead. Run it on a quiet machine: the configurations take
@@ -27,6 +30,10 @@ $bin bench scenes/cornell-box.toml "${common[@]}" $(ref cornell-box) --configs "
 # shellcheck disable=SC2046
 $bin bench scenes/cornell-box-glossy.toml "${common[@]}" $(ref cornell-box-glossy) --configs "$samplers" \
     --min-spp 256 --budget "${BENCH_BUDGET_GLOSSY:-240}" --out out/bench-glossy ${BENCH_ARGS:-} > /dev/null
+python3 scripts/bumpy-scene.py out/bumpy 1048576 > /dev/null
+$bin bench out/bumpy/cornell-box-bumpy.toml --res 256x256 --max-depth 8 --reference-spp 64 \
+    --configs wavefront,cpu,mitsuba-llvm-multijitter,mitsuba-scalar --budget "${BENCH_BUDGET_BUMPY:-120}" \
+    --out out/bench-bumpy ${BENCH_ARGS:-} > /dev/null
 # shellcheck disable=SC2046
 $bin bench scenes/cornell-box.toml "${common[@]}" $(ref cornell-box) --configs wavefront,megakernel,wavefront-t1,wavefront-t2 \
     --budget "${BENCH_BUDGET_THREADS:-160}" --out out/bench-threads ${BENCH_ARGS:-} > /dev/null
@@ -50,6 +57,10 @@ section=$(mktemp)
     cat out/bench-glossy/bench.md
     echo
     echo "![relMSE against render time, glossy Cornell box](docs/bench/cornell-box-glossy.png)"
+    echo
+    echo "### The big scene: the Cornell box and a bumpy sphere of 1M triangles"
+    echo
+    cat out/bench-bumpy/bench.md
     echo
     echo "### Schedules and lavapipe threads"
     echo

@@ -11,9 +11,11 @@ comes with each render.
 
 Protocol, one line each way (so that the benchmark can interleave this process's renders with
 its own configurations). The first line this script writes is
-`ready COMPILE_SECONDS PLAIN_SPP PLAIN_SECONDS`, or `error MESSAGE`: one plain warm render of
-PLAIN_SPP samples per pixel, the figure a user sees, after a first render of the same size
-that compiles Dr.Jit's kernels (COMPILE_SECONDS: how much longer that one took). Then brdfwave
+`ready COMPILE_SECONDS PLAIN_SPP PLAIN_SECONDS LOAD_SECONDS`, or `error MESSAGE`: one plain
+warm render of PLAIN_SPP samples per pixel, the figure a user sees, after a first render of
+the same size that compiles Dr.Jit's kernels (COMPILE_SECONDS: how much longer that one
+took); LOAD_SECONDS is the scene's load (`mi.load_string`: parsing the XML and the meshes and
+building Mitsuba's acceleration structure). Then brdfwave
 writes `render N` and this script renders a fresh image of N samples per pixel (a stratified
 sampler loses its stratification when independent passes are averaged, so every point of the
 curve is one render), timed alone, and answers `done SECONDS SPP COMPILE_SECONDS PATH` with
@@ -54,7 +56,9 @@ def main():
         # Mitsuba logs to stdout, which carries the protocol: warnings (e.g. a sample count
         # rounded up to a square) would break it.
         mi.set_log_level(mi.LogLevel.Error)
+        t = time.perf_counter()
         scene = load_scene(mi, scene_path, sampler)
+        load = time.perf_counter() - t
 
         def render(spp, seed):
             t = time.perf_counter()
@@ -64,7 +68,7 @@ def main():
         # Kernel compilation: the first render of a size against the same render warm.
         _, cold = render(PLAIN_SPP, 2**31 - 1)
         _, plain = render(PLAIN_SPP, 2**31 - 2)
-        print(f"ready {max(cold - plain, 0.0):.6f} {PLAIN_SPP} {plain:.6f}", flush=True)
+        print(f"ready {max(cold - plain, 0.0):.6f} {PLAIN_SPP} {plain:.6f} {load:.6f}", flush=True)
     except Exception as e:  # reported to brdfwave, which skips this configuration
         print(f"error {type(e).__name__}: {e}".replace("\n", " "), flush=True)
         return

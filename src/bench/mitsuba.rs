@@ -9,7 +9,6 @@ use anyhow::{anyhow, bail, Context as _, Result};
 use std::io::{BufRead, BufReader, Write as _};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
-use std::time::Instant;
 
 /// The Mitsuba side of the peer configurations (see its docstring for the protocol).
 const MITSUBA_SCRIPT: &str = include_str!("../../scripts/mitsuba_peer.py");
@@ -52,7 +51,6 @@ impl MitsubaRunner {
                 cmd.env("DRJIT_LIBLLVM_PATH", p);
             }
         }
-        let t = Instant::now();
         let mut child = cmd.spawn().context("starting python3")?;
         let stdin = child.stdin.take().expect("piped");
         let mut stdout = BufReader::new(child.stdout.take().expect("piped"));
@@ -63,16 +61,17 @@ impl MitsubaRunner {
             let _ = child.wait();
             bail!("{msg}");
         }
-        // `ready COMPILE_SECONDS PLAIN_SPP PLAIN_SECONDS`.
+        // `ready COMPILE_SECONDS PLAIN_SPP PLAIN_SECONDS LOAD_SECONDS`.
         let w: Vec<&str> = line.split_whitespace().collect();
+        let num = |s: &str| s.parse::<f64>().ok();
         let ready = match w[..] {
-            ["ready", c, n, s] => c
-                .parse::<f64>()
-                .ok()
-                .zip(n.parse::<u32>().ok().zip(s.parse::<f64>().ok())),
+            ["ready", c, n, s, l] => match (num(c), n.parse::<u32>().ok(), num(s), num(l)) {
+                (Some(c), Some(n), Some(s), Some(l)) => Some((c, (n, s), l)),
+                _ => None,
+            },
             _ => None,
         };
-        let Some((compile_seconds, plain)) = ready else {
+        let Some((compile_seconds, plain, load_seconds)) = ready else {
             let _ = child.kill();
             let _ = child.wait();
             bail!("the Mitsuba script ended without a word (is python3 with mitsuba installed?)");
@@ -84,7 +83,7 @@ impl MitsubaRunner {
             last: None,
             variant: variant.to_string(),
             sampler: sampler.to_string(),
-            setup_seconds: t.elapsed().as_secs_f64(),
+            setup_seconds: load_seconds,
             compile_seconds,
             plain,
             spp: 0,

@@ -132,7 +132,9 @@ type Named<'a> = (String, Box<dyn Runner + 'a>);
 /// returns the markdown summary.
 pub fn run(o: &BenchOptions) -> Result<String> {
     check_options(o)?;
+    let t = Instant::now();
     let sc = load_scene(o)?;
+    let seconds_load = t.elapsed().as_secs_f64();
     for w in &sc.warnings {
         eprintln!("{w}");
     }
@@ -170,7 +172,7 @@ pub fn run(o: &BenchOptions) -> Result<String> {
     write_outputs(
         o,
         &sc,
-        seconds_bvh,
+        (seconds_load, seconds_bvh),
         reference_err,
         &records,
         &details,
@@ -398,7 +400,7 @@ fn details(o: &BenchOptions, runners: &mut [Named<'_>]) -> Vec<(String, Details)
 fn write_outputs(
     o: &BenchOptions,
     sc: &Scene,
-    seconds_bvh: f64,
+    seconds_setup: (f64, f64),
     reference_err: Option<f64>,
     records: &[PassRecord],
     details: &[(String, Details)],
@@ -416,7 +418,7 @@ fn write_outputs(
         (None, None) => format!("the reference: {} spp of the CPU reference", o.reference_spp),
     };
     notes.push(reference_note);
-    let md = tables::summary(o, sc, seconds_bvh, records, details, &notes);
+    let md = tables::summary(o, sc, seconds_setup, records, details, &notes);
     let md = match o.scaling {
         Some(n) => format!("{md}\n{}", scaling::scaling(o, n)?),
         None => md,

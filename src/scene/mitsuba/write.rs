@@ -98,6 +98,11 @@ pub fn to_mitsuba(s: &Scene, mesh_dir: &str, opts: Options) -> Result<Converted,
                     "        <string name=\"filename\" value=\"{}\"/>",
                     attr(&file)
                 );
+                if t.n.is_none() {
+                    // The OBJ shares vertices (obj_text): without this, Mitsuba would make
+                    // smooth normals over them where brdfwave shades the flat triangles.
+                    let _ = writeln!(x, "        <boolean name=\"face_normals\" value=\"true\"/>");
+                }
                 shape_tail(&mut x, s, t.material, t.emitter);
                 meshes.push((file, obj_text(&tris)));
             }
@@ -408,46 +413,53 @@ fn ordered_shapes(s: &Scene) -> Vec<Shape<'_>> {
     out
 }
 
-/// An OBJ of the triangles, each with its own three vertices (and normals, texture
-/// coordinates), every number exact.
+/// An OBJ of the triangles, every number exact. Equal positions (normals, texture coordinates)
+/// are written once and shared, as an indexed mesh: the file is about a third of one with
+/// three vertices per triangle, and Mitsuba loads it that much faster. Sharing changes no
+/// triangle (each corner keeps its own bits); a mesh without normals is marked `face_normals`
+/// (see [`to_mitsuba`]), so Mitsuba does not smooth it over the shared vertices.
 fn obj_text(tris: &[&Triangle]) -> String {
-    let mut o = String::from("# Written by `brdfwave convert`: world space, exact f32 values.\n");
-    for t in tris {
-        for v in t.v {
-            let _ = writeln!(o, "v {} {} {}", v.x, v.y, v.z);
-        }
-        if let Some(n) = t.n {
-            for v in n {
-                let _ = writeln!(o, "vn {} {} {}", v.x, v.y, v.z);
-            }
-        }
-        if let Some(uv) = t.uv {
-            for v in uv {
-                let _ = writeln!(o, "vt {} {}", v.x, v.y);
-            }
-        }
+    use std::collections::HashMap;
+    /// Index (1-based) of `v` in `list`, adding it if new; keyed on the bits of its numbers.
+    fn index<const N: usize>(
+        map: &mut HashMap<[u32; N], usize>,
+        list: &mut Vec<[f32; N]>,
+        v: [f32; N],
+    ) -> usize {
+        *map.entry(v.map(f32::to_bits)).or_insert_with(|| {
+            list.push(v);
+            list.len()
+        })
     }
-    let (mut vi, mut ni, mut ti) = (1usize, 1usize, 1usize);
+    let (mut vs, mut ns, mut ts) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut vm, mut nm, mut tm) = (HashMap::new(), HashMap::new(), HashMap::new());
+    let mut faces = String::new();
     for t in tris {
         let mut f = String::from("f");
-        for _ in 0..3 {
-            let idx = match (t.uv.is_some(), t.n.is_some()) {
-                (false, false) => format!(" {vi}"),
-                (true, false) => format!(" {vi}/{ti}"),
-                (false, true) => format!(" {vi}//{ni}"),
-                (true, true) => format!(" {vi}/{ti}/{ni}"),
+        for k in 0..3 {
+            let vi = index(&mut vm, &mut vs, t.v[k].to_array());
+            let ti = t.uv.map(|uv| index(&mut tm, &mut ts, uv[k].to_array()));
+            let ni = t.n.map(|n| index(&mut nm, &mut ns, n[k].to_array()));
+            let _ = match (ti, ni) {
+                (None, None) => write!(f, " {vi}"),
+                (Some(ti), None) => write!(f, " {vi}/{ti}"),
+                (None, Some(ni)) => write!(f, " {vi}//{ni}"),
+                (Some(ti), Some(ni)) => write!(f, " {vi}/{ti}/{ni}"),
             };
-            f.push_str(&idx);
-            vi += 1;
-            if t.n.is_some() {
-                ni += 1;
-            }
-            if t.uv.is_some() {
-                ti += 1;
-            }
         }
-        o.push_str(&f);
-        o.push('\n');
+        faces.push_str(&f);
+        faces.push('\n');
     }
+    let mut o = String::from("# Written by `brdfwave convert`: world space, exact f32 values.\n");
+    for v in &vs {
+        let _ = writeln!(o, "v {} {} {}", v[0], v[1], v[2]);
+    }
+    for n in &ns {
+        let _ = writeln!(o, "vn {} {} {}", n[0], n[1], n[2]);
+    }
+    for t in &ts {
+        let _ = writeln!(o, "vt {} {}", t[0], t[1]);
+    }
+    o.push_str(&faces);
     o
 }
