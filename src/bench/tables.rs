@@ -164,7 +164,7 @@ fn detail_notes(
             let last = records.iter().rfind(|r| &r.config == name);
             let _ = writeln!(
                 md,
-                "- `{name}`: kernel compile {c:.2} s in all (kept out of every timed render); a plain warm render of {spp} spp took {s:.2} s, {:.3} M paths/s{}",
+                "- `{name}`: kernel compile {c:.2} s in all (kept out of every timed render); the faster of two plain warm renders of {spp} spp took {s:.2} s, {:.3} M paths/s{}",
                 pixels * spp as f64 / s.max(1e-9) / 1e6,
                 last.map(|r| format!(" (the bench's own figure: {:.3} M)", r.paths_per_second / 1e6))
                     .unwrap_or_default()
