@@ -16,13 +16,14 @@
 # turns, so a busy spell hits them all, but it still adds noise.
 #
 #   bash scripts/bench.sh            # lavapipe (the default device)
+#   BENCH_RES=128x128 bash scripts/bench.sh   # a quarter of the pixels (and of the references' time)
 #   BENCH_ARGS="--device nvidia" bash scripts/bench.sh   # another Vulkan device
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
 bin=./target/release/brdfwave
 samplers=wavefront,wavefront-independent,cpu,cpu-independent,mitsuba-llvm,mitsuba-llvm-stratified,mitsuba-llvm-multijitter,mitsuba-llvm-ldsampler
-common=(--res 256x256 --max-depth 8 --reference-spp "${BENCH_REFERENCE_SPP:-8192}")
+common=(--res "${BENCH_RES:-256x256}" --max-depth 8 --reference-spp "${BENCH_REFERENCE_SPP:-8192}")
 ref() { [ -n "${BENCH_REFS:-}" ] && echo "--reference $BENCH_REFS/$1.exr" || true; }
 # shellcheck disable=SC2046
 $bin bench scenes/cornell-box.toml "${common[@]}" $(ref cornell-box) --configs "mitsuba-scalar,$samplers" \
@@ -31,7 +32,7 @@ $bin bench scenes/cornell-box.toml "${common[@]}" $(ref cornell-box) --configs "
 $bin bench scenes/cornell-box-glossy.toml "${common[@]}" $(ref cornell-box-glossy) --configs "$samplers" \
     --min-spp 256 --budget "${BENCH_BUDGET_GLOSSY:-240}" --out out/bench-glossy ${BENCH_ARGS:-} > /dev/null
 python3 scripts/bumpy-scene.py out/bumpy 1048576 > /dev/null
-$bin bench out/bumpy/cornell-box-bumpy.toml --res 256x256 --max-depth 8 --reference-spp 64 \
+$bin bench out/bumpy/cornell-box-bumpy.toml --res "${BENCH_RES:-256x256}" --max-depth 8 --reference-spp 64 \
     --configs wavefront,cpu,mitsuba-llvm-multijitter,mitsuba-scalar --budget "${BENCH_BUDGET_BUMPY:-120}" \
     --out out/bench-bumpy ${BENCH_ARGS:-} > /dev/null
 # shellcheck disable=SC2046
