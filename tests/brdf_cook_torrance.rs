@@ -468,20 +468,36 @@ fn bad_parameters_are_rejected() {
     rejects_fields("cook_torrance", "test.toml:", &cases);
 }
 
+/// Both half-vector samplers (v_cavity: D(h) cosθh; smith: the visible normals) at grazing
+/// incidence, smooth to the mirror threshold and rough, on a grid of random numbers that
+/// includes 0.
 #[test]
 fn sample_weights_are_finite_at_grazing() {
-    let m = CookTorrance {
-        kd: Vec3::splat(0.3),
-        ks: Vec3::splat(0.7),
-        roughness: 0.02,
-        ..Default::default()
-    };
-    for th in [89.0, 89.9, 89.99] {
-        let wo = dir_from_theta_deg(th, 0.0);
-        for i in 0..2000u32 {
-            let u = Vec2::new((i % 50) as f32 / 50.0, (i / 50) as f32 / 40.0);
-            if let Some(s) = m.sample(wo, (i % 7) as f32 / 7.0, u) {
-                assert!(s.weight.is_finite() && s.pdf.is_finite(), "{s:?}");
+    for (distribution, geometry) in [
+        (Distribution::Beckmann, Geometry::VCavity),
+        (Distribution::Beckmann, Geometry::Smith),
+        (Distribution::Ggx, Geometry::Smith),
+    ] {
+        for roughness in [1e-3, 0.02, 1.0] {
+            let m = CookTorrance {
+                kd: Vec3::splat(0.3),
+                ks: Vec3::splat(0.7),
+                roughness,
+                distribution,
+                geometry,
+                ..Default::default()
+            };
+            for th in [0.0, 89.0, 89.9, 89.99] {
+                let wo = dir_from_theta_deg(th, 0.0);
+                for i in 0..2000u32 {
+                    let u = Vec2::new((i % 50) as f32 / 50.0, (i / 50) as f32 / 40.0);
+                    if let Some(s) = m.sample(wo, (i % 7) as f32 / 7.0, u) {
+                        assert!(
+                            s.weight.is_finite() && s.pdf.is_finite() && s.wi.is_finite(),
+                            "{m:?} θ={th}: {s:?}"
+                        );
+                    }
+                }
             }
         }
     }
