@@ -231,6 +231,125 @@ vec3 sample_ggx_h(vec2 u, float alpha) {
     return half_vector_from_tan2(tan2, u.y);
 }
 
+// Exact Smith G1 for Beckmann (Heitz 2014, eqs. 25, 43), 2a/(a(2 - erfc a) + e^(-a²)/√π),
+// a = cosθ/(α sinθ); 1 from a >= 10. As smith_g1_beckmann in common.rs.
+const float FRAC_1_SQRT_PI = 0.5641896;
+float smith_g1_beckmann(vec3 w, float alpha) {
+    if (w.z <= 0.0) return 0.0;
+    float s = sqrt(w.x * w.x + w.y * w.y);
+    if (w.z >= 10.0 * alpha * s) return 1.0;
+    float a = w.z / (alpha * s);
+    float den = a * (2.0 - erfc(a)) + exp(-a * a) * FRAC_1_SQRT_PI;
+    return min(2.0 * a / den, 1.0);
+}
+
+// Inverse error function, single precision (Giles 2010); x clamped to ±(1 - 2^-24).
+const float ERFINV_MAX = 1.0 - 1.0 / 16777216.0;
+float erfinv_f(float x) {
+    x = clamp(x, -ERFINV_MAX, ERFINV_MAX);
+    precise float one_minus = 1.0 - x;
+    precise float one_plus = 1.0 + x;
+    float w = -log(one_minus * one_plus);
+    float p;
+    if (w < 5.0) {
+        w -= 2.5;
+        p = 2.8102264e-8;
+        p = 3.4327394e-7 + p * w;
+        p = -3.5233877e-6 + p * w;
+        p = -4.3915065e-6 + p * w;
+        p = 0.00021858087 + p * w;
+        p = -0.001253725 + p * w;
+        p = -0.0041776816 + p * w;
+        p = 0.24664073 + p * w;
+        p = 1.5014094 + p * w;
+    } else {
+        w = sqrt(w) - 3.0;
+        p = -0.00020021426;
+        p = 0.00010095056 + p * w;
+        p = 0.0013493432 + p * w;
+        p = -0.0036734284 + p * w;
+        p = 0.0057395077 + p * w;
+        p = -0.0076224613 + p * w;
+        p = 0.0094388705 + p * w;
+        p = 1.001674 + p * w;
+        p = 2.8329768 + p * w;
+    }
+    return p * x;
+}
+
+// Visible-normal sampling of GGX (Heitz 2018, JCGT 7(4)); as sample_ggx_vndf in common.rs.
+vec3 sample_ggx_vndf(vec3 wo, vec2 u, float alpha) {
+    vec3 v = normalize(vec3(alpha * wo.x, alpha * wo.y, wo.z));
+    float len2 = v.x * v.x + v.y * v.y;
+    vec3 t1 = len2 > 0.0 ? vec3(-v.y, v.x, 0.0) / sqrt(len2) : vec3(1.0, 0.0, 0.0);
+    vec3 t2 = cross(v, t1);
+    float r = sqrt(u.x);
+    float phi = 2.0 * PI * u.y;
+    float p1 = r * cos(phi);
+    float s = 0.5 * (1.0 + v.z);
+    float p2 = (1.0 - s) * sqrt(max(1.0 - p1 * p1, 0.0)) + s * (r * sin(phi));
+    vec3 n = p1 * t1 + p2 * t2 + sqrt(max(1.0 - p1 * p1 - p2 * p2, 0.0)) * v;
+    return normalize(vec3(alpha * n.x, alpha * n.y, max(n.z, 0.0)));
+}
+
+// Slopes of the α = 1 Beckmann visible normals seen from (sin, 0, cos) by Jakob 2014's routine
+// (Newton steps on b = erf(x) inside a bisection bracket); as beckmann_visible_slopes.
+#define BECKMANN_VNDF_STEPS 10
+#define BECKMANN_VNDF_TOLERANCE 1e-6
+vec2 beckmann_visible_slopes(float cos_t, float sin_t, vec2 u) {
+    float tan_t = sin_t / cos_t;
+    float cot_t = sin_t * 10.0 >= cos_t ? cos_t / sin_t : 10.0;
+    float b_max = 1.0 - erfc(cot_t);
+    float k = tan_t * FRAC_1_SQRT_PI;
+    float norm = 1.0 / (1.0 + b_max + k * exp(-cot_t * cot_t));
+    float theta = acos(clamp(cos_t, -1.0, 1.0));
+    float q = 1.0 + theta * (-0.876 + theta * (0.4265 - 0.0594 * theta));
+    float b = b_max - (1.0 + b_max) * pow(1.0 - u.x, q);
+    float lo = -1.0;
+    float hi = b_max;
+    for (int i = 0; i < BECKMANN_VNDF_STEPS; i++) {
+        if (!(b >= lo && b <= hi)) b = 0.5 * (lo + hi);
+        float x = erfinv_f(b);
+        float value = norm * (1.0 + b + k * exp(-x * x)) - u.x;
+        if (abs(value) < BECKMANN_VNDF_TOLERANCE) break;
+        if (value > 0.0) {
+            hi = b;
+        } else {
+            lo = b;
+        }
+        float slope = norm * (1.0 - x * tan_t);
+        b = slope > 1e-20 ? b - value / slope : 0.5 * (lo + hi);
+    }
+    return vec2(erfinv_f(b), erfinv_f(2.0 * u.y - 1.0));
+}
+
+// Visible-normal sampling of Beckmann (Heitz & d'Eon 2014); as sample_beckmann_vndf.
+vec3 sample_beckmann_vndf(vec3 wo, vec2 u, float alpha) {
+    vec3 v = normalize(vec3(alpha * wo.x, alpha * wo.y, wo.z));
+    float sin_t = sqrt(v.x * v.x + v.y * v.y);
+    vec2 slope = beckmann_visible_slopes(v.z, sin_t, u);
+    float c = 1.0;
+    float s = 0.0;
+    if (sin_t > 0.0) {
+        c = v.x / sin_t;
+        s = v.y / sin_t;
+    }
+    float sx = alpha * (c * slope.x - s * slope.y);
+    float sy = alpha * (s * slope.x + c * slope.y);
+    return normalize(vec3(-sx, -sy, 1.0));
+}
+
+// The density at SAMPLED of a visible-normal half-vector sampler reflecting GIVEN:
+// G1 · D(H) / (4 cosθ_GIVEN), with G1 the exact Smith G1 of GIVEN and PDF_D = D(H) an
+// expression in H = normalize(GIVEN + SAMPLED); 0 when GIVEN·H <= 0 or GIVEN.z <= 0. Returns
+// from the function, as RETURN_REFLECTED_PDF. Rust: visible_reflected_pdf.
+#define RETURN_VISIBLE_REFLECTED_PDF(GIVEN, SAMPLED, G1, H, PDF_D) \
+    { \
+        vec3 H = normalize((GIVEN) + (SAMPLED)); \
+        if (dot(GIVEN, H) <= 0.0 || (GIVEN).z <= 0.0) return 0.0; \
+        return (G1) * (PDF_D) / (4.0 * (GIVEN).z); \
+    }
+
 // The solid-angle density at SAMPLED of a lobe that samples a half vector and reflects GIVEN
 // about it: PDF_H / (4 GIVEN·H), with PDF_H the half vector's density (cosθh included), an
 // expression in H = normalize(GIVEN + SAMPLED); 4 GIVEN·H is the Jacobian of the reflection

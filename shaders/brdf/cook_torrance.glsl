@@ -3,7 +3,8 @@
 // Record: p[0].xyz kd, p[0].w roughness, p[1].xyz ks, p[1].w N (4 survey, 1 walter),
 // p[2].xyz Fresnel A (ior / eta / f0), p[2].w distribution (CT_BECKMANN, CT_GGX),
 // p[3].xyz k, p[3].w geometry (CT_V_CAVITY, CT_SMITH), p[4].x fresnel (CT_FRESNEL_DIELECTRIC,
-// CT_FRESNEL_CONDUCTOR, CT_FRESNEL_SCHLICK); the codes are generated from
+// CT_FRESNEL_CONDUCTOR, CT_FRESNEL_SCHLICK), p[4].y half-vector sampler (CT_SAMPLE_NDF,
+// CT_SAMPLE_VISIBLE; chosen per variant on the host); the codes are generated from
 // cook_torrance::RECORD_CODES.
 #include "brdf/common.glsl"
 
@@ -55,7 +56,16 @@ float ct_specular_probability(Material m, float cos_given) {
     return clamp(ws / (ws + wd), 0.1, 0.9);
 }
 
+// The exact Smith G1 of the distribution (the visible-normal sampler's density holds it).
+float ct_exact_g1(Material m, vec3 w) {
+    if (m.p[2].w == CT_BECKMANN) return smith_g1_beckmann(w, m.p[0].w);
+    return smith_g1_ggx(w, m.p[0].w);
+}
+
 float ct_specular_pdf(Material m, vec3 given, vec3 sampled) {
+    if (m.p[4].y == CT_SAMPLE_VISIBLE) {
+        RETURN_VISIBLE_REFLECTED_PDF(given, sampled, ct_exact_g1(m, given), h, ct_ndf(m, h));
+    }
     RETURN_REFLECTED_PDF(given, sampled, h, ct_ndf(m, h) * h.z);
 }
 
@@ -75,7 +85,14 @@ bool cook_torrance_sample(Material m, vec3 given, float u_lobe, vec2 u, out Brdf
         if (m.p[0].w < CT_MIRROR_ROUGHNESS) {
             return sample_mirror(given, m.p[1].xyz * ct_fresnel(m, given.z) * (m.p[1].w / ps), s);
         }
-        vec3 h = m.p[2].w == CT_BECKMANN ? sample_beckmann_h(u, m.p[0].w) : sample_ggx_h(u, m.p[0].w);
+        float alpha = m.p[0].w;
+        bool beckmann = m.p[2].w == CT_BECKMANN;
+        vec3 h;
+        if (m.p[4].y == CT_SAMPLE_VISIBLE) {
+            h = beckmann ? sample_beckmann_vndf(given, u, alpha) : sample_ggx_vndf(given, u, alpha);
+        } else {
+            h = beckmann ? sample_beckmann_h(u, alpha) : sample_ggx_h(u, alpha);
+        }
         if (!reflect_about(given, h, wi)) return false;
     } else {
         wi = sample_cosine_hemisphere(u);

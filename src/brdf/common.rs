@@ -414,6 +414,180 @@ pub fn sample_ggx_h(u: Vec2, alpha: f32) -> Vec3 {
     half_vector_from_tan2(tan2, u.y)
 }
 
+/// Exact Smith G1 for Beckmann (Heitz 2014, "Understanding the Masking-Shadowing Function in
+/// Microfacet-Based BRDFs", JCGT 3(2), eqs. 25 and 43): with a = cosθ/(α sinθ),
+/// Λ = (erf(a) − 1)/2 + e^(−a²)/(2a√π) and G1 = 1/(1 + Λ), written with erfc (1 + erf a =
+/// 2 − erfc a) and multiplied through by a: G1 = 2a/(a(2 − erfc a) + e^(−a²)/√π). The
+/// denominator is ≥ max(a, e^(−a²)/√π) > 0, so no division by 0; 1 from a ≥ 10, where erfc(a)
+/// and e^(−a²) are below f32's normal range (normal incidence included). The visible-normal
+/// sampler of [`sample_beckmann_vndf`] draws exactly this G1's density.
+pub fn smith_g1_beckmann(w: Vec3, alpha: f32) -> f32 {
+    if w.z <= 0.0 {
+        return 0.0;
+    }
+    let s = (w.x * w.x + w.y * w.y).sqrt();
+    // a ≥ 10 ⇔ cosθ ≥ 10 α sinθ; below it α sinθ > cosθ/10 > 0 and a < 10 is finite.
+    if w.z >= 10.0 * alpha * s {
+        return 1.0;
+    }
+    let a = w.z / (alpha * s);
+    let den = a * (2.0 - erfc(a)) + (-a * a).exp() * FRAC_1_SQRT_PI;
+    (2.0 * a / den).min(1.0)
+}
+
+/// 1/√π.
+const FRAC_1_SQRT_PI: f32 = 0.564_189_6;
+
+/// The inverse error function in single precision (Giles 2010, "Approximating the erfinv
+/// function", GPU Computing Gems: the single-precision polynomials in w = −ln(1 − x²)). x is
+/// clamped to ±(1 − 2⁻²⁴), the largest float below 1, so w is finite (|erfinv| ≤ 3.8).
+pub fn erfinv_f(x: f32) -> f32 {
+    let x = x.clamp(-ERFINV_MAX, ERFINV_MAX);
+    let mut w = -((1.0 - x) * (1.0 + x)).ln();
+    let p = if w < 5.0 {
+        w -= 2.5;
+        let mut p = 2.810_226_4e-8;
+        p = 3.432_739_4e-7 + p * w;
+        p = -3.523_387_7e-6 + p * w;
+        p = -4.391_506_5e-6 + p * w;
+        p = 0.000_218_580_87 + p * w;
+        p = -0.001_253_725 + p * w;
+        p = -0.004_177_681_6 + p * w;
+        p = 0.246_640_73 + p * w;
+        1.501_409_4 + p * w
+    } else {
+        w = w.sqrt() - 3.0;
+        let mut p = -0.000_200_214_26;
+        p = 0.000_100_950_56 + p * w;
+        p = 0.001_349_343_2 + p * w;
+        p = -0.003_673_428_4 + p * w;
+        p = 0.005_739_507_7 + p * w;
+        p = -0.007_622_461_3 + p * w;
+        p = 0.009_438_870_5 + p * w;
+        p = 1.001_674 + p * w;
+        2.832_976_8 + p * w
+    };
+    p * x
+}
+
+/// The largest float below 1, the clamp of [`erfinv_f`].
+pub const ERFINV_MAX: f32 = 1.0 - 1.0 / (1u32 << 24) as f32;
+
+/// Visible-normal sampling of GGX (Heitz 2018, "Sampling the GGX Distribution of Visible
+/// Normals", JCGT 7(4), listing in §4): stretch `wo` by α to the α = 1 configuration, sample
+/// the projected hemisphere there as a disk whose lower half is squashed by (1 + cosθ)/2, lift
+/// the point onto the hemisphere and unstretch. The density of h is the visible-normal
+/// distribution D_wo(h) = G1(wo) max(0, wo·h) D(h)/cosθo with the exact G1 ([`smith_g1_ggx`]).
+/// `wo.z` > 0.
+pub fn sample_ggx_vndf(wo: Vec3, u: Vec2, alpha: f32) -> Vec3 {
+    let v = Vec3::new(alpha * wo.x, alpha * wo.y, wo.z).normalize();
+    let len2 = v.x * v.x + v.y * v.y;
+    let t1 = if len2 > 0.0 {
+        Vec3::new(-v.y, v.x, 0.0) / len2.sqrt()
+    } else {
+        Vec3::X
+    };
+    let t2 = v.cross(t1);
+    let r = u.x.sqrt();
+    let phi = 2.0 * PI * u.y;
+    let p1 = r * phi.cos();
+    let s = 0.5 * (1.0 + v.z);
+    let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * (r * phi.sin());
+    let n = p1 * t1 + p2 * t2 + (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt() * v;
+    Vec3::new(alpha * n.x, alpha * n.y, n.z.max(0.0)).normalize()
+}
+
+/// Visible-normal sampling of Beckmann (Heitz & d'Eon 2014, "Importance Sampling
+/// Microfacet-Based BSDFs using the Distribution of Visible Normals", EGSR, §4: stretch, sample
+/// the slopes of the α = 1 distribution seen from the stretched direction, rotate, unstretch),
+/// with the slope inversion of [`beckmann_visible_slopes`]. The density of h is D_wo(h) =
+/// G1(wo) max(0, wo·h) D(h)/cosθo with the exact G1 ([`smith_g1_beckmann`]). `wo.z` > 0.
+pub fn sample_beckmann_vndf(wo: Vec3, u: Vec2, alpha: f32) -> Vec3 {
+    let v = Vec3::new(alpha * wo.x, alpha * wo.y, wo.z).normalize();
+    let sin_t = (v.x * v.x + v.y * v.y).sqrt();
+    let slope = beckmann_visible_slopes(v.z, sin_t, u);
+    // Rotate by the azimuth of wo (that of v), then unstretch.
+    let (c, s) = if sin_t > 0.0 {
+        (v.x / sin_t, v.y / sin_t)
+    } else {
+        (1.0, 0.0)
+    };
+    let sx = alpha * (c * slope.x - s * slope.y);
+    let sy = alpha * (s * slope.x + c * slope.y);
+    Vec3::new(-sx, -sy, 1.0).normalize()
+}
+
+/// The slopes (x, y) of the α = 1 Beckmann distribution of visible normals seen from a
+/// direction at θ in the xz-plane (cos, sin given), by the routine of Jakob 2014 ("An Improved
+/// Visible Normal Sampling Routine for the Beckmann Distribution"): y = erfinv(2u₂ − 1); x
+/// inverts the marginal CDF C(x) ∝ 1 + erf(x) + tanθ e^(−x²)/√π on x < cotθ in the variable
+/// b = erf(x), from a fitted first guess, by Newton steps kept inside a bisection bracket.
+/// Normal incidence needs no special case: there tanθ = 0, C is linear in b and the first
+/// guess b = 2u₁ − 1 is exact.
+pub fn beckmann_visible_slopes(cos_t: f32, sin_t: f32, u: Vec2) -> Vec2 {
+    let tan_t = sin_t / cos_t;
+    // cotθ capped at 10: erf(10) = 1 and e^(−100) vanish in f32 (no infinity at θ = 0).
+    let cot_t = if sin_t * 10.0 >= cos_t {
+        cos_t / sin_t
+    } else {
+        10.0
+    };
+    let b_max = 1.0 - erfc(cot_t);
+    let k = tan_t * FRAC_1_SQRT_PI;
+    let norm = 1.0 / (1.0 + b_max + k * (-cot_t * cot_t).exp());
+    // Jakob 2014's first guess: b = b_max − (1 + b_max)(1 − u₁)^q, q a cubic in θ.
+    let theta = cos_t.clamp(-1.0, 1.0).acos();
+    let q = 1.0 + theta * (-0.876 + theta * (0.4265 - 0.0594 * theta));
+    let mut b = b_max - (1.0 + b_max) * (1.0 - u.x).powf(q);
+    let (mut lo, mut hi) = (-1.0f32, b_max);
+    for _ in 0..BECKMANN_VNDF_STEPS {
+        if !(b >= lo && b <= hi) {
+            b = 0.5 * (lo + hi);
+        }
+        let x = erfinv_f(b);
+        let value = norm * (1.0 + b + k * (-x * x).exp()) - u.x;
+        if value.abs() < BECKMANN_VNDF_TOLERANCE {
+            break;
+        }
+        if value > 0.0 {
+            hi = b;
+        } else {
+            lo = b;
+        }
+        let slope = norm * (1.0 - x * tan_t);
+        b = if slope > 1e-20 {
+            b - value / slope
+        } else {
+            0.5 * (lo + hi)
+        };
+    }
+    Vec2::new(erfinv_f(b), erfinv_f(2.0 * u.y - 1.0))
+}
+
+/// Most Newton–bisection steps of [`beckmann_visible_slopes`] (the first guess is usually
+/// within two or three of the tolerance).
+pub const BECKMANN_VNDF_STEPS: u32 = 10;
+/// |C(b) − u₁| at which [`beckmann_visible_slopes`] stops.
+pub const BECKMANN_VNDF_TOLERANCE: f32 = 1e-6;
+
+/// The solid-angle density at `sampled` of a visible-normal half-vector sampler reflecting
+/// `given` about h = normalize(given + sampled): D_wo(h)/(4 given·h) = G1(given) D(h)/(4
+/// cosθ_given), with `g1` the exact Smith G1 of `given` and `d` = D(h) (Heitz & d'Eon 2014,
+/// eq. 17 with Walter et al. 2007's Jacobian). 0 when given·h ≤ 0 (no such h is visible) or
+/// `given` is not above the surface. GLSL: the `RETURN_VISIBLE_REFLECTED_PDF` macro.
+pub fn visible_reflected_pdf(
+    given: Vec3,
+    sampled: Vec3,
+    g1: f32,
+    d: impl FnOnce(Vec3) -> f32,
+) -> f32 {
+    let h = (given + sampled).normalize();
+    if given.dot(h) <= 0.0 || given.z <= 0.0 {
+        return 0.0;
+    }
+    g1 * d(h) / (4.0 * given.z)
+}
+
 #[cfg(test)]
 mod tests {
     #[test]

@@ -38,22 +38,40 @@
 //! mirror with weight ks·F(cosθ)·N (N = 4 for `survey`: the m → 0 limit of eq. 9, G → 1).
 //!
 //! Sampling: with probability P_s (∝ luminance(ks·F(cosθ_given))·N against luminance(kd),
-//! clamped to [0.1, 0.9] when both lobes exist) the NDF half-vector sampler (Beckmann:
-//! tan²θh = −m² ln(1−u); GGX: tan²θh = α² u/(1−u)), reflecting `given` about h; otherwise a
-//! cosine-weighted direction. pdf = P_s·D(h) cosθh/(4 given·h) + (1 − P_s)·cosθ/π; with the
-//! delta mirror, P_s is P_delta and pdf = (1 − P_delta)·cosθ/π. Reflected samples below the
-//! horizon are rejected (weight 0), never renormalised.
+//! clamped to [0.1, 0.9] when both lobes exist) a half vector h, reflecting `given` about it;
+//! otherwise a cosine-weighted direction. Reflected samples below the horizon are rejected
+//! (weight 0), never renormalised; with the delta mirror, P_s is P_delta and pdf =
+//! (1 − P_delta)·cosθ/π. The half vector ([`Sampler`], [`CookTorrance::sampler`]):
+//!
+//! | geometry | h drawn from | pdf of the reflected direction |
+//! |---|---|---|
+//! | `smith` | visible normals D_wo(h) = G1(wo) max(0, wo·h) D(h)/cosθo (Beckmann: Heitz & d'Eon 2014 with Jakob 2014's inversion; GGX: Heitz 2018) | P_s·G1(wo) D(h)/(4 cosθo) + (1 − P_s)·cosθ/π |
+//! | `v_cavity` | D(h) cosθh (Beckmann: tan²θh = −m² ln(1−u); GGX: tan²θh = α² u/(1−u)) | P_s·D(h) cosθh/(4 wo·h) + (1 − P_s)·cosθ/π |
+//!
+//! wo is `given`; G1 is the *exact* Smith G1 of the distribution ([`exact_g1`]: for Beckmann
+//! the erfc form, not the rational approximation the BRDF's `smith` G uses), because that is
+//! the density the visible-normal sampler draws. Both samplers are valid for every variant; the
+//! choice is by the variance of one sample's weight f·cosθ/pdf (`tests/brdf_cook_torrance.rs`,
+//! `visible_normals_lower_the_weight_variance`, θ = 0°–89°, m = 0.05–0.5, kd = 0 and 0.3).
+//! With `smith` the visible normals divide it, summed over the angles, by 4–60 (ratio
+//! 0.016–0.23) and never raise it at any angle (the weight is F·G1(wi) at most). With
+//! `v_cavity` (weight F·G/G1(wo), and G is not Smith's) they raise it at grazing incidence
+//! (89°: ×1.3 for Beckmann m = 0.5, ×1.6–2.5 for GGX m = 0.2–0.5; over all angles ×1.29 for
+//! GGX m = 0.5), so `v_cavity` keeps D(h) cosθh. The normalisation does not change the choice
+//! (`survey` is `walter` times 4; only P_s differs).
 //!
 //! GPU record (`p[k]`, `vec4 p[7]` in GLSL as p[k/4][k%4]):
 //! p[0..3] kd, p[3] roughness, p[4..7] ks, p[7] N (4 survey, 1 walter),
 //! p[8..11] Fresnel parameter A (dielectric: ior in all three; conductor: η; schlick: f0),
 //! p[11] distribution (0 beckmann, 1 ggx), p[12..15] κ (conductor), p[15] geometry
-//! (0 v_cavity, 1 smith), p[16] fresnel (0 dielectric, 1 conductor, 2 schlick).
+//! (0 v_cavity, 1 smith), p[16] fresnel (0 dielectric, 1 conductor, 2 schlick), p[17] the
+//! half-vector sampler (0 D(h) cosθh, 1 visible normals; from the geometry, on the host).
 
 use super::common::{
     beckmann_d, cosine_hemisphere_pdf, fresnel_conductor, fresnel_dielectric, fresnel_schlick,
     ggx_d, luminance, reflect_about, reflected_pdf, same_hemisphere_up, sample_beckmann_h,
-    sample_cosine_hemisphere, sample_ggx_h, smith_g1_beckmann_walter, smith_g1_ggx,
+    sample_beckmann_vndf, sample_cosine_hemisphere, sample_ggx_h, sample_ggx_vndf,
+    smith_g1_beckmann, smith_g1_beckmann_walter, smith_g1_ggx, visible_reflected_pdf,
 };
 use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
@@ -99,6 +117,17 @@ choice_enum! {
         Survey = "survey",
         /// Walter et al. 2007: F·D·G/(4 cosθi cosθo).
         Walter = "walter",
+    }
+}
+
+choice_enum! {
+    /// How the specular lobe draws its half vector (not a parameter: [`CookTorrance::sampler`]
+    /// chooses it per variant; `pack` writes its code).
+    pub enum Sampler {
+        /// D(h) cosθh (Walter et al. 2007).
+        Ndf = "ndf" => "CT_SAMPLE_NDF",
+        /// The visible normals D_wo(h) (Heitz & d'Eon 2014; Heitz 2018 for GGX).
+        Visible = "visible" => "CT_SAMPLE_VISIBLE",
     }
 }
 
@@ -148,6 +177,14 @@ impl CookTorrance {
     pub fn is_mirror(&self) -> bool {
         self.roughness < MIRROR_ROUGHNESS
     }
+    /// The half-vector sampler of this variant: the visible normals with `smith`, D(h) cosθh
+    /// with `v_cavity` (the header gives the figures).
+    pub fn sampler(&self) -> Sampler {
+        match self.geometry {
+            Geometry::Smith => Sampler::Visible,
+            Geometry::VCavity => Sampler::Ndf,
+        }
+    }
 }
 
 params! {
@@ -178,11 +215,12 @@ pub const REPRESENTATIVE: &[(&str, &str)] = &[
     ),
 ];
 /// `p[2].w` the distribution, `p[3].w` the geometry, `p[4].x` the Fresnel term
-/// ([`Fresnel::code`]).
+/// ([`Fresnel::code`]), `p[4].y` the half-vector sampler ([`Sampler::code`]).
 pub const RECORD_CODES: &[&[(&str, f32)]] = &[
     Distribution::RECORD_CODES,
     Geometry::RECORD_CODES,
     Fresnel::RECORD_CODES,
+    Sampler::RECORD_CODES,
 ];
 
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
@@ -323,24 +361,56 @@ pub fn specular_probability(m: &CookTorrance, cos_given: f32) -> f32 {
     (ws / (ws + wd)).clamp(0.1, 0.9)
 }
 
-/// Solid-angle density of the half-vector sampler mapped to `sampled`: D(h) cosθh/(4 given·h).
-fn specular_pdf(m: &CookTorrance, given: Vec3, sampled: Vec3) -> f32 {
-    reflected_pdf(given, sampled, |h| ndf(m, h) * h.z)
+/// The exact Smith G1 of the distribution (whatever G the BRDF evaluates): the visible-normal
+/// sampler's density holds it.
+pub fn exact_g1(m: &CookTorrance, w: Vec3) -> f32 {
+    match m.distribution {
+        Distribution::Beckmann => smith_g1_beckmann(w, m.roughness),
+        Distribution::Ggx => smith_g1_ggx(w, m.roughness),
+    }
+}
+
+/// Solid-angle density of the half-vector sampler `s` mapped to `sampled`: D(h) cosθh/(4
+/// given·h) for [`Sampler::Ndf`], G1(given) D(h)/(4 cosθ_given) for [`Sampler::Visible`].
+fn specular_pdf(m: &CookTorrance, s: Sampler, given: Vec3, sampled: Vec3) -> f32 {
+    match s {
+        Sampler::Ndf => reflected_pdf(given, sampled, |h| ndf(m, h) * h.z),
+        Sampler::Visible => {
+            visible_reflected_pdf(given, sampled, exact_g1(m, given), |h| ndf(m, h))
+        }
+    }
 }
 
 pub fn pdf(m: &CookTorrance, given: Vec3, sampled: Vec3) -> f32 {
+    pdf_with(m, m.sampler(), given, sampled)
+}
+
+/// [`pdf`] with the half-vector sampler `s` in place of the variant's own.
+pub fn pdf_with(m: &CookTorrance, s: Sampler, given: Vec3, sampled: Vec3) -> f32 {
     if !same_hemisphere_up(given, sampled) {
         return 0.0;
     }
     let ps = specular_probability(m, given.z);
     let mut p = (1.0 - ps) * cosine_hemisphere_pdf(sampled.z);
     if !m.is_mirror() && ps > 0.0 {
-        p += ps * specular_pdf(m, given, sampled);
+        p += ps * specular_pdf(m, s, given, sampled);
     }
     p
 }
 
 pub fn sample(m: &CookTorrance, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
+    sample_with(m, m.sampler(), given, u_lobe, u)
+}
+
+/// [`sample`] with the half-vector sampler `s` in place of the variant's own (the weight and
+/// pdf are those of [`pdf_with`] for `s`).
+pub fn sample_with(
+    m: &CookTorrance,
+    s: Sampler,
+    given: Vec3,
+    u_lobe: f32,
+    u: Vec2,
+) -> Option<BrdfSample> {
     if given.z <= 0.0 {
         return None;
     }
@@ -350,15 +420,19 @@ pub fn sample(m: &CookTorrance, given: Vec3, u_lobe: f32, u: Vec2) -> Option<Brd
             let weight = m.ks * fresnel(m, given.z) * (m.norm_factor() / ps);
             return Some(BrdfSample::mirror(given, weight));
         }
-        let h = match m.distribution {
-            Distribution::Beckmann => sample_beckmann_h(u, m.roughness),
-            Distribution::Ggx => sample_ggx_h(u, m.roughness),
+        let h = match (s, m.distribution) {
+            (Sampler::Ndf, Distribution::Beckmann) => sample_beckmann_h(u, m.roughness),
+            (Sampler::Ndf, Distribution::Ggx) => sample_ggx_h(u, m.roughness),
+            (Sampler::Visible, Distribution::Beckmann) => {
+                sample_beckmann_vndf(given, u, m.roughness)
+            }
+            (Sampler::Visible, Distribution::Ggx) => sample_ggx_vndf(given, u, m.roughness),
         };
         reflect_about(given, h)?
     } else {
         sample_cosine_hemisphere(u)
     };
-    BrdfSample::scattered(wi, |wi| pdf(m, given, wi), |wi| eval(m, wi, given))
+    BrdfSample::scattered(wi, |wi| pdf_with(m, s, given, wi), |wi| eval(m, wi, given))
 }
 
 impl_brdf!(CookTorrance {
@@ -374,7 +448,7 @@ impl_brdf!(CookTorrance {
             self.ks.extend(self.norm_factor()),
             a.extend(self.distribution.code()),
             self.k.extend(self.geometry.code()),
-            Vec4::new(fresnel, 0.0, 0.0, 0.0),
+            Vec4::new(fresnel, self.sampler().code(), 0.0, 0.0),
         ])
     }
     fn scatters(&self) -> bool {
