@@ -71,7 +71,7 @@ fn max_rel_diff(a: &Image, b: &Image) -> f32 {
 
 /// CPU parts, in any split of the samples and tiles that differ from one sample range to the
 /// next, merge into the single render's mean and variance bit for bit; on a one-model scene and
-/// on the lineup (eight models, spheres).
+/// on the lineup (one sphere per model).
 #[test]
 fn cpu_parts_merge_into_the_single_render_bit_for_bit() {
     let dir = tempfile::tempdir().unwrap();

@@ -472,5 +472,5 @@ pub fn fixtures() -> tempfile::TempDir {
 /// `missing` are the names of those it misses.
 #[track_caller]
 pub fn assert_no_model_missing(missing: &[&str], place: &str) {
-    assert!(missing.is_empty(), "{place} has no material of {missing:?}");
+    assert!(missing.is_empty(), "{place} misses the models {missing:?}");
 }
