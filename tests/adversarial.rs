@@ -561,15 +561,20 @@ fn a_signal_during_a_write_leaves_the_old_output_and_no_temporary() {
 }
 
 /// `brdf eval` of a Lambert material on the CPU over the directions in `dirs`.
-fn eval_lambert(dirs: &Path) -> Output {
-    check(
+/// Writes `csv` to the scratch file `name` and runs `brdf eval` of a Lambert material on its
+/// directions; returns the run and the file.
+fn eval_lambert(name: &str, csv: &str) -> (Output, PathBuf) {
+    let dirs = CLI.tmp(name);
+    std::fs::write(&dirs, csv).unwrap();
+    let o = check(
         bin()
             .args(["brdf", "eval", "--material", "model = \"lambert\""])
-            .args(["--backend", "cpu", "--dirs", s(dirs)])
+            .args(["--backend", "cpu", "--dirs", s(&dirs)])
             .output()
             .unwrap(),
         "brdf eval",
-    )
+    );
+    (o, dirs)
 }
 
 /// Messages of issue 22 item 15: a part header's text with escape codes is refused, not
@@ -584,13 +589,10 @@ fn messages_say_what_is_wrong() {
         &["merge", s(&escaped), "--out", s(&CLI.tmp("esc.exr"))],
         &["header field 'scene'", "control characters"],
     );
-    let dirs = CLI.tmp("bom.csv");
-    std::fs::write(
-        &dirs,
+    let (o, dirs) = eval_lambert(
+        "bom.csv",
         "\u{feff}wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n",
-    )
-    .unwrap();
-    let o = eval_lambert(&dirs);
+    );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     fails_with(
         &[
@@ -629,13 +631,10 @@ fn a_negative_count_is_an_invalid_value() {
 /// Directions below the horizon give 0 with a warning that counts them (they gave 0 silently).
 #[test]
 fn brdf_eval_warns_below_the_horizon() {
-    let dirs = CLI.tmp("below.csv");
-    std::fs::write(
-        &dirs,
+    let (o, _) = eval_lambert(
+        "below.csv",
         "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n0,0,-1,0,0,1\n0,0,1,0.6,0,-0.8\n",
-    )
-    .unwrap();
-    let o = eval_lambert(&dirs);
+    );
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
     assert!(

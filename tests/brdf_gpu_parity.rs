@@ -68,10 +68,7 @@ fn the_parity_materials_cover_every_model() {
         })
         .map(|m| m.name)
         .collect();
-    assert!(
-        missing.is_empty(),
-        "tests/brdf_gpu_parity.rs MATERIALS has no material of {missing:?}"
-    );
+    common::brdf::assert_no_model_missing(&missing, "tests/brdf_gpu_parity.rs MATERIALS");
 }
 
 #[test]
@@ -106,8 +103,7 @@ fn gpu_and_cpu_agree_on_eval_pdf_and_sample_for_every_model() {
     pairs.push((Vec3::new(0.3, 0.1, -0.948_683_3), dir(30.0, 10.0)));
     pairs.push((dir(30.0, 10.0), Vec3::new(0.3, 0.1, -0.948_683_3)));
     let mut failures = Vec::new();
-    let fixtures = tempfile::tempdir().unwrap();
-    brdfwave::brdf::write_fixtures(fixtures.path()).unwrap();
+    let fixtures = common::brdf::fixtures();
     for src in MATERIALS {
         let (m, _) = parse_inline_at("--material", src, Some(fixtures.path()))
             .unwrap_or_else(|e| panic!("{src}: {e:#}"));

@@ -714,18 +714,13 @@ fn brdf_plot_honours_the_extension() {
 /// Runs brdfwave under `umask 027`.
 #[cfg(unix)]
 fn ok_with_umask(args: &[&str]) {
-    let out = Command::new("sh")
-        .arg("-c")
-        .arg("umask 027 && exec \"$0\" \"$@\"")
-        .arg(env!("CARGO_BIN_EXE_brdfwave"))
-        .args(args)
-        .current_dir(common::repo())
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
+    common::run_ok(
+        Command::new("sh")
+            .arg("-c")
+            .arg("umask 027 && exec \"$0\" \"$@\"")
+            .arg(env!("CARGO_BIN_EXE_brdfwave"))
+            .args(args)
+            .current_dir(common::repo()),
     );
 }
 

@@ -268,6 +268,18 @@ fn a_quad_lamp_gives_the_form_factor_irradiance() {
     });
 }
 
+/// A small deterministic generator (SplitMix64, Steele et al. 2014) of numbers in [0, 1), for
+/// an integration's own numbers, independent of the renderers' generator.
+fn splitmix64(mut state: u64) -> impl FnMut() -> f64 {
+    move || {
+        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 /// One bounce, checked against a numerical integration written here, independent of both
 /// renderers: a white quad stands on a white floor with its face turned away from the lamp, so
 /// it is lit only by the floor (max depth 3: camera → quad → floor → lamp). For the pixels
@@ -322,15 +334,7 @@ fn a_quad_lit_only_by_the_floor_matches_a_numerical_integration() {
         let st = g.inverse() * glam::DVec2::new(q.dot(eu), q.dot(ev));
         Some((st.x, st.y, tau))
     };
-    // A small deterministic generator (SplitMix64) for the integration's own numbers.
-    let mut state = 0x9E37_79B9_7F4A_7C15u64;
-    let mut rnd = move || {
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rnd = splitmix64(0x9E37_79B9_7F4A_7C15);
     let t1 = n.cross(glam::DVec3::Y).normalize();
     let t2 = n.cross(t1);
     let cam = CameraBasis::new(&s);

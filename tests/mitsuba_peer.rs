@@ -3,6 +3,8 @@
 //! two-sample z-test. Needs Mitsuba 3 (`pip install mitsuba numpy`); without it the test says
 //! so and passes, since a fresh machine does not have it.
 
+mod common;
+
 use brdfwave::imageio;
 use std::path::Path;
 use std::process::Command;
@@ -111,28 +113,23 @@ fn an_xml_scene_renders_alike_in_mitsuba_and_brdfwave() {
     let dir = tempfile::tempdir().unwrap();
     let exr = dir.path().join("ours.exr");
     let spp = 64;
-    let out = Command::new(env!("CARGO_BIN_EXE_brdfwave"))
-        .args([
-            "render",
-            xml.to_str().unwrap(),
-            "--backend",
-            "cpu",
-            "--quiet",
-        ])
-        .args([
-            "--sampler",
-            "independent",
-            "--spp",
-            &spp.to_string(),
-            "--out",
-        ])
-        .arg(&exr)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    common::run_ok(
+        Command::new(env!("CARGO_BIN_EXE_brdfwave"))
+            .args([
+                "render",
+                xml.to_str().unwrap(),
+                "--backend",
+                "cpu",
+                "--quiet",
+            ])
+            .args([
+                "--sampler",
+                "independent",
+                "--spp",
+                &spp.to_string(),
+                "--out",
+            ])
+            .arg(&exr),
     );
     let ours = imageio::read_layered(&exr).unwrap();
     assert_eq!((ours.image.width, ours.image.height), (256, 256));

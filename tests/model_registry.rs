@@ -6,6 +6,7 @@
 
 mod common;
 use brdfwave::brdf::{glsl, inline::parse_inline, inline::parse_inline_at, Kind, MODELS};
+use common::brdf::{assert_no_model_missing, fixtures};
 use std::collections::BTreeMap;
 
 /// Whether the model reads its data from a file (a measured table): such a model has no
@@ -31,10 +32,7 @@ fn stress_generates_materials_of_every_model() {
             }
         }
     }
-    assert!(
-        missing.is_empty(),
-        "stress::random_material_of has no generator for {missing:?}"
-    );
+    assert_no_model_missing(&missing, "stress::random_material_of");
 }
 
 /// `brdf report` measures at least one material of every model, each of its own model; the
@@ -42,8 +40,7 @@ fn stress_generates_materials_of_every_model() {
 /// report` writes too).
 #[test]
 fn the_report_measures_every_model() {
-    let fixtures = tempfile::tempdir().unwrap();
-    brdfwave::brdf::write_fixtures(fixtures.path()).unwrap();
+    let fixtures = fixtures();
     for (i, m) in MODELS.iter().enumerate() {
         assert!(
             !m.representative.is_empty(),
@@ -72,18 +69,14 @@ fn the_lineup_shows_every_model() {
         .filter(|&i| !shown.contains(&i) && !reads_a_file(&MODELS[i]))
         .map(|i| MODELS[i].name)
         .collect();
-    assert!(
-        missing.is_empty(),
-        "scenes/lineup.toml has no material of {missing:?}"
-    );
+    assert_no_model_missing(&missing, "scenes/lineup.toml");
 }
 
 /// Each model's parser reads exactly the parameters it declares (so the declared defaults,
 /// ranges and docs are the parser's), and no declared default is outside its declared range.
 #[test]
 fn every_model_reads_exactly_its_declared_parameters() {
-    let fixtures = tempfile::tempdir().unwrap();
-    brdfwave::brdf::write_fixtures(fixtures.path()).unwrap();
+    let fixtures = fixtures();
     for m in MODELS.iter() {
         // The fields read for a material that gives none (but the file a model requires: its
         // representative material's, from the fixtures).

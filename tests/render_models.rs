@@ -52,7 +52,7 @@ fn anisotropic_scene_gpu_matches_cpu() {
     same_seed_parity("anisotropic.toml", 120, 50, 4, 5);
 }
 
-/// Deep paths: 400 segments through all eight shade pipelines need more timestamp queries than
+/// Deep paths: 400 segments through every model's shade pipeline need more timestamp queries than
 /// one command buffer holds (about 12 per segment, 4096 in all), so the GPU renderer splits the
 /// wave over several submissions; the image still matches the CPU reference.
 #[test]

@@ -56,19 +56,6 @@ fn cpu_part(s: &Scene, samples: Range<u32>, t: Tile, dir: &Path, name: &str) -> 
     part_on(Backend::Cpu, s, samples, t, dir, name)
 }
 
-/// Renders one part on the GPU and writes it to `dir/name`.
-fn gpu_part(
-    ctx: &brdfwave::vk::Context,
-    s: &Scene,
-    samples: Range<u32>,
-    t: Tile,
-    dir: &Path,
-    name: &str,
-) -> PathBuf {
-    let compiler = brdfwave::vk::ShaderCompiler::new().unwrap();
-    part_on(Backend::gpu(ctx, &compiler), s, samples, t, dir, name)
-}
-
 fn crop(img: &Image, t: Tile) -> Image {
     Image::from_fn(t.width, t.height, |x, y| img.get(t.x + x, t.y + y))
 }
@@ -84,7 +71,7 @@ fn max_rel_diff(a: &Image, b: &Image) -> f32 {
 
 /// CPU parts, in any split of the samples and tiles that differ from one sample range to the
 /// next, merge into the single render's mean and variance bit for bit; on a one-model scene and
-/// on the lineup (eight models, spheres).
+/// on the lineup (one sphere per model).
 #[test]
 fn cpu_parts_merge_into_the_single_render_bit_for_bit() {
     let dir = tempfile::tempdir().unwrap();
@@ -134,7 +121,18 @@ fn gpu_and_mixed_parts_merge_within_rounding() {
     let whole = render::render_all(Backend::gpu(&ctx, &compiler), &s, &b).unwrap();
     let full = Tile::full(24, 18);
     let t = tile(5, 3, 7, 11);
-    let a = gpu_part(&ctx, &s, 0..9, t, dir.path(), "tile.bwfilm");
+    // One part on the GPU, written to the folder (the compiler above, its shaders cached).
+    let gpu_part = |samples: Range<u32>, t: Tile, name: &str| {
+        part_on(
+            Backend::gpu(&ctx, &compiler),
+            &s,
+            samples,
+            t,
+            dir.path(),
+            name,
+        )
+    };
+    let a = gpu_part(0..9, t, "tile.bwfilm");
     let m = film::read_part(&a).unwrap().film.images().0;
     assert!(
         m.data == crop(&whole.mean, t).data,
@@ -142,9 +140,9 @@ fn gpu_and_mixed_parts_merge_within_rounding() {
     );
 
     let parts = [
-        gpu_part(&ctx, &s, 0..4, full, dir.path(), "g0.bwfilm"),
-        gpu_part(&ctx, &s, 4..9, tile(0, 0, 24, 10), dir.path(), "g1.bwfilm"),
-        gpu_part(&ctx, &s, 4..9, tile(0, 10, 24, 8), dir.path(), "g2.bwfilm"),
+        gpu_part(0..4, full, "g0.bwfilm"),
+        gpu_part(4..9, tile(0, 0, 24, 10), "g1.bwfilm"),
+        gpu_part(4..9, tile(0, 10, 24, 8), "g2.bwfilm"),
     ];
     let m = film::merge(&parts).unwrap();
     let d = max_rel_diff(&m.mean, &whole.mean);

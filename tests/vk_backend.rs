@@ -177,41 +177,47 @@ layout(std430, binding = 3) buffer Out { uint outv[]; };
 layout(push_constant) uniform Push { uint count; uint modulus; uint mark; uint args_word; } pc;
 "#;
 
+/// A queue shader: the preamble the three share (the version, `local_size_x` and the queue
+/// interface above), then `main` with the body given.
+macro_rules! queue_comp {
+    ($local_size_x:literal, $main_body:literal) => {
+        concat!(
+            "#version 450\n#extension GL_GOOGLE_include_directive : require\n",
+            "layout(local_size_x = ",
+            $local_size_x,
+            ") in;\n#include \"t/queue.glsl\"\nvoid main() {\n",
+            $main_body,
+            "}\n"
+        )
+    };
+}
+
 /// Appends the indices i < count with i % modulus == 0 to a queue (atomic counter).
-const PUSH_COMP: &str = r#"#version 450
-#extension GL_GOOGLE_include_directive : require
-layout(local_size_x = 64) in;
-#include "t/queue.glsl"
-void main() {
-    uint i = gl_GlobalInvocationID.x;
+const PUSH_COMP: &str = queue_comp!(
+    64,
+    r#"    uint i = gl_GlobalInvocationID.x;
     if (i >= pc.count || i % pc.modulus != 0u) return;
     queue[atomicAdd(counter, 1u)] = i;
-}
-"#;
+"#
+);
 
 /// One thread: the counter becomes a VkDispatchIndirectCommand at args[args_word..].
-const PREPARE_COMP: &str = r#"#version 450
-#extension GL_GOOGLE_include_directive : require
-layout(local_size_x = 1) in;
-#include "t/queue.glsl"
-void main() {
-    args[pc.args_word + 0u] = (counter + 63u) / 64u;
+const PREPARE_COMP: &str = queue_comp!(
+    1,
+    r#"    args[pc.args_word + 0u] = (counter + 63u) / 64u;
     args[pc.args_word + 1u] = 1u;
     args[pc.args_word + 2u] = 1u;
-}
-"#;
+"#
+);
 
 /// Consumes the queue: out[queue[k]] += mark for k < counter.
-const CONSUME_COMP: &str = r#"#version 450
-#extension GL_GOOGLE_include_directive : require
-layout(local_size_x = 64) in;
-#include "t/queue.glsl"
-void main() {
-    uint k = gl_GlobalInvocationID.x;
+const CONSUME_COMP: &str = queue_comp!(
+    64,
+    r#"    uint k = gl_GlobalInvocationID.x;
     if (k >= counter) return;
     outv[queue[k]] += pc.mark;
-}
-"#;
+"#
+);
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
@@ -322,6 +328,12 @@ void main() {
 }
 "#;
 
+/// BUSY_COMP's SPIR-V (one storage buffer, no push constants of its own).
+fn busy_spirv() -> Vec<u32> {
+    let comp = compiler(&[("t/busy.comp", BUSY_COMP)]);
+    comp.compile("t/busy.comp", &[], &[]).unwrap()
+}
+
 #[test]
 fn timestamps_are_labelled_and_monotonic() {
     let ctx = context();
@@ -329,14 +341,8 @@ fn timestamps_are_labelled_and_monotonic() {
         ctx.features.timestamps,
         "the compute queue has no timestamps"
     );
-    let comp = compiler(&[("t/busy.comp", BUSY_COMP)]);
     let p = ctx
-        .create_compute_pipeline(
-            "busy",
-            &comp.compile("t/busy.comp", &[], &[]).unwrap(),
-            1,
-            0,
-        )
+        .create_compute_pipeline("busy", &busy_spirv(), 1, 0)
         .unwrap();
     let n = 1 << 16;
     let buf = ctx
@@ -632,14 +638,8 @@ fn buffers_upload_download_and_misuse() {
         .create_buffer("empty", 0, STORAGE, MemoryLocation::GpuOnly)
         .unwrap();
     assert!(ctx.download::<u32>(&empty).unwrap().is_empty());
-    let comp = compiler(&[("t/busy.comp", BUSY_COMP)]);
     let p = ctx
-        .create_compute_pipeline(
-            "busy",
-            &comp.compile("t/busy.comp", &[], &[]).unwrap(),
-            1,
-            8,
-        )
+        .create_compute_pipeline("busy", &busy_spirv(), 1, 8)
         .unwrap();
     assert!(
         ctx.create_descriptor_set(&p, &[]).is_err(),
@@ -659,12 +659,7 @@ fn buffers_upload_download_and_misuse() {
     rec.dispatch_indirect(&empty, 0);
     assert!(format!("{:#}", ctx.submit_and_wait(rec).unwrap_err()).contains("INDIRECT_BUFFER"));
     assert!(ctx
-        .create_compute_pipeline(
-            "too_many",
-            &comp.compile("t/busy.comp", &[], &[]).unwrap(),
-            1,
-            132
-        )
+        .create_compute_pipeline("too_many", &busy_spirv(), 1, 132)
         .is_err());
     ctx.destroy_buffer(empty);
     ctx.destroy_pipeline(p);
@@ -674,8 +669,7 @@ fn buffers_upload_download_and_misuse() {
 #[test]
 fn descriptor_sets_are_freed_with_their_pipeline() {
     let ctx = context();
-    let comp = compiler(&[("t/busy.comp", BUSY_COMP)]);
-    let spirv = comp.compile("t/busy.comp", &[], &[]).unwrap();
+    let spirv = busy_spirv();
     let buf = ctx
         .create_buffer("b", 256, STORAGE, MemoryLocation::GpuOnly)
         .unwrap();
@@ -705,23 +699,12 @@ fn leaks_are_reported_and_cleaned_up() {
         .create_buffer("forgotten", 64, STORAGE, MemoryLocation::GpuOnly)
         .unwrap();
     drop(b);
-    let comp = compiler(&[("t/busy.comp", BUSY_COMP)]);
     let p = ctx
-        .create_compute_pipeline(
-            "forgotten_pipeline",
-            &comp.compile("t/busy.comp", &[], &[]).unwrap(),
-            1,
-            0,
-        )
+        .create_compute_pipeline("forgotten_pipeline", &busy_spirv(), 1, 0)
         .unwrap();
     // Destroying by reference twice is harmless; a pipeline never destroyed is reported.
     let p2 = ctx
-        .create_compute_pipeline(
-            "twice",
-            &comp.compile("t/busy.comp", &[], &[]).unwrap(),
-            1,
-            0,
-        )
+        .create_compute_pipeline("twice", &busy_spirv(), 1, 0)
         .unwrap();
     ctx.destroy_pipeline_ref(&p2);
     ctx.destroy_pipeline_ref(&p2);

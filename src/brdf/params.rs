@@ -281,27 +281,27 @@ impl<'a> ParamReader<'a> {
     /// An RGB parameter with its declared default and range.
     pub fn rgb_of(&mut self, p: &Param) -> Result<Vec3, ParamError> {
         match p.kind {
-            Kind::Rgb(d) => self.rgb(p.name, Vec3::from_array(d), p.min, p.max),
+            Kind::Rgb(d) => self.rgb(p, Vec3::from_array(d)),
             _ => panic!("parameter {} is not declared as RGB", p.name),
         }
     }
 
     /// An RGB parameter with its declared range and the default `default` the model derives.
     pub fn rgb_or(&mut self, p: &Param, default: Vec3) -> Result<Vec3, ParamError> {
-        self.rgb(p.name, default, p.min, p.max)
+        self.rgb(p, default)
     }
 
     /// A scalar parameter with its declared default and range.
     pub fn scalar_of(&mut self, p: &Param) -> Result<f32, ParamError> {
         match p.kind {
-            Kind::Scalar(d) => self.scalar(p.name, d, p.min, p.max),
+            Kind::Scalar(d) => self.scalar(p, d),
             _ => panic!("parameter {} is not declared as a scalar", p.name),
         }
     }
 
     /// A scalar parameter with its declared range and the default `default` the model derives.
     pub fn scalar_or(&mut self, p: &Param, default: f32) -> Result<f32, ParamError> {
-        self.scalar(p.name, default, p.min, p.max)
+        self.scalar(p, default)
     }
 
     /// A choice parameter with its declared options and default, as the variant of `E` (a
@@ -439,14 +439,9 @@ impl<'a> ParamReader<'a> {
         }
     }
 
-    /// A scalar in `[min, max]`, or `default` when the field is absent.
-    pub fn scalar(
-        &mut self,
-        key: &str,
-        default: f32,
-        min: f32,
-        max: f32,
-    ) -> Result<f32, ParamError> {
+    /// The scalar `p` in its declared range, or `default` when the field is absent.
+    fn scalar(&mut self, p: &Param, default: f32) -> Result<f32, ParamError> {
+        let (key, min, max) = (p.name, p.min, p.max);
         self.read(key, default, |r, v| {
             let x = r.number(key, v)?;
             r.check_range(key, x, min, max)?;
@@ -454,15 +449,10 @@ impl<'a> ParamReader<'a> {
         })
     }
 
-    /// An RGB triple `[r, g, b]` (a single number means grey) with every channel in
-    /// `[min, max]`, or `default` when the field is absent.
-    pub fn rgb(
-        &mut self,
-        key: &str,
-        default: Vec3,
-        min: f32,
-        max: f32,
-    ) -> Result<Vec3, ParamError> {
+    /// The RGB triple `p`, `[r, g, b]` (a single number means grey), with every channel in its
+    /// declared range, or `default` when the field is absent.
+    fn rgb(&mut self, p: &Param, default: Vec3) -> Result<Vec3, ParamError> {
+        let (key, min, max) = (p.name, p.min, p.max);
         self.read(key, default, |r, v| {
             let c = match v {
                 Value::Array(a) if a.len() == 3 => Vec3::new(

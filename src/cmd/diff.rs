@@ -384,20 +384,19 @@ fn side(
 }
 
 fn z_test(a: &DiffArgs, test: &Layered, reference: &Layered) -> Result<ZTestReport> {
-    let t = side(
-        "test",
-        &a.test,
-        test,
-        a.test_variance.as_deref(),
-        a.test_spp,
-    )?;
-    let r = side(
-        "reference",
-        &a.reference,
-        reference,
-        a.reference_variance.as_deref(),
-        a.reference_spp,
-    )?;
+    // Both sides read alike; the test side's error comes first.
+    let [t, r] = [
+        ("test", &a.test, test, &a.test_variance, a.test_spp),
+        (
+            "reference",
+            &a.reference,
+            reference,
+            &a.reference_variance,
+            a.reference_spp,
+        ),
+    ]
+    .map(|(name, path, layers, variance, spp)| side(name, path, layers, variance.as_deref(), spp));
+    let (t, r) = (t?, r?);
     let all_zero = |v: &Image| v.data.iter().all(|p| p.iter().all(|&c| c == 0.0));
     let variance = match a.variance_model {
         VarianceArg::Pooled => VarianceModel::Pooled,

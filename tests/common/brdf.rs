@@ -459,3 +459,18 @@ pub fn warns_once(src: &str, needles: &[&str]) -> Material {
     }
     m
 }
+
+/// A folder holding the data files the registry's materials name (`brdf::write_fixtures`): the
+/// coverage tests build a measured model's instances from it.
+pub fn fixtures() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    brdfwave::brdf::write_fixtures(dir.path()).unwrap();
+    dir
+}
+
+/// A coverage test's verdict: `place` (a list, a generator, a scene) misses none of the models;
+/// `missing` are the names of those it misses.
+#[track_caller]
+pub fn assert_no_model_missing(missing: &[&str], place: &str) {
+    assert!(missing.is_empty(), "{place} misses the models {missing:?}");
+}

@@ -12,9 +12,22 @@ use brdfwave::render::{self, Backend, RenderRequest};
 use brdfwave::scene::{self, Scene};
 use brdfwave::vk::{Context, ContextOptions, ShaderCompiler};
 use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
 
 pub fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Runs `cmd` and requires it to exit 0; a failure shows the command and its stderr.
+#[track_caller]
+pub fn run_ok(cmd: &mut Command) -> Output {
+    let out = cmd.output().expect("the command starts");
+    assert!(
+        out.status.success(),
+        "{cmd:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
 }
 
 /// The `render` options of a quick check of the command line: CPU, 8×8, one sample per pixel.
