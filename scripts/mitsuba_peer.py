@@ -42,7 +42,8 @@ def load_scene(mi, xml_path, sampler):
             sensor.remove(old)
         ET.SubElement(sensor, "sampler", {"type": sampler})
     # The meshes' file names are relative to the XML's folder.
-    mi.Thread.thread().file_resolver().prepend(os.path.dirname(os.path.abspath(xml_path)))
+    resolver = mi.file_resolver() if hasattr(mi, "file_resolver") else mi.Thread.thread().file_resolver()
+    resolver.prepend(os.path.dirname(os.path.abspath(xml_path)))
     return mi.load_string(ET.tostring(root, encoding="unicode"))
 
 
