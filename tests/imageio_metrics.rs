@@ -20,7 +20,7 @@ trait Synthetic {
 
 impl Synthetic for Rng {
     fn uniform(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+        self.f64()
     }
     fn normal(&mut self) -> f64 {
         let u1 = 1.0 - self.uniform();
