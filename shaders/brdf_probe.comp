@@ -4,23 +4,15 @@
 // is chosen like the shade pipelines: "brdf/model.glsl" and BRDF_EVAL / BRDF_PDF / BRDF_SAMPLE.
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
-#ifdef MEASURED_TABLE
-// A measured material's table (shaders/brdf/measured.glsl), at texel 0.
-layout(set = 0, binding = 3, rgba32f) uniform readonly restrict imageBuffer measured_table;
-#define MEASURED_TABLE_DECLARED
-#endif
+// The bindings (material, inputs, outputs, a measured material's table) and the push constants,
+// generated from src/gpu/brdf_probe.rs `BINDINGS` and `Push`. Inputs hold 2 vec4 per item:
+// (a.xyz, u_lobe), (b.xyz or (u.x, u.y, _), _). Outputs hold 2 vec4 per item. Mode 0 (eval):
+// (f, pdf), (0). Mode 1 (sample): (wi, pdf), (weight, ok | delta << 1). Mode 2 (cost): (sum of
+// f over the reps, 0), (0). Mode 3 (math helpers): (helper(x, y), 0, 0, 0), (0); op 4
+// (he_series) needs a He material with the series.
+#include "brdf_probe/interface.glsl"
 #include "brdf/model.glsl"
 layout(local_size_x = 64) in;
-
-layout(std430, set = 0, binding = 0) readonly buffer Mat { Material material; };
-// Inputs, 2 vec4 per item: (a.xyz, u_lobe), (b.xyz or (u.x, u.y, _), _).
-layout(std430, set = 0, binding = 1) readonly buffer Inputs { vec4 inputs[]; };
-// Outputs, 2 vec4 per item. Mode 0 (eval): (f, pdf), (0). Mode 1 (sample): (wi, pdf), (weight,
-// ok | delta << 1). Mode 2 (cost): (sum of f over the reps, 0), (0). Mode 3 (math helpers):
-// (helper(x, y), 0, 0, 0), (0); op 4 (he_series) needs a He material with the series.
-layout(std430, set = 0, binding = 2) writeonly buffer Outputs { vec4 outputs[]; };
-
-layout(push_constant) uniform Push { uint count; uint mode; uint reps; } pc;
 
 // Mode 2 turns wo about the normal by this angle between evaluations (cos, sin of 0.1 rad).
 const float COST_C = 0.99500417, COST_S = 0.09983342;

@@ -4,23 +4,15 @@
 // fuse multiply-adds (which would change results and break the sign symmetry of the watertight
 // edge functions).
 //
-// Include after `#version 460`. The wavefront kernels include it after their generated interface
-// (wavefront/interface.glsl, from src/gpu/layout.rs), which declares the four bindings below;
-// without it (a standalone probe), define BVH_BINDING to place them at BVH_BINDING ..
-// BVH_BINDING + 3 and they are declared here.
+// Include after `#version 460` and after a generated interface that declares the four bindings
+// read below (bvh_nodes, bvh_prims, tri_data, sphere_data) and defines BVH_DECLARED: the
+// wavefront kernels' (wavefront/interface.glsl) or a probe's (src/gpu/interface.rs `probe_glsl`,
+// whose `BVH_BINDINGS` lists them). Their formats and contents: src/gpu/layout.rs `Binding`.
 #ifndef BVH_GLSL
 #define BVH_GLSL
 
-#ifndef INTERFACE_GLSL
-#ifndef BVH_BINDING
-#define BVH_BINDING 0
-#endif
-// Read-only storage texel buffers (src/gpu/layout.rs says why, and documents their contents),
-// read as raw 32-bit words.
-layout(set = 0, binding = BVH_BINDING + 0, rgba32ui) uniform readonly restrict uimageBuffer bvh_nodes;
-layout(set = 0, binding = BVH_BINDING + 1, r32ui) uniform readonly restrict uimageBuffer bvh_prims;
-layout(set = 0, binding = BVH_BINDING + 2, rgba32ui) uniform readonly restrict uimageBuffer tri_data;
-layout(set = 0, binding = BVH_BINDING + 3, rgba32ui) uniform readonly restrict uimageBuffer sphere_data;
+#ifndef BVH_DECLARED
+#error "bvh.glsl needs a generated interface (wavefront/interface.glsl or a probe's) first"
 #endif
 
 vec4 bvh_node(uint i) { return uintBitsToFloat(imageLoad(bvh_nodes, int(i))); }

@@ -4,6 +4,7 @@
 //! Run `cargo test --test bvh -- --nocapture` to see the BVH statistics of every scene.
 
 use brdfwave::bvh::{self, Bvh, Hit, MAX_DEPTH, SPHERE_BIT};
+use brdfwave::gpu::interface::{self, ProbeBinding};
 use brdfwave::gpu::scene_buffers;
 use brdfwave::robust;
 use brdfwave::scene::shapes::icosphere;
@@ -820,16 +821,14 @@ fn print_stats_and_cpu_throughput() {
 // GLSL twin on a Vulkan device (lavapipe in CI): same hits as the CPU traversal
 
 /// The probe kernel: per ray two vec4 in (o, tmax), (d, 0); out two uvec4:
-/// (closest prim or ~0, t, b1, b2) and (any hit, offset_ray_origin(o, |o|·4e-7, d)).
+/// (closest prim or ~0, t, b1, b2) and (any hit, offset_ray_origin(o, |o|·4e-7, d)). Its
+/// bindings and push constant are declared by the header [`probe_interface`] generates.
 const PROBE: &str = r#"#version 460
 #extension GL_GOOGLE_include_directive : require
-#define BVH_BINDING 2
+#include "bvh_probe/interface.glsl"
 #include "bvh.glsl"
 #include "robust.glsl"
 layout(local_size_x = 64) in;
-layout(std430, set = 0, binding = 0) readonly buffer Rays { vec4 rays[]; };
-layout(std430, set = 0, binding = 1) writeonly buffer Out { uvec4 outp[]; };
-layout(push_constant) uniform Pc { uint count; } pc;
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= pc.count) return;
@@ -844,11 +843,40 @@ void main() {
 }
 "#;
 
+/// The probe's bindings in slot order: the rays, the results, then the scene as the renderer
+/// binds it ([`interface::BVH_BINDINGS`]).
+fn probe_bindings() -> Vec<ProbeBinding> {
+    let own = |block, member, access| ProbeBinding::Storage {
+        block,
+        member,
+        access,
+        about: "",
+    };
+    let mut b = vec![
+        own("Rays", "vec4 rays[]", "readonly"),
+        own("Out", "uvec4 outp[]", "writeonly"),
+    ];
+    b.extend(interface::BVH_BINDINGS.map(ProbeBinding::Layout));
+    b
+}
+
+/// The probe's generated interface: its bindings and `uint count` as its push constant.
+fn probe_interface() -> String {
+    let push = [interface::Field {
+        name: "count",
+        glsl: "uint",
+        doc: "",
+    }];
+    interface::probe_glsl("BVH_PROBE_INTERFACE", &probe_bindings(), &push)
+}
+
 /// The probe compiled by the product's shader compiler (shaders as embedded in the build).
 fn compile_probe() -> Vec<u32> {
+    let generated = [("bvh_probe/interface.glsl".to_string(), probe_interface())];
     ShaderCompiler::new()
         .and_then(|c| c.with_source("bvh_probe.comp", PROBE))
-        .and_then(|c| c.compile("bvh_probe.comp", &[], &[]))
+        .and_then(|c| c.compile_generated("bvh_probe.comp", &[], &[], &generated))
+        .map(|c| c.spirv)
         .unwrap_or_else(|e| panic!("shaders/bvh.glsl does not compile:\n{e:#}"))
 }
 
@@ -884,6 +912,7 @@ fn run_probe(ctx: &Context, spirv: &[u32], s: &Scene, b: &Bvh, rays: &[[f32; 4]]
             bytemuck::cast_slice(&scene_buffers::sphere_data(s)).to_vec(),
         ),
     ];
+    assert!(scene_data.iter().map(|d| d.0).eq(interface::BVH_BINDINGS));
     let mut bufs = Vec::new();
     let mut views = Vec::new();
     for (binding, bytes) in &scene_data {
@@ -896,14 +925,10 @@ fn run_probe(ctx: &Context, spirv: &[u32], s: &Scene, b: &Bvh, rays: &[[f32; 4]]
         views.push(ctx.create_buffer_view(&buf, format).unwrap());
         bufs.push(buf);
     }
-    let kinds = [
-        raw::DescriptorType::STORAGE_BUFFER,
-        raw::DescriptorType::STORAGE_BUFFER,
-        raw::DescriptorType::STORAGE_TEXEL_BUFFER,
-        raw::DescriptorType::STORAGE_TEXEL_BUFFER,
-        raw::DescriptorType::STORAGE_TEXEL_BUFFER,
-        raw::DescriptorType::STORAGE_TEXEL_BUFFER,
-    ];
+    let kinds: Vec<_> = probe_bindings()
+        .iter()
+        .map(|b| b.descriptor_type())
+        .collect();
     let p = ctx
         .create_compute_pipeline_with("bvh_probe", spirv, &kinds, 4)
         .unwrap();

@@ -5,8 +5,8 @@
 // Record: floatBitsToUint(p[0].x) = the table's first texel in measured_table; p[1..4] = the
 // sampling lobe's Ward record (shaders/brdf/ward.glsl).
 // The table: one RGBA32F texel per MERL cell (f_r red, green, blue; negative = missing), declared
-// by the generated interface header under MEASURED_TABLE (or by the BRDF probe, which defines
-// MEASURED_TABLE_DECLARED).
+// by the generated interface header under MEASURED_TABLE (or by a probe's generated header, which
+// defines MEASURED_TABLE_DECLARED: src/gpu/interface.rs `probe_glsl`).
 #ifndef BRDF_MEASURED_GLSL
 #define BRDF_MEASURED_GLSL
 #include "brdf/common.glsl"

@@ -2,6 +2,8 @@
 //! `brdfwave brdf eval --backend gpu` and the GPU-vs-CPU BRDF parity tests.
 
 use crate::brdf::{BrdfSample, Material, MODELS};
+use crate::gpu::interface::{self, glsl_block, Field, GlslType, ProbeBinding};
+use crate::gpu::layout::Binding;
 use crate::gpu::scene_buffers;
 use crate::vk::{Buffer, Context, Resource, ShaderCompiler};
 use anyhow::Result;
@@ -9,14 +11,45 @@ use ash::vk;
 use glam::{Vec2, Vec3};
 use gpu_allocator::MemoryLocation;
 
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct Push {
-    count: u32,
-    mode: u32,
-    /// Mode 2: evaluations per invocation.
-    reps: u32,
+glsl_block! {
+    /// The probe's push constants (GLSL `pc`).
+    pub struct Push {
+        /// items in the inputs
+        pub count: u32,
+        /// MODE_*
+        pub mode: u32,
+        /// mode 2: evaluations per invocation
+        pub reps: u32,
+    }
 }
+
+/// The probe's bindings, in slot order; the shader's declarations are generated from this list
+/// ([`interface::probe_glsl`]) and the pipeline's descriptor types read from it. The measured
+/// table is bound (and declared) only for a measured material.
+const BINDINGS: [ProbeBinding; 4] = [
+    ProbeBinding::Storage {
+        block: "Mat",
+        member: "Material material",
+        access: "readonly",
+        about: "the material's record",
+    },
+    ProbeBinding::Storage {
+        block: "Inputs",
+        member: "vec4 inputs[]",
+        access: "readonly",
+        about: "2 vec4 per item",
+    },
+    ProbeBinding::Storage {
+        block: "Outputs",
+        member: "vec4 outputs[]",
+        access: "writeonly",
+        about: "2 vec4 per item",
+    },
+    ProbeBinding::Layout(Binding::MeasuredTable),
+];
+
+/// The generated header's name among the shader sources.
+const HEADER: &str = "brdf_probe/interface.glsl";
 
 const MODE_EVAL: u32 = 0;
 const MODE_SAMPLE: u32 = 1;
@@ -36,13 +69,19 @@ impl<'a> Probe<'a> {
     fn new(ctx: &'a Context, compiler: &ShaderCompiler, m: &'a Material) -> Result<Self> {
         let name = MODELS[m.model].name;
         let (defines, overrides) = crate::gpu::model_shader_inputs(m.model, m.brdf.defines());
-        let spirv = compiler.compile("brdf_probe.comp", &defines, &overrides)?;
-        let mut kinds = vec![vk::DescriptorType::STORAGE_BUFFER; 3];
-        if m.brdf.measured().is_some() {
-            kinds.push(vk::DescriptorType::STORAGE_TEXEL_BUFFER);
-        }
+        let header = interface::probe_glsl("BRDF_PROBE_INTERFACE", &BINDINGS, Push::FIELDS);
+        let generated = [(HEADER.to_string(), header)];
+        let spirv = compiler
+            .compile_generated("brdf_probe.comp", &defines, &overrides, &generated)?
+            .spirv;
+        let bound = if m.brdf.measured().is_some() { 4 } else { 3 };
+        let kinds: Vec<_> = BINDINGS[..bound]
+            .iter()
+            .map(|b| b.descriptor_type())
+            .collect();
+        let push_bytes = std::mem::size_of::<Push>() as u32;
         let pipeline =
-            ctx.create_compute_pipeline_with(&format!("probe_{name}"), &spirv, &kinds, 12)?;
+            ctx.create_compute_pipeline_with(&format!("probe_{name}"), &spirv, &kinds, push_bytes)?;
         Ok(Probe {
             ctx,
             pipeline: Some(pipeline),
@@ -102,7 +141,7 @@ impl<'a> Probe<'a> {
             let count = (inputs.len() / 2) as u32;
             rec.push_constants(pipeline, &Push { count, mode, reps });
             rec.timestamp("begin");
-            rec.dispatch(count.div_ceil(64), 1, 1);
+            rec.dispatch(count.div_ceil(pipeline.local_size_x), 1, 1);
             rec.timestamp("end");
             ctx.submit_and_wait(rec)?;
             let stamps = ctx.read_timestamps()?;
