@@ -87,4 +87,75 @@ vec2 sobol_pair_f32(uint seed, uint pixel, uint sample_index, uint depth, uint d
     return vec2(to_unit_f32(sobol_component(index, key, 0u)), to_unit_f32(sobol_component(index, key, 1u)));
 }
 
+// The `multijitter` sampler (src/rng.rs, function by function): Kensler's (2013) correlated
+// multi-jittered points of a 2^bits-point pattern (bits = g.pattern_bits), padded per pair by a
+// permutation of the sample index. Integer arithmetic only, so both backends agree bit for bit.
+
+// Kensler's hashed permutation of [0, 2^bits): a bijection without cycle walking.
+uint kensler_permute(uint i, uint bits, uint p) {
+    if (bits == 0u) return 0u;
+    uint w = 0xffffffffu >> (32u - bits);
+    i ^= p;
+    i *= 0xe170893du;
+    i ^= p >> 16u;
+    i ^= (i & w) >> 4u;
+    i ^= p >> 8u;
+    i *= 0x0929eb3fu;
+    i ^= p >> 23u;
+    i ^= (i & w) >> 1u;
+    i *= 1u | (p >> 27u);
+    i *= 0x6935fa69u;
+    i ^= (i & w) >> 11u;
+    i *= 0x74dcb303u;
+    i ^= (i & w) >> 2u;
+    i *= 0x9e501cc3u;
+    i ^= (i & w) >> 2u;
+    i *= 0xc860a3dfu;
+    i &= w;
+    i ^= i >> 5u;
+    return (i + p) & w;
+}
+
+uint multijitter_pattern_key(uint pair_key, uint sample_index, uint bits) {
+    return pair_key ^ ((sample_index >> bits) * 0x9e3779b9u);
+}
+
+// One pair of the pattern keyed on p, as 32-bit fixed-point values.
+uvec2 multijitter_pair(uint sample_index, uint p, uint bits) {
+    uint kx = (bits + 1u) >> 1u;
+    uint ky = bits - kx;
+    uint low = bits == 0u ? 0u : 0xffffffffu >> (32u - bits);
+    uint s = kensler_permute(sample_index & low, bits, p * 0x51633e2du);
+    uint c = kx == 0u ? 0u : s & (0xffffffffu >> (32u - kx));
+    uint r = s >> kx;
+    uint sigma_x = kensler_permute(c, kx, p * 0xa511e9b3u);
+    uint sigma_y = kensler_permute(r, ky, p * 0x63d83595u);
+    uint xi = pcg_hash(s ^ (p * 0xa399d265u));
+    uint eta = pcg_hash(s ^ (p * 0x711ad6a5u));
+    if (bits == 0u) return uvec2(xi, eta);
+    uint cell_x = (c << ky) | sigma_y;
+    uint cell_y = (r << kx) | sigma_x;
+    return uvec2((cell_x << (32u - bits)) | (xi >> bits), (cell_y << (32u - bits)) | (eta >> bits));
+}
+
+uvec2 multijitter_pair_u32(uint seed, uint bits, uint pixel, uint sample_index, uint depth, uint dim) {
+    uint key = sobol_pair_key(sobol_pixel_key(seed, pixel), depth, dim >> 1u);
+    return multijitter_pair(sample_index, multijitter_pattern_key(key, sample_index, bits), bits);
+}
+
+uint multijitter_u32(uint seed, uint bits, uint pixel, uint sample_index, uint depth, uint dim) {
+    uvec2 v = multijitter_pair_u32(seed, bits, pixel, sample_index, depth, dim);
+    return (dim & 1u) == 0u ? v.x : v.y;
+}
+
+float multijitter_f32(uint seed, uint bits, uint pixel, uint sample_index, uint depth, uint dim) {
+    return to_unit_f32(multijitter_u32(seed, bits, pixel, sample_index, depth, dim));
+}
+
+// Both numbers of the pair that starts at dimension dim (even).
+vec2 multijitter_pair_f32(uint seed, uint bits, uint pixel, uint sample_index, uint depth, uint dim) {
+    uvec2 v = multijitter_pair_u32(seed, bits, pixel, sample_index, depth, dim);
+    return vec2(to_unit_f32(v.x), to_unit_f32(v.y));
+}
+
 #endif

@@ -474,7 +474,7 @@ fn bench_writes_its_csv_plot_and_summary() {
             .to_string()
     };
     assert!(main_row("cpu-independent").contains(" | independent | "));
-    assert!(main_row("cpu").contains(" | sobol | "));
+    assert!(main_row("cpu").contains(" | multijitter | "));
     assert!(md.contains("its own expected relMSE is at most"), "{md}");
     // The reference was cached, with its own error beside it.
     let cached: Vec<_> = std::fs::read_dir(reference.join("reference"))

@@ -217,7 +217,7 @@ fn render_and_merge_outputs_carry_what_produced_them() {
     );
     assert_eq!(
         (p.sampler.as_deref(), p.backend.as_deref()),
-        (Some("sobol"), Some("cpu"))
+        (Some("multijitter"), Some("cpu"))
     );
     let bytes = std::fs::read(&scene).unwrap();
     let file_hash = format!("{:016x}", brdfwave::hash::fnv1a64(&bytes));
@@ -248,7 +248,9 @@ fn render_and_merge_outputs_carry_what_produced_them() {
         0,
     );
     assert_eq!(imageio::read(&var_out).unwrap(), variance);
-    // Two parts merged: the union of their samples, their seconds added, the same image.
+    // Two parts merged: the union of their samples, their seconds added, the same image. The
+    // parts are ranges of the scene's render, so its spp is set to the whole render's (it sizes
+    // the default multijitter pattern).
     let parts: Vec<PathBuf> = ["0..2", "2..4"]
         .iter()
         .enumerate()
@@ -256,7 +258,16 @@ fn render_and_merge_outputs_carry_what_produced_them() {
             let part = CLI.tmp(&format!("part{i}.bwfilm"));
             CLI.status(
                 &[
-                    &["render", s(&scene), "--samples", range, "--out", s(&part)][..],
+                    &[
+                        "render",
+                        s(&scene),
+                        "--set",
+                        "integrator.spp=4",
+                        "--samples",
+                        range,
+                        "--out",
+                        s(&part),
+                    ][..],
                     &fixed,
                 ]
                 .concat(),

@@ -148,19 +148,16 @@ fn cornell_box_gpu_and_cpu_agree_statistically_with_independent_seeds() {
     finish(ctx);
 }
 
-/// The `sobol` sampler is unbiased: its Cornell box agrees with an `independent` render within
-/// noise, per pixel. The z-test takes each render's per-sample variance as if its samples
-/// were independent: for the `sobol` render that overstates the variance of its mean (its
-/// stratified samples are negatively correlated), so the test is conservative; it still
-/// catches a biased sampler (a shifted or clumped dimension moves whole regions of the image).
-/// Also: at equal spp the `sobol` image is closer to a converged reference than the
-/// `independent` one (the point of the sampler), checked on the mean squared error.
+/// The stratified samplers (`multijitter`, `sobol`) are unbiased: each one's Cornell box agrees
+/// with an `independent` render within noise, per pixel. The z-test takes each render's
+/// per-sample variance as if its samples were independent: for a stratified render that
+/// overstates the variance of its mean (its samples are negatively correlated), so the test is
+/// conservative; it still catches a biased sampler (a shifted or clumped dimension moves whole
+/// regions of the image). Also: at equal spp each one's image is closer to a converged reference
+/// than the `independent` one (the point of the samplers), checked on the mean squared error.
 #[test]
-fn sobol_sampler_agrees_with_independent_and_has_less_error() {
-    let sobol = render_cpu(&cornell_box(Sampler::Sobol, 128, 1));
+fn stratified_samplers_agree_with_independent_and_have_less_error() {
     let indep = render_cpu(&cornell_box(Sampler::Independent, 128, 2));
-    let r = pooled_z_test(&sobol, &indep);
-    assert!(r.pass, "{r}");
     // Error against a 4096-spp independent reference, at 32 spp (three seeds each).
     let reference = render_cpu(&cornell_box(Sampler::Independent, 4096, 99)).mean;
     let mse = |sampler| {
@@ -171,12 +168,20 @@ fn sobol_sampler_agrees_with_independent_and_has_less_error() {
             })
             .sum::<f64>()
     };
-    let (s, i) = (mse(Sampler::Sobol), mse(Sampler::Independent));
-    assert!(s * 2.0 < i, "MSE at 32 spp: sobol {s:e}, independent {i:e}");
+    let i = mse(Sampler::Independent);
+    for sampler in [Sampler::Multijitter, Sampler::Sobol] {
+        let r = pooled_z_test(&render_cpu(&cornell_box(sampler, 128, 1)), &indep);
+        assert!(r.pass, "{sampler}: {r}");
+        let s = mse(sampler);
+        assert!(
+            s * 2.0 < i,
+            "MSE at 32 spp: {sampler} {s:e}, independent {i:e}"
+        );
+    }
 }
 
 /// The image mean is the exact value within 5 standard errors. The standard error comes from
-/// the per-sample variance as if the samples were independent; with the default `sobol`
+/// the per-sample variance as if the samples were independent; with the default `multijitter`
 /// sampler that overstates it (stratified samples vary less in their mean), so the bound is
 /// conservative; a bias of more than a few standard errors still fails it.
 fn analytic_furnace(out: &brdfwave::output::RenderOutput, expected: f64) {
@@ -205,8 +210,8 @@ fn closed_sphere_lit_from_within_renders_the_exact_radiance_on_both_backends() {
     analytic_furnace(&render_cpu(&s), expected);
     let ctx = context();
     analytic_furnace(&render_gpu(&ctx, &s).0, expected);
-    // A sample count that is not a power of two (the `sobol` sampler's nets are then
-    // incomplete, but every sample is still uniform): still the exact value.
+    // A sample count that is not a power of two (the default `multijitter` draws 23 of the
+    // points of a 32-point pattern, every one uniform): still the exact value.
     let odd = scene("furnace-sphere.toml", 16, 16, 23, depth, 4);
     analytic_furnace(&render_cpu(&odd), expected);
     analytic_furnace(&render_gpu(&ctx, &odd).0, expected);

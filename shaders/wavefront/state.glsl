@@ -150,6 +150,8 @@ float rand(uint path, uint depth, uint dim) {
     return random_f32(g.seed, path_pixel(path), path_sample(path), depth, dim);
 #elif defined(SAMPLER_SOBOL)
     return sobol_f32(g.seed, path_pixel(path), path_sample(path), depth, dim);
+#elif defined(SAMPLER_MULTIJITTER)
+    return multijitter_f32(g.seed, g.pattern_bits, path_pixel(path), path_sample(path), depth, dim);
 #else
 #error "no sampler defined (rng::defines)"
 #endif
@@ -160,8 +162,10 @@ vec2 rand2(uint path, uint depth, uint dim) {
 #if defined(SAMPLER_INDEPENDENT)
     uint pixel = path_pixel(path), s = path_sample(path);
     return vec2(random_f32(g.seed, pixel, s, depth, dim), random_f32(g.seed, pixel, s, depth, dim + 1u));
-#else
+#elif defined(SAMPLER_SOBOL)
     return sobol_pair_f32(g.seed, path_pixel(path), path_sample(path), depth, dim);
+#else
+    return multijitter_pair_f32(g.seed, g.pattern_bits, path_pixel(path), path_sample(path), depth, dim);
 #endif
 }
 

@@ -33,7 +33,7 @@ pub const MITSUBA_SAMPLERS: [&str; 5] = [
 impl Config {
     pub fn name(&self) -> String {
         let ours = |base: String, s: &Sampler| match s {
-            Sampler::Sobol => base,
+            s if *s == Sampler::default() => base,
             s => format!("{base}-{s}"),
         };
         match self {
@@ -132,7 +132,7 @@ impl Config {
 
 /// The default configurations: everything that runs here (Mitsuba's are skipped with a note
 /// when the module is missing).
-pub const DEFAULT_CONFIGS: &str = "wavefront,wavefront-independent,megakernel,cpu,cpu-independent,wavefront-t1,wavefront-t2,mitsuba-scalar,mitsuba-llvm,mitsuba-llvm-multijitter,mitsuba-llvm-ldsampler";
+pub const DEFAULT_CONFIGS: &str = "wavefront,wavefront-sobol,wavefront-independent,megakernel,cpu,cpu-independent,wavefront-t1,wavefront-t2,mitsuba-scalar,mitsuba-llvm,mitsuba-llvm-multijitter,mitsuba-llvm-ldsampler";
 
 #[cfg(test)]
 mod tests {
@@ -149,7 +149,8 @@ mod tests {
             assert_eq!(Config::parse(n).unwrap().name(), n);
         }
         // The default sampler is not written in the name.
-        assert_eq!(Config::parse("cpu-sobol").unwrap().name(), "cpu");
+        assert_eq!(Config::parse("cpu-multijitter").unwrap().name(), "cpu");
+        assert_eq!(Config::parse("cpu-sobol").unwrap().name(), "cpu-sobol");
         assert_eq!(
             Config::parse("wavefront-t1-independent").unwrap(),
             Config::Gpu {

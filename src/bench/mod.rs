@@ -10,16 +10,19 @@
 //!
 //! Configurations: `wavefront` and `megakernel` on the Vulkan device (lavapipe by default),
 //! each also with `-t1` / `-t2` (`LP_NUM_THREADS`, read by lavapipe when a Vulkan instance is
-//! made), `cpu` (the CPU reference), each with brdfwave's default sampler (`sobol`) or another
+//! made), `cpu` (the CPU reference), each with brdfwave's default sampler (`multijitter`) or another
 //! named last (`wavefront-independent`, `cpu-independent`); and, when the Python module
 //! `mitsuba` is installed, `mitsuba-scalar`, `mitsuba-llvm` and `mitsuba-cuda` rendering the
 //! same scene (triangle scenes of Lambert and rough-conductor materials) through
 //! `scripts/mitsuba_peer.py`, embedded here, with Mitsuba's `independent` sampler or another
 //! named last (`mitsuba-llvm-multijitter`, `-ldsampler`, `-stratified`, `-orthogonal`).
 //!
-//! Each system is measured at its best: brdfwave's passes continue one sample sequence, so
-//! the running image after 2^k samples is exactly a 2^k-sample render (its stratification
-//! included), and its time is the sum of the passes; Mitsuba's stratified samplers lose their
+//! Each system is measured at its best: with `sobol` and `independent`, brdfwave's passes
+//! continue one sample sequence, so the running image after 2^k samples is exactly a
+//! 2^k-sample render (its stratification included), and its time is the sum of the passes;
+//! the `multijitter` pattern (brdfwave's default) is sized by the sample count, so each of its
+//! points is a fresh render of all the samples so far, set up apart and timed alone, like
+//! Mitsuba's. Mitsuba's stratified samplers lose their
 //! stratification when independent passes are averaged, so each Mitsuba point is a fresh,
 //! warm render of all the samples so far, timed alone (its kernels, which for most of its
 //! samplers depend on the sample count, are compiled by an untimed warm-up render of the same

@@ -24,23 +24,77 @@ pub(super) trait Runner {
     fn details(&mut self) -> Details;
 }
 
-/// brdfwave's own configurations, on either backend, through [`crate::render`]: each pass
-/// continues the renderer's sample sequence.
+/// brdfwave's own configurations, on either backend, through [`crate::render`]. With a sampler
+/// whose points do not depend on the sample count (`sobol`, `independent`) each pass continues
+/// the renderer's sample sequence, so the image after k samples is a k-sample render. The
+/// `multijitter` pattern is sized by the render's sample count, so there each pass is a fresh
+/// render of all the samples so far, set up apart and timed alone, as the Mitsuba peer's
+/// stratified samplers are measured.
 struct RendererRunner<'a> {
-    renderer: Box<dyn Renderer + 'a>,
+    backend: render::Backend<'a>,
+    scene: &'a Scene,
+    bvh: &'a Bvh,
+    /// The renderer that continues the sequence (None: a fresh render per pass).
+    renderer: Option<Box<dyn Renderer + 'a>>,
     setup_seconds: f64,
     done: u32,
     seconds: f64,
     /// The image after the last pass, and its counts.
     last: Option<RenderOutput>,
+    /// The description of the last renderer that ran.
+    description: Option<render::Description>,
+}
+
+impl<'a> RendererRunner<'a> {
+    fn start(backend: render::Backend<'a>, scene: &'a Scene, bvh: &'a Bvh) -> Result<Self> {
+        let mut r = RendererRunner {
+            backend,
+            scene,
+            bvh,
+            renderer: None,
+            setup_seconds: 0.0,
+            done: 0,
+            seconds: 0.0,
+            last: None,
+            description: None,
+        };
+        if scene.integrator.sampler != crate::rng::Sampler::Multijitter {
+            let t = Instant::now();
+            let renderer =
+                render::open(backend, scene, bvh, Tile::full(scene.width, scene.height))?;
+            r.setup_seconds = t.elapsed().as_secs_f64();
+            r.renderer = Some(renderer);
+        }
+        Ok(r)
+    }
 }
 
 impl Runner for RendererRunner<'_> {
     fn pass(&mut self, n: u32) -> Result<(u32, f64)> {
-        let request = RenderRequest::samples(self.done..self.done + n);
-        let r = self.renderer.render(&request, &|_| {})?;
-        self.done += n;
-        self.seconds += r.seconds_samples;
+        let total = self.done + n;
+        let r = match &mut self.renderer {
+            Some(renderer) => {
+                let request = RenderRequest::samples(self.done..total);
+                let r = renderer.render(&request, &|_| {})?;
+                self.description = Some(renderer.describe());
+                self.seconds += r.seconds_samples;
+                r
+            }
+            None => {
+                let mut sc = self.scene.clone();
+                sc.integrator.spp = total;
+                sc.integrator.pattern_spp = None;
+                let t = Instant::now();
+                let tile = Tile::full(sc.width, sc.height);
+                let mut renderer = render::open(self.backend, &sc, self.bvh, tile)?;
+                self.setup_seconds += t.elapsed().as_secs_f64();
+                let r = renderer.render(&RenderRequest::samples(0..total), &|_| {})?;
+                self.description = Some(renderer.describe());
+                self.seconds = r.seconds_samples;
+                r
+            }
+        };
+        self.done = total;
         self.last = Some(r.output);
         Ok((self.done, self.seconds))
     }
@@ -49,7 +103,11 @@ impl Runner for RendererRunner<'_> {
         Ok(out.mean.clone())
     }
     fn details(&mut self) -> Details {
-        let d = self.renderer.describe();
+        let d = match (&self.description, &self.renderer) {
+            (Some(d), _) => d.clone(),
+            (None, Some(r)) => r.describe(),
+            (None, None) => return Details::default(),
+        };
         let setup = d.gpu.map(|g| g.setup).unwrap_or_default();
         let out = self.last.as_ref();
         Details {
@@ -93,16 +151,7 @@ pub(super) fn runner<'a>(
                 (Config::Gpu { .. }, None) => unreachable!("a GPU configuration has a context"),
                 _ => render::Backend::Cpu,
             };
-            let t = Instant::now();
-            render::open(backend, sc, bvh, Tile::full(sc.width, sc.height)).map(|r| {
-                Box::new(RendererRunner {
-                    renderer: r,
-                    setup_seconds: t.elapsed().as_secs_f64(),
-                    done: 0,
-                    seconds: 0.0,
-                    last: None,
-                }) as Box<dyn Runner>
-            })
+            RendererRunner::start(backend, sc, bvh).map(|r| Box::new(r) as Box<dyn Runner>)
         }
         (Config::Mitsuba { variant, sampler }, _) => match mitsuba_ok {
             Ok(()) => MitsubaRunner::start(variant, sampler, mitsuba_xml, out)

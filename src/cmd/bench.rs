@@ -15,8 +15,8 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 60.0)]
     budget: f64,
     /// Comma-separated: wavefront, megakernel (each optionally -t1, -t2, … for lavapipe's
-    /// LP_NUM_THREADS), cpu, each optionally -independent or -sobol last (the sampler;
-    /// default sobol); mitsuba-scalar, mitsuba-llvm, mitsuba-cuda, each optionally
+    /// LP_NUM_THREADS), cpu, each optionally -sobol or -independent last (the sampler;
+    /// default multijitter); mitsuba-scalar, mitsuba-llvm, mitsuba-cuda, each optionally
     /// -stratified, -multijitter, -orthogonal or -ldsampler last (default independent).
     #[arg(long, default_value = brdfwave::bench::DEFAULT_CONFIGS)]
     configs: String,

@@ -46,8 +46,9 @@ pub struct RenderArgs {
     /// gives nearly the same image on both backends.
     #[arg(long)]
     seed: Option<u32>,
-    /// Where the random numbers come from (overrides the scene): `sobol` (Owen-scrambled
-    /// Sobol' points, the default) or `independent`.
+    /// Where the random numbers come from (overrides the scene): `multijitter` (correlated
+    /// multi-jittered points of the render's sample count, the default), `sobol`
+    /// (Owen-scrambled Sobol' points, stratified at every power of two) or `independent`.
     #[arg(long, value_parser = parse_sampler)]
     sampler: Option<brdfwave::rng::Sampler>,
     /// Output files (.exr, .png or .pfm images; .bwfilm, a partial film for `brdfwave

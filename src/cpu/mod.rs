@@ -154,6 +154,7 @@ impl<'a> CpuRenderer<'a> {
                             let rng = PathRng::new(
                                 s.integrator.sampler,
                                 s.integrator.seed,
+                                s.integrator.pattern_spp(),
                                 pixel,
                                 sample,
                             );

@@ -55,7 +55,9 @@ pub fn code_version() -> String {
 
 /// A hash of everything in the scene that the image depends on: camera, image size, integrator
 /// settings but the sample count, materials, emitters, geometry and environment; not the file's
-/// path or names, so the same scene loaded on two machines hashes the same.
+/// path or names, so the same scene loaded on two machines hashes the same. With the
+/// `multijitter` sampler the size of its pattern counts too (the whole render's sample count,
+/// [`crate::rng::multijitter_bits`]): parts drawn from different patterns are not one render.
 pub fn scene_hash(s: &crate::scene::Scene) -> String {
     use std::fmt::Write as _;
     let mut h = crate::hash::Fnv64::new();
@@ -77,6 +79,13 @@ pub fn scene_hash(s: &crate::scene::Scene) -> String {
         s.spheres,
         s.environment
     );
+    if it.sampler == crate::rng::Sampler::Multijitter {
+        let _ = write!(
+            h,
+            "|pattern {}",
+            crate::rng::multijitter_bits(it.pattern_spp())
+        );
+    }
     format!("{:016x}", h.finish())
 }
 

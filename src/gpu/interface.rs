@@ -112,6 +112,8 @@ glsl_block! {
         pub tile_x: u32,
         pub tile_y: u32,
         pub tile_width: u32,
+        /// multijitter: the pattern has 2^pattern_bits points (rng::multijitter_bits)
+        pub pattern_bits: u32,
     }
 }
 
@@ -336,7 +338,7 @@ mod tests {
         assert_eq!(std::mem::size_of::<Push>(), 4 * words(Push::FIELDS));
         assert_eq!(std::mem::size_of::<Globals>(), 4 * words(Globals::FIELDS));
         assert_eq!(Push::FIELDS[0].name, "depth");
-        assert_eq!(Globals::FIELDS.last().unwrap().name, "tile_width");
+        assert_eq!(Globals::FIELDS.last().unwrap().name, "pattern_bits");
     }
 
     /// A probe's header numbers its bindings by position, declares each once, and says which

@@ -66,6 +66,10 @@ impl Overrides {
             scene.integrator.sampler = s;
         }
         let samples = self.samples.clone().unwrap_or(0..scene.integrator.spp);
+        // The parts of a split render keep the whole render's sampler patterns.
+        if self.samples.is_some() {
+            scene.integrator.pattern_spp = Some(scene.integrator.pattern_spp());
+        }
         scene.integrator.spp = samples.end - samples.start;
         let tile = self.tile.unwrap_or(Tile::full(scene.width, scene.height));
         tile.check_within(scene.width, scene.height)

@@ -52,6 +52,17 @@ pub struct Integrator {
     pub rr_start_depth: u32,
     /// Where the random numbers come from ([`crate::rng::Sampler`]).
     pub sampler: crate::rng::Sampler,
+    /// When only a range of a render's samples is rendered (`--samples`, a part of a split
+    /// render), the samples per pixel of the whole render: it sizes the `multijitter` pattern,
+    /// so that the parts draw the points of the whole and merge into it exactly. None: `spp`.
+    pub pattern_spp: Option<u32>,
+}
+
+impl Integrator {
+    /// The samples per pixel that size the sampler's patterns ([`crate::rng::multijitter_bits`]).
+    pub fn pattern_spp(&self) -> u32 {
+        self.pattern_spp.unwrap_or(self.spp)
+    }
 }
 
 impl Default for Integrator {
@@ -63,6 +74,7 @@ impl Default for Integrator {
             russian_roulette: false,
             rr_start_depth: 3,
             sampler: crate::rng::Sampler::default(),
+            pattern_spp: None,
         }
     }
 }

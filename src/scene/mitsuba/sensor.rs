@@ -213,17 +213,18 @@ fn sampler(cx: &mut Cx, s: &El, integrator: &mut RawIntegrator) -> Result<(), Sc
     let kind = cx.attr(s, "type")?;
     let ours = match kind {
         "independent" => "independent",
-        "ldsampler" | "multijitter" => "sobol",
+        "multijitter" => "multijitter",
+        "ldsampler" => "sobol",
         "stratified" | "orthogonal" => {
             let msg = format!(
-                "{} is rendered with brdfwave's Sobol' sampler",
+                "{} is rendered with brdfwave's multi-jittered sampler",
                 s.describe()
             );
             cx.warn(Some(s.span.clone()), &s.path, msg);
-            "sobol"
+            "multijitter"
         }
         other => {
-            let msg = format!("<sampler type=\"{other}\"> is not supported (supported: independent, ldsampler and multijitter as Sobol', and stratified, orthogonal as Sobol' with a warning)");
+            let msg = format!("<sampler type=\"{other}\"> is not supported (supported: independent, multijitter, ldsampler as Sobol', and stratified, orthogonal as multijitter with a warning)");
             return Err(cx.el_err(s, msg));
         }
     };

@@ -186,7 +186,8 @@ fn integrator(x: &mut String, s: &Scene) {
 
 fn sensor(x: &mut String, s: &Scene) {
     let c = &s.camera;
-    // The Sobol' sampler as `multijitter`, not `ldsampler`: Mitsuba 3.9.1's `ldsampler`
+    // The multi-jittered sampler as Mitsuba's own (the same construction, Kensler 2013), and
+    // the Sobol' sampler as `multijitter` too, not `ldsampler`: Mitsuba 3.9.1's `ldsampler`
     // converges to a wrong image where light bounces (a quad lit only by the floor beside it
     // renders 1.7–3.7 % dark at 2,048 and at 8,192 spp alike), where `multijitter`,
     // `stratified` and `independent` agree with brdfwave within 0.3 %.
