@@ -22,7 +22,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
 bin=./target/release/brdfwave
-samplers=wavefront,wavefront-independent,cpu,cpu-independent,mitsuba-llvm,mitsuba-llvm-stratified,mitsuba-llvm-multijitter,mitsuba-llvm-ldsampler
+samplers=wavefront,wavefront-sobol,wavefront-independent,cpu,cpu-sobol,cpu-independent,mitsuba-llvm,mitsuba-llvm-stratified,mitsuba-llvm-multijitter,mitsuba-llvm-ldsampler
 common=(--res "${BENCH_RES:-256x256}" --max-depth 8 --reference-spp "${BENCH_REFERENCE_SPP:-8192}")
 ref() { [ -n "${BENCH_REFS:-}" ] && echo "--reference $BENCH_REFS/$1.exr" || true; }
 # shellcheck disable=SC2046
