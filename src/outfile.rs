@@ -34,8 +34,14 @@ pub fn parent_dir(path: &Path) -> &Path {
     }
 }
 
-/// Creates the temporary file an atomic write of `path` uses, in `dir`, named after `path`.
-fn temp_file(path: &Path, dir: &Path) -> std::io::Result<tempfile::NamedTempFile> {
+/// Creates the temporary file an atomic write of `path` uses, in `dir`, named after `path`, and
+/// registers it for removal on a signal. Each candidate name is registered before the file is
+/// created (and unregistered if that name is taken), so there is no moment when the file exists
+/// and a signal would leave it behind.
+fn temp_file(
+    path: &Path,
+    dir: &Path,
+) -> std::io::Result<(tempfile::NamedTempFile, on_signal::Live)> {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -43,14 +49,24 @@ fn temp_file(path: &Path, dir: &Path) -> std::io::Result<tempfile::NamedTempFile
     let prefix = format!(".{}.", shorten(&name));
     let mut b = tempfile::Builder::new();
     b.prefix(&prefix).suffix(".tmp");
-    // Temporary files are private (0600) by default, and that mode would survive the rename.
-    // Ask for 0666 instead: open(2) removes the umask's bits, as for any newly created file.
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        b.permissions(std::fs::Permissions::from_mode(0o666));
-    }
-    b.tempfile_in(dir)
+    let mut live = None;
+    let tmp = b.make_in(dir, |candidate| {
+        let registered = on_signal::Live::new(candidate);
+        let mut open = std::fs::OpenOptions::new();
+        open.read(true).write(true).create_new(true);
+        // Temporary files are usually private (0600), and that mode would survive the rename.
+        // Ask for 0666 instead: open(2) removes the umask's bits, as for any newly created file.
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::OpenOptionsExt;
+            open.mode(0o666);
+        }
+        let file = open.open(candidate)?;
+        live = Some(registered);
+        Ok(file)
+    })?;
+    let live = live.expect("make_in returns a file only after the closure made one");
+    Ok((tmp, live))
 }
 
 /// The destination's name shortened for the temporary file's suffix (names are limited to 255
@@ -73,9 +89,8 @@ pub fn write_with<E: From<WriteError>>(
         }
     };
     let dir = parent_dir(path);
-    let mut tmp =
+    let (mut tmp, _live) =
         temp_file(path, dir).map_err(err("cannot create a temporary file in its directory"))?;
-    let _live = on_signal::Live::new(tmp.path());
     if let Ok(meta) = std::fs::metadata(path) {
         if meta.is_file() {
             tmp.as_file()
@@ -343,14 +358,13 @@ fn check_one(o: &Output) -> anyhow::Result<()> {
     // Creating a file is the only reliable test (permissions, read-only or special file
     // systems, ACLs, root on /sys): make the temporary file the real write would make, and drop
     // it, which removes it.
-    let probe = temp_file(o.path, dir).map_err(|e| {
+    let _probe = temp_file(o.path, dir).map_err(|e| {
         anyhow::anyhow!(
             "{} {shown}: cannot write to the directory {}: {e}",
             o.option,
             dir.display()
         )
     })?;
-    let _live = on_signal::Live::new(probe.path());
     Ok(())
 }
 
