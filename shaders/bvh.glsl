@@ -223,10 +223,36 @@ bool bvh_primitive(BvhRay r, vec3 o, vec3 d, uint ref, float tmax, out float t, 
 #endif
 }
 
+// The traversal stack. With BVH_STACK_REGS defined (the host does when the tree is shallow
+// enough: src/bvh/node.rs `register_stack_size`), its entries are that many variables with
+// constant indices, which the compiler keeps in registers, top at s[0]: a push shifts every
+// entry down, a pop up, as selects. Otherwise it is an array indexed by the stack pointer, in
+// memory: on lavapipe every store to it is a per-lane loop that branches on each lane's mask
+// (mispredicted on divergent rays) and every load a per-lane gather, which cost the register
+// stack's shifts several times over (BENCHMARKS.md). Either way the stack holds the same entries
+// in the same order, so the traversal visits the same nodes.
+#ifdef BVH_STACK_REGS
+#define BVH_STACK_CAPACITY BVH_STACK_REGS
+// Push `far` if `push`, else pop if `pop` (the caller has read the top). Loops of constant trip
+// count: unrolled, so every index is a constant.
+#define BVH_STACK_STEP(st, sp, push, pop, far)                                                  \
+    for (int k_ = BVH_STACK_REGS - 1; k_ > 0; --k_) st[k_] = (push) ? st[k_ - 1] : st[k_];      \
+    st[0] = (push) ? (far) : st[0];                                                           \
+    for (int k_ = 0; k_ < BVH_STACK_REGS - 1; ++k_) st[k_] = (pop) ? st[k_ + 1] : st[k_];
+#define BVH_STACK_TOP(st, sp) st[0]
+#else
+#define BVH_STACK_CAPACITY BVH_STACK_SIZE
+#define BVH_STACK_STEP(st, sp, push, pop, far) \
+    if (push) st[sp] = (far);
+#define BVH_STACK_TOP(st, sp) st[(sp) == 0u ? 0u : (sp) - 1u]
+#endif
+
 // Near-first stack traversal (Rust: Bvh::traverse; the same nodes and primitives in the same
 // order). any_hit stops at the first hit. Inner nodes are walked in a loop of their own until
 // the ray reaches a leaf ("while-while", Aila & Laine 2009): on a SIMD machine the lanes that
-// reached a leaf wait there, and the costly leaf code runs once for all of them.
+// reached a leaf wait there, and the costly leaf code runs once for all of them. The stack
+// cannot overflow: the builder bounds the depth below BVH_STACK_SIZE, and the host defines
+// BVH_STACK_REGS only above the tree's depth + 1 (src/bvh/node.rs).
 bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
     hit.t = tmax;
     hit.prim = 0xFFFFFFFFu;
@@ -234,7 +260,11 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
     BvhRay r;
     if (!bvh_make_ray(o, d, r)) return false;
     bool found = false;
-    uint stack[BVH_STACK_SIZE];
+    uint stack[BVH_STACK_CAPACITY];
+#ifdef BVH_STACK_REGS
+    // Defined values for the shifts to move (unrolled: constant indices).
+    for (int i = 0; i < BVH_STACK_REGS; ++i) stack[i] = 0u;
+#endif
     uint sp = 0u;
     uint cur = 0u;
     while (true) {
@@ -257,25 +287,19 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
             hr = hr && (right_count != 0u || right != 0u);
             uint cl = bvh_link(left, left_count);
             uint cr = bvh_link(right, right_count);
-            if (hl && hr) {
-                bool swap = tr < tl;
-                uint far = swap ? cl : cr;
-                if (sp < uint(BVH_STACK_SIZE)) {
-                    stack[sp] = far;
-                    sp += 1u;
-                }
-                cur = swap ? cr : cl;
-            } else if (hl) {
-                cur = cl;
-            } else if (hr) {
-                cur = cr;
-            } else if (sp == 0u) {
+            bool swap = tr < tl;
+            bool both = hl && hr;
+            bool pop = !hl && !hr;
+            if (pop && sp == 0u) {
                 live = false;
                 break;
-            } else {
-                sp -= 1u;
-                cur = stack[sp];
             }
+            // Both children: the near one next, the far one pushed. Neither: pop.
+            bool push = both && sp < uint(BVH_STACK_CAPACITY);
+            uint top = BVH_STACK_TOP(stack, sp);
+            BVH_STACK_STEP(stack, sp, push, pop, swap ? cl : cr)
+            sp = push ? sp + 1u : (pop ? sp - 1u : sp);
+            cur = both ? (swap ? cr : cl) : (hl ? cl : (hr ? cr : top));
         }
         if (!live) break;
         uint first = (cur >> 3) & 0x0FFFFFFFu;
@@ -293,8 +317,9 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
             }
         }
         if (sp == 0u) break;
+        cur = BVH_STACK_TOP(stack, sp);
+        BVH_STACK_STEP(stack, sp, false, true, 0u)
         sp -= 1u;
-        cur = stack[sp];
     }
     return found;
 }

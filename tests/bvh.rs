@@ -870,19 +870,23 @@ fn probe_interface() -> String {
     interface::probe_glsl("BVH_PROBE_INTERFACE", &probe_bindings(), &push)
 }
 
-/// The probe compiled by the product's shader compiler (shaders as embedded in the build).
-fn compile_probe() -> Vec<u32> {
+/// The probe compiled by the product's shader compiler (shaders as embedded in the build), with
+/// `defines` (the renderer's [`brdfwave::gpu::bvh_defines`] for a tree, or none: the array
+/// stack).
+fn compile_probe(defines: &[(String, String)]) -> Vec<u32> {
     let generated = [("bvh_probe/interface.glsl".to_string(), probe_interface())];
     ShaderCompiler::new()
         .and_then(|c| c.with_source("bvh_probe.comp", PROBE))
-        .and_then(|c| c.compile_generated("bvh_probe.comp", &[], &[], &generated))
+        .and_then(|c| c.compile_generated("bvh_probe.comp", defines, &[], &generated))
         .map(|c| c.spirv)
         .unwrap_or_else(|e| panic!("shaders/bvh.glsl does not compile:\n{e:#}"))
 }
 
 #[test]
 fn glsl_twin_compiles_for_vulkan() {
-    assert!(compile_probe().len() > 100);
+    assert!(compile_probe(&[]).len() > 100);
+    let regs = [("BVH_STACK_REGS".to_string(), "8".to_string())];
+    assert!(compile_probe(&regs).len() > 100);
 }
 
 /// Runs the probe over `rays` ((o, tmax), (d, 0) per ray) against the scene as the renderer
@@ -1073,9 +1077,22 @@ fn compare_probe(
     (hits, exact, inexact)
 }
 
+/// `n` parallel triangles at z from -0.95 to 0.95, each covering the square [-2, 2]² in x and y.
+fn stacked_layers(n: usize) -> Vec<[Vec3; 3]> {
+    (0..n)
+        .map(|i| {
+            let z = -0.95 + 1.9 * i as f32 / (n - 1) as f32;
+            [
+                Vec3::new(-5.0, -3.0, z),
+                Vec3::new(5.0, -3.0, z),
+                Vec3::new(0.0, 7.0, z),
+            ]
+        })
+        .collect()
+}
+
 #[test]
 fn glsl_traversal_matches_cpu_on_a_vulkan_device() {
-    let spirv = compile_probe();
     let ctx = Context::new(&ContextOptions::default()).expect("a Vulkan device (lavapipe)");
     let mut rng = Rng::new(15);
     let mut mixed = random_soup(&mut rng, 800, 5.0);
@@ -1094,7 +1111,13 @@ fn glsl_traversal_matches_cpu_on_a_vulkan_device() {
             scene(vec![], random_spheres(&mut rng, 200, 5.0)),
         ),
         ("empty", scene(vec![], vec![])),
+        // Parallel triangles across z: a ray along z enters both children of every node on
+        // its way, so its stack fills to the tree's depth.
+        ("stacked layers", scene(stacked_layers(300), vec![])),
     ];
+    // Each tree with the stack the renderer gives it (in registers: every tree here is shallow
+    // enough) and with the array stack of deeper trees.
+    let mut register_stacks = 0;
     for (name, s) in &scenes {
         let b = bvh::build(s);
         let rays = probe_rays(s, &b, &mut rng);
@@ -1103,17 +1126,31 @@ fn glsl_traversal_matches_cpu_on_a_vulkan_device() {
             .flat_map(|&(o, d, t)| [[o.x, o.y, o.z, t], [d.x, d.y, d.z, 0.0]])
             .collect();
         let n = rays.len();
-        let out = run_probe(&ctx, &spirv, s, &b, &ray_data);
-
-        let (hits, exact, inexact) = compare_probe(name, s, &b, &rays, &out);
-        println!("{name} on {}: {n} rays, {hits} hits, {exact} bit-exact, {inexact} t/bary off in the last bits", ctx.device_name);
-        // lavapipe's float division and sqrt are IEEE: everything must be bit-exact there.
-        if ctx.device_name.contains("llvmpipe") {
-            assert_eq!(
-                inexact, 0,
-                "{name}: results are not bit-exact on {}",
-                ctx.device_name
-            );
+        let defines = brdfwave::gpu::bvh_defines(&b);
+        register_stacks += defines.len();
+        // ... and with the fewest registers that hold its deepest traversal.
+        let tight = vec![(
+            "BVH_STACK_REGS".to_string(),
+            (b.stats.max_depth + 1).to_string(),
+        )];
+        for defines in [defines, tight, vec![]] {
+            let stack = match defines.first() {
+                Some((_, n)) => format!("{n} stack registers"),
+                None => "array stack".to_string(),
+            };
+            let out = run_probe(&ctx, &compile_probe(&defines), s, &b, &ray_data);
+            let name = &format!("{name}, {stack} (depth {})", b.stats.max_depth);
+            let (hits, exact, inexact) = compare_probe(name, s, &b, &rays, &out);
+            println!("{name} on {}: {n} rays, {hits} hits, {exact} bit-exact, {inexact} t/bary off in the last bits", ctx.device_name);
+            // lavapipe's float division and sqrt are IEEE: everything must be bit-exact there.
+            if ctx.device_name.contains("llvmpipe") {
+                assert_eq!(
+                    inexact, 0,
+                    "{name}: results are not bit-exact on {}",
+                    ctx.device_name
+                );
+            }
         }
     }
+    assert_eq!(register_stacks, scenes.len(), "every tree here fits a register stack");
 }

@@ -30,7 +30,9 @@
 //! absent children (and `prims` is empty).
 //!
 //! # Traversal
-//! Iterative, near child first, with a private stack of [`STACK_SIZE`] entries. A stack entry
+//! Iterative, near child first, with a private stack of [`STACK_SIZE`] entries (on the GPU, for
+//! a tree at most 15 deep, [`register_stack_size`] entries held in registers instead: the same
+//! entries in the same order, so the same nodes are visited). A stack entry
 //! is an inner node index, or a leaf encoded as `LEAF_FLAG | first << 3 | (count - 1)` (so at
 //! most 2^28 primitives). Box tests follow Ize 2013 ("Robust BVH Ray Traversal", JCGT 2(2)):
 //! the far distance is widened by [`BOX_WIDEN`] so rounding never rejects a box the ray
@@ -76,7 +78,7 @@ pub use crate::robust::{
 };
 pub use build::{build, BINS, C_INT, C_TRAV, MAX_DEPTH, MAX_LEAF};
 pub use intersect::{intersect_sphere, intersect_triangle, BOX_WIDEN};
-pub use node::{GpuNode, MAX_PRIMS, STACK_SIZE};
+pub use node::{register_stack_size, GpuNode, MAX_PRIMS, REGISTER_STACK_MAX, STACK_SIZE};
 
 use glam::{Vec2, Vec3};
 

@@ -6,6 +6,27 @@
 pub const STACK_SIZE: usize = 64;
 /// Marks a leaf in a traversal stack entry.
 pub(super) const LEAF_FLAG: u32 = 0x8000_0000;
+/// The most traversal-stack entries the GLSL traversal keeps in registers (`BVH_STACK_REGS` in
+/// `shaders/bvh.glsl`); a deeper tree gets the array stack of [`STACK_SIZE`] entries. Measured
+/// on lavapipe (BENCHMARKS.md): 8 and 16 registers pay on the Cornell box (depth 5); 24 and 32
+/// gain nothing there, nor on a 1M-triangle mesh (depth 23), since every push and pop shifts
+/// them all.
+pub const REGISTER_STACK_MAX: u32 = 16;
+/// Register stacks come in multiples of this many entries, so that trees of about the same
+/// depth share one compiled kernel.
+const REGISTER_STACK_STEP: u32 = 8;
+
+/// The register stack for a tree whose deepest inner node is at depth `max_depth` (root = 0):
+/// enough entries for every traversal (an inner node at depth k leaves at most k + 1 entries
+/// on the stack, `build::MAX_DEPTH`), rounded up to a multiple of 8; `None` beyond
+/// [`REGISTER_STACK_MAX`]. On lavapipe a stack in registers is a few selects per step, where
+/// an array indexed by the stack pointer is a per-lane loop of branches and loads
+/// (BENCHMARKS.md, optimisation log).
+pub fn register_stack_size(max_depth: u32) -> Option<u32> {
+    let size = (max_depth + 1).div_ceil(REGISTER_STACK_STEP) * REGISTER_STACK_STEP;
+    (size <= REGISTER_STACK_MAX).then_some(size)
+}
+
 /// Largest primitive count the leaf encoding of a stack entry can address.
 pub const MAX_PRIMS: usize = 1 << 28;
 
@@ -41,6 +62,20 @@ pub(super) fn link(index: u32, count: u32) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn register_stack_holds_the_deepest_traversal() {
+        assert_eq!(register_stack_size(0), Some(8));
+        assert_eq!(register_stack_size(7), Some(8));
+        assert_eq!(register_stack_size(8), Some(16));
+        assert_eq!(register_stack_size(15), Some(16));
+        assert_eq!(register_stack_size(16), None);
+        for depth in 0..40 {
+            if let Some(n) = register_stack_size(depth) {
+                assert!(n > depth && n <= REGISTER_STACK_MAX && n % REGISTER_STACK_STEP == 0);
+            }
+        }
+    }
 
     #[test]
     fn node_is_64_bytes_in_vec4_order() {

@@ -258,8 +258,9 @@ impl Builder<'_, '_> {
 
 /// The defines added to every kernel (the layout's numbers come with the generated interface
 /// header instead): the sampler and its dimension table, subgroup-aggregated queue pushes where the device has subgroup ballots (see
-/// `queue_push` in state.glsl), the tile mapping (see `path_pixel`) and the scene's features.
-fn common_defines(ctx: &Context, scene: &Scene, tiled: bool) -> Defines {
+/// `queue_push` in state.glsl), the tile mapping (see `path_pixel`), the scene's features
+/// and the traversal's register stack where the tree is shallow enough ([`bvh_defines`]).
+fn common_defines(ctx: &Context, scene: &Scene, bvh: &Bvh, tiled: bool) -> Defines {
     let mut common = crate::rng::defines(scene.integrator.sampler);
     common.push(("NO_QUEUE".into(), format!("{}u", scene_buffers::NO_QUEUE)));
     if ctx.features.subgroup_ballot {
@@ -273,7 +274,18 @@ fn common_defines(ctx: &Context, scene: &Scene, tiled: bool) -> Defines {
             .into_iter()
             .map(|f| (f.to_string(), "1".to_string())),
     );
+    common.extend(bvh_defines(bvh));
     common
+}
+
+/// `BVH_STACK_REGS`: the traversal stack in that many registers (`shaders/bvh.glsl`), for a
+/// tree shallow enough ([`crate::bvh::register_stack_size`]); none for a deeper one, whose
+/// traversal keeps the array stack.
+pub fn bvh_defines(bvh: &Bvh) -> Vec<(String, String)> {
+    crate::bvh::register_stack_size(bvh.stats.max_depth)
+        .map(|n| ("BVH_STACK_REGS".to_string(), n.to_string()))
+        .into_iter()
+        .collect()
 }
 
 /// The features (defines) `model` needs for the scene's materials.
@@ -297,6 +309,7 @@ fn model_features(scene: &Scene, model: usize) -> BTreeSet<&'static str> {
 pub(super) fn build_kernels<'a>(
     ctx: &'a Context,
     scene: &Scene,
+    bvh: &Bvh,
     owned: &mut Owned<'a>,
     compiler: &ShaderCompiler,
     setup: &mut SetupStats,
@@ -309,7 +322,7 @@ pub(super) fn build_kernels<'a>(
         compiler,
         owned,
         setup,
-        common: common_defines(ctx, scene, tiled),
+        common: common_defines(ctx, scene, bvh, tiled),
         generated: vec![(interface::HEADER.to_string(), interface::glsl())],
         kinds: Binding::ALL.iter().map(|b| b.descriptor_type()).collect(),
     };

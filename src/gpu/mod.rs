@@ -57,7 +57,7 @@ use crate::vk::{Context, Recorder, ShaderCompiler};
 use anyhow::{bail, Context as _, Result};
 use interface::Push;
 pub(crate) use kernels::model_shader_inputs;
-pub use kernels::scene_features;
+pub use kernels::{bvh_defines, scene_features};
 use kernels::{KernelId, Owned};
 use layout::{Binding, Counter, Counters, LOCAL_SIZE};
 use stages::Schedule;
@@ -254,7 +254,7 @@ impl<'a> GpuRenderer<'a> {
 
         let tiled = tile != Tile::full(scene.width, scene.height);
         let (schedule, accumulate) = kernels::build_kernels(
-            ctx, scene, &mut owned, compiler, &mut setup, integrator, tiled,
+            ctx, scene, bvh, &mut owned, compiler, &mut setup, integrator, tiled,
         )?;
         let mut r = GpuRenderer {
             ctx,
