@@ -78,6 +78,9 @@ pub struct CpuRenderer<'a> {
     bvh: &'a Bvh,
     lights: LightTable,
     camera: CameraBasis,
+    /// The geometric normal of each triangle ([`crate::robust::triangle_normal`]), computed
+    /// once instead of at every hit and light sample (the same bits either way).
+    normals: Vec<Vec3>,
 }
 
 impl<'a> CpuRenderer<'a> {
@@ -87,6 +90,11 @@ impl<'a> CpuRenderer<'a> {
             bvh,
             lights: LightTable::build(scene),
             camera: CameraBasis::new(scene),
+            normals: scene
+                .triangles
+                .par_iter()
+                .map(|t| crate::robust::triangle_normal(&t.v))
+                .collect(),
         }
     }
 

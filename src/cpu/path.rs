@@ -57,7 +57,7 @@ impl CpuRenderer<'_> {
             }
             return end;
         };
-        let si = surface_at(s, &hit, o, d);
+        let si = surface_at(s, &self.normals, &hit, o, d);
         if !si.front {
             // The back of a two-sided material scatters (shade_vertex turns it to the front)
             // but emits nothing.

@@ -80,7 +80,8 @@ impl Surface {
 }
 
 /// Reconstruct the hit surface from the BVH hit record (position from barycentrics, not o + t·d).
-pub fn surface_at(scene: &Scene, hit: &Hit, o: Vec3, d: Vec3) -> Surface {
+/// `normals` holds each triangle's geometric normal ([`crate::robust::triangle_normal`]).
+pub fn surface_at(scene: &Scene, normals: &[Vec3], hit: &Hit, o: Vec3, d: Vec3) -> Surface {
     if hit.prim & SPHERE_BIT != 0 {
         let s = &scene.spheres[(hit.prim & !SPHERE_BIT) as usize];
         let out = (o + d * hit.t - s.center).normalize();
@@ -107,7 +108,7 @@ pub fn surface_at(scene: &Scene, hit: &Hit, o: Vec3, d: Vec3) -> Surface {
         let (p, p_err) = triangle_point(&tri.v, pb1, pb2);
         let e1 = v1 - v0;
         let e2 = v2 - v0;
-        let ng = crate::robust::triangle_normal(&tri.v);
+        let ng = normals[hit.prim as usize];
         let front = d.dot(ng) < 0.0;
         let mut ns = ng;
         if let Some([n0, n1, n2]) = tri.n {
@@ -153,9 +154,11 @@ pub struct LightSample {
 }
 
 /// Choose an emissive primitive by power and a point uniformly by area on it (a pair of
-/// triangles by one 2-D sample over both, [`pair_barycentrics`]).
+/// triangles by one 2-D sample over both, [`pair_barycentrics`]). `normals` as for
+/// [`surface_at`].
 pub fn sample_light(
     scene: &Scene,
+    normals: &[Vec3],
     lights: &LightTable,
     u_sel: f32,
     u1: f32,
@@ -178,22 +181,22 @@ pub fn sample_light(
             density: lights.select_density[e as usize],
         }
     } else {
-        let (t, b1, b2) = if prim & PAIR_BIT != 0 {
+        let (index, b1, b2) = if prim & PAIR_BIT != 0 {
             let (second, b1, b2) = pair_barycentrics(u1, u2);
-            let first = (prim & !PAIR_BIT) as usize;
-            (&scene.triangles[first + second as usize], b1, b2)
+            ((prim & !PAIR_BIT) as usize + second as usize, b1, b2)
         } else {
             let su = u1.sqrt();
             let b0 = 1.0 - su;
             let b1 = u2 * su;
-            (&scene.triangles[prim as usize], b1, 1.0 - b0 - b1)
+            (prim as usize, b1, 1.0 - b0 - b1)
         };
+        let t = &scene.triangles[index];
         let e = t.emitter.expect("light table holds emitters only");
         let (p, p_err) = triangle_point(&t.v, b1, b2);
         LightSample {
             p,
             p_err,
-            n: crate::robust::triangle_normal(&t.v),
+            n: normals[index],
             radiance: scene.emitters[e as usize].radiance,
             density: lights.select_density[e as usize],
         }
