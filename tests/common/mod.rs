@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 pub mod brdf;
+pub mod bvh;
 pub mod cli;
 
 use brdfwave::film::Tile;
