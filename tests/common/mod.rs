@@ -4,6 +4,7 @@
 pub mod brdf;
 pub mod bvh;
 pub mod cli;
+pub mod scene_file;
 
 use brdfwave::film::Tile;
 use brdfwave::gpu::GpuOptions;
