@@ -11,7 +11,9 @@ use brdfwave::robust;
 use brdfwave::scene::shapes::icosphere;
 use brdfwave::scene::Scene;
 use brdfwave::stress::Rng;
-use common::bvh::{grid_cube, random_soup, random_spheres, scene, targets, tmax_of, RayRng};
+use common::bvh::{
+    grid_cube, mixed_scene, random_soup, random_spheres, scene, targets, tmax_of, RayRng,
+};
 use glam::{Vec2, Vec3};
 
 // ---------------------------------------------------------------------------------------------
@@ -230,12 +232,7 @@ fn rays_from_a_room_surface_find_the_far_side() {
 #[test]
 fn mixed_scene_matches_brute_force() {
     let mut rng = Rng::new(4);
-    let mut tris = random_soup(&mut rng, 600, 5.0);
-    let (v, f) = icosphere(2, Vec3::new(2.0, 1.0, -1.0), 1.5);
-    tris.extend(f.iter().map(|t| [v[t[0]], v[t[1]], v[t[2]]]));
-    let mut sp = random_spheres(&mut rng, 60, 5.0);
-    sp.push((Vec3::ZERO, 20.0, true));
-    let s = scene(tris, sp);
+    let s = mixed_scene(&mut rng, 600, 60);
     check_random_rays(&s, &mut rng, "mixed", 3000, 8.0, 10.0);
 }
 

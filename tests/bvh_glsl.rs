@@ -9,11 +9,10 @@ use brdfwave::bvh::{self, Bvh, SPHERE_BIT};
 use brdfwave::gpu::interface::{self, ProbeBinding};
 use brdfwave::gpu::scene_buffers;
 use brdfwave::robust;
-use brdfwave::scene::shapes::icosphere;
 use brdfwave::scene::Scene;
 use brdfwave::stress::Rng;
 use brdfwave::vk::{raw, Context, ContextOptions, Resource, ShaderCompiler};
-use common::bvh::{grid_cube, random_soup, random_spheres, scene, targets, tmax_of, RayRng};
+use common::bvh::{grid_cube, mixed_scene, random_spheres, scene, targets, tmax_of, RayRng};
 use glam::{Vec2, Vec3};
 
 /// The probe kernel: per ray two vec4 in (o, tmax), (d, 0); out two uvec4:
@@ -291,13 +290,8 @@ fn stacked_layers(n: usize) -> Vec<[Vec3; 3]> {
 fn glsl_traversal_matches_cpu_on_a_vulkan_device() {
     let ctx = Context::new(&ContextOptions::default()).expect("a Vulkan device (lavapipe)");
     let mut rng = Rng::new(15);
-    let mut mixed = random_soup(&mut rng, 800, 5.0);
-    let (v, f) = icosphere(2, Vec3::new(2.0, 1.0, -1.0), 1.5);
-    mixed.extend(f.iter().map(|t| [v[t[0]], v[t[1]], v[t[2]]]));
-    let mut sp = random_spheres(&mut rng, 80, 5.0);
-    sp.push((Vec3::ZERO, 20.0, true));
     let scenes = [
-        ("mixed", scene(mixed, sp)),
+        ("mixed", mixed_scene(&mut rng, 800, 80)),
         (
             "grid cube (no spheres)",
             scene(grid_cube(8, -1.0, 1.0), vec![]),

@@ -1,6 +1,7 @@
 //! Test scenes and random rays for the BVH tests (`tests/bvh.rs` on the host,
 //! `tests/bvh_glsl.rs` on a Vulkan device).
 
+use brdfwave::scene::shapes::icosphere;
 use brdfwave::scene::{Camera, Integrator, Scene, Sphere, Triangle};
 use brdfwave::stress::Rng;
 use glam::Vec3;
@@ -144,4 +145,15 @@ pub fn grid_cube(n: usize, lo: f32, hi: f32) -> Vec<[Vec3; 3]> {
         }
     }
     tris
+}
+
+/// The mixed scene: `tris` random triangles and `spheres` random spheres in [−5, 5]³, an
+/// icosphere, and a large inward-facing sphere around them all.
+pub fn mixed_scene(rng: &mut Rng, tris: usize, spheres: usize) -> Scene {
+    let mut t = random_soup(rng, tris, 5.0);
+    let (v, f) = icosphere(2, Vec3::new(2.0, 1.0, -1.0), 1.5);
+    t.extend(f.iter().map(|t| [v[t[0]], v[t[1]], v[t[2]]]));
+    let mut sp = random_spheres(rng, spheres, 5.0);
+    sp.push((Vec3::ZERO, 20.0, true));
+    scene(t, sp)
 }
