@@ -1,7 +1,7 @@
 // Counter-based random numbers keyed on (seed, pixel, sample, depth, dimension): the
-// integrator's two samplers. Rust twin: src/rng.rs (bit-identical, same function names; the
-// design, its references and the dimension table are documented there). The DIM_* numbers and
-// the SAMPLER_* choice are defines generated from src/rng.rs (`rng::defines`).
+// integrator's two samplers. Rust twin: src/rng/ (bit-identical, same function names; the
+// design, its references and the dimension table are documented in src/rng/mod.rs). The DIM_*
+// numbers and the SAMPLER_* choice are defines generated from src/rng/mod.rs (`rng::defines`).
 #ifndef RNG_GLSL
 #define RNG_GLSL
 
@@ -87,7 +87,7 @@ vec2 sobol_pair_f32(uint seed, uint pixel, uint sample_index, uint depth, uint d
     return vec2(to_unit_f32(sobol_component(index, key, 0u)), to_unit_f32(sobol_component(index, key, 1u)));
 }
 
-// The `multijitter` sampler (src/rng.rs, function by function): Kensler's (2013) correlated
+// The `multijitter` sampler (src/rng/multijitter.rs, function by function): Kensler's (2013) correlated
 // multi-jittered points of a 2^bits-point pattern (bits = g.pattern_bits), padded per pair by a
 // permutation of the sample index. Integer arithmetic only, so both backends agree bit for bit.
 

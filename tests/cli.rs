@@ -1,13 +1,13 @@
 //! The command line as a user runs it: the `brdfwave` binary in a subprocess. Checks the
-//! `--json` summary fields the issues require, that bad input gives an error naming the file and
-//! the field or line (exit status 1, never a panic), and that the brdf tools write what they say.
+//! `--json` summary fields the issues require, and that the brdf tools, `bench` and `stress`
+//! write what they say. The files written are checked in `tests/cli_outputs.rs`, the messages of
+//! bad input (exit status 1, never a panic) in `tests/cli_messages.rs`.
 
 mod common;
 
-use common::cli::{s, Cli};
+use common::cli::{bin, eval_args, s, Cli};
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::path::Path;
 
 const CLI: Cli = Cli {
     tag: "cli",
@@ -15,55 +15,13 @@ const CLI: Cli = Cli {
     env_remove: &[],
 };
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_brdfwave"))
-}
-fn ok(args: &[&str]) -> String {
-    let out = CLI.run(args);
-    assert!(
-        out.status.success(),
-        "brdfwave {args:?} failed ({}):\n{}",
-        out.status,
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).expect("utf-8 stdout")
-}
-
-/// Runs a command that must fail; returns its stderr.
-fn fails(args: &[&str]) -> String {
-    let out = CLI.run(args);
-    assert_eq!(
-        out.status.code(),
-        Some(1),
-        "brdfwave {args:?} should fail with status 1; stdout:\n{}\nstderr:\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-/// Runs a command that must fail with a message naming `needle`; returns its stderr.
-#[track_caller]
-fn fails_naming(args: &[&str], needle: &str) -> String {
-    let err = fails(args);
-    assert!(err.contains(needle), "{err}");
-    err
-}
-
-/// `brdf eval` of `material` on the directions file `dirs`, then `extra`.
-fn eval_args<'a>(material: &'a str, dirs: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
-    let mut a = vec!["brdf", "eval", "--material", material, "--dirs", dirs];
-    a.extend_from_slice(extra);
-    a
-}
-
 #[test]
 fn render_json_summary_on_both_backends() {
     let mut images = Vec::new();
     for backend in ["gpu", "cpu"] {
         let png = CLI.tmp(&format!("cornell-{backend}.png"));
         let exr = CLI.tmp(&format!("cornell-{backend}.exr"));
-        let stdout = ok(&[
+        let stdout = CLI.ok(&[
             "render",
             "scenes/cornell-box.toml",
             "--backend",
@@ -145,7 +103,7 @@ fn render_json_summary_on_both_backends() {
     }
     // Same seed on both backends: `diff` reports a small error and writes the error map.
     let map = CLI.tmp("cornell-error.png");
-    let stdout = ok(&[
+    let stdout = CLI.ok(&[
         "diff",
         s(&images[0]),
         s(&images[1]),
@@ -165,7 +123,7 @@ fn render_json_summary_on_both_backends() {
 #[test]
 fn auto_integrator_takes_the_megakernel_for_small_waves_only() {
     let render = |res: &str, spp: &str, integrator: &str, out: &Path| -> serde_json::Value {
-        let stdout = ok(&[
+        let stdout = CLI.ok(&[
             "render",
             "scenes/cornell-box-glossy.toml",
             "--res",
@@ -213,75 +171,6 @@ fn auto_integrator_takes_the_megakernel_for_small_waves_only() {
 }
 
 #[test]
-fn bad_inputs_name_the_file_and_field() {
-    // Scene with a bad field value.
-    let scene = CLI.tmp("bad.toml");
-    let text = std::fs::read_to_string(common::repo().join("scenes/cornell-box.toml")).unwrap();
-    let bad = text.replacen("[camera]", "[camera]\nfov_y_bogus = 3", 1);
-    std::fs::write(&scene, bad).unwrap();
-    let err = fails_naming(
-        &["render", s(&scene), "--backend", "cpu", "--spp", "1"],
-        "bad.toml",
-    );
-    assert!(err.contains("fov_y_bogus"), "{err}");
-
-    // Missing scene file.
-    fails_naming(
-        &["render", "scenes/does-not-exist.toml"],
-        "does-not-exist.toml",
-    );
-
-    // Bad command-line values are refused before any work.
-    fails_naming(
-        &[
-            "render",
-            "scenes/cornell-box.toml",
-            "--spp",
-            "0",
-            "--backend",
-            "cpu",
-        ],
-        "--spp",
-    );
-    fails_naming(
-        &["render", "scenes/cornell-box.toml", "--wave-paths", "10"],
-        "--wave-paths",
-    );
-    let out = CLI.run(&["render", "scenes/cornell-box.toml", "--res", "12by12"]);
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("12by12"));
-
-    // Inline materials: unknown model and negative roughness.
-    let dirs = CLI.tmp("dirs-ok.csv");
-    std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
-    fails_naming(&eval_args(r#"model = "wardd""#, s(&dirs), &[]), "wardd");
-    fails_naming(
-        &eval_args(
-            r#"model = "cook_torrance", roughness = -0.1"#,
-            s(&dirs),
-            &[],
-        ),
-        "roughness",
-    );
-
-    // A direction CSV with a bad value names the file and line.
-    let bad_csv = CLI.tmp("dirs-bad.csv");
-    std::fs::write(
-        &bad_csv,
-        "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n0,0,1,0,zero,1\n",
-    )
-    .unwrap();
-    let err = fails_naming(
-        &eval_args(r#"model = "lambert""#, s(&bad_csv), &[]),
-        "dirs-bad.csv",
-    );
-    assert!(err.contains('3'), "line number missing: {err}");
-
-    // diff of a missing image.
-    fails_naming(&["diff", "nope-a.exr", "nope-b.exr"], "nope-a.exr");
-}
-
-#[test]
 fn brdf_eval_agrees_between_backends_and_keeps_the_columns() {
     let dirs = CLI.tmp("dirs.csv");
     let mut text = String::from("wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n");
@@ -313,9 +202,9 @@ fn brdf_eval_agrees_between_backends_and_keeps_the_columns() {
             .map(|l| l.split(',').map(|v| v.parse::<f64>().unwrap()).collect())
             .collect()
     };
-    let cpu = parse(&ok(&eval_args(material, s(&dirs), &["--backend", "cpu"])));
+    let cpu = parse(&CLI.ok(&eval_args(material, s(&dirs), &["--backend", "cpu"])));
     let out = CLI.tmp("gpu-eval.csv");
-    ok(&eval_args(
+    CLI.ok(&eval_args(
         material,
         s(&dirs),
         &["--backend", "gpu", "--out", s(&out)],
@@ -340,7 +229,7 @@ fn brdf_eval_agrees_between_backends_and_keeps_the_columns() {
 #[test]
 fn brdf_plot_writes_a_png_and_refuses_bad_angles() {
     let out = CLI.tmp("lobe.png");
-    ok(&[
+    CLI.ok(&[
         "brdf",
         "plot",
         "--material",
@@ -373,7 +262,7 @@ fn brdf_plot_writes_a_png_and_refuses_bad_angles() {
         red(0, 480),
         red(480, 960)
     );
-    fails_naming(
+    CLI.fails_naming(
         &[
             "brdf",
             "plot",
@@ -483,7 +372,7 @@ fn bench_writes_its_csv_plot_and_summary() {
         .collect();
     assert_eq!(cached.len(), 2, "{cached:?}");
     assert!(cached.iter().any(|p| p.extension().unwrap() == "relmse"));
-    fails_naming(
+    CLI.fails_naming(
         &[
             "bench",
             "scenes/cornell-box.toml",
@@ -492,474 +381,14 @@ fn bench_writes_its_csv_plot_and_summary() {
         ],
         "unknown configuration 'pbrt'",
     );
-    fails_naming(
+    CLI.fails_naming(
         &["bench", "scenes/cornell-box.toml", "--scaling", "0"],
         "--scaling",
     );
-    fails_naming(
+    CLI.fails_naming(
         &["bench", "scenes/cornell-box.toml", "--budget", "0"],
         "--budget",
     );
-}
-
-/// A fresh, empty directory for one test.
-fn fresh_dir(name: &str) -> PathBuf {
-    let d = CLI.tmp(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-/// A quick render on the CPU with the given extra arguments.
-fn render_args<'a>(extra: &[&'a str]) -> Vec<&'a str> {
-    let mut a = vec!["render", "scenes/cornell-box.toml"];
-    a.extend_from_slice(&common::QUICK_RENDER);
-    a.extend_from_slice(extra);
-    a
-}
-
-/// Writes a directions file with one pair at `dirs`; returns the `brdf eval` arguments that
-/// evaluate a Lambertian on it into `csv`.
-fn lambert_eval_args<'a>(dirs: &'a Path, csv: &'a Path) -> Vec<&'a str> {
-    std::fs::write(dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
-    eval_args(r#"model = "lambert""#, s(dirs), &["--out", s(csv)])
-}
-
-/// The `brdf plot` arguments that plot a Lambertian at θi = 10° into `plot`.
-fn lambert_plot_args(plot: &Path) -> [&str; 8] {
-    [
-        "brdf",
-        "plot",
-        "--material",
-        r#"model = "lambert""#,
-        "--theta-i",
-        "10",
-        "--out",
-        s(plot),
-    ]
-}
-
-#[test]
-fn every_output_gets_its_missing_directories() {
-    let d = fresh_dir("mkdirs");
-    let png = d.join("a/b/img.png");
-    let exr = d.join("c/img.exr");
-    let var = d.join("d/var.exr");
-    let stdout = ok(&render_args(&[
-        "--out",
-        s(&png),
-        "--out",
-        s(&exr),
-        "--variance-out",
-        s(&var),
-    ]));
-    assert!(png.is_file() && exr.is_file() && var.is_file());
-    // The variance output is listed with the others.
-    assert!(
-        stdout.contains(&format!("wrote          {}", var.display())),
-        "{stdout}"
-    );
-    let map = d.join("e/map.png");
-    ok(&["diff", s(&exr), s(&exr), "--error-map", s(&map)]);
-    assert!(map.is_file());
-    // The error map may not overwrite an input.
-    let before = std::fs::read(&png).unwrap();
-    fails_naming(
-        &["diff", s(&png), s(&exr), "--error-map", s(&png)],
-        "TEST image",
-    );
-    assert_eq!(std::fs::read(&png).unwrap(), before);
-    let dirs = d.join("dirs.csv");
-    let csv = d.join("f/eval.csv");
-    ok(&lambert_eval_args(&dirs, &csv));
-    assert!(csv.is_file());
-    let plot = d.join("g/plot.png");
-    ok(&lambert_plot_args(&plot));
-    assert!(plot.is_file());
-}
-
-#[test]
-fn two_outputs_with_the_same_path_are_refused() {
-    let d = fresh_dir("same");
-    let same = d.join("same.exr");
-    let also = d.join("sub/../same.exr");
-    let err = fails(&render_args(&[
-        "--out",
-        s(&same),
-        "--variance-out",
-        s(&also),
-    ]));
-    assert!(
-        err.contains("--out") && err.contains("--variance-out") && err.contains("same file"),
-        "{err}"
-    );
-    assert!(!same.exists(), "nothing is rendered or written");
-    let a = d.join("x.png");
-    fails_naming(
-        &render_args(&["--out", s(&a), "--out", &format!("{}/./x.png", d.display())]),
-        "same file",
-    );
-    #[cfg(unix)]
-    {
-        // A directory reached through a symbolic link is the same directory.
-        std::os::unix::fs::symlink(&d, d.join("link")).unwrap();
-        let err = fails(&render_args(&[
-            "--out",
-            s(&a),
-            "--out",
-            s(&d.join("link/x.png")),
-        ]));
-        assert!(err.contains("same file"), "{err}");
-    }
-}
-
-#[test]
-fn unwritable_outputs_are_found_before_the_render() {
-    let d = fresh_dir("unwritable");
-    let good = d.join("good.png");
-    // /sys refuses new files even to root; the good output listed first is not written
-    // either, which shows that the check ran before the render, not after it.
-    let err = fails(&render_args(&[
-        "--out",
-        s(&good),
-        "--out",
-        "/sys/brdfwave-x.png",
-    ]));
-    assert!(
-        err.contains("/sys/brdfwave-x.png") && err.contains("cannot"),
-        "{err}"
-    );
-    assert!(!good.exists());
-    // An existing directory as output.
-    let dir_png = d.join("dir.png");
-    std::fs::create_dir(&dir_png).unwrap();
-    let err = fails(&render_args(&["--out", s(&good), "--out", s(&dir_png)]));
-    assert!(
-        err.contains("dir.png") && err.contains("is a directory"),
-        "{err}"
-    );
-    std::fs::remove_dir(&dir_png).unwrap();
-    // A file where a directory must be created.
-    std::fs::write(d.join("plain"), b"x").unwrap();
-    let err = fails(&render_args(&["--out", s(&d.join("plain/x.png"))]));
-    assert!(
-        err.contains("plain") && err.contains("cannot create the directory"),
-        "{err}"
-    );
-    // An unknown extension, before the render too.
-    let err = fails(&render_args(&[
-        "--out",
-        s(&good),
-        "--out",
-        s(&d.join("x.jpg")),
-    ]));
-    assert!(err.contains("x.jpg") && err.contains("extension"), "{err}");
-    assert!(!good.exists());
-    // No temporary files are left by the checks.
-    let left: Vec<_> = std::fs::read_dir(&d)
-        .unwrap()
-        .map(|e| e.unwrap().file_name())
-        .collect();
-    assert_eq!(left, vec![std::ffi::OsString::from("plain")], "{left:?}");
-}
-
-#[test]
-fn brdf_plot_honours_the_extension() {
-    let d = fresh_dir("plot-ext");
-    let material = r#"model = "phong", ks = 0.8, kd = 0, exponent = 20"#;
-    let plot = |out: &Path| {
-        CLI.run(&[
-            "brdf",
-            "plot",
-            "--material",
-            material,
-            "--theta-i",
-            "40",
-            "--out",
-            s(out),
-        ])
-    };
-    let png = d.join("lobe.png");
-    let exr = d.join("lobe.exr");
-    assert!(plot(&png).status.success());
-    assert!(plot(&exr).status.success());
-    // The EXR is an OpenEXR file holding the PNG's colours, linear.
-    let bytes = std::fs::read(&exr).unwrap();
-    assert_eq!(
-        &bytes[..4],
-        &[0x76, 0x2f, 0x31, 0x01],
-        "OpenEXR magic number"
-    );
-    let a = brdfwave::imageio::read(&png).unwrap();
-    let b = brdfwave::imageio::read(&exr).unwrap();
-    assert_eq!((b.width, b.height), (960, 600));
-    let max_diff = a
-        .data
-        .iter()
-        .zip(&b.data)
-        .flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs()))
-        .fold(0f32, f32::max);
-    assert!(max_diff < 1e-6, "{max_diff}");
-    let jpg = d.join("lobe.jpg");
-    let out = plot(&jpg);
-    assert_eq!(out.status.code(), Some(1));
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains("lobe.jpg") && err.contains("extension"),
-        "{err}"
-    );
-    assert!(!jpg.exists());
-}
-
-/// Runs brdfwave under `umask 027`.
-#[cfg(unix)]
-fn ok_with_umask(args: &[&str]) {
-    common::run_ok(
-        Command::new("sh")
-            .arg("-c")
-            .arg("umask 027 && exec \"$0\" \"$@\"")
-            .arg(env!("CARGO_BIN_EXE_brdfwave"))
-            .args(args)
-            .current_dir(common::repo()),
-    );
-}
-
-#[cfg(unix)]
-#[test]
-fn written_files_follow_the_umask() {
-    use std::os::unix::fs::PermissionsExt;
-    let d = fresh_dir("umask");
-    let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
-    let (png, exr) = (d.join("r.png"), d.join("r.exr"));
-    ok_with_umask(&render_args(&["--out", s(&png), "--out", s(&exr)]));
-    let map = d.join("map.png");
-    ok_with_umask(&["diff", s(&exr), s(&exr), "--error-map", s(&map)]);
-    let dirs = d.join("dirs.csv");
-    let csv = d.join("eval.csv");
-    ok_with_umask(&lambert_eval_args(&dirs, &csv));
-    let plot = d.join("plot.png");
-    ok_with_umask(&lambert_plot_args(&plot));
-    for p in [&png, &exr, &map, &csv, &plot] {
-        assert_eq!(mode(p), 0o640, "{}: 0666 & !027 expected", p.display());
-    }
-}
-
-/// `d/obj-only.toml`: the white furnace without its shapes and with one OBJ shape, `obj`.
-fn obj_only_scene(d: &Path, obj: &str) -> PathBuf {
-    let text = std::fs::read_to_string(common::repo().join("scenes/white-furnace.toml")).unwrap();
-    let mut kept = String::new();
-    let mut in_shape = false;
-    for line in text.lines() {
-        if line.starts_with("[[shapes]]") {
-            in_shape = true;
-            continue;
-        }
-        if in_shape && line.starts_with('[') {
-            in_shape = false;
-        }
-        if !in_shape {
-            kept += line;
-            kept += "\n";
-        }
-    }
-    let material = text
-        .lines()
-        .find_map(|l| {
-            l.strip_prefix("[materials.")
-                .and_then(|r| r.strip_suffix(']'))
-        })
-        .expect("a material")
-        .to_string();
-    kept += &format!("\n[[shapes]]\nmaterial = \"{material}\"\nobj = \"{obj}\"\n");
-    let sc = d.join("obj-only.toml");
-    std::fs::write(&sc, &kept).unwrap();
-    sc
-}
-
-#[test]
-fn messages_name_the_cause_once_and_in_plain_words() {
-    let d = fresh_dir("messages");
-    let scene = |name: &str, edit: &dyn Fn(String) -> String| {
-        let text =
-            std::fs::read_to_string(common::repo().join("scenes/white-furnace.toml")).unwrap();
-        let p = d.join(name);
-        std::fs::write(&p, edit(text)).unwrap();
-        p
-    };
-    // A scene whose only geometry is an OBJ without faces: the error says why.
-    let obj = d.join("lines.obj");
-    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2\n").unwrap();
-    let sc = obj_only_scene(&d, "lines.obj");
-    let err = fails(&["render", s(&sc), "--backend", "cpu"]);
-    assert!(!err.contains("add a [[shapes]] table"), "{err}");
-    assert!(
-        err.contains("lines.obj") && err.contains("no triangles"),
-        "{err}"
-    );
-
-    // A malformed OBJ position: the line is named.
-    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 x 0\nf 1 2 3\n").unwrap();
-    let err = fails(&["render", s(&sc), "--backend", "cpu"]);
-    assert!(err.contains("line 3") && err.contains("'x'"), "{err}");
-
-    // OS errors once, not repeated by the error chain.
-    let err = fails(&["diff", "nope-a.exr", "nope-b.exr"]);
-    assert_eq!(err.matches("No such file").count(), 1, "{err}");
-
-    // No Rust type names; huge numbers in scientific notation.
-    let p = scene("types.toml", &|t| {
-        t.replacen("fov_y = ", "fov_y = \"wide\" #", 1)
-    });
-    let err = fails(&["render", s(&p), "--backend", "cpu"]);
-    assert!(!err.contains("f64") && err.contains("a number"), "{err}");
-    let p = scene("width.toml", &|t| {
-        t.lines()
-            .map(|l| {
-                if l.starts_with("width") {
-                    "width = -4"
-                } else {
-                    l
-                }
-            })
-            .collect::<Vec<_>>()
-            .join("\n")
-    });
-    let err = fails(&["render", s(&p), "--backend", "cpu"]);
-    assert!(
-        !err.contains("u32") && err.contains("whole number"),
-        "{err}"
-    );
-    let p = scene("radius.toml", &|t| {
-        t.replacen("radius = 1.0", "radius = -1e30", 1)
-    });
-    let err = fails(&["render", s(&p), "--backend", "cpu"]);
-    assert!(err.contains("-1e30") && !err.contains("000000"), "{err}");
-
-    // One range for Ward's alpha, whatever the bad value.
-    let dirs = d.join("dirs.csv");
-    std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
-    for a in ["-0.2", "0", "1.5"] {
-        let m = format!(r#"model = "ward", alpha_x = {a}"#);
-        let err = fails(&eval_args(&m, s(&dirs), &[]));
-        assert!(err.contains("[0.001, 1]"), "alpha_x = {a}: {err}");
-    }
-
-    // brdf report --out naming a file.
-    let file = d.join("report-file");
-    std::fs::write(&file, b"x").unwrap();
-    let err = fails(&["brdf", "report", "--no-gpu", "--out", s(&file)]);
-    assert!(
-        err.contains("is a file") && !err.contains("os error"),
-        "{err}"
-    );
-}
-
-/// A driver list that points nowhere, a manifest that exists but is garbage (the loader says
-/// "host memory allocation has failed") and one whose library is missing: each manifest tried
-/// is named with what is wrong with it, and how to fix it.
-#[test]
-fn bad_driver_manifests_are_named_with_what_is_wrong() {
-    let d = fresh_dir("manifests");
-    let nowhere = std::path::PathBuf::from("/nonexistent/brdfwave_icd.json");
-    let garbage = d.join("garbage_icd.json");
-    std::fs::write(&garbage, b"garbage\n").unwrap();
-    let no_lib = d.join("nolib_icd.json");
-    std::fs::write(
-        &no_lib,
-        br#"{"file_format_version": "1.0.0", "ICD": {"library_path": "./missing_lvp.so", "api_version": "1.3.230"}}"#,
-    )
-    .unwrap();
-    for (manifest, expect) in [
-        (&nowhere, "/nonexistent/brdfwave_icd.json (does not exist)"),
-        (&garbage, "not a JSON driver manifest"),
-        (&no_lib, "missing_lvp.so does not"),
-    ] {
-        let out = bin()
-            .arg("devices")
-            .env("VK_ICD_FILENAMES", manifest)
-            .env_remove("VK_DRIVER_FILES")
-            .output()
-            .unwrap();
-        assert_eq!(out.status.code(), Some(1));
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(
-            err.contains(expect) && err.contains("Unset VK_ICD_FILENAMES"),
-            "{}: {err}",
-            manifest.display()
-        );
-    }
-}
-
-#[test]
-fn gpu_options_are_refused_or_warned_about_consistently() {
-    let d = fresh_dir("gpu-options");
-    let png = d.join("x.png");
-    for extra in [
-        vec!["--device", "llvmpipe"],
-        vec!["--validation"],
-        vec!["--wave-paths", "4096"],
-    ] {
-        let mut args = extra.clone();
-        args.extend(["--out", s(&png)]);
-        let out = CLI.run(&render_args(&args));
-        assert!(out.status.success());
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(
-            err.contains(&format!(
-                "warning: {} applies to the GPU backend only; ignored",
-                extra[0]
-            )),
-            "{extra:?}: {err}"
-        );
-    }
-    // The same for brdf eval on the CPU.
-    let dirs = d.join("dirs.csv");
-    std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
-    let out = CLI.run(&eval_args(
-        r#"model = "lambert""#,
-        s(&dirs),
-        &["--device", "llvmpipe"],
-    ));
-    assert!(out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains("warning: --device applies to the GPU backend only; ignored"),
-        "{err}"
-    );
-    // --validation without the layer installed (the loader's explicit-layer search path
-    // pointed at an empty directory) fails before any work, as its help says.
-    let empty = fresh_dir("no-layers");
-    let out = bin()
-        .args([
-            "render",
-            "scenes/cornell-box.toml",
-            "--res",
-            "8x8",
-            "--spp",
-            "1",
-        ])
-        .args(["--validation", "--out", s(&png)])
-        .env("VK_LAYER_PATH", &empty)
-        .current_dir(common::repo())
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{err}");
-    assert!(
-        err.contains("--validation") && err.contains("vulkan-validationlayers"),
-        "{err}"
-    );
-    // An empty device name is refused by the argument parser (status 2, as for any bad
-    // option value), before any work.
-    for args in [
-        &["render", "scenes/cornell-box.toml", "--device", ""][..],
-        &["brdf", "report", "--device", " "][..],
-    ] {
-        let out = CLI.run(args);
-        assert_eq!(out.status.code(), Some(2), "{args:?}");
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(err.contains("empty"), "{err}");
-    }
 }
 
 /// `brdfwave stress` with a CI-sized budget: every group runs and passes, the table lists them;
@@ -968,7 +397,7 @@ fn gpu_options_are_refused_or_warned_about_consistently() {
 fn stress_runs_every_group_within_a_small_budget_and_replays_cases() {
     let failures = CLI.tmp("stress-failures.jsonl");
     let _ = std::fs::remove_file(&failures);
-    let out = ok(&[
+    let out = CLI.ok(&[
         "stress",
         "--budget",
         "14",
@@ -1006,7 +435,7 @@ fn stress_runs_every_group_within_a_small_budget_and_replays_cases() {
          {\"group\":\"scene_numbers\",\"seed\":99,\"message\":\"\"}\n",
     )
     .unwrap();
-    let out = ok(&["stress", "--replay", s(&replay), "--failures", s(&failures)]);
+    let out = CLI.ok(&["stress", "--replay", s(&replay), "--failures", s(&failures)]);
     let cases = |group: &str| -> String {
         let line = out
             .lines()
@@ -1019,14 +448,14 @@ fn stress_runs_every_group_within_a_small_budget_and_replays_cases() {
     assert_eq!(cases("geometry"), "0", "{out}");
 
     std::fs::write(&replay, "not json\n").unwrap();
-    let e = fails(&["stress", "--replay", s(&replay)]);
+    let e = CLI.fails(&["stress", "--replay", s(&replay)]);
     assert!(
         e.contains("stress-replay.jsonl:1") && e.contains("not a failure record"),
         "{e}"
     );
-    fails_naming(
+    CLI.fails_naming(
         &["stress", "--budget", "1", "--group", "nope"],
         "unknown group 'nope'",
     );
-    fails_naming(&["stress", "--budget=-1"], "--budget");
+    CLI.fails_naming(&["stress", "--budget=-1"], "--budget");
 }

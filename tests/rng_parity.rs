@@ -1,5 +1,5 @@
 //! The counter-based random numbers of every sampler (`multijitter`, `sobol`, `independent`) are
-//! bit-identical in GLSL (`shaders/rng.glsl`) and Rust (`src/rng.rs`): the premise of the
+//! bit-identical in GLSL (`shaders/rng.glsl`) and Rust (`src/rng/`): the premise of the
 //! same-seed GPU-vs-CPU image comparison.
 
 mod common;

@@ -144,7 +144,7 @@ void count_rays(uint total, uint segment, bool traced) {
 #endif
 }
 
-// The path's random number for one (depth, dimension) key (dimension table: src/rng.rs).
+// The path's random number for one (depth, dimension) key (dimension table: src/rng/mod.rs).
 float rand(uint path, uint depth, uint dim) {
 #if defined(SAMPLER_INDEPENDENT)
     return random_f32(g.seed, path_pixel(path), path_sample(path), depth, dim);

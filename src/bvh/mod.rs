@@ -61,9 +61,9 @@
 //! # Tests
 //! `tests/bvh.rs` compares both traversals with brute force over all primitives (random soups,
 //! closed meshes hit exactly at shared edges and vertices, spheres from inside and from their
-//! surface, axis-aligned and grazing rays, degenerate input) and runs `shaders/bvh.glsl` on a
-//! Vulkan device (lavapipe) against this module: the hits must be the same primitives, bit-exact
-//! where division and sqrt are correctly rounded.
+//! surface, axis-aligned and grazing rays, degenerate input); `tests/bvh_glsl.rs` runs
+//! `shaders/bvh.glsl` on a Vulkan device (lavapipe) against this module: the hits must be the
+//! same primitives, bit-exact where division and sqrt are correctly rounded.
 
 mod build;
 mod intersect;

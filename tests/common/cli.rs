@@ -56,6 +56,67 @@ impl Cli {
         );
         (o, e)
     }
+
+    /// Runs `args`, which must succeed; returns its stdout.
+    pub fn ok(&self, args: &[&str]) -> String {
+        let out = self.run(args);
+        assert!(
+            out.status.success(),
+            "brdfwave {args:?} failed ({}):\n{}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8(out.stdout).expect("utf-8 stdout")
+    }
+
+    /// Runs a command that must fail; returns its stderr.
+    pub fn fails(&self, args: &[&str]) -> String {
+        let out = self.run(args);
+        assert_eq!(
+            out.status.code(),
+            Some(1),
+            "brdfwave {args:?} should fail with status 1; stdout:\n{}\nstderr:\n{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    }
+
+    /// Runs a command that must fail with a message naming `needle`; returns its stderr.
+    #[track_caller]
+    pub fn fails_naming(&self, args: &[&str], needle: &str) -> String {
+        let err = self.fails(args);
+        assert!(err.contains(needle), "{err}");
+        err
+    }
+
+    /// A fresh, empty directory `name` in the scratch folder.
+    pub fn fresh_dir(&self, name: &str) -> PathBuf {
+        let d = self.tmp(name);
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+}
+
+/// The binary, in the test's working directory and environment.
+pub fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_brdfwave"))
+}
+
+/// `brdf eval` of `material` on the directions file `dirs`, then `extra`.
+pub fn eval_args<'a>(material: &'a str, dirs: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut a = vec!["brdf", "eval", "--material", material, "--dirs", dirs];
+    a.extend_from_slice(extra);
+    a
+}
+
+/// A quick render of the Cornell box on the CPU with the given extra arguments.
+pub fn render_args<'a>(extra: &[&'a str]) -> Vec<&'a str> {
+    let mut a = vec!["render", "scenes/cornell-box.toml"];
+    a.extend_from_slice(&super::QUICK_RENDER);
+    a.extend_from_slice(extra);
+    a
 }
 
 /// A path as the `&str` of a command-line argument.

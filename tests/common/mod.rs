@@ -2,7 +2,9 @@
 #![allow(dead_code)]
 
 pub mod brdf;
+pub mod bvh;
 pub mod cli;
+pub mod scene_file;
 
 use brdfwave::film::Tile;
 use brdfwave::gpu::GpuOptions;

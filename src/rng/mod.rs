@@ -7,6 +7,9 @@
 //! `tests/rng_parity.rs`). The dimension table is [`dim`]; the GLSL side gets it from
 //! [`defines`], so it is written down once.
 //!
+//! This file holds the stream keys, the `independent` sampler and the public API (re-exporting
+//! the rest); the two low-discrepancy samplers are `sobol.rs` and `multijitter.rs`.
+//!
 //! Three samplers ([`Sampler`]), chosen by the scene's `[integrator] sampler` or `--sampler`:
 //!
 //! * `multijitter` (the default): correlated multi-jittered points (Kensler 2013,
@@ -48,6 +51,17 @@
 //! All three output 24-bit floats: exactly representable in f32, never 1.
 
 use std::fmt;
+
+mod multijitter;
+mod sobol;
+
+pub use multijitter::{
+    kensler_permute, multijitter_bits, multijitter_pair, multijitter_pattern_key, multijitter_u32,
+    MULTIJITTER_MAX_BITS,
+};
+pub use sobol::{
+    lk_permute, sobol1_reversed, sobol_component, sobol_f32, sobol_shuffled_index, sobol_u32,
+};
 
 /// PCG output permutation used as a 32-bit integer hash (Jarzynski & Olano 2020, "Hash
 /// Functions for GPU Rendering", JCGT 9(3): `pcg`).
@@ -149,35 +163,6 @@ pub fn to_unit_f32(x: u32) -> f32 {
     (x >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
-/// A nested uniform scramble of `x`'s bits read from the least significant one, keyed on
-/// `seed`: the Laine–Karras-style hash with Burley's (2020) constants. Output bit `k` is
-/// input bit `k` flipped by a function of the seed and the bits below `k` only, which is what
-/// makes it an Owen scramble of the number whose bits are `x`'s in reverse order.
-#[inline]
-pub fn lk_permute(mut x: u32, seed: u32) -> u32 {
-    x ^= x.wrapping_mul(0x3d20_adea);
-    x = x.wrapping_add(seed);
-    x = x.wrapping_mul((seed >> 16) | 1);
-    x ^= x.wrapping_mul(0x0552_6c56);
-    x ^= x.wrapping_mul(0x53a2_2864);
-    x
-}
-
-/// The second Sobol' dimension at index `i`, bit-reversed. Its generator matrix is Pascal's
-/// triangle mod 2: bit `m` of the reversed value is the XOR of the index bits `j` with
-/// `m ⊆ j` (Lucas' theorem), a superset sum over the 5 bits of a bit position, done in five
-/// shift-and-XOR steps instead of a loop over the index bits.
-#[inline]
-pub fn sobol1_reversed(i: u32) -> u32 {
-    let mut z = i;
-    z ^= (z >> 1) & 0x5555_5555;
-    z ^= (z >> 2) & 0x3333_3333;
-    z ^= (z >> 4) & 0x0f0f_0f0f;
-    z ^= (z >> 8) & 0x00ff_00ff;
-    z ^= (z >> 16) & 0x0000_ffff;
-    z
-}
-
 /// The part of a `sobol` key that depends on (seed, pixel) only: the same for all of a path's
 /// numbers, so a path computes it once ([`PathRng`]).
 #[inline]
@@ -190,133 +175,6 @@ pub fn sobol_pixel_key(seed: u32, pixel: u32) -> u32 {
 #[inline]
 pub fn sobol_pair_key(pixel_key: u32, depth: u32, pair: u32) -> u32 {
     pcg_hash(pixel_key ^ depth.wrapping_mul(64).wrapping_add(pair))
-}
-
-/// The shuffled sample index of a pair (the padding): an Owen scramble of the index's
-/// reversed bits, a permutation of every aligned block of 2^m indices.
-#[inline]
-pub fn sobol_shuffled_index(sample: u32, pair_key: u32) -> u32 {
-    lk_permute(sample.reverse_bits(), pair_key).reverse_bits()
-}
-
-/// Component `c` (0 or 1) of a pair at its shuffled index: the reversed Sobol' value (for
-/// dimension 0, the van der Corput radical inverse, whose reversal is the index itself),
-/// Owen-scrambled with the component's own key.
-#[inline]
-pub fn sobol_component(index: u32, pair_key: u32, c: u32) -> u32 {
-    let reversed = if c == 0 {
-        index
-    } else {
-        sobol1_reversed(index)
-    };
-    lk_permute(reversed, pcg_hash(pair_key ^ (1 + c))).reverse_bits()
-}
-
-/// The `sobol` sampler's 32-bit value for one key: dimension `dim` is component `dim & 1` of
-/// pair `dim >> 1` (see [`dim`]).
-#[inline]
-pub fn sobol_u32(seed: u32, pixel: u32, sample: u32, depth: u32, dim: u32) -> u32 {
-    let key = sobol_pair_key(sobol_pixel_key(seed, pixel), depth, dim >> 1);
-    sobol_component(sobol_shuffled_index(sample, key), key, dim & 1)
-}
-
-/// The `sobol` sampler's float in [0, 1), with 24 bits.
-#[inline]
-pub fn sobol_f32(seed: u32, pixel: u32, sample: u32, depth: u32, dim: u32) -> f32 {
-    to_unit_f32(sobol_u32(seed, pixel, sample, depth, dim))
-}
-
-/// The `multijitter` pattern of a render of `spp` samples per pixel has 2^bits points: the
-/// smallest power of two that holds them, at most 2^[`MULTIJITTER_MAX_BITS`].
-pub fn multijitter_bits(spp: u32) -> u32 {
-    let bits = 32 - spp.max(1).wrapping_sub(1).leading_zeros();
-    bits.min(MULTIJITTER_MAX_BITS)
-}
-
-/// The largest `multijitter` pattern, 2^24 points (the numbers' resolution); samples past it
-/// draw from further, independent patterns of that size.
-pub const MULTIJITTER_MAX_BITS: u32 = 24;
-
-/// Kensler's (2013) hashed permutation of [0, 2^bits): every step is invertible on the low
-/// `bits` bits and does not carry higher bits down, so for a power-of-two length it is a
-/// bijection without the cycle walking a general length needs (no loop on either backend).
-#[inline]
-pub fn kensler_permute(i: u32, bits: u32, p: u32) -> u32 {
-    if bits == 0 {
-        return 0;
-    }
-    let w = u32::MAX >> (32 - bits);
-    let mut i = i;
-    i ^= p;
-    i = i.wrapping_mul(0xe170_893d);
-    i ^= p >> 16;
-    i ^= (i & w) >> 4;
-    i ^= p >> 8;
-    i = i.wrapping_mul(0x0929_eb3f);
-    i ^= p >> 23;
-    i ^= (i & w) >> 1;
-    i = i.wrapping_mul(1 | (p >> 27));
-    i = i.wrapping_mul(0x6935_fa69);
-    i ^= (i & w) >> 11;
-    i = i.wrapping_mul(0x74dc_b303);
-    i ^= (i & w) >> 2;
-    i = i.wrapping_mul(0x9e50_1cc3);
-    i ^= (i & w) >> 2;
-    i = i.wrapping_mul(0xc860_a3df);
-    i &= w;
-    i ^= i >> 5;
-    i.wrapping_add(p) & w
-}
-
-/// The key of one pattern of a pair: the pair key (a hash), and which 2^bits block of sample
-/// indices the sample is in (0 for every sample of a render that fits one pattern).
-#[inline]
-pub fn multijitter_pattern_key(pair_key: u32, sample: u32, bits: u32) -> u32 {
-    pair_key ^ (sample >> bits).wrapping_mul(0x9e37_79b9)
-}
-
-/// One pair of the `multijitter` sampler as 32-bit fixed-point values: Kensler's (2013)
-/// correlated multi-jittered point of sample `sample` in a pattern of N = 2^bits points keyed
-/// on `p`, a grid of m = 2^ceil(bits/2) columns by n = 2^floor(bits/2) rows. The sample index is
-/// first permuted (the padding between pairs); point s = (column c, row r) of the permuted index
-/// lies in cell c of the m columns and r of the n rows, at x-substratum σ_y(r) of its column
-/// and y-substratum σ_x(c) of its row (one permutation of each for the whole pattern), jittered
-/// within it: x = (c·n + σ_y(r) + ξ)/N, y = (r·m + σ_x(c) + η)/N. Every N-point pattern is
-/// then stratified in the m×n grid and in each coordinate's N strata ("n-rooks"). Integer
-/// arithmetic throughout, so both backends compute the same bits.
-#[inline]
-pub fn multijitter_pair(sample: u32, p: u32, bits: u32) -> (u32, u32) {
-    let kx = bits.div_ceil(2);
-    let ky = bits - kx;
-    let low = |b: u32| if b == 0 { 0 } else { u32::MAX >> (32 - b) };
-    let s = kensler_permute(sample & low(bits), bits, p.wrapping_mul(0x5163_3e2d));
-    let (c, r) = (s & low(kx), s >> kx);
-    let sigma_x = kensler_permute(c, kx, p.wrapping_mul(0xa511_e9b3));
-    let sigma_y = kensler_permute(r, ky, p.wrapping_mul(0x63d8_3595));
-    let xi = pcg_hash(s ^ p.wrapping_mul(0xa399_d265));
-    let eta = pcg_hash(s ^ p.wrapping_mul(0x711a_d6a5));
-    if bits == 0 {
-        return (xi, eta);
-    }
-    let cell_x = (c << ky) | sigma_y;
-    let cell_y = (r << kx) | sigma_x;
-    (
-        (cell_x << (32 - bits)) | (xi >> bits),
-        (cell_y << (32 - bits)) | (eta >> bits),
-    )
-}
-
-/// The `multijitter` sampler's 32-bit value for one key of a render whose pattern has 2^bits
-/// points ([`multijitter_bits`]): component `dim & 1` of pair `dim >> 1`.
-#[inline]
-pub fn multijitter_u32(seed: u32, bits: u32, pixel: u32, sample: u32, depth: u32, dim: u32) -> u32 {
-    let key = sobol_pair_key(sobol_pixel_key(seed, pixel), depth, dim >> 1);
-    let (x, y) = multijitter_pair(sample, multijitter_pattern_key(key, sample, bits), bits);
-    if dim & 1 == 0 {
-        x
-    } else {
-        y
-    }
 }
 
 /// Dimension numbers within one depth: every random number the integrator draws. Depth 0 is
@@ -505,140 +363,6 @@ mod tests {
             assert_ne!(base, f(1, 2, 3, 9, 5));
             assert_ne!(base, f(1, 2, 3, 4, 4));
         }
-    }
-
-    /// The reversed second Sobol' dimension equals the direction-number construction
-    /// (v_0 = 2^31, v_{j+1} = v_j ^ (v_j >> 1), x = XOR of v_j over the index's bits j).
-    #[test]
-    fn sobol1_matches_its_direction_numbers() {
-        let direct = |mut i: u32| {
-            let (mut v, mut x) = (1u32 << 31, 0u32);
-            while i != 0 {
-                if i & 1 == 1 {
-                    x ^= v;
-                }
-                i >>= 1;
-                v ^= v >> 1;
-            }
-            x
-        };
-        for i in (0..5000u32).chain([u32::MAX, 0x8000_0000, 0x1234_5678, 0xdead_beef]) {
-            assert_eq!(sobol1_reversed(i).reverse_bits(), direct(i), "index {i}");
-        }
-    }
-
-    /// The scramble keeps bit k a function of bits <= k only: two inputs that agree on their
-    /// low k bits agree on the output's low k bits.
-    #[test]
-    fn lk_permute_is_nested_and_bijective_on_low_bits() {
-        for seed in [0u32, 1, 0xdead_beef, 0x8000_0001] {
-            for k in 1..12u32 {
-                let mask = (1u32 << k) - 1;
-                let mut seen = vec![false; 1 << k];
-                for x in 0..(1u32 << k) {
-                    let y = lk_permute(x, seed) & mask;
-                    assert_eq!(y, lk_permute(x | (0x5a5a_5a5a << k), seed) & mask);
-                    assert!(!seen[y as usize], "seed {seed} k {k}: not a bijection");
-                    seen[y as usize] = true;
-                }
-            }
-        }
-    }
-
-    /// Each pair's first 2^m samples, and any aligned block of 2^m, are a (0,m,2)-net: every
-    /// elementary interval of area 2^-m (2^a by 2^(m-a) cells) holds one point.
-    #[test]
-    fn sobol_pairs_are_0m2_nets_in_every_aligned_block() {
-        for (pixel, depth, pair) in [(0u32, 0u32, 0u32), (17, 1, 1), (40_000, 3, 2), (5, 7, 3)] {
-            for m in 0..=8u32 {
-                for block in [0u32, 1, 5] {
-                    let n = 1u32 << m;
-                    let pts: Vec<(u32, u32)> = (block * n..(block + 1) * n)
-                        .map(|i| {
-                            (
-                                sobol_u32(9, pixel, i, depth, 2 * pair),
-                                sobol_u32(9, pixel, i, depth, 2 * pair + 1),
-                            )
-                        })
-                        .collect();
-                    for a in 0..=m {
-                        let mut seen = vec![false; n as usize];
-                        for &(x, y) in &pts {
-                            let (cx, cy) = (
-                                x.checked_shr(32 - a).unwrap_or(0),
-                                y.checked_shr(32 - (m - a)).unwrap_or(0),
-                            );
-                            let cell = ((cx << (m - a)) | cy) as usize;
-                            assert!(
-                                !seen[cell],
-                                "pixel {pixel} depth {depth} pair {pair} m {m} block {block} \
-                                 {a}x{}: two points in one cell",
-                                m - a
-                            );
-                            seen[cell] = true;
-                        }
-                    }
-                }
-            }
-        }
-    }
-
-    /// Kensler's permutation is a bijection of [0, 2^bits) for every seed.
-    #[test]
-    fn kensler_permute_is_a_bijection_of_power_of_two_ranges() {
-        for p in [0u32, 1, 0x5163_3e2d, 0xdead_beef, u32::MAX] {
-            for bits in 0..=12u32 {
-                let n = 1usize << bits;
-                let mut seen = vec![false; n];
-                for i in 0..n as u32 {
-                    let j = kensler_permute(i, bits, p) as usize;
-                    assert!(j < n && !seen[j], "p {p:#x} bits {bits}: not a bijection");
-                    seen[j] = true;
-                }
-            }
-        }
-    }
-
-    /// Every `multijitter` pattern (the first one of a render, and later ones) is stratified
-    /// in its m×n grid and in each coordinate's N strata; with a non-power-of-two sample count
-    /// the samples are distinct points of the larger pattern (each cell at most once).
-    #[test]
-    fn multijitter_patterns_are_multi_jittered() {
-        for (pixel, depth, pair) in [(0u32, 0u32, 0u32), (17, 1, 1), (40_000, 3, 2)] {
-            for spp in (1..=10u32).map(|b| 1 << b).chain([3, 100]) {
-                let bits = multijitter_bits(spp);
-                let n = 1u32 << bits;
-                let (kx, ky) = (bits.div_ceil(2), bits / 2);
-                for block in [0u32, 3] {
-                    let mut cells = vec![false; n as usize];
-                    let mut xs = vec![false; n as usize];
-                    let mut ys = vec![false; n as usize];
-                    for i in block * n..block * n + spp {
-                        let key = |d| multijitter_u32(9, bits, pixel, i, depth, 2 * pair + d);
-                        let (x, y) = (key(0), key(1));
-                        let top = |v: u32, b: u32| v.checked_shr(32 - b).unwrap_or(0);
-                        let cell = ((top(x, kx) << ky) | top(y, ky)) as usize;
-                        for (seen, what, at) in [
-                            (&mut cells, "cell", cell),
-                            (&mut xs, "x stratum", top(x, bits) as usize),
-                            (&mut ys, "y stratum", top(y, bits) as usize),
-                        ] {
-                            assert!(
-                                !seen[at],
-                                "pixel {pixel} depth {depth} pair {pair} spp {spp} block \
-                                 {block}: two points in one {what}"
-                            );
-                            seen[at] = true;
-                        }
-                    }
-                }
-            }
-        }
-        assert_eq!(multijitter_bits(0), 0);
-        assert_eq!(multijitter_bits(1), 0);
-        assert_eq!(multijitter_bits(64), 6);
-        assert_eq!(multijitter_bits(65), 7);
-        assert_eq!(multijitter_bits(u32::MAX), MULTIJITTER_MAX_BITS);
     }
 
     /// Padding: two different pairs at one depth, and one pair at two depths, are not

@@ -1,0 +1,302 @@
+//! The messages of the command line: bad input gives an error naming the file and the field
+//! or line (exit status 1, never a panic), once and in plain words; bad driver manifests and
+//! GPU options are named with what is wrong.
+
+mod common;
+
+use common::cli::{bin, eval_args, render_args, s, Cli};
+
+use std::path::{Path, PathBuf};
+
+const CLI: Cli = Cli {
+    tag: "cli-messages",
+    own_cache: false,
+    env_remove: &[],
+};
+
+#[test]
+fn bad_inputs_name_the_file_and_field() {
+    // Scene with a bad field value.
+    let scene = CLI.tmp("bad.toml");
+    let text = std::fs::read_to_string(common::repo().join("scenes/cornell-box.toml")).unwrap();
+    let bad = text.replacen("[camera]", "[camera]\nfov_y_bogus = 3", 1);
+    std::fs::write(&scene, bad).unwrap();
+    let err = CLI.fails_naming(
+        &["render", s(&scene), "--backend", "cpu", "--spp", "1"],
+        "bad.toml",
+    );
+    assert!(err.contains("fov_y_bogus"), "{err}");
+
+    // Missing scene file.
+    CLI.fails_naming(
+        &["render", "scenes/does-not-exist.toml"],
+        "does-not-exist.toml",
+    );
+
+    // Bad command-line values are refused before any work.
+    CLI.fails_naming(
+        &[
+            "render",
+            "scenes/cornell-box.toml",
+            "--spp",
+            "0",
+            "--backend",
+            "cpu",
+        ],
+        "--spp",
+    );
+    CLI.fails_naming(
+        &["render", "scenes/cornell-box.toml", "--wave-paths", "10"],
+        "--wave-paths",
+    );
+    let out = CLI.run(&["render", "scenes/cornell-box.toml", "--res", "12by12"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("12by12"));
+
+    // Inline materials: unknown model and negative roughness.
+    let dirs = CLI.tmp("dirs-ok.csv");
+    std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
+    CLI.fails_naming(&eval_args(r#"model = "wardd""#, s(&dirs), &[]), "wardd");
+    CLI.fails_naming(
+        &eval_args(
+            r#"model = "cook_torrance", roughness = -0.1"#,
+            s(&dirs),
+            &[],
+        ),
+        "roughness",
+    );
+
+    // A direction CSV with a bad value names the file and line.
+    let bad_csv = CLI.tmp("dirs-bad.csv");
+    std::fs::write(
+        &bad_csv,
+        "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n0,0,1,0,zero,1\n",
+    )
+    .unwrap();
+    let err = CLI.fails_naming(
+        &eval_args(r#"model = "lambert""#, s(&bad_csv), &[]),
+        "dirs-bad.csv",
+    );
+    assert!(err.contains('3'), "line number missing: {err}");
+
+    // diff of a missing image.
+    CLI.fails_naming(&["diff", "nope-a.exr", "nope-b.exr"], "nope-a.exr");
+}
+
+/// `d/obj-only.toml`: the white furnace without its shapes and with one OBJ shape, `obj`.
+fn obj_only_scene(d: &Path, obj: &str) -> PathBuf {
+    let text = std::fs::read_to_string(common::repo().join("scenes/white-furnace.toml")).unwrap();
+    let mut kept = String::new();
+    let mut in_shape = false;
+    for line in text.lines() {
+        if line.starts_with("[[shapes]]") {
+            in_shape = true;
+            continue;
+        }
+        if in_shape && line.starts_with('[') {
+            in_shape = false;
+        }
+        if !in_shape {
+            kept += line;
+            kept += "\n";
+        }
+    }
+    let material = text
+        .lines()
+        .find_map(|l| {
+            l.strip_prefix("[materials.")
+                .and_then(|r| r.strip_suffix(']'))
+        })
+        .expect("a material")
+        .to_string();
+    kept += &format!("\n[[shapes]]\nmaterial = \"{material}\"\nobj = \"{obj}\"\n");
+    let sc = d.join("obj-only.toml");
+    std::fs::write(&sc, &kept).unwrap();
+    sc
+}
+
+#[test]
+fn messages_name_the_cause_once_and_in_plain_words() {
+    let d = CLI.fresh_dir("messages");
+    let scene = |name: &str, edit: &dyn Fn(String) -> String| {
+        let text =
+            std::fs::read_to_string(common::repo().join("scenes/white-furnace.toml")).unwrap();
+        let p = d.join(name);
+        std::fs::write(&p, edit(text)).unwrap();
+        p
+    };
+    // A scene whose only geometry is an OBJ without faces: the error says why.
+    let obj = d.join("lines.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2\n").unwrap();
+    let sc = obj_only_scene(&d, "lines.obj");
+    let err = CLI.fails(&["render", s(&sc), "--backend", "cpu"]);
+    assert!(!err.contains("add a [[shapes]] table"), "{err}");
+    assert!(
+        err.contains("lines.obj") && err.contains("no triangles"),
+        "{err}"
+    );
+
+    // A malformed OBJ position: the line is named.
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 x 0\nf 1 2 3\n").unwrap();
+    let err = CLI.fails(&["render", s(&sc), "--backend", "cpu"]);
+    assert!(err.contains("line 3") && err.contains("'x'"), "{err}");
+
+    // OS errors once, not repeated by the error chain.
+    let err = CLI.fails(&["diff", "nope-a.exr", "nope-b.exr"]);
+    assert_eq!(err.matches("No such file").count(), 1, "{err}");
+
+    // No Rust type names; huge numbers in scientific notation.
+    let p = scene("types.toml", &|t| {
+        t.replacen("fov_y = ", "fov_y = \"wide\" #", 1)
+    });
+    let err = CLI.fails(&["render", s(&p), "--backend", "cpu"]);
+    assert!(!err.contains("f64") && err.contains("a number"), "{err}");
+    let p = scene("width.toml", &|t| {
+        t.lines()
+            .map(|l| {
+                if l.starts_with("width") {
+                    "width = -4"
+                } else {
+                    l
+                }
+            })
+            .collect::<Vec<_>>()
+            .join("\n")
+    });
+    let err = CLI.fails(&["render", s(&p), "--backend", "cpu"]);
+    assert!(
+        !err.contains("u32") && err.contains("whole number"),
+        "{err}"
+    );
+    let p = scene("radius.toml", &|t| {
+        t.replacen("radius = 1.0", "radius = -1e30", 1)
+    });
+    let err = CLI.fails(&["render", s(&p), "--backend", "cpu"]);
+    assert!(err.contains("-1e30") && !err.contains("000000"), "{err}");
+
+    // One range for Ward's alpha, whatever the bad value.
+    let dirs = d.join("dirs.csv");
+    std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
+    for a in ["-0.2", "0", "1.5"] {
+        let m = format!(r#"model = "ward", alpha_x = {a}"#);
+        let err = CLI.fails(&eval_args(&m, s(&dirs), &[]));
+        assert!(err.contains("[0.001, 1]"), "alpha_x = {a}: {err}");
+    }
+
+    // brdf report --out naming a file.
+    let file = d.join("report-file");
+    std::fs::write(&file, b"x").unwrap();
+    let err = CLI.fails(&["brdf", "report", "--no-gpu", "--out", s(&file)]);
+    assert!(
+        err.contains("is a file") && !err.contains("os error"),
+        "{err}"
+    );
+}
+
+/// A driver list that points nowhere, a manifest that exists but is garbage (the loader says
+/// "host memory allocation has failed") and one whose library is missing: each manifest tried
+/// is named with what is wrong with it, and how to fix it.
+#[test]
+fn bad_driver_manifests_are_named_with_what_is_wrong() {
+    let d = CLI.fresh_dir("manifests");
+    let nowhere = std::path::PathBuf::from("/nonexistent/brdfwave_icd.json");
+    let garbage = d.join("garbage_icd.json");
+    std::fs::write(&garbage, b"garbage\n").unwrap();
+    let no_lib = d.join("nolib_icd.json");
+    std::fs::write(
+        &no_lib,
+        br#"{"file_format_version": "1.0.0", "ICD": {"library_path": "./missing_lvp.so", "api_version": "1.3.230"}}"#,
+    )
+    .unwrap();
+    for (manifest, expect) in [
+        (&nowhere, "/nonexistent/brdfwave_icd.json (does not exist)"),
+        (&garbage, "not a JSON driver manifest"),
+        (&no_lib, "missing_lvp.so does not"),
+    ] {
+        let out = bin()
+            .arg("devices")
+            .env("VK_ICD_FILENAMES", manifest)
+            .env_remove("VK_DRIVER_FILES")
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(1));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains(expect) && err.contains("Unset VK_ICD_FILENAMES"),
+            "{}: {err}",
+            manifest.display()
+        );
+    }
+}
+
+#[test]
+fn gpu_options_are_refused_or_warned_about_consistently() {
+    let d = CLI.fresh_dir("gpu-options");
+    let png = d.join("x.png");
+    for extra in [
+        vec!["--device", "llvmpipe"],
+        vec!["--validation"],
+        vec!["--wave-paths", "4096"],
+    ] {
+        let mut args = extra.clone();
+        args.extend(["--out", s(&png)]);
+        let out = CLI.run(&render_args(&args));
+        assert!(out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains(&format!(
+                "warning: {} applies to the GPU backend only; ignored",
+                extra[0]
+            )),
+            "{extra:?}: {err}"
+        );
+    }
+    // The same for brdf eval on the CPU.
+    let dirs = d.join("dirs.csv");
+    std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
+    let out = CLI.run(&eval_args(
+        r#"model = "lambert""#,
+        s(&dirs),
+        &["--device", "llvmpipe"],
+    ));
+    assert!(out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("warning: --device applies to the GPU backend only; ignored"),
+        "{err}"
+    );
+    // --validation without the layer installed (the loader's explicit-layer search path
+    // pointed at an empty directory) fails before any work, as its help says.
+    let empty = CLI.fresh_dir("no-layers");
+    let out = bin()
+        .args([
+            "render",
+            "scenes/cornell-box.toml",
+            "--res",
+            "8x8",
+            "--spp",
+            "1",
+        ])
+        .args(["--validation", "--out", s(&png)])
+        .env("VK_LAYER_PATH", &empty)
+        .current_dir(common::repo())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("--validation") && err.contains("vulkan-validationlayers"),
+        "{err}"
+    );
+    // An empty device name is refused by the argument parser (status 2, as for any bad
+    // option value), before any work.
+    for args in [
+        &["render", "scenes/cornell-box.toml", "--device", ""][..],
+        &["brdf", "report", "--device", " "][..],
+    ] {
+        let out = CLI.run(args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("empty"), "{err}");
+    }
+}
