@@ -3,7 +3,7 @@
 //! methods and their numerics are those of the [`crate::bvh`] module documentation.
 
 use crate::robust::dot3;
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec3A};
 
 /// Ize 2013: the far slab distance is multiplied by this (1 + 2^-20, exact in f32), more than
 /// the 1 + 2·γ₃ the three roundings of `(b - o) · inv` need, to absorb the rounding of the
@@ -28,10 +28,12 @@ pub(super) const SPHERE_ON_SURFACE: f32 = 1.0 / (1u32 << 18) as f32;
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Ray {
     o: Vec3,
+    /// The origin as a SIMD vector (box test).
+    o_a: Vec3A,
     /// Safe inverse direction (box test).
-    inv: Vec3,
+    inv: Vec3A,
     /// ZERO_PAD on zero components, else 0.
-    pad: Vec3,
+    pad: Vec3A,
     /// Woop et al.: axes of the shear, kz = largest |d| component.
     kx: usize,
     ky: usize,
@@ -75,8 +77,9 @@ impl Ray {
         let (iz, pz) = safe_inv(d.z);
         Some(Ray {
             o,
-            inv: Vec3::new(ix, iy, iz),
-            pad: Vec3::new(px, py, pz),
+            o_a: Vec3A::from(o),
+            inv: Vec3A::new(ix, iy, iz),
+            pad: Vec3A::new(px, py, pz),
             kx,
             ky,
             kz,
@@ -84,15 +87,19 @@ impl Ray {
         })
     }
 
-    /// Conservative slab test: (hit, entry distance clamped to 0).
+    /// Conservative slab test: (hit, entry distance clamped to 0). In SIMD registers
+    /// (`Vec3A`, about 5 % of the CPU reference's time; BENCHMARKS.md). For a finite origin, a
+    /// direction that [`Ray::new`] accepts and a finite box no value here is NaN, so the
+    /// minima and maxima are those of the GLSL twin's scalar order (a NaN would be dropped by
+    /// one order and kept by another).
     #[inline]
-    pub(super) fn box_hit(&self, bmin: Vec3, bmax: Vec3, tmax: f32) -> (bool, f32) {
-        let t0 = (bmin - self.o) * self.inv;
-        let t1 = (bmax - self.o) * self.inv;
+    pub(super) fn box_hit(&self, bmin: Vec3A, bmax: Vec3A, tmax: f32) -> (bool, f32) {
+        let t0 = (bmin - self.o_a) * self.inv;
+        let t1 = (bmax - self.o_a) * self.inv;
         let tn = t0.min(t1) - self.pad;
         let tf = t0.max(t1) + self.pad;
-        let tnear = tn.x.max(tn.y).max(tn.z.max(0.0));
-        let tfar = tf.x.min(tf.y).min(tf.z.min(tmax)) * BOX_WIDEN;
+        let tnear = tn.max_element().max(0.0);
+        let tfar = tf.min_element().min(tmax) * BOX_WIDEN;
         (tnear <= tfar, tnear)
     }
 
