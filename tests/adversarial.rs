@@ -541,7 +541,9 @@ fn a_signal_during_a_write_leaves_the_old_output_and_no_temporary() {
         // The state letter of /proc/PID/stat: 'T' stopped, 'Z' finished and not yet reaped.
         let state = || {
             let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap_or_default();
-            stat.rsplit(')').next().and_then(|r| r.trim_start().chars().next())
+            stat.rsplit(')')
+                .next()
+                .and_then(|r| r.trim_start().chars().next())
         };
         let t = std::time::Instant::now();
         let mut caught = false;

@@ -119,7 +119,14 @@ impl CpuRenderer<'_> {
             r.shadow = self.delta_light_ray(l, si, origin, wo, beta, material.model, stats);
         } else if !self.lights.is_empty() {
             let u_light = rng.get2(depth, dim::LIGHT_U);
-            let ls = sample_light(s, &self.normals, &self.lights, u_choice.x, u_light.x, u_light.y);
+            let ls = sample_light(
+                s,
+                &self.normals,
+                &self.lights,
+                u_choice.x,
+                u_light.x,
+                u_light.y,
+            );
             let target = robust::offset_ray_origin(ls.p, ls.p_err, ls.n);
             let to_light = target - origin;
             let dist2 = to_light.length_squared();

@@ -260,7 +260,7 @@ impl Builder<'_, '_> {
 /// header instead): the sampler and its dimension table, subgroup-aggregated queue pushes where the device has subgroup ballots (see
 /// `queue_push` in state.glsl), the tile mapping (see `path_pixel`), the scene's features
 /// and the traversal's register stack where the tree is shallow enough ([`bvh_defines`]).
-fn common_defines(ctx: &Context, scene: &Scene, bvh: &Bvh, tiled: bool) -> Defines {
+pub(super) fn common_defines(ctx: &Context, scene: &Scene, bvh: &Bvh, tiled: bool) -> Defines {
     let mut common = crate::rng::defines(scene.integrator.sampler);
     common.push(("NO_QUEUE".into(), format!("{}u", scene_buffers::NO_QUEUE)));
     if ctx.features.subgroup_ballot {
@@ -305,16 +305,16 @@ fn model_features(scene: &Scene, model: usize) -> BTreeSet<&'static str> {
 /// the scene shades one model: `extend_shade`), or the megakernel; both end in `accumulate`.
 /// `integrator` is resolved ([`Integrator::resolve`]) by the caller; an unresolved `Auto`
 /// builds the wavefront.
-/// One shade pipeline per model of the scene (`Scene::shaded_models`).
+/// One shade pipeline per model of the scene (`Scene::shaded_models`). `common` are the
+/// defines every kernel gets ([`common_defines`]).
 pub(super) fn build_kernels<'a>(
     ctx: &'a Context,
     scene: &Scene,
-    bvh: &Bvh,
     owned: &mut Owned<'a>,
     compiler: &ShaderCompiler,
     setup: &mut SetupStats,
     integrator: Integrator,
-    tiled: bool,
+    common: Defines,
 ) -> Result<(Schedule, KernelId)> {
     let models = &scene.shaded_models()[..];
     let mut b = Builder {
@@ -322,7 +322,7 @@ pub(super) fn build_kernels<'a>(
         compiler,
         owned,
         setup,
-        common: common_defines(ctx, scene, bvh, tiled),
+        common,
         generated: vec![(interface::HEADER.to_string(), interface::glsl())],
         kinds: Binding::ALL.iter().map(|b| b.descriptor_type()).collect(),
     };

@@ -253,8 +253,9 @@ impl<'a> GpuRenderer<'a> {
         setup.seconds_upload = t_upload.elapsed().as_secs_f64();
 
         let tiled = tile != Tile::full(scene.width, scene.height);
+        let common = kernels::common_defines(ctx, scene, bvh, tiled);
         let (schedule, accumulate) = kernels::build_kernels(
-            ctx, scene, bvh, &mut owned, compiler, &mut setup, integrator, tiled,
+            ctx, scene, &mut owned, compiler, &mut setup, integrator, common,
         )?;
         let mut r = GpuRenderer {
             ctx,
