@@ -6,6 +6,7 @@ use super::interface::{self, Push};
 use super::layout::{self, Binding, Counters, Kind, Queue};
 use super::stages::{ModelQueue, Schedule, ShadeKernel, Stage, WaveKernels};
 use super::{scene_buffers, Integrator, SetupStats};
+use crate::brdf::glsl::model_define;
 use crate::brdf::MODELS;
 use crate::bvh::Bvh;
 use crate::film::Tile;
@@ -288,6 +289,21 @@ pub fn bvh_defines(bvh: &Bvh) -> Vec<(String, String)> {
         .collect()
 }
 
+/// The defines of `brdf/any.glsl` for `models`: each model's `MODEL_<NAME>` (its index) and the
+/// features its materials need.
+fn any_model_defines(scene: &Scene, models: &[usize]) -> Defines {
+    let mut defs = Defines::new();
+    for &model in models {
+        defs.push((model_define(MODELS[model].name), format!("{model}u")));
+        defs.extend(
+            model_features(scene, model)
+                .into_iter()
+                .map(|f| (f.to_string(), "1".to_string())),
+        );
+    }
+    defs
+}
+
 /// The features (defines) `model` needs for the scene's materials.
 fn model_features(scene: &Scene, model: usize) -> BTreeSet<&'static str> {
     let mut f = BTreeSet::new();
@@ -339,13 +355,11 @@ pub(super) fn build_kernels<'a>(
             if let [model] = models {
                 // One shaded model: extend shades in place and traces the shadow ray
                 // (extend_shade.comp); the material and shadow queues would only cost.
-                let kernel = b.model_stage(Stage::ExtendShade, scene, *model)?;
+                let extend_shade = b.model_stage(Stage::ExtendShade, scene, *model)?;
                 Schedule::Fused {
                     base,
-                    extend_shade: ShadeKernel {
-                        queue: queue(0, *model),
-                        kernel,
-                    },
+                    extend_shade,
+                    models: vec![queue(0, *model)],
                 }
             } else {
                 let shadow = b.stage(Stage::Shadow)?;
@@ -367,18 +381,7 @@ pub(super) fn build_kernels<'a>(
             }
         }
         Integrator::Megakernel => {
-            let mut defs = Defines::new();
-            for &model in models {
-                defs.push((
-                    format!("MODEL_{}", MODELS[model].name.to_uppercase()),
-                    format!("{model}u"),
-                ));
-                defs.extend(
-                    model_features(scene, model)
-                        .into_iter()
-                        .map(|f| (f.to_string(), "1".to_string())),
-                );
-            }
+            let defs = any_model_defines(scene, models);
             let kernel = b.build(Stage::Megakernel, Stage::Megakernel.name(), defs, vec![])?;
             // The shade stages' non-finite counters are read per model: the megakernel counts
             // at the same slots.

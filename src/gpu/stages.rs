@@ -114,10 +114,14 @@ pub(super) enum Schedule {
         shadow: KernelId,
     },
     /// A scene that shades one model: `extend_shade` hits, shades and traces the shadow ray
-    /// (no material or shadow queue: with one model they only cost).
+    /// (no material or shadow queue: with one model they only cost). Several models behind
+    /// `brdf/any.glsl`'s switch in one such kernel measured no faster than the stages
+    /// (BENCHMARKS.md).
     Fused {
         base: WaveKernels,
-        extend_shade: ShadeKernel,
+        extend_shade: KernelId,
+        /// The queue slots it counts each model's non-finite values at, as the shade stages.
+        models: Vec<ModelQueue>,
     },
     /// One kernel per wave that follows each path to its end (`brdfwave bench`'s baseline).
     Megakernel {
@@ -132,8 +136,7 @@ impl Schedule {
     pub fn models(&self) -> Vec<ModelQueue> {
         match self {
             Schedule::Wavefront { shade, .. } => shade.iter().map(|k| k.queue).collect(),
-            Schedule::Fused { extend_shade, .. } => vec![extend_shade.queue],
-            Schedule::Megakernel { models, .. } => models.clone(),
+            Schedule::Fused { models, .. } | Schedule::Megakernel { models, .. } => models.clone(),
         }
     }
 }
@@ -220,9 +223,11 @@ impl<'a> GpuRenderer<'a> {
                 }
                 s
             }
-            Schedule::Fused { base, extend_shade } => {
+            Schedule::Fused {
+                base, extend_shade, ..
+            } => {
                 let mut s = Segment::new(*base);
-                s.extend(extend_shade.kernel);
+                s.extend(*extend_shade);
                 s
             }
             Schedule::Megakernel { .. } => unreachable!("the megakernel has no segments"),
