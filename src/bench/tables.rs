@@ -150,6 +150,10 @@ pub(super) fn summary(
     md
 }
 
+/// The smallest sample count whose Mitsuba render counts in the spread of its speeds (smaller
+/// renders are dominated by fixed costs).
+const PEER_SPREAD_MIN_SPP: u32 = 16;
+
 /// The notes on each configuration's details: the Mitsuba peer's kernel compile and plain warm
 /// render, the GPU time by stage, the queue sizes per segment.
 fn detail_notes(
@@ -162,9 +166,26 @@ fn detail_notes(
     for (name, d) in details {
         if let (Some(c), Some((spp, s))) = (d.peer_compile, d.peer_plain) {
             let last = records.iter().rfind(|r| &r.config == name);
+            // Every Mitsuba point is a fresh render timed alone, so each has its own speed;
+            // Mitsuba's samplers run at different speeds at different sample counts (BENCHMARKS.md).
+            let speeds: Vec<f64> = records
+                .iter()
+                .filter(|r| &r.config == name && r.spp >= PEER_SPREAD_MIN_SPP)
+                .map(|r| r.paths_per_second / 1e6)
+                .collect();
+            let spread = match (
+                speeds.iter().copied().reduce(f64::min),
+                speeds.iter().copied().reduce(f64::max),
+            ) {
+                (Some(lo), Some(hi)) if speeds.len() > 1 => format!(
+                    "; its {} timed renders of {PEER_SPREAD_MIN_SPP} spp or more ran at {lo:.3}–{hi:.3} M paths/s by sample count",
+                    speeds.len()
+                ),
+                _ => String::new(),
+            };
             let _ = writeln!(
                 md,
-                "- `{name}`: kernel compile {c:.2} s in all (kept out of every timed render); the faster of two plain warm renders of {spp} spp took {s:.2} s, {:.3} M paths/s{}",
+                "- `{name}`: kernel compile {c:.2} s in all (kept out of every timed render); the faster of two plain warm renders of {spp} spp took {s:.2} s, {:.3} M paths/s{}{spread}",
                 pixels * spp as f64 / s.max(1e-9) / 1e6,
                 last.map(|r| format!(" (the bench's own figure: {:.3} M)", r.paths_per_second / 1e6))
                     .unwrap_or_default()
