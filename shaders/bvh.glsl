@@ -225,7 +225,7 @@ bool bvh_primitive(BvhRay r, vec3 o, vec3 d, uint ref, float tmax, out float t, 
 
 // The traversal stack. With BVH_STACK_REGS defined (the host does when the tree is shallow
 // enough: src/bvh/node.rs `register_stack_size`), its entries are that many variables with
-// constant indices, which the compiler keeps in registers, top at s[0]: a push shifts every
+// constant indices, which the compiler keeps in registers, top at st[0]: a push shifts every
 // entry down, a pop up, as selects. Otherwise it is an array indexed by the stack pointer, in
 // memory: on lavapipe every store to it is a per-lane loop that branches on each lane's mask
 // (mispredicted on divergent rays) and every load a per-lane gather, which cost the register

@@ -88,7 +88,7 @@ impl Ray {
     }
 
     /// Conservative slab test: (hit, entry distance clamped to 0). In SIMD registers
-    /// (`Vec3A`, about 5 % of the CPU reference's time; BENCHMARKS.md). For a finite origin, a
+    /// (`Vec3A`: the CPU reference about 5 % faster; BENCHMARKS.md). For a finite origin, a
     /// direction that [`Ray::new`] accepts and a finite box no value here is NaN, so the
     /// minima and maxima are those of the GLSL twin's scalar order (a NaN would be dropped by
     /// one order and kept by another).
