@@ -294,12 +294,13 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
                 live = false;
                 break;
             }
-            // Both children: the near one next, the far one pushed. Neither: pop.
+            // Both children: the near one next, the far one pushed. Neither: pop (the top is
+            // read only then, and before the step moves it).
             bool push = both && sp < uint(BVH_STACK_CAPACITY);
-            uint top = BVH_STACK_TOP(stack, sp);
+            uint next = both ? (swap ? cr : cl) : (hl ? cl : (hr ? cr : BVH_STACK_TOP(stack, sp)));
             BVH_STACK_STEP(stack, sp, push, pop, swap ? cl : cr)
             sp = push ? sp + 1u : (pop ? sp - 1u : sp);
-            cur = both ? (swap ? cr : cl) : (hl ? cl : (hr ? cr : top));
+            cur = next;
         }
         if (!live) break;
         uint first = (cur >> 3) & 0x0FFFFFFFu;
