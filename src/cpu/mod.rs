@@ -78,8 +78,8 @@ pub struct CpuRenderer<'a> {
     bvh: &'a Bvh,
     lights: LightTable,
     camera: CameraBasis,
-    /// The geometric normal of each triangle ([`crate::robust::triangle_normal`]), computed
-    /// once instead of at every hit and light sample (the same bits either way).
+    /// The geometric normal of each triangle ([`crate::scene::Triangle::geometric_normal`]),
+    /// computed once instead of at every hit and light sample (the same bits either way).
     normals: Vec<Vec3>,
 }
 
@@ -93,7 +93,7 @@ impl<'a> CpuRenderer<'a> {
             normals: scene
                 .triangles
                 .par_iter()
-                .map(|t| crate::robust::triangle_normal(&t.v))
+                .map(|t| t.geometric_normal())
                 .collect(),
         }
     }

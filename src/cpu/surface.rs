@@ -80,7 +80,7 @@ impl Surface {
 }
 
 /// Reconstruct the hit surface from the BVH hit record (position from barycentrics, not o + t·d).
-/// `normals` holds each triangle's geometric normal ([`crate::robust::triangle_normal`]).
+/// `normals` holds each triangle's geometric normal ([`crate::scene::Triangle::geometric_normal`]).
 pub fn surface_at(scene: &Scene, normals: &[Vec3], hit: &Hit, o: Vec3, d: Vec3) -> Surface {
     if hit.prim & SPHERE_BIT != 0 {
         let s = &scene.spheres[(hit.prim & !SPHERE_BIT) as usize];
