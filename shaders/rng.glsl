@@ -1,5 +1,5 @@
 // Counter-based random numbers keyed on (seed, pixel, sample, depth, dimension): the
-// integrator's two samplers. Rust twin: src/rng/ (bit-identical, same function names; the
+// integrator's three samplers. Rust twin: src/rng/ (bit-identical, same function names; the
 // design, its references and the dimension table are documented in src/rng/mod.rs). The DIM_*
 // numbers and the SAMPLER_* choice are defines generated from src/rng/mod.rs (`rng::defines`).
 #ifndef RNG_GLSL
@@ -91,29 +91,25 @@ vec2 sobol_pair_f32(uint seed, uint pixel, uint sample_index, uint depth, uint d
 // multi-jittered points of a 2^bits-point pattern (bits = g.pattern_bits), padded per pair by a
 // permutation of the sample index. Integer arithmetic only, so both backends agree bit for bit.
 
-// Kensler's hashed permutation of [0, 2^bits): a bijection without cycle walking.
-uint kensler_permute(uint i, uint bits, uint p) {
+// The hashed permutation of [0, 2^bits): a bijection without cycle walking.
+uint hashed_permute(uint i, uint bits, uint p) {
     if (bits == 0u) return 0u;
     uint w = 0xffffffffu >> (32u - bits);
+    uint half_bits = (bits + 1u) >> 1u;
     i ^= p;
-    i *= 0xe170893du;
+    i *= (p >> 8u) | 1u;
+    i ^= (i & w) >> half_bits;
     i ^= p >> 16u;
-    i ^= (i & w) >> 4u;
-    i ^= p >> 8u;
-    i *= 0x0929eb3fu;
-    i ^= p >> 23u;
+    i *= (p >> 20u) | 1u;
     i ^= (i & w) >> 1u;
-    i *= 1u | (p >> 27u);
-    i *= 0x6935fa69u;
-    i ^= (i & w) >> 11u;
-    i *= 0x74dcb303u;
-    i ^= (i & w) >> 2u;
-    i *= 0x9e501cc3u;
-    i ^= (i & w) >> 2u;
-    i *= 0xc860a3dfu;
-    i &= w;
-    i ^= i >> 5u;
-    return (i + p) & w;
+    return (i + (p >> 12u)) & w;
+}
+
+// The y jitter from the x jitter's hash: a bijective mix.
+uint remix(uint h) {
+    h ^= h >> 16u;
+    h *= 0x7feb352du;
+    return h ^ (h >> 15u);
 }
 
 uint multijitter_pattern_key(uint pair_key, uint sample_index, uint bits) {
@@ -125,13 +121,13 @@ uvec2 multijitter_pair(uint sample_index, uint p, uint bits) {
     uint kx = (bits + 1u) >> 1u;
     uint ky = bits - kx;
     uint low = bits == 0u ? 0u : 0xffffffffu >> (32u - bits);
-    uint s = kensler_permute(sample_index & low, bits, p * 0x51633e2du);
+    uint s = hashed_permute(sample_index & low, bits, p * 0x51633e2du);
     uint c = kx == 0u ? 0u : s & (0xffffffffu >> (32u - kx));
     uint r = s >> kx;
-    uint sigma_x = kensler_permute(c, kx, p * 0xa511e9b3u);
-    uint sigma_y = kensler_permute(r, ky, p * 0x63d83595u);
+    uint sigma_x = hashed_permute(c, kx, p * 0xa511e9b3u);
+    uint sigma_y = hashed_permute(r, ky, p * 0x63d83595u);
     uint xi = pcg_hash(s ^ (p * 0xa399d265u));
-    uint eta = pcg_hash(s ^ (p * 0x711ad6a5u));
+    uint eta = remix(xi);
     if (bits == 0u) return uvec2(xi, eta);
     uint cell_x = (c << ky) | sigma_y;
     uint cell_y = (r << kx) | sigma_x;

@@ -317,7 +317,10 @@ fn a_lambert_only_scene_builds_only_the_lambert_shade_pipeline() {
 /// and a light of radiance 3e38 a hair above it, looking down. The floor is a Cook–Torrance
 /// survey-form surface with F = 1, whose sampled throughput exceeds 1, so emission reached by
 /// BSDF sampling overflows (`extend`). Finite samples near 3e38, whose squares overflow f32,
-/// are accumulated, not dropped (`accumulate` counts 0: the GPU film scales its sums). Next-event
+/// are accumulated, not dropped: `accumulate` counts only the paths whose own sum of finite
+/// contributions overflowed (a light seen through the floor plus its next-event estimate; 0 or
+/// 1 of these 2,304 paths, depending on the random numbers), the same paths on both backends,
+/// where the GPU film dropping every sample whose square overflows would count hundreds. Next-event
 /// contributions stay finite (the MIS weight bounds them by f·cosθ/(2·pdf_bsdf)); the shade
 /// stages' counters are tested by injection below.
 #[test]
@@ -387,9 +390,12 @@ quads = [[[-0.5, 0.001, -0.5], [0.5, 0.001, -0.5], [0.5, 0.001, 0.5], [-0.5, 0.0
         assert!(g.abs_diff(*c) <= tol, "{stage}: GPU {g}, CPU {c}");
     }
     assert!(gpu.nonfinite_by_stage[0].1 > 0, "extend counted nothing");
-    assert_eq!(
-        gpu.nonfinite_by_stage[2].1, 0,
-        "finite samples were dropped at accumulate"
+    // The CPU film sums in f64 and drops a sample only when the path's own value is not
+    // finite: the GPU's accumulate count must not exceed it (the float-order tolerance aside).
+    let (gpu_acc, cpu_acc) = (gpu.nonfinite_by_stage[2].1, cpu.nonfinite_by_stage[2].1);
+    assert!(
+        gpu_acc <= cpu_acc + 2 && cpu_acc <= 4,
+        "finite samples were dropped at accumulate: GPU {gpu_acc}, CPU {cpu_acc}"
     );
     let total: u64 = gpu.nonfinite_by_stage.iter().map(|x| x.1).sum();
     assert_eq!(gpu.nonfinite_samples, total);

@@ -18,9 +18,11 @@
 //!   per pixel gives each (pixel, depth, pair) its own pattern of 2^⌈log2 N⌉ points: a grid of
 //!   m×n cells (m = 2^⌈b/2⌉ columns, n = 2^⌊b/2⌋ rows) with one point each, whose 2^b x and y
 //!   coordinates also fall in 2^b distinct strata each ("n-rooks"), jittered within them. The
-//!   sample index is first permuted per pattern (the padding that keeps pairs independent), and
-//!   every permutation is Kensler's hash over a power-of-two range, a bijection without cycle
-//!   walking, so neither backend loops ([`multijitter_pair`]). A non-power-of-two N draws N of
+//!   sample index is first permuted per pattern (the padding that keeps pairs independent),
+//!   and the rows' and columns' substrata get one permutation each; every permutation is one
+//!   short hash over a power-of-two range ([`hashed_permute`]), a bijection without cycle
+//!   walking, so neither backend loops, and both jitters come from one hash
+//!   ([`multijitter_pair`]). A non-power-of-two N draws N of
 //!   the pattern's points (each cell at most once), and every number is uniform, so any N is
 //!   unbiased. The pattern depends on N, so the parts of a split render keep the whole
 //!   render's N (`Integrator::pattern_spp`), and the bench measures each sample count as a
@@ -56,8 +58,8 @@ mod multijitter;
 mod sobol;
 
 pub use multijitter::{
-    kensler_permute, multijitter_bits, multijitter_pair, multijitter_pattern_key, multijitter_u32,
-    MULTIJITTER_MAX_BITS,
+    hashed_permute, multijitter_bits, multijitter_pair, multijitter_pattern_key, multijitter_u32,
+    remix, MULTIJITTER_MAX_BITS,
 };
 pub use sobol::{
     lk_permute, sobol1_reversed, sobol_component, sobol_f32, sobol_shuffled_index, sobol_u32,
