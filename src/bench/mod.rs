@@ -27,7 +27,9 @@
 //! warm render of all the samples so far, timed alone (its kernels, which for most of its
 //! samplers depend on the sample count, are compiled by an untimed warm-up render of the same
 //! count, reported apart), and the script also times one plain warm render at a fixed sample
-//! count, reported beside the bench's figure. (A Mitsuba configuration's wall time is thus
+//! count, reported beside the bench's figure and beside the bench's own render of that count
+//! (the like-for-like check: the figure in the table is the last, largest render's, and
+//! Mitsuba's samplers run at different speeds at different counts). (A Mitsuba configuration's wall time is thus
 //! about four times the time of its last render; its budget share counts the last render.)
 
 mod config;

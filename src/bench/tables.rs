@@ -183,9 +183,23 @@ fn detail_notes(
                 ),
                 _ => String::new(),
             };
+            // The like-for-like check: the bench's own timed render of the plain count (a
+            // fresh warm render inside the interleaved run) beside the plain one.
+            let same_count = records
+                .iter()
+                .find(|r| &r.config == name && r.spp == spp)
+                .map(|r| {
+                    let plain = pixels * spp as f64 / s.max(1e-9);
+                    format!(
+                        "; its timed render of {spp} spp in the run: {:.3} M paths/s ({:+.1} % from the plain one)",
+                        r.paths_per_second / 1e6,
+                        100.0 * (r.paths_per_second / plain - 1.0)
+                    )
+                })
+                .unwrap_or_default();
             let _ = writeln!(
                 md,
-                "- `{name}`: kernel compile {c:.2} s in all (kept out of every timed render); the faster of two plain warm renders of {spp} spp took {s:.2} s, {:.3} M paths/s{}{spread}",
+                "- `{name}`: kernel compile {c:.2} s in all (kept out of every timed render); the faster of two plain warm renders of {spp} spp took {s:.2} s, {:.3} M paths/s{}{same_count}{spread}",
                 pixels * spp as f64 / s.max(1e-9) / 1e6,
                 last.map(|r| format!(" (the bench's own figure: {:.3} M)", r.paths_per_second / 1e6))
                     .unwrap_or_default()
