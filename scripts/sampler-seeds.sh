@@ -9,7 +9,7 @@
 #   bash scripts/sampler-seeds.sh [OUTDIR]      # default out/sampler-seeds
 #
 # 128x128, max depth 8, no Russian roulette; each scene's reference is 8192 spp of the CPU
-# reference with a seed no test render uses (cached in OUTDIR). About 25 minutes on 2 cores
+# reference with a seed no test render uses (cached in OUTDIR). About 15 minutes on 2 cores
 # with SEEDS=8 (the default), most of it the two references. Mitsuba is skipped when its
 # Python module does not load (DRJIT_LIBLLVM_PATH may need to point at libLLVM).
 # Environment: SEEDS, SPPS (default "16 64 256"), SAMPLERS (ours, default

@@ -318,9 +318,9 @@ fn a_lambert_only_scene_builds_only_the_lambert_shade_pipeline() {
 /// survey-form surface with F = 1, whose sampled throughput exceeds 1, so emission reached by
 /// BSDF sampling overflows (`extend`). Finite samples near 3e38, whose squares overflow f32,
 /// are accumulated, not dropped: `accumulate` counts only the paths whose own sum of finite
-/// contributions overflowed (a light seen through the floor plus its next-event estimate; 0 or
-/// 1 of these 2,304 paths, depending on the random numbers), the same paths on both backends,
-/// where the GPU film dropping every sample whose square overflows would count hundreds. Next-event
+/// contributions overflowed (0 or 1 of these 2,304 paths, depending on the random numbers),
+/// the same paths on both backends, where a GPU film that dropped every sample whose square
+/// overflows would count hundreds. Next-event
 /// contributions stay finite (the MIS weight bounds them by f·cosθ/(2·pdf_bsdf)); the shade
 /// stages' counters are tested by injection below.
 #[test]

@@ -29,8 +29,9 @@
 //! count, reported apart), and the script also times one plain warm render at a fixed sample
 //! count, reported beside the bench's figure and beside the bench's own render of that count
 //! (the like-for-like check: the figure in the table is the last, largest render's, and
-//! Mitsuba's samplers run at different speeds at different counts). (A Mitsuba configuration's wall time is thus
-//! about four times the time of its last render; its budget share counts the last render.)
+//! Mitsuba's samplers run at different speeds at different counts). (A Mitsuba
+//! configuration's wall time is thus about four times the time of its last render; its budget
+//! share counts the last render.)
 
 mod config;
 mod mitsuba;
