@@ -156,21 +156,30 @@ impl<'a> Builder<'a> {
     ) -> Option<(usize, usize, f64)> {
         let parent_area = bounds.half_area();
         let mut best: Option<(usize, usize, f64)> = None;
+        // The axes with extent (also false for NaN or infinite extents), and their bin scales.
+        let scale: [Option<f32>; 3] = std::array::from_fn(|axis| {
+            let extent = cb.max[axis] - cb.min[axis];
+            (extent > 0.0 && extent < f32::INFINITY).then(|| BINS as f32 / extent)
+        });
+        // All three axes binned in one pass over the primitives: each primitive's box and
+        // centroid are fetched once, not once per axis (the same bins, so the same tree).
+        let mut bin_box = [[Aabb::EMPTY; BINS]; 3];
+        let mut bin_n = [[0usize; BINS]; 3];
+        for &i in self.range(start, end) {
+            let (c, bx) = (self.centroids[i as usize], &self.boxes[i as usize]);
+            for axis in 0..3 {
+                if let Some(scale) = scale[axis] {
+                    let b = bin_of(c[axis], cb.min[axis], scale);
+                    bin_n[axis][b] += 1;
+                    bin_box[axis][b].grow(bx);
+                }
+            }
+        }
         for axis in 0..3 {
-            let lo = cb.min[axis];
-            let extent = cb.max[axis] - lo;
-            // Also false for NaN or infinite extents.
-            if !(extent > 0.0 && extent < f32::INFINITY) {
+            if scale[axis].is_none() {
                 continue;
             }
-            let scale = BINS as f32 / extent;
-            let mut bin_box = [Aabb::EMPTY; BINS];
-            let mut bin_n = [0usize; BINS];
-            for &i in self.range(start, end) {
-                let b = bin_of(self.centroids[i as usize][axis], lo, scale);
-                bin_n[b] += 1;
-                bin_box[b].grow(&self.boxes[i as usize]);
-            }
+            let (bin_box, bin_n) = (&bin_box[axis], &bin_n[axis]);
             // Sweep from the right: area·count of bins k.. for every k.
             let mut right_cost = [0.0f64; BINS];
             let mut acc = Aabb::EMPTY;
