@@ -165,6 +165,7 @@ fn detail_notes(
     let pixels = sc.width as f64 * sc.height as f64;
     for (name, d) in details {
         if let (Some(c), Some((spp, s))) = (d.peer_compile, d.peer_plain) {
+            let plain = pixels * spp as f64 / s.max(1e-9);
             let last = records.iter().rfind(|r| &r.config == name);
             // Every Mitsuba point is a fresh render timed alone, so each has its own speed;
             // Mitsuba's samplers run at different speeds at different sample counts (BENCHMARKS.md).
@@ -189,7 +190,6 @@ fn detail_notes(
                 .iter()
                 .find(|r| &r.config == name && r.spp == spp)
                 .map(|r| {
-                    let plain = pixels * spp as f64 / s.max(1e-9);
                     format!(
                         "; its timed render of {spp} spp in the run: {:.3} M paths/s ({:+.1} % from the plain one)",
                         r.paths_per_second / 1e6,
@@ -200,7 +200,7 @@ fn detail_notes(
             let _ = writeln!(
                 md,
                 "- `{name}`: kernel compile {c:.2} s in all (kept out of every timed render); the faster of two plain warm renders of {spp} spp took {s:.2} s, {:.3} M paths/s{}{same_count}{spread}",
-                pixels * spp as f64 / s.max(1e-9) / 1e6,
+                plain / 1e6,
                 last.map(|r| format!(" (the bench's own figure: {:.3} M)", r.paths_per_second / 1e6))
                     .unwrap_or_default()
             );

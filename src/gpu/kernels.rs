@@ -355,11 +355,13 @@ pub(super) fn build_kernels<'a>(
             if let [model] = models {
                 // One shaded model: extend shades in place and traces the shadow ray
                 // (extend_shade.comp); the material and shadow queues would only cost.
-                let extend_shade = b.model_stage(Stage::ExtendShade, scene, *model)?;
+                let kernel = b.model_stage(Stage::ExtendShade, scene, *model)?;
                 Schedule::Fused {
                     base,
-                    extend_shade,
-                    models: vec![queue(0, *model)],
+                    extend_shade: ShadeKernel {
+                        queue: queue(0, *model),
+                        kernel,
+                    },
                 }
             } else {
                 let shadow = b.stage(Stage::Shadow)?;

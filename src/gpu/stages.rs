@@ -119,9 +119,7 @@ pub(super) enum Schedule {
     /// (BENCHMARKS.md).
     Fused {
         base: WaveKernels,
-        extend_shade: KernelId,
-        /// The queue slots it counts each model's non-finite values at, as the shade stages.
-        models: Vec<ModelQueue>,
+        extend_shade: ShadeKernel,
     },
     /// One kernel per wave that follows each path to its end (`brdfwave bench`'s baseline).
     Megakernel {
@@ -136,7 +134,8 @@ impl Schedule {
     pub fn models(&self) -> Vec<ModelQueue> {
         match self {
             Schedule::Wavefront { shade, .. } => shade.iter().map(|k| k.queue).collect(),
-            Schedule::Fused { models, .. } | Schedule::Megakernel { models, .. } => models.clone(),
+            Schedule::Fused { extend_shade, .. } => vec![extend_shade.queue],
+            Schedule::Megakernel { models, .. } => models.clone(),
         }
     }
 }
@@ -223,11 +222,9 @@ impl<'a> GpuRenderer<'a> {
                 }
                 s
             }
-            Schedule::Fused {
-                base, extend_shade, ..
-            } => {
+            Schedule::Fused { base, extend_shade } => {
                 let mut s = Segment::new(*base);
-                s.extend(*extend_shade);
+                s.extend(extend_shade.kernel);
                 s
             }
             Schedule::Megakernel { .. } => unreachable!("the megakernel has no segments"),
