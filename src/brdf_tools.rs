@@ -137,10 +137,10 @@ fn three_digits(v: f64) -> String {
 /// Representative parameters for the report, every model's
 /// ([`ModelInfo::representative`](crate::brdf::ModelInfo), in [`MODELS`](crate::brdf::MODELS)
 /// order): comparable gloss where the model has gloss.
-pub fn representative() -> Vec<(&'static str, &'static str)> {
+pub fn representative() -> Vec<(String, String)> {
     crate::brdf::MODELS
         .iter()
-        .flat_map(|m| m.representative.iter().copied())
+        .flat_map(|m| m.report_materials())
         .collect()
 }
 

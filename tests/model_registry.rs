@@ -43,12 +43,12 @@ fn the_report_measures_every_model() {
     let fixtures = fixtures();
     for (i, m) in MODELS.iter().enumerate() {
         assert!(
-            !m.representative.is_empty(),
+            !m.report_materials().is_empty(),
             "{}: REPRESENTATIVE is empty, so `brdf report` skips the model",
             m.name
         );
-        for (label, src) in m.representative {
-            let (mat, _) = parse_inline_at("--material", src, Some(fixtures.path()))
+        for (label, src) in m.report_materials() {
+            let (mat, _) = parse_inline_at("--material", &src, Some(fixtures.path()))
                 .unwrap_or_else(|e| panic!("{label}: {e:#}"));
             assert_eq!(mat.model, i, "{}: {label} is another model's", m.name);
         }
@@ -82,7 +82,7 @@ fn every_model_reads_exactly_its_declared_parameters() {
         // representative material's, from the fixtures).
         let src = match reads_a_file(m) {
             false => format!(r#"model = "{}", no_such_field = 1"#, m.name),
-            true => format!("{}, no_such_field = 1", m.representative[0].1),
+            true => format!("{}, no_such_field = 1", m.report_materials()[0].1),
         };
         let err = parse_inline_at("--material", &src, Some(fixtures.path()))
             .unwrap_err()

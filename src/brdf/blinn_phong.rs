@@ -44,17 +44,10 @@ use super::common::{
     diffuse_specular_pdf, luminance, pow_one_minus, reflect_about, same_hemisphere_up,
     sample_cosine_hemisphere, sample_power_cosine, specular_probability,
 };
-use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
+use super::{Brdf, BrdfSample, Param, Representative, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, PI};
 use std::sync::Arc;
-
-choice_enum! {
-    pub enum Form {
-        Classic = "classic" => "BLINN_PHONG_CLASSIC",
-        Normalized = "normalized" => "BLINN_PHONG_NORMALIZED",
-    }
-}
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct BlinnPhong {
@@ -66,6 +59,13 @@ pub struct BlinnPhong {
     p_spec: f32,
     /// Giesen's normalisation k_n (derived; used by `normalized`).
     k_n: f32,
+}
+
+choice_enum! {
+    pub enum Form {
+        Classic = "classic" => "BLINN_PHONG_CLASSIC",
+        Normalized = "normalized" => "BLINN_PHONG_NORMALIZED",
+    }
 }
 
 const COS_FLOOR: f32 = 1e-6;
@@ -111,27 +111,17 @@ impl BlinnPhong {
     }
 }
 
-params! {
-    KD = rgb("kd", "RGB, unitless", [0.5; 3], (0.0, 1.0), "diffuse coefficient k_d (f_d = k_d/π, eq. 3)");
-    KS = rgb("ks", "RGB, unitless", [0.3; 3], (0.0, 1.0), "specular coefficient k_s");
-    EXPONENT = scalar("exponent", "unitless", 80.0, (0.0, 1e6), "shininess n (≈ 4× the Phong exponent for a similar highlight)");
-    FORM = choice("form", Form::NAMES, Form::Classic.name(), "the survey's form (eq. 5) or the energy-normalised reciprocal lobe");
+declare_model! {
+    survey: "§2.1.4, eq. 5";
+    params: {
+        KD = rgb("kd", "RGB, unitless", [0.5; 3], (0.0, 1.0), "diffuse coefficient k_d (f_d = k_d/π, eq. 3)");
+        KS = rgb("ks", "RGB, unitless", [0.3; 3], (0.0, 1.0), "specular coefficient k_s");
+        EXPONENT = scalar("exponent", "unitless", 80.0, (0.0, 1e6), "shininess n (≈ 4× the Phong exponent for a similar highlight)");
+        FORM = choice("form", Form::NAMES, Form::Classic.name(), "the survey's form (eq. 5) or the energy-normalised reciprocal lobe");
+    }
+    representative: Representative::EachOption(r#"model = "blinn_phong", kd = 0.0, ks = 0.8, exponent = 200"#, FORM);
+    record_codes: [Form];
 }
-/// Where the survey gives the model (README's model table).
-pub const SURVEY: &str = "§2.1.4, eq. 5";
-/// The `brdf report` materials: both forms at one gloss.
-pub const REPRESENTATIVE: &[(&str, &str)] = &[
-    (
-        "blinn_phong (classic)",
-        r#"model = "blinn_phong", kd = 0.0, ks = 0.8, exponent = 200, form = "classic""#,
-    ),
-    (
-        "blinn_phong (normalized)",
-        r#"model = "blinn_phong", kd = 0.0, ks = 0.8, exponent = 200, form = "normalized""#,
-    ),
-];
-/// `p[1].w`: the form.
-pub const RECORD_CODES: &[&[(&str, f32)]] = &[Form::RECORD_CODES];
 
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
     let kd = r.rgb_of(&KD)?;

@@ -73,13 +73,28 @@ use super::common::{
     sample_beckmann_vndf, sample_cosine_hemisphere, sample_ggx_h, sample_ggx_vndf,
     smith_g1_beckmann, smith_g1_beckmann_walter, smith_g1_ggx, visible_reflected_pdf,
 };
-use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
+use super::{Brdf, BrdfSample, Param, ParamError, Representative, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;
 
 /// Below this rms slope the specular lobe is a delta mirror.
 pub const MIRROR_ROUGHNESS: f32 = 1e-3;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct CookTorrance {
+    pub kd: Vec3,
+    pub ks: Vec3,
+    pub roughness: f32,
+    pub distribution: Distribution,
+    pub geometry: Geometry,
+    pub fresnel: Fresnel,
+    pub ior: f32,
+    pub eta: Vec3,
+    pub k: Vec3,
+    pub f0: Vec3,
+    pub normalization: Normalization,
+}
 
 choice_enum! {
     pub enum Distribution {
@@ -131,21 +146,6 @@ choice_enum! {
     }
 }
 
-#[derive(Clone, Debug, PartialEq)]
-pub struct CookTorrance {
-    pub kd: Vec3,
-    pub ks: Vec3,
-    pub roughness: f32,
-    pub distribution: Distribution,
-    pub geometry: Geometry,
-    pub fresnel: Fresnel,
-    pub ior: f32,
-    pub eta: Vec3,
-    pub k: Vec3,
-    pub f0: Vec3,
-    pub normalization: Normalization,
-}
-
 impl Default for CookTorrance {
     /// The survey's model: Beckmann, V-cavity, dielectric Fresnel (n = 1.5), eq. 9 as written.
     fn default() -> Self {
@@ -187,41 +187,28 @@ impl CookTorrance {
     }
 }
 
-params! {
-    KD = rgb("kd", "RGB", [0.0; 3], (0.0, 1.0), "Lambertian diffuse albedo (survey: \"simply adding\" a diffuse part)");
-    KS = rgb("ks", "RGB", [1.0; 3], (0.0, 1.0), "scale of the specular lobe");
-    ROUGHNESS = scalar("roughness", "rms slope m", 0.3, (0.0, 4.0), "Beckmann m = GGX α; below 1e-3 the lobe is a delta mirror");
-    DISTRIBUTION = choice("distribution", Distribution::NAMES, Distribution::Beckmann.name(), "microfacet NDF (`beckmann`: survey eq. 6)");
-    GEOMETRY = choice("geometry", Geometry::NAMES, Geometry::VCavity.name(), "masking-shadowing G (`v_cavity`: survey eq. 8)");
-    FRESNEL = choice("fresnel", Fresnel::NAMES, Fresnel::Dielectric.name(), "Fresnel term at c = wi·h (`dielectric`: survey eq. 7; `conductor`: the exact formula)");
-    IOR = scalar("ior", "—", 1.5, (1.0, 100.0), "relative index, `fresnel = \"dielectric\"` (eq. 7)");
-    // η > 0 is checked in `parse`.
-    ETA = rgb("eta", "RGB", [0.143_036, 0.375_307, 1.442_05], (0.0, 100.0), "real part η of the complex index η + iκ, `fresnel = \"conductor\"` (default gold-like)").range_text("(0, 100]");
-    K = rgb("k", "RGB", [3.983, 2.385_56, 1.603_36], (0.0, 100.0), "imaginary part κ of the complex index, `fresnel = \"conductor\"`");
-    F0 = rgb("f0", "RGB", [0.04; 3], (0.0, 1.0), "normal-incidence reflectance, `fresnel = \"schlick\"`");
-    NORMALIZATION = choice("normalization", Normalization::NAMES, Normalization::Survey.name(), "the specular denominator: `survey` (eq. 9) or `walter`, see below");
+declare_model! {
+    survey: "eqs. 6–9";
+    params: {
+        KD = rgb("kd", "RGB", [0.0; 3], (0.0, 1.0), "Lambertian diffuse albedo (survey: \"simply adding\" a diffuse part)");
+        KS = rgb("ks", "RGB", [1.0; 3], (0.0, 1.0), "scale of the specular lobe");
+        ROUGHNESS = scalar("roughness", "rms slope m", 0.3, (0.0, 4.0), "Beckmann m = GGX α; below 1e-3 the lobe is a delta mirror");
+        DISTRIBUTION = choice("distribution", Distribution::NAMES, Distribution::Beckmann.name(), "microfacet NDF (`beckmann`: survey eq. 6)");
+        GEOMETRY = choice("geometry", Geometry::NAMES, Geometry::VCavity.name(), "masking-shadowing G (`v_cavity`: survey eq. 8)");
+        FRESNEL = choice("fresnel", Fresnel::NAMES, Fresnel::Dielectric.name(), "Fresnel term at c = wi·h (`dielectric`: survey eq. 7; `conductor`: the exact formula)");
+        IOR = scalar("ior", "—", 1.5, (1.0, 100.0), "relative index, `fresnel = \"dielectric\"` (eq. 7)");
+        // η > 0 is checked in `parse`.
+        ETA = rgb("eta", "RGB", [0.143_036, 0.375_307, 1.442_05], (0.0, 100.0), "real part η of the complex index η + iκ, `fresnel = \"conductor\"` (default gold-like)").range_text("(0, 100]");
+        K = rgb("k", "RGB", [3.983, 2.385_56, 1.603_36], (0.0, 100.0), "imaginary part κ of the complex index, `fresnel = \"conductor\"`");
+        F0 = rgb("f0", "RGB", [0.04; 3], (0.0, 1.0), "normal-incidence reflectance, `fresnel = \"schlick\"`");
+        NORMALIZATION = choice("normalization", Normalization::NAMES, Normalization::Survey.name(), "the specular denominator: `survey` (eq. 9) or `walter`, see below");
+    }
+    representative: Representative::Listed(&[
+        ("cook_torrance (survey)", r#"model = "cook_torrance", kd = 0.0, ks = 1.0, roughness = 0.2, fresnel = "schlick", f0 = 0.8, normalization = "survey""#),
+        ("cook_torrance (walter)", r#"model = "cook_torrance", kd = 0.0, ks = 1.0, roughness = 0.2, fresnel = "schlick", f0 = 0.8, normalization = "walter", geometry = "smith""#),
+    ]);
+    record_codes: [Distribution, Geometry, Fresnel, Sampler];
 }
-/// Where the survey gives the model (README's model table).
-pub const SURVEY: &str = "eqs. 6–9";
-/// The `brdf report` materials: both normalisations at one gloss.
-pub const REPRESENTATIVE: &[(&str, &str)] = &[
-    (
-        "cook_torrance (survey)",
-        r#"model = "cook_torrance", kd = 0.0, ks = 1.0, roughness = 0.2, fresnel = "schlick", f0 = 0.8, normalization = "survey""#,
-    ),
-    (
-        "cook_torrance (walter)",
-        r#"model = "cook_torrance", kd = 0.0, ks = 1.0, roughness = 0.2, fresnel = "schlick", f0 = 0.8, normalization = "walter", geometry = "smith""#,
-    ),
-];
-/// `p[2].w` the distribution, `p[3].w` the geometry, `p[4].x` the Fresnel term
-/// ([`Fresnel::code`]), `p[4].y` the half-vector sampler ([`Sampler::code`]).
-pub const RECORD_CODES: &[&[(&str, f32)]] = &[
-    Distribution::RECORD_CODES,
-    Geometry::RECORD_CODES,
-    Fresnel::RECORD_CODES,
-    Sampler::RECORD_CODES,
-];
 
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
     let kd = r.rgb_of(&KD)?;

@@ -74,7 +74,7 @@ use super::common::{
     beckmann_d, cosine_hemisphere_pdf, erfc, expm1_f, fresnel_conductor, luminance, reflect_about,
     reflected_pdf, same_hemisphere_up, sample_beckmann_h, sample_cosine_hemisphere,
 };
-use super::{flag, Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
+use super::{flag, Brdf, BrdfSample, Param, ParamError, Representative, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, PI};
 use std::sync::Arc;
@@ -107,22 +107,21 @@ impl Default for He {
     }
 }
 
-params! {
-    SIGMA0 = scalar("sigma0", "µm", 0.18, (0.0, 50.0), "rms surface height σ₀ (survey fig. 9: 0.18–0.38 µm)");
-    // τ > 0 is checked in `parse`.
-    TAU = scalar("tau", "µm", 3.0, (f32::NEG_INFINITY, 1000.0), "autocorrelation length τ (survey fig. 9: 3.0 µm)").range_text("(0, 1000]");
-    // n > 0 is checked in `parse`.
-    IOR = rgb("ior", "RGB", [1.37, 0.96, 0.62], (f32::NEG_INFINITY, 100.0), "real part n(λ) of the complex index").range_text("(0, 100]");
-    K = rgb("k", "RGB", [7.62, 6.69, 5.47], (0.0, 100.0), "imaginary part κ(λ) (defaults: approximate aluminium, the survey's fig. 9 material)");
-    WAVELENGTHS = rgb("wavelengths", "µm per channel", [0.65, 0.55, 0.45], (0.2, 5.0), "λ at which each channel is evaluated");
-    DIFFUSE = rgb("diffuse", "RGB albedo", [0.0; 3], (0.0, 1.0), "uniform-diffuse a(λ) as an albedo: f_ud = `diffuse`/π (survey eq. 15)");
+declare_model! {
+    survey: "eqs. 10–15";
+    params: {
+        SIGMA0 = scalar("sigma0", "µm", 0.18, (0.0, 50.0), "rms surface height σ₀ (survey fig. 9: 0.18–0.38 µm)");
+        // τ > 0 is checked in `parse`.
+        TAU = scalar("tau", "µm", 3.0, (f32::NEG_INFINITY, 1000.0), "autocorrelation length τ (survey fig. 9: 3.0 µm)").range_text("(0, 1000]");
+        // n > 0 is checked in `parse`.
+        IOR = rgb("ior", "RGB", [1.37, 0.96, 0.62], (f32::NEG_INFINITY, 100.0), "real part n(λ) of the complex index").range_text("(0, 100]");
+        K = rgb("k", "RGB", [7.62, 6.69, 5.47], (0.0, 100.0), "imaginary part κ(λ) (defaults: approximate aluminium, the survey's fig. 9 material)");
+        WAVELENGTHS = rgb("wavelengths", "µm per channel", [0.65, 0.55, 0.45], (0.2, 5.0), "λ at which each channel is evaluated");
+        DIFFUSE = rgb("diffuse", "RGB albedo", [0.0; 3], (0.0, 1.0), "uniform-diffuse a(λ) as an albedo: f_ud = `diffuse`/π (survey eq. 15)");
+    }
+    representative: Representative::One(r#"model = "he", sigma0 = 0.4, tau = 4.0"#);
+    record_codes: [];
 }
-/// Where the survey gives the model (README's model table).
-pub const SURVEY: &str = "eqs. 10–15";
-/// The `brdf report` material.
-pub const REPRESENTATIVE: &[(&str, &str)] = &[("he", r#"model = "he", sigma0 = 0.4, tau = 4.0"#)];
-/// No enum in the record.
-pub const RECORD_CODES: &[&[(&str, f32)]] = &[];
 
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
     let sigma0 = r.scalar_of(&SIGMA0)?;
@@ -572,30 +571,14 @@ mod tests {
 
     #[test]
     fn finite_everywhere() {
-        let ms = [
-            He::default(),
-            He {
-                sigma0: 0.0,
-                diffuse: Vec3::splat(0.3),
+        // (σ₀, τ, uniform diffuse): the defaults, a mirror with diffuse, and rough extremes.
+        let ms = [(0.18, 3.0, 0.0), (0.0, 3.0, 0.3), (0.01, 10.0, 0.0), (5.0, 10.0, 0.1), (40.0, 100.0, 0.0)]
+            .map(|(sigma0, tau, diffuse)| He {
+                sigma0,
+                tau,
+                diffuse: Vec3::splat(diffuse),
                 ..Default::default()
-            },
-            He {
-                sigma0: 0.01,
-                tau: 10.0,
-                ..Default::default()
-            },
-            He {
-                sigma0: 5.0,
-                tau: 10.0,
-                diffuse: Vec3::splat(0.1),
-                ..Default::default()
-            },
-            He {
-                sigma0: 40.0,
-                tau: 100.0,
-                ..Default::default()
-            },
-        ];
+            });
         for m in &ms {
             assert_finite_on_sample_grid(m, &[0.0, 0.3, 0.7, 0.99], &format!("{m:?}"));
         }

@@ -10,7 +10,7 @@
 //! GPU record: `p[0].xyz` = albedo.
 
 use super::common::{diffuse_pdf, same_hemisphere_up, sample_diffuse};
-use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
+use super::{Brdf, BrdfSample, Param, Representative, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;
@@ -20,15 +20,14 @@ pub struct Lambert {
     pub albedo: Vec3,
 }
 
-params! {
-    ALBEDO = rgb("albedo", "RGB, unitless", [0.5; 3], (0.0, 1.0), "hemispherical reflectance ρ (f_r = ρ/π, survey eq. 3)");
+declare_model! {
+    survey: "eq. 3";
+    params: {
+        ALBEDO = rgb("albedo", "RGB, unitless", [0.5; 3], (0.0, 1.0), "hemispherical reflectance ρ (f_r = ρ/π, survey eq. 3)");
+    }
+    representative: Representative::One(r#"model = "lambert", albedo = 0.8"#);
+    record_codes: [];
 }
-/// Where the survey gives the model (README's model table).
-pub const SURVEY: &str = "eq. 3";
-/// The `brdf report` material.
-pub const REPRESENTATIVE: &[(&str, &str)] = &[("lambert", r#"model = "lambert", albedo = 0.8"#)];
-/// No enum in the record.
-pub const RECORD_CODES: &[&[(&str, f32)]] = &[];
 
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
     let albedo = r.rgb_of(&ALBEDO)?;

@@ -64,7 +64,7 @@ pub mod params;
 pub mod validate;
 
 use glam::{Vec2, Vec3, Vec4};
-pub use params::{Kind, Origin, Param, ParamError, ParamReader};
+pub use params::{Kind, Origin, Param, ParamError, ParamReader, Representative};
 use std::fmt::Debug;
 use std::sync::Arc;
 
@@ -198,9 +198,9 @@ pub struct ModelInfo {
     /// Where the survey gives the model: section and equation numbers (the model file's
     /// `SURVEY`).
     pub survey: &'static str,
-    /// `(label, inline material)` pairs that `brdf report` measures: the model's variants at
-    /// comparable gloss (the model file's `REPRESENTATIVE`).
-    pub representative: &'static [(&'static str, &'static str)],
+    /// The materials `brdf report` measures: the model's variants at comparable gloss (the
+    /// model file's `REPRESENTATIVE`; [`ModelInfo::report_materials`] lists them).
+    pub representative: Representative,
     /// The float codes of the enums the model writes into its GPU record, as GLSL `#define`s
     /// (`WARD_VARIANT_DUER2006`): the model file's `RECORD_CODES`, one table per enum (each a
     /// [`choice_enum!`]'s `RECORD_CODES`, whose `code()` its `pack` uses).
@@ -208,6 +208,10 @@ pub struct ModelInfo {
 }
 
 impl ModelInfo {
+    /// `(label, inline material)` of each material `brdf report` measures for this model.
+    pub fn report_materials(&self) -> Vec<(String, String)> {
+        self.representative.materials(self.name)
+    }
     /// Every `(GLSL #define name, code)` of the model's record enums.
     pub fn record_codes(&self) -> impl Iterator<Item = &'static (&'static str, f32)> {
         self.record_codes.iter().flat_map(|t| t.iter())

@@ -42,17 +42,10 @@
 //! GPU record: `p[0].xyz` = albedo, `p[0].w` = σ, `p[1].x` = variant (0 full, 1 qualitative).
 
 use super::common::{diffuse_pdf, same_hemisphere_up, sample_diffuse};
-use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
+use super::{Brdf, BrdfSample, Param, Representative, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, PI};
 use std::sync::Arc;
-
-choice_enum! {
-    pub enum Variant {
-        Full = "full" => "OREN_NAYAR_FULL",
-        Qualitative = "qualitative" => "OREN_NAYAR_QUALITATIVE",
-    }
-}
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct OrenNayar {
@@ -61,21 +54,24 @@ pub struct OrenNayar {
     pub variant: Variant,
 }
 
-params! {
-    ALBEDO = rgb("albedo", "RGB, unitless", [0.5; 3], (0.0, 1.0), "facet albedo ρ");
-    // The upper end, π/2, is checked in `parse` with a message about degrees.
-    SIGMA = scalar("sigma", "radians", 0.3, (0.0, f32::INFINITY), "std-dev σ of the facet slope angle (σ = 0 is Lambert)").range_text("[0, π/2]");
-    VARIANT = choice("variant", Variant::NAMES, Variant::Full.name(), "the paper's full model or its qualitative simplification");
+choice_enum! {
+    pub enum Variant {
+        Full = "full" => "OREN_NAYAR_FULL",
+        Qualitative = "qualitative" => "OREN_NAYAR_QUALITATIVE",
+    }
 }
-/// Where the survey gives the model (README's model table).
-pub const SURVEY: &str = "§2.1.2 (Oren & Nayar 1994)";
-/// The `brdf report` material.
-pub const REPRESENTATIVE: &[(&str, &str)] = &[(
-    "oren_nayar",
-    r#"model = "oren_nayar", albedo = 0.8, sigma = 0.3"#,
-)];
-/// `p[1].x`: the variant.
-pub const RECORD_CODES: &[&[(&str, f32)]] = &[Variant::RECORD_CODES];
+
+declare_model! {
+    survey: "§2.1.2 (Oren & Nayar 1994)";
+    params: {
+        ALBEDO = rgb("albedo", "RGB, unitless", [0.5; 3], (0.0, 1.0), "facet albedo ρ");
+        // The upper end, π/2, is checked in `parse` with a message about degrees.
+        SIGMA = scalar("sigma", "radians", 0.3, (0.0, f32::INFINITY), "std-dev σ of the facet slope angle (σ = 0 is Lambert)").range_text("[0, π/2]");
+        VARIANT = choice("variant", Variant::NAMES, Variant::Full.name(), "the paper's full model or its qualitative simplification");
+    }
+    representative: Representative::One(r#"model = "oren_nayar", albedo = 0.8, sigma = 0.3"#);
+    record_codes: [Variant];
+}
 
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
     let albedo = r.rgb_of(&ALBEDO)?;

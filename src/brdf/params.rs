@@ -74,17 +74,79 @@ pub trait Choice: Copy + 'static {
     const NAMES: &'static [&'static str];
 }
 
-/// Declares a model's scene-file parameters, one row each, and `PARAMS`, the list of them
-/// in row order (the model's parameter table in its docs and README is generated from it:
-/// `brdf::docs`). A row `NAME = rgb(…)`, `scalar(…)` or `choice(…)`, optionally followed by
-/// `.range_text(…)` or `.default_text(…)`, is `const NAME: Param = Param::rgb(…)…;`: a model may
-/// as well write those constants and `PARAMS` out by hand.
-macro_rules! params {
-    ($($(#[$meta:meta])* $c:ident = $ctor:ident($($arg:expr),+ $(,)?) $(.$then:ident($($targ:expr),*))*;)+) => {
+/// Declares, in one block at the top of a model's file, what its registry row
+/// ([`super::ModelInfo`]) reads besides `parse`:
+/// * `survey`: where the survey gives the model (README's model table), as `SURVEY`;
+/// * `params`: its scene-file parameters, one row each. A row `NAME = rgb(…)`, `scalar(…)`,
+///   `choice(…)` or `file(…)`, optionally followed by `.range_text(…)` or `.default_text(…)`,
+///   is `const NAME: Param = Param::rgb(…)…;`, and `PARAMS` lists them in row order (the
+///   model's parameter tables in its docs and the READMEs are generated from it: `brdf::docs`);
+/// * `representative`: the materials `brdf report` measures ([`Representative`]), as
+///   `REPRESENTATIVE`;
+/// * `record_codes`: the [`choice_enum!`] types whose codes `pack` writes into the GPU record,
+///   as `RECORD_CODES` (`brdf::glsl` writes their `#define`s).
+macro_rules! declare_model {
+    (
+        survey: $survey:literal;
+        params: {
+            $($(#[$meta:meta])* $c:ident = $ctor:ident($($arg:expr),+ $(,)?) $(.$then:ident($($targ:expr),*))*;)+
+        }
+        representative: $representative:expr;
+        record_codes: [$($codes:ident),* $(,)?];
+    ) => {
         $($(#[$meta])* const $c: Param = Param::$ctor($($arg),+)$(.$then($($targ),*))*;)+
         /// The scene-file parameters (the table above is generated from them: `brdf::docs`).
         pub const PARAMS: &[Param] = &[$($c),+];
+        /// Where the survey gives the model (README's model table).
+        pub const SURVEY: &str = $survey;
+        /// The materials `brdf report` measures.
+        pub const REPRESENTATIVE: $crate::brdf::params::Representative = $representative;
+        /// `(GLSL #define name, code)` of each enum in the GPU record, one table per enum.
+        pub const RECORD_CODES: &[&[(&str, f32)]] = &[$($codes::RECORD_CODES),*];
     };
+}
+
+/// The materials `brdf report` measures for a model, at comparable gloss where the model has
+/// gloss (its declaration's `representative`).
+#[derive(Clone, Copy, Debug)]
+pub enum Representative {
+    /// One inline material, labelled with the model's name.
+    One(&'static str),
+    /// The inline material once for each option of a choice parameter, with the option
+    /// appended (`…, form = "survey"`), labelled `model (option)`: a new option is measured too.
+    EachOption(&'static str, Param),
+    /// `(label, inline material)` pairs, written out.
+    Listed(&'static [(&'static str, &'static str)]),
+}
+
+impl Representative {
+    /// `(label, inline material)` of each material, for the model named `model`.
+    pub fn materials(&self, model: &str) -> Vec<(String, String)> {
+        match *self {
+            Representative::One(src) => vec![(model.to_string(), src.to_string())],
+            Representative::EachOption(base, param) => {
+                let Kind::Choice(options, _) = param.kind else {
+                    panic!(
+                        "{model}: the representative materials vary `{}`, not a choice",
+                        param.name
+                    )
+                };
+                options
+                    .iter()
+                    .map(|o| {
+                        (
+                            format!("{model} ({o})"),
+                            format!(r#"{base}, {} = "{o}""#, param.name),
+                        )
+                    })
+                    .collect()
+            }
+            Representative::Listed(list) => list
+                .iter()
+                .map(|&(l, src)| (l.to_string(), src.to_string()))
+                .collect(),
+        }
+    }
 }
 
 /// Declares an enum whose variants a scene file names by string, from one list of

@@ -42,17 +42,10 @@ use super::common::{
     diffuse_specular_pdf, luminance, one_minus_dot, orthonormal_basis, pow_one_minus, reflect_z,
     same_hemisphere_up, sample_cosine_hemisphere, sample_power_cosine, specular_probability,
 };
-use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
+use super::{Brdf, BrdfSample, Param, Representative, ParamError, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, PI};
 use std::sync::Arc;
-
-choice_enum! {
-    pub enum Form {
-        Survey = "survey" => "PHONG_SURVEY",
-        Normalized = "normalized" => "PHONG_NORMALIZED",
-    }
-}
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Phong {
@@ -62,6 +55,13 @@ pub struct Phong {
     pub form: Form,
     /// Probability of sampling the specular lobe (derived from the parameters).
     p_spec: f32,
+}
+
+choice_enum! {
+    pub enum Form {
+        Survey = "survey" => "PHONG_SURVEY",
+        Normalized = "normalized" => "PHONG_NORMALIZED",
+    }
 }
 
 /// Smallest cosθi the survey form divides by.
@@ -93,27 +93,17 @@ fn spec_albedo_estimate(n: f32, form: Form) -> f32 {
     }
 }
 
-params! {
-    KD = rgb("kd", "RGB, unitless", [0.5; 3], (0.0, 1.0), "diffuse coefficient k_d (f_d = k_d/π)");
-    KS = rgb("ks", "RGB, unitless", [0.3; 3], (0.0, 1.0), "specular coefficient k_s");
-    EXPONENT = scalar("exponent", "unitless", 20.0, (0.0, 1e6), "shininess n_s (0: dull, ∞: mirror)");
-    FORM = choice("form", Form::NAMES, Form::Survey.name(), "eq. 4 as written, or the energy-normalised reciprocal lobe");
+declare_model! {
+    survey: "§2.1.3, eq. 4";
+    params: {
+        KD = rgb("kd", "RGB, unitless", [0.5; 3], (0.0, 1.0), "diffuse coefficient k_d (f_d = k_d/π)");
+        KS = rgb("ks", "RGB, unitless", [0.3; 3], (0.0, 1.0), "specular coefficient k_s");
+        EXPONENT = scalar("exponent", "unitless", 20.0, (0.0, 1e6), "shininess n_s (0: dull, ∞: mirror)");
+        FORM = choice("form", Form::NAMES, Form::Survey.name(), "eq. 4 as written, or the energy-normalised reciprocal lobe");
+    }
+    representative: Representative::EachOption(r#"model = "phong", kd = 0.0, ks = 0.8, exponent = 50"#, FORM);
+    record_codes: [Form];
 }
-/// Where the survey gives the model (README's model table).
-pub const SURVEY: &str = "§2.1.3, eq. 4";
-/// The `brdf report` materials: both forms at one gloss.
-pub const REPRESENTATIVE: &[(&str, &str)] = &[
-    (
-        "phong (survey)",
-        r#"model = "phong", kd = 0.0, ks = 0.8, exponent = 50, form = "survey""#,
-    ),
-    (
-        "phong (normalized)",
-        r#"model = "phong", kd = 0.0, ks = 0.8, exponent = 50, form = "normalized""#,
-    ),
-];
-/// `p[1].w`: the form.
-pub const RECORD_CODES: &[&[(&str, f32)]] = &[Form::RECORD_CODES];
 
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
     let kd = r.rgb_of(&KD)?;

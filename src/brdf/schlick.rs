@@ -76,7 +76,7 @@ use super::common::{
     cosine_hemisphere_pdf, luminance, reflect_about, reflected_pdf, same_hemisphere_up,
     sample_cosine_hemisphere,
 };
-use super::{flag, Brdf, BrdfSample, Param, ParamError, ParamReader, Params};
+use super::{flag, Brdf, BrdfSample, Param, ParamError, Representative, ParamReader, Params};
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, PI};
 use std::sync::Arc;
@@ -85,17 +85,6 @@ use std::sync::Arc;
 pub const R_MIN: f32 = 1e-4;
 /// Smallest isotropy used inside A.
 pub const P_MIN: f32 = 1e-3;
-
-choice_enum! {
-    pub enum Form {
-        /// Eq. 24.
-        Basic = "basic" => "SCHLICK_BASIC",
-        /// Eq. 25.
-        Attenuated = "attenuated" => "SCHLICK_ATTENUATED",
-        /// Eq. 26.
-        Continuum = "continuum" => "SCHLICK_CONTINUUM",
-    }
-}
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Schlick {
@@ -110,6 +99,17 @@ pub struct Schlick {
     pub form: Form,
     /// Degrees.
     pub rotation: f32,
+}
+
+choice_enum! {
+    pub enum Form {
+        /// Eq. 24.
+        Basic = "basic" => "SCHLICK_BASIC",
+        /// Eq. 25.
+        Attenuated = "attenuated" => "SCHLICK_ATTENUATED",
+        /// Eq. 26.
+        Continuum = "continuum" => "SCHLICK_CONTINUUM",
+    }
 }
 
 impl Default for Schlick {
@@ -128,23 +128,21 @@ impl Default for Schlick {
     }
 }
 
-params! {
-    C = rgb("c", "RGB", [0.8; 3], (0.0, 1.0), "C_λ, reflectance at normal incidence (eq. 18's f_λ)");
-    R = scalar("r", "—", 0.2, (0.0, 1.0), "roughness: 0 mirror, 0.5 purely glossy, 1 Lambertian (continuum form)");
-    P = scalar("p", "—", 1.0, (0.0, 1.0), "isotropy: 1 isotropic, → 0 fully anisotropic (clamped to ≥ 1e-3 inside A)");
-    C2 = rgb("c2", "RGB", [0.5; 3], (0.0, 1.0), "C_λ of the second (lower) layer of eq. 22; giving `c2` makes the material heterogeneous");
-    R2 = scalar("r2", "—", 1.0, (0.0, 1.0), "roughness of the second layer (needs `c2`)");
-    P2 = scalar("p2", "—", 1.0, (0.0, 1.0), "isotropy of the second layer (needs `c2`)");
-    FORM = choice("form", Form::NAMES, Form::Continuum.name(), "the directional factor D (eqs. 24, 25, 26)");
-    ROTATION = scalar("rotation", "degrees", 0.0, (-360.0, 360.0), "rotation of the anisotropy axis (tangent x) about the normal");
+declare_model! {
+    survey: "eqs. 18–26";
+    params: {
+        C = rgb("c", "RGB", [0.8; 3], (0.0, 1.0), "C_λ, reflectance at normal incidence (eq. 18's f_λ)");
+        R = scalar("r", "—", 0.2, (0.0, 1.0), "roughness: 0 mirror, 0.5 purely glossy, 1 Lambertian (continuum form)");
+        P = scalar("p", "—", 1.0, (0.0, 1.0), "isotropy: 1 isotropic, → 0 fully anisotropic (clamped to ≥ 1e-3 inside A)");
+        C2 = rgb("c2", "RGB", [0.5; 3], (0.0, 1.0), "C_λ of the second (lower) layer of eq. 22; giving `c2` makes the material heterogeneous");
+        R2 = scalar("r2", "—", 1.0, (0.0, 1.0), "roughness of the second layer (needs `c2`)");
+        P2 = scalar("p2", "—", 1.0, (0.0, 1.0), "isotropy of the second layer (needs `c2`)");
+        FORM = choice("form", Form::NAMES, Form::Continuum.name(), "the directional factor D (eqs. 24, 25, 26)");
+        ROTATION = scalar("rotation", "degrees", 0.0, (-360.0, 360.0), "rotation of the anisotropy axis (tangent x) about the normal");
+    }
+    representative: Representative::One(r#"model = "schlick", c = 0.8, r = 0.1, p = 1.0"#);
+    record_codes: [Form];
 }
-/// Where the survey gives the model (README's model table).
-pub const SURVEY: &str = "eqs. 18–26";
-/// The `brdf report` material.
-pub const REPRESENTATIVE: &[(&str, &str)] =
-    &[("schlick", r#"model = "schlick", c = 0.8, r = 0.1, p = 1.0"#)];
-/// `p[2].z`: the form ([`Form::code`]).
-pub const RECORD_CODES: &[&[(&str, f32)]] = &[Form::RECORD_CODES];
 
 pub fn parse(r: &mut ParamReader) -> Result<Arc<dyn Brdf>, ParamError> {
     let c = r.rgb_of(&C)?;

@@ -266,17 +266,17 @@ fn report(out: &Path, no_gpu: bool, device: Option<String>) -> Result<()> {
     let mut rows = Vec::new();
     for (label, src) in tools::representative() {
         eprintln!("measuring {label}");
-        let (mut row, m) = tools::report_row(label, src, Some(fixtures.path()))?;
+        let (mut row, m) = tools::report_row(&label, &src, Some(fixtures.path()))?;
         if let Some((ctx, compiler)) = &gpu {
             row.ns_per_eval_gpu = Some(brdfwave::gpu::brdf_probe::eval_cost(ctx, compiler, &m)?);
         }
         // The lobe in the plane of incidence at θi = 45°, as `brdf plot --kind polar` draws it.
         let plotted = [lobe::Plotted {
-            label: label.to_string(),
+            label: label.clone(),
             brdf: m.brdf.as_ref(),
         }];
         let (figure, data) = lobe::polar(&plotted, 45.0, Scale::Linear);
-        let path = out.join(format!("lobe_{}.png", tools::slug(label)));
+        let path = out.join(format!("lobe_{}.png", tools::slug(&label)));
         plot::write(&path, "--out", &figure, &data)?;
         rows.push(row);
     }
