@@ -14,17 +14,17 @@
 //!   that sample (the mixture density over all non-delta lobes, times their selection
 //!   probability).
 //!
-//! Adding a model: a Rust file here (with `parse`, `PARAMS`, `REPRESENTATIVE` and
-//! `RECORD_CODES`, which the registry row reads), a GLSL file in `shaders/brdf/` (with
-//! `<name>_eval`, `<name>_pdf` and `<name>_sample`), one line in the `registry!` list below and
-//! `tests/brdf_<name>.rs`. The megakernel's dispatch and the record codes are generated
-//! ([`glsl`]), the parameter tables too ([`docs`]); what cannot be derived (a GPU parity
-//! material, a stress generator, a sphere in `scenes/lineup.toml`, the README rows) fails a
-//! coverage test that names the model (tests/model_registry.rs, tests/brdf_gpu_parity.rs,
-//! tests/docs.rs). A model whose parameter is a data file (`measured`, a MERL table, which
-//! cannot be shipped) has its representative material name a file that [`write_fixtures`]
-//! writes; the coverage tests build its instances from those files, and `brdf fit`'s lineup
-//! (not `scenes/lineup.toml`, whose spheres are parameter-only) shows it.
+//! Adding a model: a Rust file here (with `parse` and a `declare_model!` block, whose `PARAMS`,
+//! `SURVEY`, `REPRESENTATIVE` and `RECORD_CODES` the registry row reads), a GLSL file in
+//! `shaders/brdf/` (with `<name>_eval`, `<name>_pdf` and `<name>_sample`), one line in the
+//! `registry!` list below and `tests/brdf_<name>.rs`. The megakernel's dispatch and the record
+//! codes are generated ([`glsl`]), the parameter tables too ([`docs`]); what cannot be derived (a
+//! GPU parity material, a stress generator, a sphere in `scenes/lineup.toml`, the README rows)
+//! fails a coverage test that names the model (tests/model_registry.rs, tests/brdf_gpu_parity.rs,
+//! tests/docs.rs). A model whose parameter is a data file (`measured`, a MERL table, which cannot
+//! be shipped) has its representative material name a file that [`write_fixtures`] writes; the
+//! coverage tests build its instances from those files, and `brdf fit`'s lineup (not
+//! `scenes/lineup.toml`, whose spheres are parameter-only) shows it.
 
 /// Implements [`Brdf`] for a model type by forwarding `eval`, `pdf` and `sample` to the free
 /// functions of the model's file, which carry the names and arguments of its GLSL twin
@@ -219,7 +219,8 @@ impl ModelInfo {
 }
 
 /// The registry row of the model whose module (and scene-file name) is `$m`: its `parse`,
-/// `PARAMS`, `REPRESENTATIVE` and `RECORD_CODES`. A model file lacking one fails to compile.
+/// `PARAMS`, `SURVEY`, `REPRESENTATIVE` and `RECORD_CODES` (its `declare_model!` block). A model
+/// file lacking one fails to compile.
 macro_rules! model {
     ($m:ident) => {
         ModelInfo {
