@@ -414,11 +414,17 @@ pub fn check_reciprocal(models: &[(String, &dyn Brdf)], pairs: usize, seed: u64,
     }
 }
 
+/// `model = "…"` alone, which must load without warnings.
+pub fn default_of(model: &str) -> Material {
+    let (m, w) = material(&with_fields(model, "")).unwrap();
+    assert!(w.is_empty(), "{model}: {w:?}");
+    m
+}
+
 /// `model = "…"` alone loads without warnings and evaluates as `explicit` does at (a, b).
 /// Returns the default material.
 pub fn default_evaluates_as(model: &str, explicit: &Material, a: Vec3, b: Vec3) -> Material {
-    let (m, w) = material(&format!("model = \"{model}\"\n")).unwrap();
-    assert!(w.is_empty(), "{w:?}");
+    let m = default_of(model);
     assert_eq!(m.brdf.eval(a, b), explicit.brdf.eval(a, b));
     m
 }
