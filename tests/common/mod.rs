@@ -61,6 +61,15 @@ pub fn render_cpu(s: &Scene) -> RenderOutput {
     render::render_whole(Backend::Cpu, s).expect("CPU render")
 }
 
+/// Renders `s` on the CPU and on the GPU (a context of its own, checked for validation messages
+/// at teardown): the outputs named "cpu" and "gpu".
+pub fn render_both(s: &Scene) -> [(&'static str, RenderOutput); 2] {
+    let ctx = context();
+    let (gpu, _) = render_gpu(&ctx, s);
+    finish(ctx);
+    [("cpu", render_cpu(s)), ("gpu", gpu)]
+}
+
 /// Render on the GPU; returns the output and the names of the pipelines built. Fails the test
 /// if the validation layer reported anything.
 pub fn render_gpu(ctx: &Context, s: &Scene) -> (RenderOutput, Vec<String>) {
