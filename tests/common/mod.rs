@@ -174,7 +174,13 @@ pub fn assert_located(msg: &str, (file, src): (&str, &str), at: &str, what: &[&s
         msg.starts_with(&format!("{file}:{line}: ")),
         "want line {line}: {msg}"
     );
-    for w in what {
-        assert!(msg.contains(w), "want '{w}': {msg}");
+    assert_mentions(msg, what);
+}
+
+/// `text` contains every one of `needles`; a failure names the one missing and shows the text.
+#[track_caller]
+pub fn assert_mentions(text: &str, needles: &[&str]) {
+    for n in needles {
+        assert!(text.contains(n), "no {n:?} in:\n{text}");
     }
 }
