@@ -4,7 +4,7 @@
 mod common;
 use brdfwave::brdf::validate::{albedo_quadrature, albedo_quadrature_light, dir_from_theta_deg};
 use brdfwave::brdf::Material;
-use common::brdf::{rejects_each, warns_once, Lobe};
+use common::brdf::{rejects_each, warns_each, Lobe};
 use std::f64::consts::PI;
 
 /// Blinn–Phong's forms; the checks it shares with Phong are `Lobe`'s.
@@ -84,18 +84,20 @@ fn bad_parameters() {
         &[
             (
                 "exponent = 2e6",
-                &["test.toml:2", "exponent", "out of range"][..],
+                &["test.toml:2", "exponent", "out of range"],
             ),
             ("form = \"survey\"", &["form", "classic, normalized"]),
             ("kd = [0.1, 0.2, -0.3]", &["kd", "-0.3"]),
         ],
     );
-    warns_once(
-        "model = \"blinn_phong\"\nform = \"normalized\"\nkd = 0.6\nks = 0.6\n",
-        &["kd + ks = 1.200"],
-    );
-    warns_once(
-        "model = \"blinn_phong\"\nexponent = 1\nks = 0.5\n",
-        &["classic"],
+    warns_each(
+        "blinn_phong",
+        &[
+            (
+                "form = \"normalized\"\nkd = 0.6\nks = 0.6",
+                &["kd + ks = 1.200"],
+            ),
+            ("exponent = 1\nks = 0.5", &["classic"]),
+        ],
     );
 }

@@ -8,8 +8,8 @@ use brdfwave::brdf::he::{self, He};
 mod common;
 use brdfwave::brdf::validate::dir_from_theta_deg;
 use common::brdf::{
-    check_reciprocal, check_sampled_albedo, check_sampler, grey, material, mixture_albedo,
-    mixture_sampler, models, rejects_fields, AlbedoCheck, SamplerCheck, ANGLES,
+    check_reciprocal, check_sampled_albedo, check_sampler, default_of, grey, mixture_albedo,
+    mixture_sampler, model, models, rejects_fields, warns_each, AlbedoCheck, SamplerCheck, ANGLES,
 };
 use glam::Vec3;
 
@@ -219,15 +219,13 @@ fn reciprocal() {
 
 #[test]
 fn parameters_and_defines() {
-    let (m, w) = material("model = \"he\"\n").unwrap();
-    assert!(w.is_empty());
+    let m = default_of("he");
     assert_eq!(m.brdf.defines(), vec!["HE_SERIES"]);
     let p = m.brdf.pack();
     assert_eq!((p.0[0], p.0[1], p.0[12]), (0.18, 3.0, 0.65));
-    let (m, _) = material("model = \"he\"\nsigma0 = 0\ndiffuse = 0.5\n").unwrap();
+    let m = model("he", "sigma0 = 0\ndiffuse = 0.5");
     assert!(m.brdf.defines().is_empty());
-    let (_, w) = material("model = \"he\"\nsigma0 = 2\ntau = 3\n").unwrap();
-    assert!(w.len() == 1 && w[0].contains("sigma0"), "{w:?}");
+    warns_each("he", &[("sigma0 = 2\ntau = 3", &["sigma0"])]);
     let cases = [
         ("sigma0 = -1", "sigma0", "out of range"),
         ("tau = 0", "tau", "> 0"),

@@ -88,7 +88,7 @@ fn bad_parameters_are_rejected() {
         &[
             (
                 "albedo = [0.5, 1.5, 0.5]",
-                &["test.toml:2", "albedo", "out of range"][..],
+                &["test.toml:2", "albedo", "out of range"],
             ),
             ("albedo = [0.5, 0.5]", &["albedo", "array of 2"]),
             ("albdo = 0.5", &["albdo", "unknown field"]),

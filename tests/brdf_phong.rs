@@ -3,7 +3,7 @@
 mod common;
 use brdfwave::brdf::validate::{albedo_quadrature, albedo_quadrature_light, dir_from_theta_deg};
 use brdfwave::brdf::Material;
-use common::brdf::{rejects_each, warns_once, Lobe};
+use common::brdf::{rejects_each, warns_each, Lobe};
 
 /// Phong's forms; the checks it shares with Blinn–Phong are `Lobe`'s.
 const PHONG: Lobe = Lobe {
@@ -88,19 +88,21 @@ fn bad_parameters() {
         &[
             (
                 "exponent = -1",
-                &["test.toml:2", "exponent", "out of range"][..],
+                &["test.toml:2", "exponent", "out of range"],
             ),
             ("ks = nan", &["ks", "finite"]),
             ("form = \"blinn\"", &["form", "survey, normalized"]),
             ("shininess = 3", &["shininess", "unknown field"]),
         ],
     );
-    warns_once(
-        "model = \"phong\"\nform = \"normalized\"\nkd = 0.7\nks = 0.5\n",
-        &["kd + ks = 1.200"],
-    );
-    warns_once(
-        "model = \"phong\"\nkd = 0.5\nks = 1\nexponent = 1\n",
-        &["eq. 4"],
+    warns_each(
+        "phong",
+        &[
+            (
+                "form = \"normalized\"\nkd = 0.7\nks = 0.5",
+                &["kd + ks = 1.200"],
+            ),
+            ("kd = 0.5\nks = 1\nexponent = 1", &["eq. 4"]),
+        ],
     );
 }

@@ -9,8 +9,8 @@ mod common;
 use brdfwave::brdf::validate::{albedo_quadrature, dir_from_theta_deg};
 use brdfwave::brdf::{Brdf, BrdfSample, Params};
 use common::brdf::{
-    check_reciprocal, check_sampled_albedo, check_sampler, grey, material, mixture_albedo,
-    mixture_sampler, models, rejects_fields, ANGLES,
+    check_reciprocal, check_sampled_albedo, check_sampler, default_of, grey, mixture_albedo,
+    mixture_sampler, model, models, rejects_fields, warns_each, ANGLES,
 };
 use glam::{Vec2, Vec3};
 
@@ -276,21 +276,19 @@ fn reciprocal() {
 
 #[test]
 fn parameters_defines_and_errors() {
-    let (m, w) = material("model = \"schlick\"\n").unwrap();
-    assert!(w.is_empty() && m.brdf.defines().is_empty());
+    let m = default_of("schlick");
+    assert!(m.brdf.defines().is_empty());
     let p = m.brdf.pack();
     assert_eq!((p.0[3], p.0[8], p.0[10], p.0[11]), (0.2, 1.0, 2.0, 0.0));
-    let (m, _) =
-        material("model = \"schlick\"\nc2 = [0.5, 0.3, 0.1]\nr2 = 0.9\np2 = 0.5\n").unwrap();
+    let m = model("schlick", "c2 = [0.5, 0.3, 0.1]\nr2 = 0.9\np2 = 0.5");
     assert_eq!(
         m.brdf.defines(),
         vec!["SCHLICK_LAYERED", "SCHLICK_ANISOTROPIC"]
     );
-    let (m, _) = material("model = \"schlick\"\np = 0.3\nrotation = 90\n").unwrap();
+    let m = model("schlick", "p = 0.3\nrotation = 90");
     assert_eq!(m.brdf.defines(), vec!["SCHLICK_ANISOTROPIC"]);
     assert!(m.brdf.pack().0[12].abs() < 1e-6 && (m.brdf.pack().0[13] - 1.0).abs() < 1e-6);
-    let (_, w) = material("model = \"schlick\"\nform = \"basic\"\n").unwrap();
-    assert!(w.len() == 1 && w[0].contains("energy"), "{w:?}");
+    warns_each("schlick", &[("form = \"basic\"", &["energy"])]);
     let cases = [
         ("r = 1.5", "r", "out of range"),
         ("p = -0.1", "p", "out of range"),

@@ -284,39 +284,26 @@ fn brdf_plot_writes_a_png_and_refuses_bad_angles() {
 fn bench_writes_its_csv_plot_and_summary() {
     let out = CLI.tmp("bench");
     let reference = CLI.tmp("bench-cache");
-    let o = bin()
-        .args([
-            "bench",
-            "scenes/cornell-box.toml",
-            "--res",
-            "16x12",
-            "--budget",
-            "3",
-            "--reference-spp",
-            "32",
-            "--configs",
-            "wavefront,megakernel,cpu,wavefront-t1,cpu-independent",
-            "--min-spp",
-            "16",
-            "--out",
-            s(&out),
-        ])
-        .env("BRDFWAVE_CACHE_DIR", &reference)
-        .current_dir(common::repo())
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let csv = std::fs::read_to_string(out.join("bench.csv")).unwrap();
-    let mut lines = csv.lines();
-    assert_eq!(lines.next(), Some(brdfwave::bench::CSV_COLUMNS));
-    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    for config in [
+    let configs = [
         "wavefront",
         "megakernel",
         "cpu",
         "wavefront-t1",
         "cpu-independent",
-    ] {
+    ];
+    common::run_ok(
+        bin()
+            .args(["bench", "scenes/cornell-box.toml", "--res", "16x12"])
+            .args(["--budget", "3", "--reference-spp", "32", "--min-spp", "16"])
+            .args(["--configs", &configs.join(","), "--out", s(&out)])
+            .env("BRDFWAVE_CACHE_DIR", &reference)
+            .current_dir(common::repo()),
+    );
+    let csv = std::fs::read_to_string(out.join("bench.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some(brdfwave::bench::CSV_COLUMNS));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    for config in configs {
         let mine: Vec<&Vec<&str>> = rows.iter().filter(|r| r[0] == config).collect();
         assert!(mine.len() >= 2, "{config}: {} passes", mine.len());
         let spp: Vec<u32> = mine.iter().map(|r| r[2].parse().unwrap()).collect();

@@ -278,12 +278,13 @@ fn a_quad_lamp_gives_the_form_factor_irradiance() {
 /// sample count: see tests/mitsuba_peer.rs.)
 #[test]
 fn a_quad_lit_only_by_the_floor_matches_a_numerical_integration() {
-    let (v0, v1, v2, v3) = (
-        Vec3::new(130.0, 0.0, 65.0),
-        Vec3::new(130.0, 165.0, 65.0),
-        Vec3::new(290.0, 165.0, 114.0),
-        Vec3::new(290.0, 0.0, 114.0),
-    );
+    // The quad's corners, in order around it.
+    let quad: [[f32; 3]; 4] = [
+        [130.0, 0.0, 65.0],
+        [130.0, 165.0, 65.0],
+        [290.0, 165.0, 114.0],
+        [290.0, 0.0, 114.0],
+    ];
     let src = format!(
         "[camera]\nposition = [278, 273, -800]\ntarget = [278, 273, 0]\nup = [0, 1, 0]\n\
          fov_y = 39.3077\n[film]\nwidth = 128\nheight = 128\n\
@@ -292,17 +293,12 @@ fn a_quad_lit_only_by_the_floor_matches_a_numerical_integration() {
          [materials.lamp]\nmodel = \"lambert\"\nalbedo = 0\n\
          [[shapes]]\nmaterial = \"white\"\n\
          quads = [[[552.8, 0, 0], [0, 0, 0], [0, 0, 559.2], [549.6, 0, 559.2]]]\n\
-         [[shapes]]\nmaterial = \"white\"\nquads = [[{}, {}, {}, {}]]\n\
+         [[shapes]]\nmaterial = \"white\"\nquads = [[{}]]\n\
          [[shapes]]\nmaterial = \"lamp\"\nemission = 12\n\
          quads = [[[343, 548.7, 227], [343, 548.7, 332], [213, 548.7, 332], [213, 548.7, 227]]]\n",
-        a(v0),
-        a(v1),
-        a(v2),
-        a(v3)
+        quad.map(|c| format!("{c:?}")).join(", ")
     );
-    fn a(v: Vec3) -> String {
-        format!("[{}, {}, {}]", v.x, v.y, v.z)
-    }
+    let [v0, v1, _, v3] = quad.map(Vec3::from_array);
     let s = load_str(&src, Path::new("one-bounce.toml")).unwrap_or_else(|e| panic!("{e}"));
     let (rho, le) = (0.7f64, 12.0f64);
     let (eu, ev) = ((v3 - v0).as_dvec3(), (v1 - v0).as_dvec3());

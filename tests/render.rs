@@ -12,9 +12,7 @@ use common::*;
 #[test]
 fn cornell_box_gpu_matches_cpu_with_the_same_seed() {
     let s = scene("cornell-box.toml", 96, 96, 8, 8, 7);
-    let ctx = context();
-    let (gpu, _) = render_gpu(&ctx, &s);
-    let cpu = render_cpu(&s);
+    let [(_, cpu), (_, gpu)] = render_both(&s);
     assert_eq!(gpu.nonfinite_samples, 0);
     assert_eq!(cpu.nonfinite_samples, 0);
     let agree = metrics::fraction_within(&gpu.mean, &cpu.mean, 1e-3, 1e-4).unwrap();
@@ -31,20 +29,13 @@ fn cornell_box_gpu_matches_cpu_with_the_same_seed() {
         );
     }
     // The two sides also traced the same number of rays, up to the few diverging paths.
-    let rel = |a: u64, b: u64| (a as f64 - b as f64).abs() / b as f64;
-    assert!(
-        rel(gpu.extension_rays, cpu.extension_rays) < 0.01,
-        "{} vs {}",
-        gpu.extension_rays,
-        cpu.extension_rays
-    );
-    assert!(
-        rel(gpu.shadow_rays, cpu.shadow_rays) < 0.01,
-        "{} vs {}",
-        gpu.shadow_rays,
-        cpu.shadow_rays
-    );
-    finish(ctx);
+    for (rays, g, c) in [
+        ("extension rays", gpu.extension_rays, cpu.extension_rays),
+        ("shadow rays", gpu.shadow_rays, cpu.shadow_rays),
+    ] {
+        let rel = (g as f64 - c as f64).abs() / c as f64;
+        assert!(rel < 0.01, "{rays}: GPU {g} vs CPU {c}");
+    }
 }
 
 /// The wave size changes how paths are batched, never the image: one sample of a 64-pixel chunk
@@ -224,8 +215,7 @@ fn closed_sphere_lit_from_within_renders_the_exact_radiance_on_both_backends() {
 #[test]
 fn white_furnace_sphere_is_exact_on_both_backends() {
     let s = scene("white-furnace.toml", 33, 33, 16, 8, 5);
-    let ctx = context();
-    for (name, out) in [("cpu", render_cpu(&s)), ("gpu", render_gpu(&ctx, &s).0)] {
+    for (name, out) in render_both(&s) {
         let centre = out.mean.data[16 * 33 + 16];
         let corner = out.mean.data[0];
         for c in 0..3 {
@@ -239,15 +229,13 @@ fn white_furnace_sphere_is_exact_on_both_backends() {
             );
         }
     }
-    finish(ctx);
 }
 
 /// max_depth counts segments: with one segment only directly visible emitters show.
 #[test]
 fn depth_one_shows_only_the_light_on_both_backends() {
     let s = scene("cornell-box.toml", 32, 32, 4, 1, 0);
-    let ctx = context();
-    for (name, out) in [("cpu", render_cpu(&s)), ("gpu", render_gpu(&ctx, &s).0)] {
+    for (name, out) in render_both(&s) {
         let lit = out.mean.data.iter().filter(|p| p[0] > 0.0).count();
         assert!(lit > 0, "{name}: the light is visible from the camera");
         for p in &out.mean.data {
@@ -268,7 +256,6 @@ fn depth_one_shows_only_the_light_on_both_backends() {
     let s2 = scene("cornell-box.toml", 32, 32, 4, 2, 0);
     let out = render_cpu(&s2);
     assert!(out.mean.data.iter().filter(|p| p[0] > 0.0).count() > 32 * 32 / 2);
-    finish(ctx);
 }
 
 /// Only the models a scene uses get a shade pipeline; with one model, extend shades in place
@@ -601,9 +588,7 @@ fn passes_add_up_to_one_render_on_both_backends() {
 #[test]
 fn a_huge_max_depth_stops_when_every_path_has_ended() {
     let s = scene("white-furnace.toml", 16, 16, 1, 100_000, 4);
-    let ctx = context();
-    let (gpu, _) = render_gpu(&ctx, &s);
-    let cpu = render_cpu(&s);
+    let [(_, cpu), (_, gpu)] = render_both(&s);
     assert_eq!(gpu.extension_rays, cpu.extension_rays);
     assert_eq!(gpu.shadow_rays, cpu.shadow_rays);
     // 32 segments counted, the last holding the deeper ones.
@@ -611,5 +596,4 @@ fn a_huge_max_depth_stops_when_every_path_has_ended() {
     assert_eq!(gpu.rays_by_segment, cpu.rays_by_segment);
     let d = metrics::diff(&gpu.mean, &cpu.mean).unwrap();
     assert!(d.rmse < 1e-4, "{d}");
-    finish(ctx);
 }

@@ -4,8 +4,8 @@
 mod common;
 
 use brdfwave::scene::{load, load_str};
-use common::line_of;
 use common::scene_file::{error_of, expect_error, scene_with_obj, with, BASE, QUAD_OBJ};
+use common::{assert_located, line_of};
 use glam::Vec3;
 use std::path::Path;
 
@@ -77,17 +77,11 @@ fn transform_fields_are_checked() {
     let scene = |t: &str| {
         format!("{BASE}\n[[shapes]]\nmaterial = \"m\"\nobj = \"mesh.obj\"\ntransform = {t}\n")
     };
+    let file = path.display().to_string();
     let check = |src: String, field: &str, what: &str| {
         let msg = load_str(&src, &path).expect_err("must fail").to_string();
-        let line = line_of(&src, "transform");
-        assert!(
-            msg.starts_with(&format!("{}:{line}: ", path.display())),
-            "{msg}"
-        );
-        assert!(
-            msg.contains(&format!("field '{field}'")) && msg.contains(what),
-            "{msg}"
-        );
+        let field = format!("field '{field}'");
+        assert_located(&msg, (&file, &src), "transform", &[&field, what]);
     };
     check(
         scene("{ rotate_x_deg = 3.0 }"),

@@ -5,8 +5,10 @@
 mod common;
 
 use brdfwave::scene::{load, load_str, Scene, Triangle};
-use common::line_of;
-use common::scene_file::{error_of, expect_error, scene_with_obj, BASE, QUAD_OBJ};
+use common::assert_located;
+use common::scene_file::{
+    assert_one_warning, assert_warned, error_of, expect_error, scene_with_obj, BASE, QUAD_OBJ,
+};
 use glam::{Quat, Vec3};
 use std::path::{Path, PathBuf};
 
@@ -325,11 +327,7 @@ fn obj_zero_area_triangles_are_skipped_with_a_warning() {
     let (_dir, path) = scene_with_obj(obj, "");
     let s = load(&path).unwrap();
     assert_eq!(s.triangles.len(), 1);
-    assert!(
-        s.warnings.iter().any(|w| w.contains("skipped 1 zero-area")),
-        "{:?}",
-        s.warnings
-    );
+    assert_warned(&s, "skipped 1 zero-area");
 }
 
 /// OBJ points and polylines are not faces: `l 1 2 3` gave the image of `f 1 2 3`, and a file
@@ -340,21 +338,12 @@ fn obj_points_and_lines_are_ignored_and_counted() {
     let (_dir, path) = scene_with_obj(&obj, "");
     let s = load(&path).unwrap();
     assert_eq!(s.triangles.len(), 2, "the quad only");
-    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
-    assert!(
-        s.warnings[0].contains("1 point and 3 line element(s)"),
-        "{:?}",
-        s.warnings
-    );
+    assert_one_warning(&s, "1 point and 3 line element(s)");
     // Lines only: no triangles (BASE's sphere keeps the scene valid), and a warning that says so.
     let (_dir, path) = scene_with_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2 3\n", "");
     let s = load(&path).unwrap();
     assert!(s.triangles.is_empty());
-    assert!(
-        s.warnings.iter().any(|w| w.contains("no usable triangles")),
-        "{:?}",
-        s.warnings
-    );
+    assert_warned(&s, "no usable triangles");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -399,12 +388,8 @@ fn general_transforms() {
     let check = |t: &str, field: &str, what: &str| {
         let src = tri(t);
         let msg = load_str(&src, path).expect_err("must fail").to_string();
-        let line = line_of(&src, "transform");
-        assert!(msg.starts_with(&format!("dir/t.toml:{line}: ")), "{msg}");
-        assert!(
-            msg.contains(&format!("field '{field}'")) && msg.contains(what),
-            "{msg}"
-        );
+        let field = format!("field '{field}'");
+        assert_located(&msg, ("dir/t.toml", &src), "transform", &[&field, what]);
     };
     let f = "shapes[1].transform";
     check(
@@ -443,11 +428,7 @@ fn general_transforms() {
         path,
     )
     .unwrap();
-    assert!(
-        s.warnings.iter().any(|w| w.contains("mirrors")),
-        "{:?}",
-        s.warnings
-    );
+    assert_warned(&s, "mirrors");
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -50,12 +50,7 @@ fn mtl_materials_become_models_and_emitters() {
         ["m", "m/a.obj:matte", "m/a.obj:shiny", "m/a.obj:lamp"]
     );
     // The shape's own material stays in use (for faces without usemtl): one warning only.
-    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
-    assert!(
-        s.warnings[0].contains("material 'm/a.obj:shiny': ignored: Ka, texture maps"),
-        "{:?}",
-        s.warnings
-    );
+    scene_file::assert_one_warning(&s, "material 'm/a.obj:shiny': ignored: Ka, texture maps");
     let by_name = |n: &str| s.material_names.iter().position(|x| x == n).unwrap() as u32;
     let mats: Vec<u32> = s.triangles.iter().map(|t| t.material).collect();
     assert_eq!(

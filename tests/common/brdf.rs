@@ -120,7 +120,7 @@ pub const ANGLES: [f32; 5] = [0.0, 30.0, 60.0, 80.0, 89.0];
 /// A material of the model `name` with the given fields (`key = value`, one a line), which must
 /// load.
 pub fn model(name: &str, fields: &str) -> Material {
-    let src = format!("model = \"{name}\"\n{fields}\n");
+    let src = with_fields(name, fields);
     material(&src).unwrap_or_else(|e| panic!("{src:?}: {e}")).0
 }
 
@@ -414,31 +414,47 @@ pub fn check_reciprocal(models: &[(String, &dyn Brdf)], pairs: usize, seed: u64,
     }
 }
 
+/// `model = "…"` alone, which must load without warnings.
+pub fn default_of(model: &str) -> Material {
+    let (m, w) = material(&with_fields(model, "")).unwrap();
+    assert!(w.is_empty(), "{model}: {w:?}");
+    m
+}
+
 /// `model = "…"` alone loads without warnings and evaluates as `explicit` does at (a, b).
 /// Returns the default material.
 pub fn default_evaluates_as(model: &str, explicit: &Material, a: Vec3, b: Vec3) -> Material {
-    let (m, w) = material(&format!("model = \"{model}\"\n")).unwrap();
-    assert!(w.is_empty(), "{w:?}");
+    let m = default_of(model);
     assert_eq!(m.brdf.eval(a, b), explicit.brdf.eval(a, b));
     m
 }
 
-/// Each `(fields, needles)`: the model `name` with these fields is refused with a message that
-/// contains every one of `needles`.
 /// [`rejects_each`] of cases `(fields, field, message)`: each error names `at` (the file, and
 /// the line where every case has one), the field and the message.
 pub fn rejects_fields(name: &str, at: &str, cases: &[(&str, &str, &str)]) {
     for (fields, field, msg) in cases {
-        rejects(
-            &format!("model = \"{name}\"\n{fields}\n"),
-            &[at, field, msg],
-        );
+        rejects(&with_fields(name, fields), &[at, field, msg]);
     }
 }
 
-pub fn rejects_each<'a, N: AsRef<[&'a str]>>(name: &str, cases: &[(&str, N)]) {
+/// The text of a material of the model `name` with the given fields (`key = value`, one a line).
+pub fn with_fields(name: &str, fields: &str) -> String {
+    format!("model = \"{name}\"\n{fields}\n")
+}
+
+/// Each `(fields, needles)`: the model `name` with these fields is refused with a message that
+/// contains every one of `needles`.
+pub fn rejects_each(name: &str, cases: &[(&str, &[&str])]) {
     for (fields, needles) in cases {
-        rejects(&format!("model = \"{name}\"\n{fields}\n"), needles.as_ref());
+        rejects(&with_fields(name, fields), needles);
+    }
+}
+
+/// Each `(fields, needles)`: the model `name` with these fields loads with exactly one warning,
+/// which contains every one of `needles`.
+pub fn warns_each(name: &str, cases: &[(&str, &[&str])]) {
+    for (fields, needles) in cases {
+        warns_once(&with_fields(name, fields), needles);
     }
 }
 

@@ -85,8 +85,17 @@ impl Cli {
     /// Runs a command that must fail with a message naming `needle`; returns its stderr.
     #[track_caller]
     pub fn fails_naming(&self, args: &[&str], needle: &str) -> String {
+        self.fails_naming_all(args, &[needle])
+    }
+
+    /// Runs a command that must fail with a message naming every one of `needles`; returns its
+    /// stderr.
+    #[track_caller]
+    pub fn fails_naming_all(&self, args: &[&str], needles: &[&str]) -> String {
         let err = self.fails(args);
-        assert!(err.contains(needle), "{err}");
+        for n in needles {
+            assert!(err.contains(n), "brdfwave {args:?}: no {n:?} in:\n{err}");
+        }
         err
     }
 

@@ -61,6 +61,15 @@ pub fn render_cpu(s: &Scene) -> RenderOutput {
     render::render_whole(Backend::Cpu, s).expect("CPU render")
 }
 
+/// Renders `s` on the CPU and on the GPU (a context of its own, checked for validation messages
+/// at teardown): the outputs named "cpu" and "gpu".
+pub fn render_both(s: &Scene) -> [(&'static str, RenderOutput); 2] {
+    let ctx = context();
+    let (gpu, _) = render_gpu(&ctx, s);
+    finish(ctx);
+    [("cpu", render_cpu(s)), ("gpu", gpu)]
+}
+
 /// Render on the GPU; returns the output and the names of the pipelines built. Fails the test
 /// if the validation layer reported anything.
 pub fn render_gpu(ctx: &Context, s: &Scene) -> (RenderOutput, Vec<String>) {
@@ -165,7 +174,13 @@ pub fn assert_located(msg: &str, (file, src): (&str, &str), at: &str, what: &[&s
         msg.starts_with(&format!("{file}:{line}: ")),
         "want line {line}: {msg}"
     );
-    for w in what {
-        assert!(msg.contains(w), "want '{w}': {msg}");
+    assert_mentions(msg, what);
+}
+
+/// `text` contains every one of `needles`; a failure names the one missing and shows the text.
+#[track_caller]
+pub fn assert_mentions(text: &str, needles: &[&str]) {
+    for n in needles {
+        assert!(text.contains(n), "no {n:?} in:\n{text}");
     }
 }

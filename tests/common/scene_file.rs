@@ -1,7 +1,7 @@
 //! The small valid scene that the scene-file tests edit (`tests/scene_load.rs`,
 //! `tests/scene_errors.rs`), and how they load an edit and check its error.
 
-use brdfwave::scene::load_str;
+use brdfwave::scene::{load_str, Scene};
 use std::path::{Path, PathBuf};
 
 /// A small valid scene (lines numbered for reading the cases that edit it).
@@ -43,6 +43,23 @@ pub fn expect_error(src: &str, at: &str, field: &str, what: &str) {
     let msg = error_of(src);
     let field = format!("field '{field}'");
     super::assert_located(&msg, ("dir/bad.toml", src), at, &[&field, what]);
+}
+
+/// Some warning of the scene contains `needle`.
+#[track_caller]
+pub fn assert_warned(s: &Scene, needle: &str) {
+    assert!(
+        s.warnings.iter().any(|w| w.contains(needle)),
+        "want a warning with '{needle}': {:?}",
+        s.warnings
+    );
+}
+
+/// The scene has exactly one warning, and it contains `needle`.
+#[track_caller]
+pub fn assert_one_warning(s: &Scene, needle: &str) {
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert_warned(s, needle);
 }
 
 /// A scratch directory with a scene and an OBJ file side by side.
