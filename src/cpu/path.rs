@@ -9,6 +9,7 @@ use crate::rng::{dim, PathRng};
 use glam::Vec3;
 
 /// What the end of a path segment gives (the GLSL `segment_end`'s `e` and return value).
+#[derive(Default)]
 pub(super) struct SegmentEnd {
     /// The emitted light seen there, MIS-weighted against next-event estimation, or the
     /// environment on a miss; `None` when there is none or it was not finite (counted).
@@ -44,10 +45,7 @@ impl CpuRenderer<'_> {
         stats: &mut PathStats,
     ) -> SegmentEnd {
         let s = self.scene;
-        let mut end = SegmentEnd {
-            e: None,
-            surface: None,
-        };
+        let mut end = SegmentEnd::default();
         let Some(hit) = self.bvh.closest(s, o, d, f32::MAX) else {
             let e = beta * s.environment;
             if e.is_finite() {

@@ -28,6 +28,7 @@ pub(super) struct NextSegment {
 }
 
 /// What shading one surface vertex produces (the GLSL `struct Scatter`).
+#[derive(Default)]
 pub(super) struct Scatter {
     pub shadow: Option<ShadowRay>,
     pub next: Option<NextSegment>,
@@ -85,10 +86,7 @@ impl CpuRenderer<'_> {
         stats: &mut PathStats,
     ) -> Scatter {
         let s = self.scene;
-        let mut r = Scatter {
-            shadow: None,
-            next: None,
-        };
+        let mut r = Scatter::default();
         let material = &s.materials[si.material as usize];
         let brdf: &dyn Brdf = material.brdf.as_ref();
         // A two-sided material seen from behind: its back is shaded as a front, the geometric

@@ -84,6 +84,15 @@ pub struct ShaderCompiler {
     stats: Mutex<CompileStats>,
 }
 
+/// What one compilation reads besides the shader tree: its top file (normalised), the defines,
+/// the include overrides (normalised) and the generated files; the cache key hashes all of it.
+struct Inputs<'a> {
+    top: &'a str,
+    defines: &'a [(String, String)],
+    overrides: &'a [(String, String)],
+    generated: &'a [(String, String)],
+}
+
 impl ShaderCompiler {
     /// Sources from `$BRDFWAVE_SHADER_DIR` when set, else the embedded copy; the cache in
     /// [`default_cache_dir`] (`$BRDFWAVE_CACHE_DIR`, `$XDG_CACHE_HOME/brdfwave` or
@@ -244,7 +253,13 @@ impl ShaderCompiler {
         }
         let overrides =
             normalize_overrides(overrides).with_context(|| format!("compiling shader {top}"))?;
-        let key = self.cache_key(&top, defines, &overrides, generated)?;
+        let inputs = Inputs {
+            top: &top,
+            defines,
+            overrides: &overrides,
+            generated,
+        };
+        let key = self.cache_key(&inputs)?;
         let entry = self
             .spirv_cache_dir()
             .map(|d| d.join(format!("{key:016x}.spv")));
@@ -281,7 +296,7 @@ impl ShaderCompiler {
             }
         }
 
-        let spirv = self.compile_uncached(&top, defines, &overrides, generated)?;
+        let spirv = self.compile_uncached(&inputs)?;
         let mut write_failed = false;
         if let Some(entry) = &entry {
             if let Err(e) = write_atomic(entry, &encode_cache_entry(&spirv, key)) {
@@ -318,20 +333,15 @@ impl ShaderCompiler {
     /// The cache key: every file reachable through `#include` lines (followed here, through the
     /// overrides; lines inside `#if` blocks count too, which can only add inputs), the defines,
     /// the overrides and the options.
-    fn cache_key(
-        &self,
-        top: &str,
-        defines: &[(String, String)],
-        overrides: &[(String, String)],
-        generated: &[(String, String)],
-    ) -> Result<u64> {
+    fn cache_key(&self, i: &Inputs) -> Result<u64> {
+        let top = i.top;
         let mut h = Fnv64::new();
         h.str("brdfwave-spirv")
             .u64(CACHE_FORMAT_VERSION)
             .str(OPTIONS_TAG)
             .str(top);
         let top_text = self
-            .read_source_in(top, generated)
+            .read_source_in(top, i.generated)
             .with_context(|| format!("compiling shader {top}"))?;
         h.str(&top_text);
         // Depth first, in include order, each file once: the hash is a deterministic function of
@@ -346,12 +356,12 @@ impl ShaderCompiler {
                     h.u64(2).str(&inc);
                     continue;
                 };
-                let resolved = Self::resolve(&requested, overrides).to_string();
+                let resolved = Self::resolve(&requested, i.overrides).to_string();
                 if !seen.insert(resolved.clone()) {
                     continue;
                 }
                 h.str(&requested).str(&resolved);
-                match self.read_source_in(&resolved, generated) {
+                match self.read_source_in(&resolved, i.generated) {
                     Ok(t) => {
                         h.u64(1).str(&t);
                         children.push(t);
@@ -365,25 +375,20 @@ impl ShaderCompiler {
             }
             stack.extend(children.into_iter().rev());
         }
-        h.u64(defines.len() as u64);
-        for (n, v) in defines {
+        h.u64(i.defines.len() as u64);
+        for (n, v) in i.defines {
             h.str(n).str(v);
         }
-        h.u64(overrides.len() as u64);
-        for (v, r) in overrides {
+        h.u64(i.overrides.len() as u64);
+        for (v, r) in i.overrides {
             h.str(v).str(r);
         }
         Ok(h.finish())
     }
 
-    fn compile_uncached(
-        &self,
-        top: &str,
-        defines: &[(String, String)],
-        overrides: &[(String, String)],
-        generated: &[(String, String)],
-    ) -> Result<Vec<u32>> {
-        let text = self.read_source_in(top, generated)?;
+    fn compile_uncached(&self, i: &Inputs) -> Result<Vec<u32>> {
+        let top = i.top;
+        let text = self.read_source_in(top, i.generated)?;
         let mut opts =
             shaderc::CompileOptions::new().map_err(|e| anyhow!("creating shaderc options: {e}"))?;
         opts.set_source_language(shaderc::SourceLanguage::GLSL);
@@ -393,7 +398,7 @@ impl ShaderCompiler {
         );
         opts.set_target_spirv(shaderc::SpirvVersion::V1_5);
         opts.set_optimization_level(shaderc::OptimizationLevel::Performance);
-        for (name, value) in defines {
+        for (name, value) in i.defines {
             opts.add_macro_definition(name, Some(value));
         }
         opts.set_include_callback(|requested, _kind, requester, depth| {
@@ -403,21 +408,25 @@ impl ShaderCompiler {
                 ));
             }
             let name = normalize(requested).map_err(|e| format!("#include \"{requested}\" in {requester}: {e}"))?;
-            let real = Self::resolve(&name, overrides);
+            let real = Self::resolve(&name, i.overrides);
             let via = if real != name { format!(" (override of \"{name}\")") } else { String::new() };
-            match self.read_source_in(real, generated) {
+            match self.read_source_in(real, i.generated) {
                 Ok(content) => Ok(shaderc::ResolvedInclude { resolved_name: real.to_string(), content }),
                 Err(e) => Err(format!("#include \"{requested}\" in {requester}{via}: {e:#}")),
             }
         });
         let describe = || {
             let mut s = String::new();
-            if !defines.is_empty() {
-                let d: Vec<String> = defines.iter().map(|(n, v)| format!("{n}={v}")).collect();
+            if !i.defines.is_empty() {
+                let d: Vec<String> = i.defines.iter().map(|(n, v)| format!("{n}={v}")).collect();
                 s += &format!("; defines: {}", d.join(" "));
             }
-            if !overrides.is_empty() {
-                let o: Vec<String> = overrides.iter().map(|(v, r)| format!("{v}->{r}")).collect();
+            if !i.overrides.is_empty() {
+                let o: Vec<String> = i
+                    .overrides
+                    .iter()
+                    .map(|(v, r)| format!("{v}->{r}"))
+                    .collect();
                 s += &format!("; overrides: {}", o.join(" "));
             }
             s
