@@ -142,9 +142,11 @@ pub(super) fn read_plain(text: &str) -> Option<tobj::Model> {
     if !seen_faces {
         return None;
     }
-    let mut mesh = tobj::Mesh::default();
-    mesh.positions = Vec::with_capacity(read.iter().map(|p| p.positions.len()).sum());
-    mesh.indices = Vec::with_capacity(read.iter().map(|p| p.indices.len()).sum());
+    let mut mesh = tobj::Mesh {
+        positions: Vec::with_capacity(read.iter().map(|p| p.positions.len()).sum()),
+        indices: Vec::with_capacity(read.iter().map(|p| p.indices.len()).sum()),
+        ..Default::default()
+    };
     for p in read {
         mesh.positions.extend_from_slice(&p.positions);
         mesh.indices.extend_from_slice(&p.indices);
