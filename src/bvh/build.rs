@@ -6,6 +6,7 @@ use super::node::{GpuNode, MAX_PRIMS, STACK_SIZE};
 use super::{Bvh, BvhStats, SPHERE_BIT};
 use crate::scene::Scene;
 use glam::Vec3;
+use rayon::prelude::*;
 
 /// Centroid bins per axis in the SAH sweep.
 pub const BINS: usize = 16;
@@ -38,6 +39,16 @@ impl Aabb {
     fn grow_point(&mut self, p: Vec3) {
         self.min = self.min.min(p);
         self.max = self.max.max(p);
+    }
+    /// [`Aabb::grow`] for the boxes that only the SAH costs read (the bins): plain compares,
+    /// cheaper than `f32::min`'s NaN handling. The boxes hold no NaN, so only the sign of a
+    /// zero bound can differ, which changes no extent and so no cost.
+    fn grow_bin(&mut self, b: &Aabb) {
+        let lo = |a: f32, b: f32| if b < a { b } else { a };
+        let hi = |a: f32, b: f32| if b > a { b } else { a };
+        let (m, n) = (self.min, self.max);
+        self.min = Vec3::new(lo(m.x, b.min.x), lo(m.y, b.min.y), lo(m.z, b.min.z));
+        self.max = Vec3::new(hi(n.x, b.max.x), hi(n.y, b.max.y), hi(n.z, b.max.z));
     }
     /// Half the surface area (f64: no overflow for huge boxes); 0 for empty or flat boxes.
     fn half_area(&self) -> f64 {
@@ -96,7 +107,8 @@ const ABSENT: Link = Link {
 
 /// Builds one subtree: `order` is the part `base..base + order.len()` of the permutation of
 /// primitive slots (leaves index contiguous ranges of it, by absolute position); `nodes` are
-/// this builder's, numbered from 0 (a parent rebases them when it appends them).
+/// this builder's, numbered from 0, and `later` those its parallel subtrees made, which follow
+/// them (a parent rebases them when it assembles them).
 struct Builder<'a> {
     boxes: &'a [Aabb],
     centroids: &'a [Vec3],
@@ -105,6 +117,11 @@ struct Builder<'a> {
     /// Subtrees over at least this many primitives are built in parallel.
     parallel_prims: usize,
     nodes: Vec<GpuNode>,
+    /// The nodes of subtrees built by other builders, in order after `nodes`, each run with
+    /// the offset its inner links still need. Kept as runs and joined once at the end: each
+    /// parallel level appending its children's nodes copied the upper subtrees' nodes once per
+    /// level (about 6 copies of 34 MB on the 1M-triangle scene).
+    later: Vec<(u32, Vec<GpuNode>)>,
     stats: BvhStats,
     /// Σ A(inner)·C_TRAV + Σ A(leaf)·n·C_INT, normalised at the end.
     sah_sum: f64,
@@ -132,6 +149,22 @@ fn rebase(nodes: &mut [GpuNode], offset: u32) {
 }
 
 impl<'a> Builder<'a> {
+    /// Nodes made so far, `later` included.
+    fn len(&self) -> usize {
+        self.nodes.len() + self.later.iter().map(|(_, v)| v.len()).sum::<usize>()
+    }
+
+    /// All nodes, the runs of `later` rebased.
+    fn into_nodes(self) -> Vec<GpuNode> {
+        let mut nodes = Vec::with_capacity(self.len());
+        nodes.extend_from_slice(&self.nodes);
+        for (offset, mut run) in self.later {
+            rebase(&mut run, offset);
+            nodes.extend_from_slice(&run);
+        }
+        nodes
+    }
+
     fn range(&self, start: usize, end: usize) -> &[u32] {
         &self.order[start - self.base..end - self.base]
     }
@@ -164,14 +197,14 @@ impl<'a> Builder<'a> {
         // All three axes binned in one pass over the primitives: each primitive's box and
         // centroid are fetched once, not once per axis (the same bins, so the same tree).
         let mut bin_box = [[Aabb::EMPTY; BINS]; 3];
-        let mut bin_n = [[0usize; BINS]; 3];
+        let mut bin_n = [[0u32; BINS]; 3];
         for &i in self.range(start, end) {
             let (c, bx) = (self.centroids[i as usize], &self.boxes[i as usize]);
             for axis in 0..3 {
                 if let Some(scale) = scale[axis] {
                     let b = bin_of(c[axis], cb.min[axis], scale);
                     bin_n[axis][b] += 1;
-                    bin_box[axis][b].grow(bx);
+                    bin_box[axis][b].grow_bin(bx);
                 }
             }
         }
@@ -180,25 +213,30 @@ impl<'a> Builder<'a> {
                 continue;
             }
             let (bin_box, bin_n) = (&bin_box[axis], &bin_n[axis]);
-            // Sweep from the right: area·count of bins k.. for every k.
-            let mut right_cost = [0.0f64; BINS];
+            // Sweep from the right: area·count of bins k.. for every k (infinite while empty).
+            // An empty bin changes neither box nor count: its entry repeats the one after it.
+            let mut right_cost = [f64::INFINITY; BINS + 1];
             let mut acc = Aabb::EMPTY;
             let mut n = 0;
             for k in (1..BINS).rev() {
-                acc.grow(&bin_box[k]);
-                n += bin_n[k];
-                right_cost[k] = if n > 0 {
-                    acc.half_area() * n as f64
-                } else {
-                    f64::INFINITY
-                };
+                right_cost[k] = right_cost[k + 1];
+                if bin_n[k] > 0 {
+                    acc.grow_bin(&bin_box[k]);
+                    n += bin_n[k];
+                    right_cost[k] = acc.half_area() * n as f64;
+                }
             }
             let mut acc = Aabb::EMPTY;
             let mut n = 0;
             for k in 1..BINS {
-                acc.grow(&bin_box[k - 1]);
+                // After an empty bin k - 1 the split at k is the split at k - 1 again, which
+                // costs the same and so never wins (only a strictly lower cost does).
+                if bin_n[k - 1] == 0 {
+                    continue;
+                }
+                acc.grow_bin(&bin_box[k - 1]);
                 n += bin_n[k - 1];
-                if n == 0 || right_cost[k] == f64::INFINITY {
+                if right_cost[k] == f64::INFINITY {
                     continue;
                 }
                 let areas = acc.half_area() * n as f64 + right_cost[k];
@@ -324,6 +362,8 @@ impl<'a> Builder<'a> {
                 }
             }
             Decision::Split(mid) => {
+                // Nodes come only before a builder's parallel subtrees: `nodes` is its first run.
+                debug_assert!(self.later.is_empty());
                 let index = self.nodes.len();
                 self.nodes.push(GpuNode::default());
                 self.stats.inner_nodes += 1;
@@ -368,6 +408,7 @@ impl<'a> Builder<'a> {
             base,
             parallel_prims,
             nodes: Vec::new(),
+            later: Vec::new(),
             stats: BvhStats::default(),
             sah_sum: 0.0,
         };
@@ -375,22 +416,23 @@ impl<'a> Builder<'a> {
             || {
                 let mut b = sub(lo, start);
                 let link = b.build(start, mid, depth, false);
-                (link, (b.nodes, b.stats, b.sah_sum))
+                (link, (b.nodes, b.later, b.stats, b.sah_sum))
             },
             || {
                 let mut b = sub(hi, mid);
                 let link = b.build(mid, end, depth, false);
-                (link, (b.nodes, b.stats, b.sah_sum))
+                (link, (b.nodes, b.later, b.stats, b.sah_sum))
             },
         );
         self.order = order;
-        for (link, (mut nodes, t, sah)) in [(&mut l, lb), (&mut r, rb)] {
-            let offset = self.nodes.len() as u32;
-            rebase(&mut nodes, offset);
+        for (link, (nodes, later, t, sah)) in [(&mut l, lb), (&mut r, rb)] {
+            let offset = self.len() as u32;
             if link.count == 0 {
                 link.index += offset;
             }
-            self.nodes.append(&mut nodes);
+            self.later.push((offset, nodes));
+            let runs = later.into_iter().map(|(o, run)| (o + offset, run));
+            self.later.extend(runs);
             let s = &mut self.stats;
             s.inner_nodes += t.inner_nodes;
             s.leaves += t.leaves;
@@ -441,16 +483,17 @@ pub(super) fn build_with(scene: &Scene, parallel_prims: usize) -> Bvh {
     let refs: Vec<u32> = (0..scene.triangles.len() as u32)
         .chain((0..scene.spheres.len() as u32).map(|i| i | SPHERE_BIT))
         .collect();
-    let boxes: Vec<Aabb> = refs.iter().map(|&r| prim_box(scene, r)).collect();
-    let centroids: Vec<Vec3> = boxes.iter().map(|b| (b.min + b.max) * 0.5).collect();
-    let mut order: Vec<u32> = (0..n as u32).collect();
+    let boxes: Vec<Aabb> = refs.par_iter().map(|&r| prim_box(scene, r)).collect();
+    let centroids: Vec<Vec3> = boxes.par_iter().map(|b| (b.min + b.max) * 0.5).collect();
+    let mut order: Vec<u32> = (0..n as u32).into_par_iter().collect();
     let mut b = Builder {
         boxes: &boxes,
         centroids: &centroids,
         order: &mut order,
         base: 0,
         parallel_prims,
-        nodes: Vec::with_capacity(n.max(1)),
+        nodes: Vec::new(),
+        later: Vec::new(),
         stats: BvhStats {
             primitives: n,
             ..Default::default()
@@ -458,7 +501,8 @@ pub(super) fn build_with(scene: &Scene, parallel_prims: usize) -> Bvh {
         sah_sum: 0.0,
     };
     let root = b.build(0, n, 0, true);
-    let (nodes, sah_sum, mut stats) = (b.nodes, b.sah_sum, b.stats);
+    let (sah_sum, mut stats) = (b.sah_sum, b.stats.clone());
+    let nodes = b.into_nodes();
     let root_area = root.bounds.half_area();
     stats.sah_cost = if root_area > 0.0 {
         (sah_sum / root_area) as f32
@@ -470,9 +514,9 @@ pub(super) fn build_with(scene: &Scene, parallel_prims: usize) -> Bvh {
     } else {
         0.0
     };
-    let prims: Vec<u32> = order.iter().map(|&i| refs[i as usize]).collect();
+    let prims: Vec<u32> = order.par_iter().map(|&i| refs[i as usize]).collect();
     let leaf_triangles = prims
-        .iter()
+        .par_iter()
         .map(|&r| match r & SPHERE_BIT {
             0 => scene.triangles[r as usize].v,
             _ => [Vec3::ZERO; 3],

@@ -216,6 +216,14 @@ impl FaceRules {
         })
     }
 
+    /// Adds the counts of `other` (the rules of another part of the same mesh).
+    pub(super) fn add(&mut self, other: &FaceRules) {
+        self.skipped += other.skipped;
+        self.dropped_normals += other.dropped_normals;
+        self.flipped += other.flipped;
+        self.made += other.made;
+    }
+
     /// The closing warnings of the mesh file `shown` of `format` ("OBJ", "PLY"), read for the
     /// shape `label`.
     pub(super) fn warn(

@@ -20,6 +20,7 @@ pub mod load;
 pub mod mitsuba;
 mod mtl;
 mod obj;
+mod obj_plain;
 pub mod ply;
 mod ply_shape;
 mod schema;

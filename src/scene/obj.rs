@@ -131,8 +131,14 @@ pub(super) fn obj_triangles(
     };
     let text = crate::errors::read_utf8(&full)
         .map_err(|e| at.err(cx, format!("cannot read OBJ file '{shown}': {e}")))?;
-    let uses_mtl = scan_obj(&text)
-        .map_err(|(line, msg)| at.err(cx, format!("OBJ file '{shown}', line {line}: {msg}")))?;
+    // A plain file (positions and faces only) is read in parallel, else line-checked, then
+    // read by tobj.
+    let plain = super::obj_plain::read_plain(&text);
+    let uses_mtl = match plain {
+        Some(_) => false,
+        None => scan_obj(&text)
+            .map_err(|(line, msg)| at.err(cx, format!("OBJ file '{shown}', line {line}: {msg}")))?,
+    };
     if uses_mtl && mtl.is_none() {
         at.warn(cx, format!("OBJ file '{shown}' refers to MTL materials; they are ignored: every face uses this shape's material (mtl = true uses them)"));
     }
@@ -140,7 +146,11 @@ pub(super) fn obj_triangles(
         at.warn(cx, format!("OBJ file '{shown}' has no MTL materials (mtllib, usemtl): every face uses this shape's material"));
     }
     let read_mtl = mtl.is_some() && uses_mtl;
-    let (models, library) = parse_obj(cx, &at, &full, &text, read_mtl)?;
+    let (models, library) = match plain {
+        Some(model) => (vec![model], Vec::new()),
+        None => parse_obj(cx, &at, &full, &text, read_mtl)?,
+    };
+    drop(text);
     // Scene materials and emitters of the library's materials, made when a face uses them.
     let mut made: Vec<Option<(u32, Option<u32>)>> = vec![None; library.len()];
     let mut rules = FaceRules::default();
@@ -173,12 +183,73 @@ pub(super) fn obj_triangles(
                 at.warn(cx, msg);
             }
         }
-        for (t, face) in m.indices.chunks_exact(3).enumerate() {
-            let (v, n, uv) = obj_face(cx, &at, model, (t, face), xf, (has_n, has_uv))?;
-            out.extend(rules.face(v, n, uv, material, emitter));
-        }
+        let me = (material, emitter);
+        model_triangles(cx, &at, model, xf, (has_n, has_uv), me, out, &mut rules)?;
     }
     rules.warn(cx, at.span.clone(), at.field, ("OBJ", &shown, &shape.label));
+    Ok(())
+}
+
+/// Faces per piece when a model's faces are placed and checked in parallel.
+const FACES_PER_PIECE: usize = 1 << 15;
+
+/// Appends the triangles of a tobj model to `out`: the faces placed and checked by
+/// [`obj_face`] and [`FaceRules::face`] in parallel pieces, kept in order; the first error in
+/// face order is the one reported, as in a serial pass. The pieces write straight into `out`
+/// (its new memory is first touched on all threads: a copy of a million triangles into fresh
+/// pages cost more than placing them), then the gaps of skipped faces close.
+#[allow(clippy::too_many_arguments)]
+fn model_triangles(
+    cx: &Cx,
+    at: &At,
+    model: &tobj::Model,
+    xf: &Transform,
+    attributes: (bool, bool),
+    (material, emitter): (u32, Option<u32>),
+    out: &mut Vec<Triangle>,
+    rules: &mut FaceRules,
+) -> Result<(), SceneError> {
+    use rayon::prelude::*;
+    let indices = &model.mesh.indices;
+    let old = out.len();
+    let unset = Triangle {
+        v: [Vec3::ZERO; 3],
+        n: None,
+        uv: None,
+        material,
+        emitter,
+    };
+    out.par_extend(rayon::iter::repeat_n(unset, indices.len() / 3));
+    let piece = |k: usize, dst: &mut [Triangle], faces: &[u32]| {
+        let mut rules = FaceRules::default();
+        let mut made = 0;
+        for (t, face) in faces.chunks_exact(3).enumerate() {
+            let face = (k * FACES_PER_PIECE + t, face);
+            let (v, n, uv) = obj_face(cx, at, model, face, xf, attributes)?;
+            if let Some(tri) = rules.face(v, n, uv, material, emitter) {
+                dst[made] = tri;
+                made += 1;
+            }
+        }
+        Ok((made, rules))
+    };
+    let pieces: Vec<Result<(usize, FaceRules), SceneError>> = out[old..]
+        .par_chunks_mut(FACES_PER_PIECE)
+        .zip(indices.par_chunks(3 * FACES_PER_PIECE))
+        .enumerate()
+        .map(|(k, (dst, faces))| piece(k, dst, faces))
+        .collect();
+    let mut end = old;
+    for (k, p) in pieces.into_iter().enumerate() {
+        let (made, r) = p.inspect_err(|_| out.truncate(old))?;
+        let first = old + k * FACES_PER_PIECE;
+        for i in 0..made {
+            out.swap(end + i, first + i);
+        }
+        end += made;
+        rules.add(&r);
+    }
+    out.truncate(end);
     Ok(())
 }
 
