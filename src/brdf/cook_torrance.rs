@@ -73,7 +73,7 @@ use super::common::{
     sample_beckmann_vndf, sample_cosine_hemisphere, sample_ggx_h, sample_ggx_vndf,
     smith_g1_beckmann, smith_g1_beckmann_walter, smith_g1_ggx, visible_reflected_pdf,
 };
-use super::{Brdf, BrdfSample, Param, ParamError, Representative, ParamReader, Params};
+use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params, Representative};
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;

@@ -74,7 +74,7 @@ use super::common::{
     beckmann_d, cosine_hemisphere_pdf, erfc, expm1_f, fresnel_conductor, luminance, reflect_about,
     reflected_pdf, same_hemisphere_up, sample_beckmann_h, sample_cosine_hemisphere,
 };
-use super::{flag, Brdf, BrdfSample, Param, ParamError, Representative, ParamReader, Params};
+use super::{flag, Brdf, BrdfSample, Param, ParamError, ParamReader, Params, Representative};
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, PI};
 use std::sync::Arc;

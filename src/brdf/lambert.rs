@@ -10,7 +10,7 @@
 //! GPU record: `p[0].xyz` = albedo.
 
 use super::common::{diffuse_pdf, same_hemisphere_up, sample_diffuse};
-use super::{Brdf, BrdfSample, Param, Representative, ParamError, ParamReader, Params};
+use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params, Representative};
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;

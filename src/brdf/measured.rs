@@ -37,7 +37,7 @@
 
 use super::common::{diffuse_specular_pdf, same_hemisphere_up, sample_cosine_hemisphere};
 use super::ward::{self, Ward};
-use super::{Brdf, BrdfSample, Param, ParamError, Representative, ParamReader, Params};
+use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params, Representative};
 use crate::fit::{self, space::ModelSpec, FitOptions};
 use crate::measured::merl::MerlTable;
 use glam::{Vec2, Vec3, Vec4};

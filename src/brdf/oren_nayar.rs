@@ -42,7 +42,7 @@
 //! GPU record: `p[0].xyz` = albedo, `p[0].w` = σ, `p[1].x` = variant (0 full, 1 qualitative).
 
 use super::common::{diffuse_pdf, same_hemisphere_up, sample_diffuse};
-use super::{Brdf, BrdfSample, Param, Representative, ParamError, ParamReader, Params};
+use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params, Representative};
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, PI};
 use std::sync::Arc;

@@ -42,7 +42,7 @@ use super::common::{
     diffuse_specular_pdf, luminance, one_minus_dot, orthonormal_basis, pow_one_minus, reflect_z,
     same_hemisphere_up, sample_cosine_hemisphere, sample_power_cosine, specular_probability,
 };
-use super::{Brdf, BrdfSample, Param, Representative, ParamError, ParamReader, Params};
+use super::{Brdf, BrdfSample, Param, ParamError, ParamReader, Params, Representative};
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, PI};
 use std::sync::Arc;

@@ -76,7 +76,7 @@ use super::common::{
     cosine_hemisphere_pdf, luminance, reflect_about, reflected_pdf, same_hemisphere_up,
     sample_cosine_hemisphere,
 };
-use super::{flag, Brdf, BrdfSample, Param, ParamError, Representative, ParamReader, Params};
+use super::{flag, Brdf, BrdfSample, Param, ParamError, ParamReader, Params, Representative};
 use glam::{Vec2, Vec3, Vec4};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, PI};
 use std::sync::Arc;
