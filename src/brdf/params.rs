@@ -74,7 +74,7 @@ pub trait Choice: Copy + 'static {
     const NAMES: &'static [&'static str];
 }
 
-/// Declares, in one block at the top of a model's file, what its registry row
+/// Declares, in one block of a model's file (after its struct and enums), what its registry row
 /// ([`super::ModelInfo`]) reads besides `parse`:
 /// * `survey`: where the survey gives the model (README's model table), as `SURVEY`;
 /// * `params`: its scene-file parameters, one row each. A row `NAME = rgb(…)`, `scalar(…)`,
