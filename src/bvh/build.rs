@@ -500,8 +500,7 @@ pub(super) fn build_with(scene: &Scene, parallel_prims: usize) -> Bvh {
         sah_sum: 0.0,
     };
     let root = b.build(0, n, 0, true);
-    let (sah_sum, mut stats) = (b.sah_sum, b.stats.clone());
-    let (first, later) = (b.nodes, b.later);
+    let (sah_sum, mut stats, first, later) = (b.sah_sum, b.stats, b.nodes, b.later);
     // The boxes and centroids are the build's alone: freed before the nodes are joined and the
     // leaves' triangles gathered, they no longer add to the set-up's peak memory (37 MB for a
     // million triangles; BENCHMARKS.md).

@@ -117,11 +117,11 @@ pub(super) fn read_plain(text: &str) -> Option<tobj::Model> {
         return None;
     }
     let n = (text.len() / PIECE_BYTES).clamp(1, 4 * rayon::current_num_threads());
-    let read: Vec<Option<Piece>> = pieces(text.as_bytes(), n)
+    // A piece that declines stops the others early (the file then goes to tobj).
+    let read: Vec<Piece> = pieces(text.as_bytes(), n)
         .into_par_iter()
         .map(read_piece)
-        .collect();
-    let read: Vec<Piece> = read.into_iter().collect::<Option<_>>()?;
+        .collect::<Option<_>>()?;
     let mut name = "unnamed_object".to_string();
     let mut seen_faces = false;
     let mut vertices = 0i64;
