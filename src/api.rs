@@ -134,7 +134,13 @@ pub fn render(scene: &Scene, options: &Options) -> Result<Render> {
         tile: None,
     };
     let part = overrides.apply(&mut sc)?;
-    let bvh = crate::bvh::build(&sc);
+    let bvh = crate::bvh::build_for(
+        &sc,
+        match options.backend {
+            Backend::Gpu => crate::bvh::Traversal::GpuOnly,
+            Backend::Cpu => crate::bvh::Traversal::Cpu,
+        },
+    );
     let gpu = match options.backend {
         Backend::Cpu => None,
         Backend::Gpu => {

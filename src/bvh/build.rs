@@ -469,11 +469,29 @@ fn bin_of(c: f32, lo: f32, scale: f32) -> usize {
 /// If the scene has more than [`MAX_PRIMS`] (2^28) primitives, the limit of the traversal's
 /// leaf encoding.
 pub fn build(scene: &Scene) -> Bvh {
-    build_with(scene, PARALLEL_PRIMS)
+    build_with(scene, PARALLEL_PRIMS, Traversal::Cpu)
 }
 
-/// [`build`], with subtrees of at least `parallel_prims` primitives built on two threads.
-pub(super) fn build_with(scene: &Scene, parallel_prims: usize) -> Bvh {
+/// Which renderer walks a tree. The CPU traversal reads each leaf's triangles from a copy in
+/// leaf order ([`Bvh::leaf_triangles`], 36 bytes a triangle); the GPU kernels read the scene's
+/// own triangle buffer, so a tree built for them alone leaves the copy out (36 MB for a million
+/// triangles: the GPU path's memory at its peak, BENCHMARKS.md).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Traversal {
+    /// The CPU traversal (and the GPU's): everything [`Bvh`] holds.
+    Cpu,
+    /// The GPU kernels only: no [`Bvh::leaf_triangles`]; [`Bvh::closest`] and
+    /// [`Bvh::occluded`] panic on such a tree.
+    GpuOnly,
+}
+
+/// [`build`] for the renderer `traversal` says: the same nodes and primitives either way.
+pub fn build_for(scene: &Scene, traversal: Traversal) -> Bvh {
+    build_with(scene, PARALLEL_PRIMS, traversal)
+}
+
+/// [`build_for`], with subtrees of at least `parallel_prims` primitives built on two threads.
+pub(super) fn build_with(scene: &Scene, parallel_prims: usize, traversal: Traversal) -> Bvh {
     let n = scene.triangles.len() + scene.spheres.len();
     assert!(
         n <= MAX_PRIMS,
@@ -519,13 +537,16 @@ pub(super) fn build_with(scene: &Scene, parallel_prims: usize) -> Bvh {
     };
     let prims: Vec<u32> = order.par_iter().map(|&i| refs[i as usize]).collect();
     drop((refs, order));
-    let leaf_triangles = prims
-        .par_iter()
-        .map(|&r| match r & SPHERE_BIT {
-            0 => scene.triangles[r as usize].v,
-            _ => [Vec3::ZERO; 3],
-        })
-        .collect();
+    let leaf_triangles = match traversal {
+        Traversal::Cpu => prims
+            .par_iter()
+            .map(|&r| match r & SPHERE_BIT {
+                0 => scene.triangles[r as usize].v,
+                _ => [Vec3::ZERO; 3],
+            })
+            .collect(),
+        Traversal::GpuOnly => Vec::new(),
+    };
     let (bounds_min, bounds_max) = if n > 0 {
         (root.bounds.min, root.bounds.max)
     } else {
@@ -551,14 +572,30 @@ mod tests {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.toml");
         let mut s = crate::scene::load(&path).unwrap();
         crate::bench::add_sphere_mesh(&mut s, 40_000);
-        let serial = build_with(&s, usize::MAX);
-        let parallel = build_with(&s, 1000);
+        let serial = build_with(&s, usize::MAX, Traversal::Cpu);
+        let parallel = build_with(&s, 1000, Traversal::Cpu);
         assert!(serial.nodes.len() > 1000);
         assert!(serial.nodes == parallel.nodes, "nodes differ");
         assert_eq!(serial.prims, parallel.prims);
         assert_eq!(serial.stats.leaves, parallel.stats.leaves);
         assert_eq!(serial.stats.inner_nodes, parallel.stats.inner_nodes);
         assert_eq!(serial.stats.max_depth, parallel.stats.max_depth);
+        assert_eq!(serial.leaf_triangles, parallel.leaf_triangles);
+    }
+
+    /// A tree for the GPU alone is the same tree without the CPU's copy of the leaves'
+    /// triangles, which the CPU's tree has for every primitive.
+    #[test]
+    fn gpu_only_build_is_the_same_tree_without_leaf_triangles() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.toml");
+        let mut s = crate::scene::load(&path).unwrap();
+        crate::bench::add_sphere_mesh(&mut s, 4_000);
+        let cpu = build_for(&s, Traversal::Cpu);
+        let gpu = build_for(&s, Traversal::GpuOnly);
+        assert!(cpu.nodes == gpu.nodes, "nodes differ");
+        assert_eq!(cpu.prims, gpu.prims);
+        assert_eq!(cpu.leaf_triangles.len(), cpu.prims.len());
+        assert!(gpu.leaf_triangles.is_empty());
     }
 
     #[test]

@@ -76,7 +76,7 @@ pub use crate::robust::{
     gamma, next_float_down, next_float_up, offset_ray_origin, pull_inside, sphere_point,
     triangle_point, ulp, SHADOW_EPSILON, SHIFT_ULPS,
 };
-pub use build::{build, BINS, C_INT, C_TRAV, MAX_DEPTH, MAX_LEAF};
+pub use build::{build, build_for, Traversal, BINS, C_INT, C_TRAV, MAX_DEPTH, MAX_LEAF};
 pub use intersect::{intersect_sphere, intersect_triangle, BOX_WIDEN};
 pub use node::{register_stack_size, GpuNode, MAX_PRIMS, REGISTER_STACK_MAX, STACK_SIZE};
 
@@ -131,7 +131,7 @@ pub struct Bvh {
     pub prims: Vec<u32>,
     /// The vertices of each triangle of `prims`, in the same order (zeros for spheres): the CPU
     /// traversal reads a leaf's triangles from consecutive memory instead of the scene's larger
-    /// `Triangle` records.
+    /// `Triangle` records. Empty in a tree built for the GPU alone ([`Traversal::GpuOnly`]).
     pub leaf_triangles: Vec<[Vec3; 3]>,
     /// Box of the whole scene (empty scene: both zero).
     pub bounds_min: Vec3,

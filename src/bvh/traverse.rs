@@ -11,7 +11,7 @@ use glam::{Vec2, Vec3, Vec3A};
 impl Bvh {
     /// Closest hit with t in (0, tmax); ties are resolved as the module documentation says.
     /// `scene` must be the scene the BVH was built from. A zero, infinite or NaN direction
-    /// hits nothing.
+    /// hits nothing. Panics on a tree built for the GPU alone ([`super::Traversal::GpuOnly`]).
     pub fn closest(&self, scene: &Scene, o: Vec3, d: Vec3, tmax: f32) -> Option<Hit> {
         self.traverse::<false>(scene, o, d, tmax)
     }
@@ -22,6 +22,10 @@ impl Bvh {
     }
 
     fn traverse<const ANY: bool>(&self, scene: &Scene, o: Vec3, d: Vec3, tmax: f32) -> Option<Hit> {
+        assert!(
+            self.leaf_triangles.len() == self.prims.len(),
+            "the CPU traversal of a BVH built for the GPU alone (bvh::Traversal::GpuOnly)"
+        );
         let ray = Ray::new(o, d)?;
         let mut best = Hit {
             t: tmax,

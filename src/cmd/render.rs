@@ -454,7 +454,13 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let outputs = Outputs::of(&a);
     outputs.prepare(&a.scene)?;
     let t_bvh = Instant::now();
-    let bvh = bvh::build(&sc);
+    let bvh = bvh::build_for(
+        &sc,
+        match a.backend {
+            Backend::Gpu => bvh::Traversal::GpuOnly,
+            Backend::Cpu => bvh::Traversal::Cpu,
+        },
+    );
     let seconds_bvh = t_bvh.elapsed().as_secs_f64();
     let gpu = match a.backend {
         Backend::Gpu => Some((
