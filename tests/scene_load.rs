@@ -127,9 +127,9 @@ fn cornell_box_matches_the_published_data() {
         assert_eq!(t.v, *v, "{name}");
         assert_eq!(t.material, *material, "{name}");
         assert_eq!(t.emitter, *emitter, "{name}");
-        assert_eq!(t.n, None);
-        assert_eq!(t.uv, None);
     }
+    // No triangle has normals or texture coordinates.
+    assert!(s.attributes.is_empty());
     assert_eq!(s.emitters.len(), 1);
     assert_eq!(json["emitter"]["shape"], "light");
     assert_eq!(s.emitters[0].radiance, v3(&json["emitter"]["radiance"]));
@@ -251,14 +251,15 @@ fn obj_example_loads_the_mesh_with_its_normals_and_transforms() {
 
     // Ball: the unit icosphere moved to (-1.2, 1, 0); its normals are the radial directions.
     let c = Vec3::new(-1.2, 1.0, 0.0);
-    for t in ball {
-        let n = t.n.expect("the icosphere has vertex normals");
+    for (i, t) in ball.iter().enumerate() {
+        let a = s.attributes_of(2 + i);
+        let n = a.n.expect("the icosphere has vertex normals");
         for (v, n) in t.v.iter().zip(n) {
             assert!(((*v - c).length() - 1.0).abs() < 1e-5);
             assert!((n - (*v - c).normalize()).length() < 1e-4, "{n} vs {v}");
         }
         assert!(unit_normal(t).dot(t.v[0] - c) > 0.0, "outward winding");
-        assert_eq!(t.uv, None);
+        assert_eq!(a.uv, None);
         assert_eq!(t.emitter, None);
         assert_eq!(s.material_names[t.material as usize], "clay");
     }
@@ -268,8 +269,11 @@ fn obj_example_loads_the_mesh_with_its_normals_and_transforms() {
     let scale = Vec3::new(0.6, 1.0, 0.6);
     let rot = Quat::from_rotation_y(30f32.to_radians());
     let translate = Vec3::new(1.2, 1.0, 0.5);
-    for t in egg {
-        let n = t.n.expect("normals survive the transform");
+    for (i, t) in egg.iter().enumerate() {
+        let n = s
+            .attributes_of(82 + i)
+            .n
+            .expect("normals survive the transform");
         for (v, n) in t.v.iter().zip(n) {
             let p = rot.inverse() * (*v - translate) / scale;
             assert!(
@@ -283,6 +287,47 @@ fn obj_example_loads_the_mesh_with_its_normals_and_transforms() {
     }
 }
 
+/// The vertex attributes stay with their triangles when meshes with them and shapes without
+/// them alternate, and when a skipped zero-area face closes a gap in a mesh; the list stops at
+/// the last triangle that has any.
+#[test]
+fn vertex_attributes_stay_with_their_triangles() {
+    // The quad, then a zero-area face (skipped), then the quad's first triangle again.
+    let obj = format!("{QUAD_OBJ}f 1/1 2/2 1/1\nf 1/1 2/2 3/3\n");
+    let plain_quad =
+        "[[shapes]]\nmaterial = \"m\"\nquads = [[[0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]]]\n";
+    let again = "[[shapes]]\nmaterial = \"m\"\nobj = \"mesh.obj\"\n";
+    let (_dir, path) = scene_with_obj(&obj, &format!("{plain_quad}{again}{plain_quad}"));
+    let s = load(&path).unwrap();
+    assert_eq!(s.triangles.len(), 3 + 2 + 3 + 2);
+    let uv = |i: usize| s.attributes_of(i).uv;
+    let first = [glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::ONE];
+    let second = [glam::Vec2::ZERO, glam::Vec2::ONE, glam::Vec2::Y];
+    for mesh in [0, 5] {
+        assert_eq!(uv(mesh), Some(first), "mesh at {mesh}");
+        assert_eq!(uv(mesh + 1), Some(second), "mesh at {mesh}");
+        assert_eq!(
+            uv(mesh + 2),
+            Some(first),
+            "mesh at {mesh}, after the skipped face"
+        );
+        assert_eq!(s.triangles[mesh + 2].v, s.triangles[mesh].v);
+    }
+    for quad in [3, 4, 8, 9] {
+        assert_eq!(
+            s.attributes_of(quad),
+            Default::default(),
+            "quad triangle {quad}"
+        );
+    }
+    assert_eq!(s.attributes.len(), 8, "the list ends at the last mesh");
+    assert!(
+        s.warnings.iter().any(|w| w.contains("zero-area")),
+        "{:?}",
+        s.warnings
+    );
+}
+
 #[test]
 fn obj_texture_coordinates_are_kept() {
     let (_dir, path) = scene_with_obj(QUAD_OBJ, "");
@@ -291,14 +336,14 @@ fn obj_texture_coordinates_are_kept() {
     let quad = &s.triangles[..];
     assert_eq!(quad.len(), 2);
     assert_eq!(
-        quad[0].uv,
+        s.attributes_of(0).uv,
         Some([glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::ONE])
     );
     assert_eq!(
-        quad[1].uv,
+        s.attributes_of(1).uv,
         Some([glam::Vec2::ZERO, glam::Vec2::ONE, glam::Vec2::Y])
     );
-    assert_eq!(quad[0].n, None);
+    assert_eq!(s.attributes_of(0).n, None);
     // Counter-clockwise seen from +z: the front side is +z.
     assert!((unit_normal(&quad[0]) - Vec3::Z).length() < 1e-6);
 }

@@ -300,9 +300,10 @@ fn ply_shapes_equal_the_same_mesh_as_obj() {
         .unwrap();
         assert_eq!(ply.triangles.len(), 85, "{f:?}");
         assert!(ply.warnings.is_empty(), "{:?}", ply.warnings);
-        assert!(ply.triangles.iter().all(|t| t.n.is_some()));
+        assert!((0..85).all(|i| ply.attributes_of(i).n.is_some()));
         // tobj keeps the faces in order and fans polygons the same way.
         assert_eq!(ply.triangles, obj.triangles, "{f:?}");
+        assert_eq!(ply.attributes, obj.attributes, "{f:?}");
     }
 }
 
@@ -318,13 +319,18 @@ fn face_normals_drop_the_vertex_normals() {
     for (name, bytes) in &files {
         let kind = &name[2..];
         let with = scene_with(&[(name, bytes)], &format!("{kind} = \"{name}\"")).unwrap();
-        assert!(with.triangles.iter().all(|t| t.n.is_some()), "{name}");
+        let normals = |s: &brdfwave::scene::Scene| {
+            (0..s.triangles.len())
+                .filter(|&i| s.attributes_of(i).n.is_some())
+                .count()
+        };
+        assert_eq!(normals(&with), with.triangles.len(), "{name}");
         let flat = scene_with(
             &[(name, bytes)],
             &format!("{kind} = \"{name}\"\nface_normals = true"),
         )
         .unwrap();
-        assert!(flat.triangles.iter().all(|t| t.n.is_none()), "{name}");
+        assert_eq!(normals(&flat), 0, "{name}");
         let strip = |s: &brdfwave::scene::Scene| -> Vec<[Vec3; 3]> {
             s.triangles.iter().map(|t| t.v).collect()
         };

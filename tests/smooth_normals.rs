@@ -37,7 +37,7 @@ fn a_white_furnace_with_smooth_normals_returns_at_most_its_albedo() {
     std::fs::write(dir.path().join("furnace.toml"), scene).unwrap();
     let s = load(&dir.path().join("furnace.toml")).unwrap();
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
-    assert!(s.triangles.iter().all(|t| t.n.is_some()));
+    assert!((0..s.triangles.len()).all(|i| s.attributes_of(i).n.is_some()));
 
     let ctx = context();
     let (gpu, pipelines) = render_gpu(&ctx, &s);

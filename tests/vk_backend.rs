@@ -632,6 +632,29 @@ fn buffers_upload_download_and_misuse() {
         );
         ctx.destroy_buffer(b);
     }
+    // A buffer filled in place (mapped) or through a host vector (staging) holds what the
+    // filler wrote, and the filler starts from zeros.
+    for staging in [false, true] {
+        ctx.debug_force_staging(staging);
+        let b = ctx
+            .create_buffer_filled("filled", 777, STORAGE, |w: &mut [u32]| {
+                assert!(w.iter().all(|&x| x == 0), "staging {staging}: not zeroed");
+                for (i, x) in w.iter_mut().enumerate() {
+                    *x = i as u32 * 3 + 1;
+                }
+            })
+            .unwrap();
+        let want: Vec<u32> = (0..777).map(|i| i * 3 + 1).collect();
+        assert_eq!(ctx.download::<u32>(&b).unwrap(), want, "staging {staging}");
+        ctx.destroy_buffer(b);
+        let empty = ctx
+            .create_buffer_filled("filled empty", 0, STORAGE, |w: &mut [u32]| {
+                assert!(w.is_empty())
+            })
+            .unwrap();
+        assert!(ctx.download::<u32>(&empty).unwrap().is_empty());
+        ctx.destroy_buffer(empty);
+    }
     ctx.debug_force_staging(false);
     // Size zero is allowed (rounded up inside).
     let empty = ctx

@@ -113,8 +113,6 @@ pub fn add_sphere_mesh(s: &mut Scene, n: u32) {
             for v in [[a, d, c], [a, c, b]] {
                 let t = Triangle {
                     v,
-                    n: None,
-                    uv: None,
                     material,
                     emitter: None,
                 };

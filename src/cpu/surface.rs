@@ -111,7 +111,8 @@ pub fn surface_at(scene: &Scene, normals: &[Vec3], hit: &Hit, o: Vec3, d: Vec3) 
         let ng = normals[hit.prim as usize];
         let front = d.dot(ng) < 0.0;
         let mut ns = ng;
-        if let Some([n0, n1, n2]) = tri.n {
+        let attributes = scene.attributes_of(hit.prim as usize);
+        if let Some([n0, n1, n2]) = attributes.n {
             let n = n0 * b0 + n1 * b1 + n2 * b2;
             let len2 = n.length_squared();
             if len2 > 1e-12 {
@@ -122,7 +123,7 @@ pub fn surface_at(scene: &Scene, normals: &[Vec3], hit: &Hit, o: Vec3, d: Vec3) 
             }
         }
         let mut hint = default_tangent(ns);
-        if let Some([uv0, uv1, uv2]) = tri.uv {
+        if let Some([uv0, uv1, uv2]) = attributes.uv {
             let du1: Vec2 = uv1 - uv0;
             let du2: Vec2 = uv2 - uv0;
             let det = du1.x * du2.y - du1.y * du2.x;

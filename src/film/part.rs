@@ -78,7 +78,7 @@ pub fn scene_hash(s: &crate::scene::Scene) -> String {
         s.spheres,
         s.environment
     );
-    hash_triangles(&mut h, &s.triangles);
+    hash_triangles(&mut h, s);
     if it.sampler == crate::rng::Sampler::Multijitter {
         let _ = write!(
             h,
@@ -92,22 +92,22 @@ pub fn scene_hash(s: &crate::scene::Scene) -> String {
 /// The triangles into the scene hash as the bits of their numbers: by far the largest part of a
 /// big scene, where formatting them as text took 0.8 s for a million (a third of a
 /// short render of the 1M-triangle bench scene). The destructuring makes a new field of
-/// [`crate::scene::Triangle`] a compile error here, so that it cannot be left out.
-fn hash_triangles(h: &mut crate::hash::Fnv64, triangles: &[crate::scene::Triangle]) {
+/// [`crate::scene::Triangle`] or [`crate::scene::VertexAttributes`] a compile error here, so
+/// that it cannot be left out.
+fn hash_triangles(h: &mut crate::hash::Fnv64, scene: &crate::scene::Scene) {
     let floats = |h: &mut crate::hash::Fnv64, xs: &[f32]| {
         for x in xs {
             h.bytes(&x.to_bits().to_le_bytes());
         }
     };
-    h.u64(triangles.len() as u64);
-    for t in triangles {
+    h.u64(scene.triangles.len() as u64);
+    for (i, t) in scene.triangles.iter().enumerate() {
         let crate::scene::Triangle {
             v,
-            n,
-            uv,
             material,
             emitter,
         } = t;
+        let crate::scene::VertexAttributes { n, uv } = scene.attributes_of(i);
         // Which optional attributes follow, then the numbers: positions, normals, uvs.
         h.bytes(&[n.is_some() as u8, uv.is_some() as u8]);
         for p in v.iter().chain(n.iter().flatten()) {
@@ -380,14 +380,23 @@ mod tests {
         let base = crate::scene::load_str(&text, path).unwrap();
         let h0 = scene_hash(&base);
         assert_eq!(h0, scene_hash(&base.clone()), "not deterministic");
-        let changed: [&dyn Fn(&mut crate::scene::Triangle); 6] = [
-            &|t| t.v[2].y = f32::from_bits(t.v[2].y.to_bits() ^ 1),
-            &|t| t.n = Some([glam::Vec3::Y; 3]),
-            &|t| t.uv = Some([glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::Y]),
-            &|t| t.material += 1,
-            &|t| t.emitter = Some(t.emitter.map_or(0, |e| e + 1)),
-            &|t| t.emitter = None,
+        // Each change is made to the first emitting triangle (with index i).
+        type Change = dyn Fn(&mut crate::scene::Scene, usize);
+        let changed: [&Change; 6] = [
+            &|s, i| s.triangles[i].v[2].y = f32::from_bits(s.triangles[i].v[2].y.to_bits() ^ 1),
+            &|s, i| attributes(s, i).n = Some([glam::Vec3::Y; 3]),
+            &|s, i| attributes(s, i).uv = Some([glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::Y]),
+            &|s, i| s.triangles[i].material += 1,
+            &|s, i| s.triangles[i].emitter = Some(s.triangles[i].emitter.map_or(0, |e| e + 1)),
+            &|s, i| s.triangles[i].emitter = None,
         ];
+        fn attributes(
+            s: &mut crate::scene::Scene,
+            i: usize,
+        ) -> &mut crate::scene::VertexAttributes {
+            s.attributes.resize(s.triangles.len(), Default::default());
+            &mut s.attributes[i]
+        }
         for (k, change) in changed.iter().enumerate() {
             let mut s = base.clone();
             let i = s
@@ -395,9 +404,17 @@ mod tests {
                 .iter()
                 .position(|t| t.emitter.is_some())
                 .unwrap();
-            change(&mut s.triangles[i]);
+            change(&mut s, i);
             assert_ne!(scene_hash(&s), h0, "change {k} is not seen");
         }
+        // Attributes that say "none" hash as absent ones: the same scene either way.
+        let mut padded = base.clone();
+        attributes(&mut padded, 0);
+        assert_eq!(
+            scene_hash(&padded),
+            h0,
+            "explicit empty attributes change the hash"
+        );
         let mut fewer = base.clone();
         fewer.triangles.pop();
         assert_ne!(scene_hash(&fewer), h0, "a dropped triangle is not seen");

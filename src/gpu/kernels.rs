@@ -129,7 +129,12 @@ pub(super) fn create_buffers<'a>(
         let buffer = match b {
             Binding::BvhNodes => data(scene_buffers::bvh_nodes(bvh))?,
             Binding::BvhPrims => data(bytemuck::cast_slice(&bvh.prims))?,
-            Binding::Triangles => data(bytemuck::cast_slice(&scene_buffers::triangle_data(scene)))?,
+            Binding::Triangles => ctx.create_buffer_filled(
+                name,
+                scene.triangles.len() * scene_buffers::TRIANGLE_TEXELS,
+                usage,
+                |texels: &mut [[f32; 4]]| scene_buffers::write_triangle_data(scene, texels),
+            )?,
             Binding::Spheres => data(bytemuck::cast_slice(&scene_buffers::sphere_data(scene)))?,
             Binding::TriAttrs => data(bytemuck::cast_slice(&scene_buffers::triangle_attributes(
                 scene,
@@ -423,10 +428,10 @@ pub fn scene_features(scene: &Scene) -> Vec<&'static str> {
     if spheres {
         f.push("LIGHT_SPHERES");
     }
-    if scene.triangles.iter().any(|t| t.n.is_some()) {
+    if scene.has_shading_normals() {
         f.push("SCENE_SHADING_NORMALS");
     }
-    if scene.triangles.iter().any(|t| t.uv.is_some()) {
+    if scene.has_uvs() {
         f.push("SCENE_UVS");
     }
     if !scene.lights.is_empty() {

@@ -16,25 +16,45 @@ fn bits(x: u32) -> f32 {
     f32::from_bits(x)
 }
 
+/// Texels per triangle in the triangle buffer ([`write_triangle_data`]).
+pub const TRIANGLE_TEXELS: usize = 3;
+
 /// 3 vec4 per triangle: (v0, material), (v1, emitter), (v2, 0).
 pub fn triangle_data(scene: &Scene) -> Vec<[f32; 4]> {
-    let mut out = Vec::with_capacity(scene.triangles.len() * 3);
-    for t in &scene.triangles {
-        let e = t.emitter.unwrap_or(NO_EMITTER);
-        out.push([t.v[0].x, t.v[0].y, t.v[0].z, bits(t.material)]);
-        out.push([t.v[1].x, t.v[1].y, t.v[1].z, bits(e)]);
-        out.push([t.v[2].x, t.v[2].y, t.v[2].z, 0.0]);
-    }
+    let mut out = vec![[0.0; 4]; scene.triangles.len() * TRIANGLE_TEXELS];
+    write_triangle_data(scene, &mut out);
     out
 }
 
+/// [`triangle_data`] written into `out` (`TRIANGLE_TEXELS` texels a triangle), such as a
+/// buffer's mapped memory: a million triangles' 48 MB then have no copy on the host.
+pub fn write_triangle_data(scene: &Scene, out: &mut [[f32; 4]]) {
+    use rayon::prelude::*;
+    out.par_chunks_mut(TRIANGLE_TEXELS)
+        .zip(&scene.triangles)
+        .for_each(|(o, t)| {
+            let e = t.emitter.unwrap_or(NO_EMITTER);
+            o[0] = [t.v[0].x, t.v[0].y, t.v[0].z, bits(t.material)];
+            o[1] = [t.v[1].x, t.v[1].y, t.v[1].z, bits(e)];
+            o[2] = [t.v[2].x, t.v[2].y, t.v[2].z, 0.0];
+        });
+}
+
 /// 4 vec4 per triangle: (n0, u0), (n1, u1), (n2, u2), (v0, v1, v2, flags: 1 normals, 2 uvs).
+/// When no triangle has shading normals or texture coordinates, one zero texel: the kernels
+/// then never read the buffer (neither SCENE_SHADING_NORMALS nor SCENE_UVS is defined,
+/// `kernels::scene_features`), and a buffer cannot be empty. That spares a million-triangle
+/// mesh without them 64 MB.
 pub fn triangle_attributes(scene: &Scene) -> Vec<[f32; 4]> {
+    if !(scene.has_shading_normals() || scene.has_uvs()) {
+        return vec![[0.0; 4]];
+    }
     let mut out = Vec::with_capacity(scene.triangles.len() * 4);
-    for t in &scene.triangles {
-        let n = t.n.unwrap_or([glam::Vec3::ZERO; 3]);
-        let uv = t.uv.unwrap_or([glam::Vec2::ZERO; 3]);
-        let flags = (t.n.is_some() as u32) | ((t.uv.is_some() as u32) << 1);
+    for i in 0..scene.triangles.len() {
+        let a = scene.attributes_of(i);
+        let n = a.n.unwrap_or([glam::Vec3::ZERO; 3]);
+        let uv = a.uv.unwrap_or([glam::Vec2::ZERO; 3]);
+        let flags = (a.n.is_some() as u32) | ((a.uv.is_some() as u32) << 1);
         for k in 0..3 {
             out.push([n[k].x, n[k].y, n[k].z, uv[k].x]);
         }

@@ -3,13 +3,13 @@
 //! tagged with its material and emitter).
 
 use super::error::SceneError;
-use super::geometry::{degenerate, edge_overflow, Transform};
+use super::geometry::{degenerate, edge_overflow, Transform, TriangleSink};
 use super::obj::{obj_triangles, ObjShape};
 use super::schema::{
     Arr, MaterialTable, RawCamera, RawIntegrator, RawScene, RawShape, RawSphere, Triple, V3,
 };
 use super::spanned::{Cx, Sp};
-use super::{Camera, Emitter, Integrator, Scene, Sphere, Triangle};
+use super::{Camera, Emitter, Integrator, Scene, Sphere, Triangle, VertexAttributes};
 use crate::brdf::params::fmt_num;
 use crate::brdf::{self, Origin};
 use glam::Vec3;
@@ -192,6 +192,7 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
         material_params,
         emitters: out.emitters,
         triangles: out.triangles,
+        attributes: out.attributes,
         spheres: out.spheres,
         lights,
         environment,
@@ -394,6 +395,8 @@ pub(super) fn camera(cx: &Cx, c: &RawCamera) -> Result<Camera, SceneError> {
 #[derive(Default)]
 pub(super) struct Shapes {
     pub(super) triangles: Vec<Triangle>,
+    /// The triangles' vertex attributes (`Scene::attributes`).
+    pub(super) attributes: Vec<VertexAttributes>,
     pub(super) spheres: Vec<Sphere>,
     pub(super) emitters: Vec<Emitter>,
     /// Materials read from MTL files (`mtl = true`), with their names.
@@ -464,8 +467,6 @@ pub(super) fn shape_primitives(
 
     let tri = |v: [Vec3; 3]| Triangle {
         v,
-        n: None,
-        uv: None,
         material,
         emitter,
     };
@@ -497,7 +498,11 @@ pub(super) fn shape_primitives(
             material,
             emitter,
         };
-        super::ply_shape::ply_triangles(cx, &mesh, ply, xf, &mut out.triangles)?;
+        let sink = TriangleSink {
+            triangles: &mut out.triangles,
+            attributes: &mut out.attributes,
+        };
+        super::ply_shape::ply_triangles(cx, &mesh, ply, xf, sink)?;
     }
     if let Some(obj) = &s.obj {
         let xf = mesh_xf;
@@ -513,11 +518,15 @@ pub(super) fn shape_primitives(
             base: out.material_base,
         };
         let mtl = use_mtl.then_some(&mut mo);
-        obj_triangles(cx, &mesh, obj, &xf, &mut out.triangles, mtl)?;
+        let sink = TriangleSink {
+            triangles: &mut out.triangles,
+            attributes: &mut out.attributes,
+        };
+        obj_triangles(cx, &mesh, obj, &xf, sink, mtl)?;
     }
     if face_normals {
-        for t in &mut out.triangles[first_mesh_triangle..] {
-            t.n = None;
+        for a in out.attributes.iter_mut().skip(first_mesh_triangle) {
+            a.n = None;
         }
     }
     Ok(())

@@ -3,7 +3,7 @@
 //! the face rules of meshes.
 
 use super::spanned::Cx;
-use super::Triangle;
+use super::{Triangle, VertexAttributes};
 use glam::{DMat3, DVec3, Vec2, Vec3};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -170,6 +170,25 @@ pub(super) fn mesh_path(cx: &Cx, name: &str) -> PathBuf {
     }
 }
 
+/// Where a shape appends its triangles: the scene's triangles and their vertex attributes
+/// (`Scene::attributes`, kept up to the last triangle that has any).
+pub(super) struct TriangleSink<'a> {
+    pub(super) triangles: &'a mut Vec<Triangle>,
+    pub(super) attributes: &'a mut Vec<VertexAttributes>,
+}
+
+impl TriangleSink<'_> {
+    /// Appends one triangle and its attributes.
+    pub(super) fn push(&mut self, (t, a): (Triangle, VertexAttributes)) {
+        if a != VertexAttributes::NONE {
+            self.attributes
+                .resize(self.triangles.len(), VertexAttributes::NONE);
+            self.attributes.push(a);
+        }
+        self.triangles.push(t);
+    }
+}
+
 /// The face rules that OBJ and PLY meshes share, with the counts their closing warnings give:
 /// zero-area triangles skipped, vertex normals that are zero or not finite dropped (the
 /// triangle uses its geometric normal), normals opposite to the winding counted, texture
@@ -183,8 +202,9 @@ pub(super) struct FaceRules {
 }
 
 impl FaceRules {
-    /// The triangle of the placed vertices `v` (checked by [`edge_overflow`] first), their
-    /// normals `n` and texture coordinates `uv`, or `None` when it has zero area.
+    /// The triangle of the placed vertices `v` (checked by [`edge_overflow`] first), with the
+    /// attributes of their normals `n` and texture coordinates `uv`, or `None` when it has zero
+    /// area.
     pub(super) fn face(
         &mut self,
         v: [Vec3; 3],
@@ -192,7 +212,7 @@ impl FaceRules {
         uv: Option<[Vec2; 3]>,
         material: u32,
         emitter: Option<u32>,
-    ) -> Option<Triangle> {
+    ) -> Option<(Triangle, VertexAttributes)> {
         if degenerate(&v) {
             self.skipped += 1;
             return None;
@@ -207,13 +227,18 @@ impl FaceRules {
             usable
         });
         self.made += 1;
-        Some(Triangle {
-            v,
+        let attributes = VertexAttributes {
             n,
             uv: uv.filter(|u| u.iter().all(|x| x.is_finite())),
-            material,
-            emitter,
-        })
+        };
+        Some((
+            Triangle {
+                v,
+                material,
+                emitter,
+            },
+            attributes,
+        ))
     }
 
     /// Adds the counts of `other` (the rules of another part of the same mesh).

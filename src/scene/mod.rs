@@ -99,16 +99,28 @@ pub enum DeltaLight {
 }
 
 /// One triangle. Positions are in world space; the geometric normal is
-/// `normalize(cross(v1 - v0, v2 - v0))` and defines the front side.
+/// `normalize(cross(v1 - v0, v2 - v0))` and defines the front side. Its optional per-vertex
+/// attributes are kept apart, in [`Scene::attributes`], so that a big mesh without them (the
+/// usual case) takes 48 bytes a triangle instead of 116 (BENCHMARKS.md: set-up memory).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Triangle {
     pub v: [Vec3; 3],
+    pub material: u32,
+    pub emitter: Option<u32>,
+}
+
+/// The per-vertex attributes of one triangle, each optional.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct VertexAttributes {
     /// Per-vertex shading normals, if the mesh has them (else the geometric normal is used).
     pub n: Option<[Vec3; 3]>,
     /// Per-vertex texture coordinates, if the mesh has them (used for the tangent dp/du).
     pub uv: Option<[Vec2; 3]>,
-    pub material: u32,
-    pub emitter: Option<u32>,
+}
+
+impl VertexAttributes {
+    /// No normals and no texture coordinates.
+    pub const NONE: VertexAttributes = VertexAttributes { n: None, uv: None };
 }
 
 /// An analytic sphere. The front side is the outside, unless `inward` is set (a closed room
@@ -140,6 +152,10 @@ pub struct Scene {
     pub material_params: Vec<std::collections::BTreeMap<String, toml::Value>>,
     pub emitters: Vec<Emitter>,
     pub triangles: Vec<Triangle>,
+    /// The vertex attributes of `triangles`, index for index, up to the last triangle that has
+    /// any: shorter than `triangles` (empty for a scene without them), the triangles past its
+    /// end have none. Read it through [`Scene::attributes_of`].
+    pub attributes: Vec<VertexAttributes>,
     pub spheres: Vec<Sphere>,
     /// Point and directional lights.
     pub lights: Vec<DeltaLight>,
@@ -151,6 +167,24 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// The vertex attributes of triangle `i` (none past the end of [`Scene::attributes`]).
+    pub fn attributes_of(&self, i: usize) -> VertexAttributes {
+        self.attributes
+            .get(i)
+            .copied()
+            .unwrap_or(VertexAttributes::NONE)
+    }
+
+    /// Whether some triangle has shading normals.
+    pub fn has_shading_normals(&self) -> bool {
+        self.attributes.iter().any(|a| a.n.is_some())
+    }
+
+    /// Whether some triangle has texture coordinates.
+    pub fn has_uvs(&self) -> bool {
+        self.attributes.iter().any(|a| a.uv.is_some())
+    }
+
     /// The models (indices into `brdf::MODELS`, ascending) of the materials that scatter: the
     /// models that get a queue and a `shade_<model>` stage, on both backends.
     pub fn shaded_models(&self) -> Vec<usize> {

@@ -3,10 +3,10 @@
 //! and emitter.
 
 use super::error::SceneError;
-use super::geometry::{edge_overflow, mesh_path, FaceRules, Transform};
+use super::geometry::{edge_overflow, mesh_path, FaceRules, Transform, TriangleSink};
 use super::mtl::{mtl_material, MtlOut};
 use super::spanned::{Cx, Sp};
-use super::Triangle;
+use super::{Triangle, VertexAttributes};
 use glam::{Vec2, Vec3};
 use std::ops::Range;
 use std::path::Path;
@@ -119,7 +119,7 @@ pub(super) fn obj_triangles(
     shape: &ObjShape,
     obj: &Sp<String>,
     xf: &Transform,
-    out: &mut Vec<Triangle>,
+    mut out: TriangleSink,
     mut mtl: Option<&mut MtlOut>,
 ) -> Result<(), SceneError> {
     let full = mesh_path(cx, &obj.value);
@@ -184,7 +184,16 @@ pub(super) fn obj_triangles(
             }
         }
         let me = (material, emitter);
-        model_triangles(cx, &at, model, xf, (has_n, has_uv), me, out, &mut rules)?;
+        model_triangles(
+            cx,
+            &at,
+            model,
+            xf,
+            (has_n, has_uv),
+            me,
+            &mut out,
+            &mut rules,
+        )?;
     }
     rules.warn(cx, at.span.clone(), at.field, ("OBJ", &shown, &shape.label));
     Ok(())
@@ -197,7 +206,9 @@ const FACES_PER_PIECE: usize = 1 << 15;
 /// [`obj_face`] and [`FaceRules::face`] in parallel pieces, kept in order; the first error in
 /// face order is the one reported, as in a serial pass. The pieces write straight into `out`
 /// (its new memory is first touched on all threads: a copy of a million triangles into fresh
-/// pages cost more than placing them), then the gaps of skipped faces close.
+/// pages cost more than placing them), then the gaps of skipped faces close. The attributes
+/// are written beside the triangles only when the model has normals or texture coordinates
+/// (`attributes`).
 #[allow(clippy::too_many_arguments)]
 fn model_triangles(
     cx: &Cx,
@@ -206,50 +217,76 @@ fn model_triangles(
     xf: &Transform,
     attributes: (bool, bool),
     (material, emitter): (u32, Option<u32>),
-    out: &mut Vec<Triangle>,
+    out: &mut TriangleSink,
     rules: &mut FaceRules,
 ) -> Result<(), SceneError> {
     use rayon::prelude::*;
     let indices = &model.mesh.indices;
-    let old = out.len();
+    let faces = indices.len() / 3;
+    let old = out.triangles.len();
     let unset = Triangle {
         v: [Vec3::ZERO; 3],
-        n: None,
-        uv: None,
         material,
         emitter,
     };
-    out.par_extend(rayon::iter::repeat_n(unset, indices.len() / 3));
-    let piece = |k: usize, dst: &mut [Triangle], faces: &[u32]| {
-        let mut rules = FaceRules::default();
-        let mut made = 0;
-        for (t, face) in faces.chunks_exact(3).enumerate() {
-            let face = (k * FACES_PER_PIECE + t, face);
-            let (v, n, uv) = obj_face(cx, at, model, face, xf, attributes)?;
-            if let Some(tri) = rules.face(v, n, uv, material, emitter) {
-                dst[made] = tri;
-                made += 1;
-            }
-        }
-        Ok((made, rules))
+    out.triangles
+        .par_extend(rayon::iter::repeat_n(unset, faces));
+    let with_attributes = attributes.0 || attributes.1;
+    if with_attributes {
+        out.attributes.resize(old + faces, VertexAttributes::NONE);
+    }
+    // Each piece's attribute slots: its part of `out.attributes`, or none.
+    let pieces = faces.div_ceil(FACES_PER_PIECE);
+    let attribute_slots: Vec<&mut [VertexAttributes]> = match with_attributes {
+        true => out.attributes[old..].chunks_mut(FACES_PER_PIECE).collect(),
+        false => (0..pieces)
+            .map(|_| <&mut [VertexAttributes]>::default())
+            .collect(),
     };
-    let pieces: Vec<Result<(usize, FaceRules), SceneError>> = out[old..]
+    let piece =
+        |k: usize, dst: &mut [Triangle], dst_attributes: &mut [VertexAttributes], faces: &[u32]| {
+            let mut rules = FaceRules::default();
+            let mut made = 0;
+            for (t, face) in faces.chunks_exact(3).enumerate() {
+                let face = (k * FACES_PER_PIECE + t, face);
+                let (v, n, uv) = obj_face(cx, at, model, face, xf, attributes)?;
+                if let Some((tri, a)) = rules.face(v, n, uv, material, emitter) {
+                    dst[made] = tri;
+                    if with_attributes {
+                        dst_attributes[made] = a;
+                    }
+                    made += 1;
+                }
+            }
+            Ok((made, rules))
+        };
+    let pieces: Vec<Result<(usize, FaceRules), SceneError>> = out.triangles[old..]
         .par_chunks_mut(FACES_PER_PIECE)
+        .zip(attribute_slots)
         .zip(indices.par_chunks(3 * FACES_PER_PIECE))
         .enumerate()
-        .map(|(k, (dst, faces))| piece(k, dst, faces))
+        .map(|(k, ((dst, dst_attributes), faces))| piece(k, dst, dst_attributes, faces))
         .collect();
     let mut end = old;
     for (k, p) in pieces.into_iter().enumerate() {
-        let (made, r) = p.inspect_err(|_| out.truncate(old))?;
+        let (made, r) = p.inspect_err(|_| {
+            out.triangles.truncate(old);
+            out.attributes.truncate(old);
+        })?;
         let first = old + k * FACES_PER_PIECE;
         for i in 0..made {
-            out.swap(end + i, first + i);
+            out.triangles.swap(end + i, first + i);
+            if with_attributes {
+                out.attributes.swap(end + i, first + i);
+            }
         }
         end += made;
         rules.add(&r);
     }
-    out.truncate(end);
+    out.triangles.truncate(end);
+    if with_attributes {
+        out.attributes.truncate(end);
+    }
     Ok(())
 }
 

@@ -1,13 +1,12 @@
 //! A `ply = "mesh.ply"` shape: the file read by [`super::ply`], its polygons fan-triangulated
-//! and turned into [`Triangle`]s with the shape's transform, material and emitter, with the
+//! and turned into triangles with the shape's transform, material and emitter, with the
 //! checks and warnings of OBJ shapes ([`super::obj`]): zero-area triangles skipped, vertex
 //! normals that are zero or not finite dropped, normals opposite to the winding counted.
 
 use super::error::SceneError;
-use super::geometry::{edge_overflow, mesh_path, FaceRules, Transform};
+use super::geometry::{edge_overflow, mesh_path, FaceRules, Transform, TriangleSink};
 use super::obj::ObjShape;
 use super::spanned::{Cx, Sp};
-use super::Triangle;
 use glam::Vec3;
 
 pub(super) fn ply_triangles(
@@ -15,7 +14,7 @@ pub(super) fn ply_triangles(
     shape: &ObjShape,
     ply: &Sp<String>,
     xf: &Transform,
-    out: &mut Vec<Triangle>,
+    mut out: TriangleSink,
 ) -> Result<(), SceneError> {
     let fp = shape.field.as_str();
     let span = ply.span();
@@ -58,7 +57,9 @@ pub(super) fn ply_triangles(
         }
         let n = normals.as_ref().map(|ns| [ns[a], ns[b], ns[c]]);
         let uv = mesh.uvs.as_ref().map(|u| [u[a], u[b], u[c]]);
-        out.extend(rules.face(v, n, uv, shape.material, shape.emitter));
+        if let Some(face) = rules.face(v, n, uv, shape.material, shape.emitter) {
+            out.push(face);
+        }
     }
     rules.warn(cx, span, fp, ("PLY", &shown, &shape.label));
     Ok(())

@@ -385,8 +385,6 @@ pub(super) fn flat_triangle(
 ) -> crate::scene::Triangle {
     crate::scene::Triangle {
         v,
-        n: None,
-        uv: None,
         material,
         emitter,
     }

@@ -102,6 +102,58 @@ impl Context {
         Ok(buf)
     }
 
+    /// A device-local buffer of `len` elements, written by `fill`: straight into the buffer's
+    /// memory when it is mapped (host-visible, as all of lavapipe's memory is), so that the data
+    /// never has a second, host-side copy (the triangle buffer of a million triangles is 48 MB);
+    /// otherwise into a host vector that is [`upload`](Self::upload)ed. `fill` is given
+    /// zeroed elements.
+    pub fn create_buffer_filled<T: bytemuck::Pod>(
+        &self,
+        name: &str,
+        len: usize,
+        usage: vk::BufferUsageFlags,
+        fill: impl FnOnce(&mut [T]),
+    ) -> Result<Buffer> {
+        let bytes = len
+            .checked_mul(std::mem::size_of::<T>())
+            .ok_or_else(|| anyhow!("buffer \"{name}\": {len} elements overflow its size"))?;
+        let buf = self.create_buffer(name, bytes as u64, usage, MemoryLocation::GpuOnly)?;
+        let alloc = buf.allocation.as_ref().expect("live buffer has memory");
+        let direct = bytes > 0
+            && alloc.mapped_ptr().is_some()
+            && !self.force_staging.load(Ordering::Relaxed);
+        let result = match direct {
+            true => Self::mapping(alloc, bytes).and_then(|dst| {
+                if dst as usize % std::mem::align_of::<T>() != 0 {
+                    bail!("the mapping is not aligned for its elements");
+                }
+                // SAFETY: the mapping holds `bytes` bytes (checked), aligned for T (checked);
+                // zeroing them first makes every element a valid T (T is Pod); no GPU work uses
+                // a buffer just made.
+                let elements = unsafe {
+                    std::ptr::write_bytes(dst, 0, bytes);
+                    std::slice::from_raw_parts_mut(dst.cast::<T>(), len)
+                };
+                fill(elements);
+                if let Some(range) = self.non_coherent_range(alloc) {
+                    unsafe { self.device.flush_mapped_memory_ranges(&[range]) }
+                        .context("vkFlushMappedMemoryRanges")?;
+                }
+                Ok(())
+            }),
+            false => {
+                let mut data = vec![T::zeroed(); len];
+                fill(&mut data);
+                self.upload(&buf, &data)
+            }
+        };
+        if let Err(e) = result {
+            self.destroy_buffer(buf);
+            return Err(e.context(format!("filling buffer \"{name}\"")));
+        }
+        Ok(buf)
+    }
+
     /// Copies `data` to the start of `buf` (at most `buf.size` bytes). Call it while no
     /// submitted work uses the buffer (every submission here is waited for, so: not between
     /// `begin` and `submit_and_wait` of a recording that uses it).
@@ -119,7 +171,7 @@ impl Context {
             return Ok(());
         }
         let alloc = buf.allocation.as_ref().expect("live buffer has memory");
-        if alloc.mapped_ptr().is_some() {
+        if alloc.mapped_ptr().is_some() && !self.force_staging.load(Ordering::Relaxed) {
             return self
                 .write_mapped(alloc, bytes)
                 .with_context(|| format!("upload to buffer \"{}\"", buf.name));

@@ -45,12 +45,11 @@ pub fn scene(tris: Vec<[Vec3; 3]>, spheres: Vec<(Vec3, f32, bool)>) -> Scene {
             .into_iter()
             .map(|v| Triangle {
                 v,
-                n: None,
-                uv: None,
                 material: 0,
                 emitter: None,
             })
             .collect(),
+        attributes: Vec::new(),
         spheres: spheres
             .into_iter()
             .map(|(center, radius, inward)| Sphere {

@@ -19,7 +19,7 @@
 
 use crate::brdf::cook_torrance::{CookTorrance, Distribution, Fresnel, Geometry, Normalization};
 use crate::brdf::lambert::Lambert;
-use crate::scene::{DeltaLight, Scene, Sphere, Triangle};
+use crate::scene::{DeltaLight, Scene, Sphere, Triangle, VertexAttributes};
 use glam::Vec3;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -91,14 +91,14 @@ pub fn to_mitsuba(s: &Scene, mesh_dir: &str, opts: Options) -> Result<Converted,
         match shape {
             Shape::Mesh(tris) => {
                 let file = format!("{mesh_dir}/mesh-{}.obj", meshes.len());
-                let t = tris[0];
+                let (t, a) = tris[0];
                 let _ = writeln!(x, "    <shape type=\"obj\">");
                 let _ = writeln!(
                     x,
                     "        <string name=\"filename\" value=\"{}\"/>",
                     attr(&file)
                 );
-                if t.n.is_none() {
+                if a.n.is_none() {
                     // The OBJ shares vertices (obj_text): without this, Mitsuba would make
                     // smooth normals over them where brdfwave shades the flat triangles.
                     let _ = writeln!(x, "        <boolean name=\"face_normals\" value=\"true\"/>");
@@ -374,7 +374,8 @@ fn shape_tail(x: &mut String, s: &Scene, material: u32, emitter: Option<u32>) {
 }
 
 enum Shape<'s> {
-    Mesh(Vec<&'s Triangle>),
+    /// Triangles with their vertex attributes.
+    Mesh(Vec<(&'s Triangle, VertexAttributes)>),
     Sphere(&'s Sphere),
 }
 
@@ -384,18 +385,21 @@ enum Shape<'s> {
 /// (the loader numbers emitters in shape order).
 fn ordered_shapes(s: &Scene) -> Vec<Shape<'_>> {
     // An OBJ object's vertices all have normals (texture coordinates) or none do.
-    let key = |t: &Triangle| (t.material, t.emitter, t.n.is_some(), t.uv.is_some());
-    let mut runs: Vec<Vec<&Triangle>> = Vec::new();
-    for t in &s.triangles {
+    let key = |(t, a): (&Triangle, VertexAttributes)| {
+        (t.material, t.emitter, a.n.is_some(), a.uv.is_some())
+    };
+    let mut runs: Vec<Vec<(&Triangle, VertexAttributes)>> = Vec::new();
+    for (i, t) in s.triangles.iter().enumerate() {
+        let ta = (t, s.attributes_of(i));
         match runs.last_mut() {
-            Some(r) if key(r[0]) == key(t) => r.push(t),
-            _ => runs.push(vec![t]),
+            Some(r) if key(r[0]) == key(ta) => r.push(ta),
+            _ => runs.push(vec![ta]),
         }
     }
     let (mut runs, mut spheres) = (runs.into_iter().peekable(), s.spheres.iter().peekable());
     let mut out = Vec::new();
     loop {
-        let next_run = runs.peek().map(|r| r[0].emitter);
+        let next_run = runs.peek().map(|r| r[0].0.emitter);
         let next_sphere = spheres.peek().map(|sp| sp.emitter);
         let take_run = match (next_run, next_sphere) {
             (None, None) => break,
@@ -419,7 +423,7 @@ fn ordered_shapes(s: &Scene) -> Vec<Shape<'_>> {
 /// three vertices per triangle, and Mitsuba loads it that much faster. Sharing changes no
 /// triangle (each corner keeps its own bits); a mesh without normals is marked `face_normals`
 /// (see [`to_mitsuba`]), so Mitsuba does not smooth it over the shared vertices.
-fn obj_text(tris: &[&Triangle]) -> String {
+fn obj_text(tris: &[(&Triangle, VertexAttributes)]) -> String {
     use std::collections::HashMap;
     /// Index (1-based) of `v` in `list`, adding it if new; keyed on the bits of its numbers.
     fn index<const N: usize>(
@@ -435,12 +439,12 @@ fn obj_text(tris: &[&Triangle]) -> String {
     let (mut vs, mut ns, mut ts) = (Vec::new(), Vec::new(), Vec::new());
     let (mut vm, mut nm, mut tm) = (HashMap::new(), HashMap::new(), HashMap::new());
     let mut faces = String::new();
-    for t in tris {
+    for (t, a) in tris {
         let mut f = String::from("f");
         for k in 0..3 {
             let vi = index(&mut vm, &mut vs, t.v[k].to_array());
-            let ti = t.uv.map(|uv| index(&mut tm, &mut ts, uv[k].to_array()));
-            let ni = t.n.map(|n| index(&mut nm, &mut ns, n[k].to_array()));
+            let ti = a.uv.map(|uv| index(&mut tm, &mut ts, uv[k].to_array()));
+            let ni = a.n.map(|n| index(&mut nm, &mut ns, n[k].to_array()));
             let _ = match (ti, ni) {
                 (None, None) => write!(f, " {vi}"),
                 (Some(ti), None) => write!(f, " {vi}/{ti}"),
