@@ -4,7 +4,7 @@
 mod common;
 
 use brdfwave::output::RenderOutput;
-use brdfwave::stress::transform_scene;
+use brdfwave::stress::{numbers_scene, transform_scene};
 use common::*;
 use glam::Vec3;
 
@@ -73,45 +73,34 @@ fn load_text(name: &str, text: &str) -> Result<brdfwave::scene::Scene, String> {
     brdfwave::scene::load(&path).map_err(|e| e.to_string())
 }
 
-const HEAD: &str = r#"
-[film]
-width = 8
-height = 8
-[integrator]
-spp = 2
-max_depth = 3
-[materials.m]
-model = "lambert"
-albedo = 0.5
-"#;
+/// The target of most scenes here.
+const ORIGIN: &str = "[0.0, 0.0, 0.0]";
+/// A sphere of radius 1 at the origin in the material `m` of [`numbers_scene`].
+const UNIT_SPHERE: &str =
+    "[[shapes]]\nmaterial = \"m\"\nsphere = { center = [0.0, 0.0, 0.0], radius = 1.0 }\n";
 
 /// A camera 2e19 from its target is a valid f32 input (the squared distance overflowed, and it
 /// was refused as "the target equals the position"); its basis is finite and unit.
 #[test]
 fn a_camera_far_from_its_target_is_accepted() {
     for d in [2.0e19f32, 1.0e30, 3.0e38] {
-        let text = format!(
-            "[camera]\nposition = [0.0, 0.0, {:e}]\ntarget = [0.0, 0.0, 0.0]\nfov_y = 40\n{HEAD}\
-             [[shapes]]\nmaterial = \"m\"\nsphere = {{ center = [0.0, 0.0, 0.0], radius = 1.0 }}\n",
-            -d
-        );
+        let text = numbers_scene(&format!("[0.0, 0.0, {:e}]", -d), ORIGIN, 8, UNIT_SPHERE);
         let s = load_text("far.toml", &text).unwrap_or_else(|e| panic!("distance {d}: {e}"));
         let b = brdfwave::camera::CameraBasis::new(&s);
         assert_eq!(b.forward, Vec3::Z, "distance {d}");
         assert!(b.right.is_finite() && b.up.is_finite());
     }
     // Tiny distances too (the squared length underflowed).
-    let text = format!(
-        "[camera]\nposition = [0.0, 0.0, -1e-25]\ntarget = [0.0, 0.0, 0.0]\nfov_y = 40\n{HEAD}\
-         [[shapes]]\nmaterial = \"m\"\nsphere = {{ center = [0.0, 0.0, 1.0], radius = 0.5 }}\n"
+    let text = numbers_scene(
+        "[0.0, 0.0, -1e-25]",
+        ORIGIN,
+        8,
+        "[[shapes]]\nmaterial = \"m\"\nsphere = { center = [0.0, 0.0, 1.0], radius = 0.5 }\n",
     );
     let s = load_text("near.toml", &text).expect("a camera 1e-25 from its target");
     assert_eq!(brdfwave::camera::CameraBasis::new(&s).forward, Vec3::Z);
     // A difference that overflows f32 is refused, saying so.
-    let text = format!(
-        "[camera]\nposition = [0.0, 0.0, -3e38]\ntarget = [0.0, 0.0, 3e38]\nfov_y = 40\n{HEAD}\
-         [[shapes]]\nmaterial = \"m\"\nsphere = {{ center = [0.0, 0.0, 0.0], radius = 1.0 }}\n"
-    );
+    let text = numbers_scene("[0.0, 0.0, -3e38]", "[0.0, 0.0, 3e38]", 8, UNIT_SPHERE);
     let e = load_text("over.toml", &text).unwrap_err();
     assert!(e.contains("overflows single precision"), "{e}");
 }
@@ -121,10 +110,14 @@ fn a_camera_far_from_its_target_is_accepted() {
 #[test]
 fn huge_meshes_keep_their_triangles() {
     let obj = |scale: f32| {
-        format!(
-            "[camera]\nposition = [0.0, 0.0, {:e}]\ntarget = [0.0, 0.0, 0.0]\nfov_y = 40\n{HEAD}\
-             [[shapes]]\nmaterial = \"m\"\nobj = \"icosphere.obj\"\ntransform = {{ scale = {scale:e} }}\n",
-            -(4.0 * scale).min(3.0e38)
+        numbers_scene(
+            &format!("[0.0, 0.0, {:e}]", -(4.0 * scale).min(3.0e38)),
+            ORIGIN,
+            8,
+            &format!(
+                "[[shapes]]\nmaterial = \"m\"\nobj = \"icosphere.obj\"\n\
+                 transform = {{ scale = {scale:e} }}\n"
+            ),
         )
     };
     for scale in [1.0f32, 1e-30, 1e20, 1e30, 1e38] {
@@ -146,9 +139,11 @@ fn huge_meshes_keep_their_triangles() {
         "v 3.0e38 0 0\nv 0 3.0e38 0\nv 0 0 3.0e38\nf 1 2 3\n",
     )
     .unwrap();
-    let text = format!(
-        "[camera]\nposition = [1e38, 1e38, 1e38]\ntarget = [0.0, 0.0, 0.0]\nfov_y = 40\n{HEAD}\
-         [[shapes]]\nmaterial = \"m\"\nobj = \"big.obj\"\n"
+    let text = numbers_scene(
+        "[1e38, 1e38, 1e38]",
+        ORIGIN,
+        8,
+        "[[shapes]]\nmaterial = \"m\"\nobj = \"big.obj\"\n",
     );
     std::fs::write(dir.path().join("big.toml"), &text).unwrap();
     let s = brdfwave::scene::load(&dir.path().join("big.toml")).expect("vertices near 3e38");

@@ -54,3 +54,4 @@ pub use geometry::{block_z_max, transform_scene, two_sided_z};
 pub use harness::{cli, run, CaseResult, Env, Failure, Group, GroupStats, Options, Report, GROUPS};
 pub use models::{quiet_material, random_direction, random_material, random_material_of};
 pub use rng::{case_seed, Rng};
+pub use scene_numbers::numbers_scene;

@@ -6,6 +6,30 @@ use super::rng::Rng;
 use anyhow::Result;
 use std::path::Path;
 
+/// A scene file for checks of the number range: the camera at `position` looking at `target`
+/// (TOML arrays), a `size`×`size` film, 2 samples per pixel of at most 3 bounces, and one grey
+/// Lambertian material `m` for the `shapes` (`[[shapes]]` tables) to use. The random cases of
+/// this group and the fixed regressions of the same number-range faults are written with it, so
+/// that a regression reads as one case with its numbers written out.
+pub fn numbers_scene(position: &str, target: &str, size: u32, shapes: &str) -> String {
+    format!(
+        r#"[camera]
+position = {position}
+target = {target}
+fov_y = 40
+[film]
+width = {size}
+height = {size}
+[integrator]
+spp = 2
+max_depth = 3
+[materials.m]
+model = "lambert"
+albedo = 0.5
+{shapes}"#
+    )
+}
+
 pub(super) fn case_scene_numbers(_env: &mut Env, seed: u64) -> Result<CaseResult> {
     let mut r = Rng::new(seed);
     let big = |r: &mut Rng| -> f32 {
@@ -40,22 +64,8 @@ pub(super) fn case_scene_numbers(_env: &mut Env, seed: u64) -> Result<CaseResult
     let tri = [v(&mut r, kind == 1), v(&mut r, kind == 1), v(&mut r, false)];
     let radius = if kind == 2 { big(&mut r).abs() } else { s };
     let emission = if kind == 3 { big(&mut r).abs() } else { 1.0 };
-    let text = format!(
-        r#"
-[camera]
-position = {cam}
-target = {target}
-fov_y = 40
-[film]
-width = 6
-height = 6
-[integrator]
-spp = 2
-max_depth = 3
-[materials.m]
-model = "lambert"
-albedo = 0.5
-[[shapes]]
+    let shapes = format!(
+        r#"[[shapes]]
 material = "m"
 emission = [{emission:e}, {emission:e}, {emission:e}]
 triangles = [[{}, {}, {}]]
@@ -68,6 +78,7 @@ sphere = {{ center = {}, radius = {radius:e} }}
         tri[2],
         v(&mut r, false)
     );
+    let text = numbers_scene(&cam, &target, 6, &shapes);
     let loaded =
         std::panic::catch_unwind(|| crate::scene::load_str(&text, Path::new("stress.toml")));
     let scene = match loaded {
