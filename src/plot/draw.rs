@@ -2,6 +2,7 @@
 
 use super::{Figure, HeatMap, LineChart, Panel, Pixels, PolarChart, Scale, Series};
 use anyhow::{anyhow, Result};
+use plotters::chart::MeshStyle;
 use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -64,6 +65,32 @@ pub fn number(v: f64) -> String {
         let s = format!("{v:.1e}");
         s.replace(".0e", "e")
     }
+}
+
+/// The axes of a line chart or a heat-map panel: the descriptions `x` and `y`, ticks written by
+/// [`number`], tick labels of `size` and descriptions 2 larger.
+fn axes<'m, 'a, 'b, X, Y, DB>(
+    mesh: &'m mut MeshStyle<'a, 'b, X, Y, DB>,
+    x: &str,
+    y: &str,
+    size: i32,
+) -> &'m mut MeshStyle<'a, 'b, X, Y, DB>
+where
+    X: Ranged<ValueType = f64>,
+    Y: Ranged<ValueType = f64>,
+    DB: DrawingBackend,
+{
+    mesh.x_desc(x)
+        .y_desc(y)
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
+        .label_style((FAMILY, size))
+        .axis_desc_style((FAMILY, size + 2))
+}
+
+/// [`number`] as a tick-label formatter.
+fn tick(v: &f64) -> String {
+    number(*v)
 }
 
 /// The caption's font size: 22, smaller for a title too long for the width (down to 11).
@@ -154,14 +181,7 @@ where
         .y_label_area_size(80)
         .build_cartesian_2d(x, y)
         .map_err(err)?;
-    chart
-        .configure_mesh()
-        .x_desc(c.x_label.as_str())
-        .y_desc(c.y_label.as_str())
-        .x_label_formatter(&|v| number(*v))
-        .y_label_formatter(&|v| number(*v))
-        .label_style((FAMILY, 15))
-        .axis_desc_style((FAMILY, 17))
+    axes(&mut chart.configure_mesh(), &c.x_label, &c.y_label, 15)
         .light_line_style(RGBColor(235, 235, 235))
         .bold_line_style(RGBColor(210, 210, 210))
         .draw()
@@ -434,17 +454,14 @@ where
         .y_label_area_size(52)
         .build_cartesian_2d(x0..x1, y0..y1)
         .map_err(err)?;
-    chart
-        .configure_mesh()
-        .disable_mesh()
-        .x_desc(h.x_label.as_str())
-        .y_desc(h.y_label.as_str())
-        .x_label_formatter(&|v| number(*v))
-        .y_label_formatter(&|v| number(*v))
-        .label_style((FAMILY, 13))
-        .axis_desc_style((FAMILY, 15))
-        .draw()
-        .map_err(err)?;
+    axes(
+        chart.configure_mesh().disable_mesh(),
+        &h.x_label,
+        &h.y_label,
+        13,
+    )
+    .draw()
+    .map_err(err)?;
     let (dx, dy) = (
         (x1 - x0) / p.width.max(1) as f64,
         (y1 - y0) / p.height.max(1) as f64,
