@@ -164,7 +164,7 @@ pub fn render(scene: &Scene, options: &Options) -> Result<Render> {
         },
         None => render::Backend::Cpu,
     };
-    let mut r = render::open(backend, &sc, &bvh, part.tile)?;
+    let mut r = render::open(backend, &sc, std::sync::Arc::new(bvh), part.tile)?;
     let description = r.describe();
     let t = Instant::now();
     let out = r

@@ -51,7 +51,7 @@ fn gpu(ctx: &Context, s: &Scene, integrator: Integrator) -> anyhow::Result<Rende
     let mut r = GpuRenderer::with_options(
         ctx,
         s,
-        &b,
+        b.into(),
         &compiler,
         GpuOptions {
             integrator,

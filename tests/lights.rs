@@ -44,7 +44,7 @@ fn floor_scene_from(y: f32, floor: &str, lights: &str, extra: &str) -> Scene {
 fn renders(s: &Scene) -> Vec<(&'static str, RenderOutput)> {
     let ctx = context();
     let compiler = brdfwave::vk::ShaderCompiler::new().unwrap();
-    let b = brdfwave::bvh::build(s);
+    let b = std::sync::Arc::new(brdfwave::bvh::build(s));
     let mut out = vec![("cpu", render_cpu(s))];
     for (name, integrator) in [
         ("wavefront", Integrator::Wavefront),
@@ -54,7 +54,8 @@ fn renders(s: &Scene) -> Vec<(&'static str, RenderOutput)> {
             integrator,
             ..Default::default()
         };
-        let mut r = GpuRenderer::with_options(&ctx, s, &b, &compiler, options).expect("set-up");
+        let mut r =
+            GpuRenderer::with_options(&ctx, s, b.clone(), &compiler, options).expect("set-up");
         out.push((name, r.render(&|_| {}).expect("render")));
     }
     finish(ctx);

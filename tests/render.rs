@@ -437,7 +437,7 @@ fn a_nan_from_a_model_is_counted_at_its_shade_stage_on_both_backends() {
         .with_shader_dir(&dir);
     let b = brdfwave::bvh::build(&s);
     let gpu = {
-        let mut r = brdfwave::gpu::GpuRenderer::new(&ctx, &s, &b, &compiler).unwrap();
+        let mut r = brdfwave::gpu::GpuRenderer::new(&ctx, &s, b.into(), &compiler).unwrap();
         r.render(&|_| {}).unwrap()
     };
     let _ = std::fs::remove_dir_all(&dir);
@@ -480,14 +480,14 @@ fn the_megakernel_renders_the_wavefront_image() {
     let compiler = brdfwave::vk::ShaderCompiler::new().unwrap();
     for (name, w, h) in [("lineup.toml", 40, 16), ("cornell-box-glossy.toml", 24, 20)] {
         let s = scene(name, w, h, 3, 6, 5);
-        let b = brdfwave::bvh::build(&s);
+        let b = std::sync::Arc::new(brdfwave::bvh::build(&s));
         let mut outs = Vec::new();
         let mut pipelines = Vec::new();
         for integrator in [Integrator::Wavefront, Integrator::Megakernel] {
             let mut r = GpuRenderer::with_options(
                 &ctx,
                 &s,
-                &b,
+                b.clone(),
                 &compiler,
                 brdfwave::gpu::GpuOptions {
                     integrator,
@@ -553,7 +553,8 @@ fn passes_add_up_to_one_render_on_both_backends() {
     use brdfwave::gpu::GpuRenderer;
     let s = scene("cornell-box.toml", 20, 16, 7, 5, 2);
     let b = brdfwave::bvh::build(&s);
-    let cpu = CpuRenderer::new(&s, &b);
+    let b = std::sync::Arc::new(b);
+    let cpu = CpuRenderer::new(&s, b.clone());
     let whole = cpu.render(&|_| {});
     let mut film = cpu.film();
     for r in [0..1, 1..3, 3..7] {
@@ -565,7 +566,7 @@ fn passes_add_up_to_one_render_on_both_backends() {
 
     let ctx = context();
     let compiler = brdfwave::vk::ShaderCompiler::new().unwrap();
-    let mut r = GpuRenderer::new(&ctx, &s, &b, &compiler).unwrap();
+    let mut r = GpuRenderer::new(&ctx, &s, b, &compiler).unwrap();
     let whole = r.render(&|_| {}).unwrap();
     r.reset().unwrap();
     for range in [0..2, 2..3, 3..7] {

@@ -34,7 +34,7 @@ fn part_on(
     name: &str,
 ) -> PathBuf {
     let b = bvh::build(s);
-    let mut r = render::open(backend, s, &b, t).unwrap();
+    let mut r = render::open(backend, s, b.into(), t).unwrap();
     let request = RenderRequest {
         samples,
         take_film: true,
@@ -118,7 +118,8 @@ fn gpu_and_mixed_parts_merge_within_rounding() {
     let s = scene("cornell-box.toml", 24, 18, 9, 5, 3);
     let compiler = brdfwave::vk::ShaderCompiler::new().unwrap();
     let b = bvh::build(&s);
-    let whole = render::render_all(Backend::gpu(&ctx, &compiler), &s, &b).unwrap();
+    let b = std::sync::Arc::new(b);
+    let whole = render::render_all(Backend::gpu(&ctx, &compiler), &s, b.clone()).unwrap();
     let full = Tile::full(24, 18);
     let t = tile(5, 3, 7, 11);
     // One part on the GPU, written to the folder (the compiler above, its shaders cached).

@@ -55,6 +55,7 @@ use runner::Runner;
 use std::fmt::Write as _;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// The CSV header of `bench.csv`, one row per pass.
@@ -145,7 +146,7 @@ pub fn run(o: &BenchOptions) -> Result<String> {
         eprintln!("{w}");
     }
     let t = Instant::now();
-    let bvh = bvh::build(&sc);
+    let bvh = Arc::new(bvh::build(&sc));
     let seconds_bvh = t.elapsed().as_secs_f64();
     let (reference, reference_err) = reference::reference(o, &sc, &bvh)?;
     let pixels = sc.width as f64 * sc.height as f64;
@@ -278,7 +279,7 @@ fn runners<'a>(
     o: &BenchOptions,
     contexts: &'a [Option<Context>],
     scenes: &'a [Scene],
-    bvh: &'a Bvh,
+    bvh: &Arc<Bvh>,
     compiler: &'a ShaderCompiler,
     mitsuba_ok: &Result<()>,
     mitsuba_xml: &Path,

@@ -7,6 +7,7 @@ use crate::render;
 use crate::scene::Scene;
 use crate::vk;
 use anyhow::{bail, Context as _, Result};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// The reference's own expected relMSE, from its per-sample variance: the mean over
@@ -26,7 +27,11 @@ fn reference_error(mean: &Image, variance: &Image, n: u32) -> f64 {
 /// The reference image: the given file, or one rendered by the CPU reference at
 /// `reference_spp` with a seed of its own and cached; and, for a rendered one, its own
 /// expected relMSE ([`reference_error`]).
-pub(super) fn reference(o: &BenchOptions, sc: &Scene, bvh: &Bvh) -> Result<(Image, Option<f64>)> {
+pub(super) fn reference(
+    o: &BenchOptions,
+    sc: &Scene,
+    bvh: &Arc<Bvh>,
+) -> Result<(Image, Option<f64>)> {
     if let Some(p) = &o.reference {
         let img =
             imageio::read(p).with_context(|| format!("reading --reference {}", p.display()))?;
@@ -100,7 +105,7 @@ pub(super) fn reference(o: &BenchOptions, sc: &Scene, bvh: &Bvh) -> Result<(Imag
         o.reference_spp
     );
     let t = Instant::now();
-    let out = render::render_all(render::Backend::Cpu, &rs, bvh)?;
+    let out = render::render_all(render::Backend::Cpu, &rs, bvh.clone())?;
     let err = reference_error(&out.mean, &out.variance, o.reference_spp);
     let img = out.mean;
     eprintln!("reference: {:.1} s", t.elapsed().as_secs_f64());

@@ -13,6 +13,7 @@ use crate::scene::Scene;
 use crate::vk::{Context, ShaderCompiler};
 use anyhow::{anyhow, Result};
 use std::path::Path;
+use std::sync::Arc;
 use std::time::Instant;
 
 pub(super) trait Runner {
@@ -33,7 +34,7 @@ pub(super) trait Runner {
 struct RendererRunner<'a> {
     backend: render::Backend<'a>,
     scene: &'a Scene,
-    bvh: &'a Bvh,
+    bvh: Arc<Bvh>,
     /// The renderer that continues the sequence (None: a fresh render per pass).
     renderer: Option<Box<dyn Renderer + 'a>>,
     setup_seconds: f64,
@@ -46,11 +47,11 @@ struct RendererRunner<'a> {
 }
 
 impl<'a> RendererRunner<'a> {
-    fn start(backend: render::Backend<'a>, scene: &'a Scene, bvh: &'a Bvh) -> Result<Self> {
+    fn start(backend: render::Backend<'a>, scene: &'a Scene, bvh: Arc<Bvh>) -> Result<Self> {
         let mut r = RendererRunner {
             backend,
             scene,
-            bvh,
+            bvh: bvh.clone(),
             renderer: None,
             setup_seconds: 0.0,
             done: 0,
@@ -86,7 +87,7 @@ impl Runner for RendererRunner<'_> {
                 sc.integrator.pattern_spp = None;
                 let t = Instant::now();
                 let tile = Tile::full(sc.width, sc.height);
-                let mut renderer = render::open(self.backend, &sc, self.bvh, tile)?;
+                let mut renderer = render::open(self.backend, &sc, self.bvh.clone(), tile)?;
                 self.setup_seconds += t.elapsed().as_secs_f64();
                 let r = renderer.render(&RenderRequest::samples(0..total), &|_| {})?;
                 self.description = Some(renderer.describe());
@@ -131,7 +132,7 @@ pub(super) fn runner<'a>(
     c: &Config,
     ctx: Option<&'a Context>,
     sc: &'a Scene,
-    bvh: &'a Bvh,
+    bvh: &Arc<Bvh>,
     compiler: &'a ShaderCompiler,
     mitsuba_ok: &Result<()>,
     mitsuba_xml: &Path,
@@ -151,7 +152,7 @@ pub(super) fn runner<'a>(
                 (Config::Gpu { .. }, None) => unreachable!("a GPU configuration has a context"),
                 _ => render::Backend::Cpu,
             };
-            RendererRunner::start(backend, sc, bvh).map(|r| Box::new(r) as Box<dyn Runner>)
+            RendererRunner::start(backend, sc, bvh.clone()).map(|r| Box::new(r) as Box<dyn Runner>)
         }
         (Config::Mitsuba { variant, sampler }, _) => match mitsuba_ok {
             Ok(()) => MitsubaRunner::start(variant, sampler, mitsuba_xml, out)

@@ -41,16 +41,16 @@ pub(super) fn scaling(o: &BenchOptions, mesh_triangles: u32) -> Result<String> {
         eprintln!("scaling: {name}");
         s.integrator.spp = 4;
         let t = Instant::now();
-        let bvh = bvh::build(&s);
+        let bvh = std::sync::Arc::new(bvh::build(&s));
         let t_bvh = t.elapsed().as_secs_f64();
         let cold_dir = tempfile::tempdir()?;
         let cold = ShaderCompiler::new()?.with_cache_dir(cold_dir.path());
         let full = Tile::full(s.width, s.height);
         let setup = |r: &dyn Renderer| r.describe().gpu.map(|g| g.setup).unwrap_or_default();
-        let r = render::open(render::Backend::gpu(&ctx, &cold), &s, &bvh, full)?;
+        let r = render::open(render::Backend::gpu(&ctx, &cold), &s, bvh.clone(), full)?;
         let compile_cold = setup(r.as_ref()).seconds_shader_compile;
         drop(r);
-        let mut r = render::open(render::Backend::gpu(&ctx, &cold), &s, &bvh, full)?;
+        let mut r = render::open(render::Backend::gpu(&ctx, &cold), &s, bvh.clone(), full)?;
         let warm = setup(r.as_ref());
         let (compile_warm, create) = (warm.seconds_shader_compile, warm.seconds_pipeline_create);
         let t = Instant::now();
@@ -61,7 +61,7 @@ pub(super) fn scaling(o: &BenchOptions, mesh_triangles: u32) -> Result<String> {
         let paths = s.width as f64 * s.height as f64 * s.integrator.spp as f64;
         drop(r);
         let t = Instant::now();
-        render::render_all(render::Backend::Cpu, &s, &bvh)?;
+        render::render_all(render::Backend::Cpu, &s, bvh.clone())?;
         let dt_cpu = t.elapsed().as_secs_f64();
         let _ = writeln!(
             md,

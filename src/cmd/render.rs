@@ -5,7 +5,7 @@ use super::summary::{stage_counts, write_nonfinite, StageCount};
 use super::{parse_device, parse_res, parse_sampler, warn_gpu_only, Backend, IntegratorArg};
 use anyhow::{bail, Context as _, Result};
 use brdfwave::{
-    bvh::{self, Bvh},
+    bvh,
     film::{self, Tile},
     imageio,
     outfile::{self, Output},
@@ -462,6 +462,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
         },
     );
     let seconds_bvh = t_bvh.elapsed().as_secs_f64();
+    let bvh_nodes = bvh.nodes.len();
     let gpu = match a.backend {
         Backend::Gpu => Some((
             vk::Context::new(&vk::ContextOptions {
@@ -488,7 +489,8 @@ pub fn run(a: RenderArgs) -> Result<()> {
         samples: part.samples.clone(),
         take_film: outputs.wants_film(),
     };
-    let r = render::open(backend, &sc, &bvh, part.tile)?;
+    // The only reference: the GPU path frees the host's tree once it is uploaded.
+    let r = render::open(backend, &sc, std::sync::Arc::new(bvh), part.tile)?;
     let (mut rendered, description, seconds_setup, seconds_render) =
         render_with_progress(r, &request, part.tile, t0, a.quiet)?;
     if a.backend == Backend::Gpu && a.threads.is_some() && !description.device.contains("llvmpipe")
@@ -529,7 +531,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let summary = summary(
         &a,
         &sc,
-        &bvh,
+        bvh_nodes,
         &part,
         &description,
         &rendered,
@@ -666,7 +668,7 @@ struct Times {
 fn summary(
     a: &RenderArgs,
     sc: &Scene,
-    bvh: &Bvh,
+    bvh_nodes: usize,
     part: &render::Resolved,
     d: &Description,
     r: &Rendered,
@@ -703,7 +705,7 @@ fn summary(
             subgroup_queues: g.setup.subgroup_queues,
         }),
         seconds_bvh: times.bvh,
-        bvh_nodes: bvh.nodes.len(),
+        bvh_nodes,
         seconds_setup: times.setup,
         seconds_render: times.render,
         paths_per_second: paths / times.render.max(1e-9),

@@ -27,6 +27,7 @@ use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 
 /// Statistics of one path.
 #[derive(Default)]
@@ -75,7 +76,9 @@ impl CpuFilm {
 
 pub struct CpuRenderer<'a> {
     scene: &'a Scene,
-    bvh: &'a Bvh,
+    /// Shared, so that a caller that hands its only reference to a GPU renderer frees the tree
+    /// once it is uploaded (`render::open`).
+    bvh: Arc<Bvh>,
     lights: LightTable,
     camera: CameraBasis,
     /// The geometric normal of each triangle ([`crate::scene::Triangle::geometric_normal`]),
@@ -84,7 +87,7 @@ pub struct CpuRenderer<'a> {
 }
 
 impl<'a> CpuRenderer<'a> {
-    pub fn new(scene: &'a Scene, bvh: &'a Bvh) -> Self {
+    pub fn new(scene: &'a Scene, bvh: Arc<Bvh>) -> Self {
         CpuRenderer {
             scene,
             bvh,

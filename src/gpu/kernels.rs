@@ -17,6 +17,7 @@ use anyhow::{bail, Context as _, Result};
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 use std::collections::BTreeSet;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// (name, value) pairs: `#define`s, or include overrides (virtual name, file).
@@ -84,11 +85,13 @@ pub(super) struct Sizes {
 }
 
 /// Uploads the scene and allocates the path state, queues, counters and film: one buffer (and
-/// texel view, for texel bindings) per [`Binding`], sized by `sizes`.
+/// texel view, for texel bindings) per [`Binding`], sized by `sizes`. `bvh` is dropped as soon
+/// as its two buffers are made (the first two bindings), so that the host's copy of the tree,
+/// when this was its last reference, is not held beside everything made after them.
 pub(super) fn create_buffers<'a>(
     ctx: &'a Context,
     scene: &Scene,
-    bvh: &Bvh,
+    bvh: Arc<Bvh>,
     sizes: &Sizes,
 ) -> Result<Owned<'a>> {
     let Sizes {
@@ -122,13 +125,15 @@ pub(super) fn create_buffers<'a>(
     };
     let cap = wave_paths as u64;
     let gpu = MemoryLocation::GpuOnly;
+    let mut bvh = Some(bvh);
     for b in Binding::ALL {
+        let tree = || bvh.as_deref().expect("the tree's bindings come first");
         let name = b.name();
         let usage = b.usage();
         let data = |bytes: &[u8]| ctx.create_buffer_with_data(name, bytes, usage);
         let buffer = match b {
-            Binding::BvhNodes => data(scene_buffers::bvh_nodes(bvh))?,
-            Binding::BvhPrims => data(bytemuck::cast_slice(&bvh.prims))?,
+            Binding::BvhNodes => data(scene_buffers::bvh_nodes(tree()))?,
+            Binding::BvhPrims => data(bytemuck::cast_slice(&tree().prims))?,
             Binding::Triangles => ctx.create_buffer_filled(
                 name,
                 scene.triangles.len() * scene_buffers::TRIANGLE_TEXELS,
@@ -175,6 +180,9 @@ pub(super) fn create_buffers<'a>(
             ))?,
         };
         owned.buffers.push(buffer);
+        if b == Binding::BvhPrims {
+            bvh = None;
+        }
         let view = match b.kind() {
             Kind::ReadImage(format) | Kind::Image(format) => {
                 ctx.create_buffer_view(owned.buffers.last().unwrap(), format)?

@@ -62,6 +62,7 @@ use kernels::{KernelId, Owned};
 use layout::{Binding, Counter, Counters, LOCAL_SIZE};
 use stages::Schedule;
 use std::ops::Range;
+use std::sync::Arc;
 use std::time::Instant;
 use waves::waves;
 
@@ -192,7 +193,7 @@ impl<'a> GpuRenderer<'a> {
     pub fn new(
         ctx: &'a Context,
         scene: &'a Scene,
-        bvh: &Bvh,
+        bvh: Arc<Bvh>,
         compiler: &ShaderCompiler,
     ) -> Result<Self> {
         Self::with_options(ctx, scene, bvh, compiler, GpuOptions::default())
@@ -202,7 +203,7 @@ impl<'a> GpuRenderer<'a> {
     pub fn with_wave_paths(
         ctx: &'a Context,
         scene: &'a Scene,
-        bvh: &Bvh,
+        bvh: Arc<Bvh>,
         compiler: &ShaderCompiler,
         wave_paths: u32,
     ) -> Result<Self> {
@@ -213,11 +214,13 @@ impl<'a> GpuRenderer<'a> {
         Self::with_options(ctx, scene, bvh, compiler, options)
     }
 
-    /// A renderer with `options` (see [`GpuOptions`]).
+    /// A renderer with `options` (see [`GpuOptions`]). It lets go of `bvh` once the tree is
+    /// uploaded, before the other buffers are made: given the only reference, the host's copy
+    /// is freed there (BENCHMARKS.md, the scene's memory).
     pub fn with_options(
         ctx: &'a Context,
         scene: &'a Scene,
-        bvh: &Bvh,
+        bvh: Arc<Bvh>,
         compiler: &ShaderCompiler,
         options: GpuOptions,
     ) -> Result<Self> {
@@ -249,11 +252,11 @@ impl<'a> GpuRenderer<'a> {
             counters,
             tile,
         };
+        let tiled = tile != Tile::full(scene.width, scene.height);
+        let common = kernels::common_defines(ctx, scene, &bvh, tiled);
         let mut owned = kernels::create_buffers(ctx, scene, bvh, &sizes)?;
         setup.seconds_upload = t_upload.elapsed().as_secs_f64();
 
-        let tiled = tile != Tile::full(scene.width, scene.height);
-        let common = kernels::common_defines(ctx, scene, bvh, tiled);
         let (schedule, accumulate) = kernels::build_kernels(
             ctx, scene, &mut owned, compiler, &mut setup, integrator, common,
         )?;

@@ -1,15 +1,15 @@
 //! The CPU reference (`crate::cpu::CpuRenderer`) behind [`Renderer`]: the adapter holds the film
 //! that the CPU renderer is passed.
 
-use super::{Description, Progress, ProgressUnit, RenderRequest, Rendered, Renderer};
+use super::{Description, Progress, ProgressUnit, RenderRequest, Renderer};
 use crate::bvh::Bvh;
 use crate::cpu::{CpuFilm, CpuRenderer};
-use crate::film::{self, Tile};
+use crate::film::{self, Film, Tile};
 use crate::output::RenderOutput;
 use crate::scene::Scene;
 use anyhow::{bail, Result};
 use std::ops::Range;
-use std::time::Instant;
+use std::sync::Arc;
 
 pub struct CpuBackend<'a> {
     renderer: CpuRenderer<'a>,
@@ -18,7 +18,7 @@ pub struct CpuBackend<'a> {
 
 impl<'a> CpuBackend<'a> {
     /// A renderer of `tile` (within the image) of `scene`, with an empty film.
-    pub fn new(scene: &'a Scene, bvh: &'a Bvh, tile: Tile) -> Self {
+    pub fn new(scene: &'a Scene, bvh: Arc<Bvh>, tile: Tile) -> Self {
         let renderer = CpuRenderer::new(scene, bvh);
         let film = renderer.film_of(tile);
         CpuBackend { renderer, film }
@@ -27,7 +27,7 @@ impl<'a> CpuBackend<'a> {
     /// `scene.integrator.spp` samples per pixel of the whole image. Unlike
     /// [`Renderer::render`] it does not ask first whether the film fits in memory, so it cannot
     /// fail: for the small scenes of the stress harness, whose geometry cases catch panics.
-    pub fn render_all(scene: &'a Scene, bvh: &'a Bvh) -> RenderOutput {
+    pub fn render_all(scene: &'a Scene, bvh: Arc<Bvh>) -> RenderOutput {
         let mut r = CpuBackend::new(scene, bvh, Tile::full(scene.width, scene.height));
         r.add(0..scene.integrator.spp, &|_| {});
         r.renderer.output(&r.film)
@@ -48,11 +48,11 @@ impl<'a> CpuBackend<'a> {
 }
 
 impl Renderer for CpuBackend<'_> {
-    fn render(
+    fn add_samples(
         &mut self,
         request: &RenderRequest,
         progress: &(dyn Fn(Progress) + Sync),
-    ) -> Result<Rendered> {
+    ) -> Result<()> {
         let tile = self.film.film.tile;
         let held = self.film.film.samples();
         if !self.film.film.blocks.is_empty() && request.samples.start != held.end {
@@ -73,18 +73,17 @@ impl Renderer for CpuBackend<'_> {
             &format!("a CPU render of {}x{} pixels", tile.width, tile.height),
             "render a smaller image or split it into tiles (--tile)",
         )?;
-        let t = Instant::now();
         self.add(request.samples.clone(), progress);
-        let seconds_samples = t.elapsed().as_secs_f64();
-        let output = self.renderer.output(&self.film);
-        let film = request
-            .take_film
-            .then(|| std::mem::replace(&mut self.film, self.renderer.film_of(tile)).film);
-        Ok(Rendered {
-            output,
-            film,
-            seconds_samples,
-        })
+        Ok(())
+    }
+
+    fn output(&mut self) -> Result<RenderOutput> {
+        Ok(self.renderer.output(&self.film))
+    }
+
+    fn take_film(&mut self) -> Result<Film> {
+        let empty = self.renderer.film_of(self.film.film.tile);
+        Ok(std::mem::replace(&mut self.film, empty).film)
     }
 
     fn describe(&self) -> Description {

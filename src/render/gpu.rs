@@ -1,16 +1,15 @@
 //! The Vulkan integrator (`crate::gpu::GpuRenderer`) behind [`Renderer`]: it holds its film on
 //! the device, and its tile from its creation.
 
-use super::{
-    Description, GpuDescription, Progress, ProgressUnit, RenderRequest, Rendered, Renderer,
-};
+use super::{Description, GpuDescription, Progress, ProgressUnit, RenderRequest, Renderer};
 use crate::bvh::Bvh;
-use crate::film::Tile;
+use crate::film::{Film, Tile};
 use crate::gpu::{GpuOptions, GpuRenderer, Integrator};
+use crate::output::RenderOutput;
 use crate::scene::Scene;
 use crate::vk::{Context, ShaderCompiler};
 use anyhow::Result;
-use std::time::Instant;
+use std::sync::Arc;
 
 pub struct GpuBackend<'a> {
     renderer: GpuRenderer<'a>,
@@ -25,7 +24,7 @@ impl<'a> GpuBackend<'a> {
         ctx: &'a Context,
         compiler: &ShaderCompiler,
         scene: &'a Scene,
-        bvh: &Bvh,
+        bvh: Arc<Bvh>,
         tile: Tile,
         options: GpuOptions,
     ) -> Result<Self> {
@@ -43,13 +42,12 @@ impl<'a> GpuBackend<'a> {
 }
 
 impl Renderer for GpuBackend<'_> {
-    fn render(
+    fn add_samples(
         &mut self,
         request: &RenderRequest,
         progress: &(dyn Fn(Progress) + Sync),
-    ) -> Result<Rendered> {
+    ) -> Result<()> {
         let total = request.samples.len() as f64;
-        let t = Instant::now();
         self.renderer
             .render_samples(request.samples.clone(), &|done| {
                 progress(Progress {
@@ -57,23 +55,18 @@ impl Renderer for GpuBackend<'_> {
                     total,
                     unit: ProgressUnit::Samples,
                 })
-            })?;
-        let seconds_samples = t.elapsed().as_secs_f64();
-        let output = self.renderer.output()?;
-        // Downloaded again only for a partial film (output() keeps only the images).
-        let film = match request.take_film {
-            true => {
-                let film = self.renderer.film()?;
-                self.renderer.reset()?;
-                Some(film)
-            }
-            false => None,
-        };
-        Ok(Rendered {
-            output,
-            film,
-            seconds_samples,
-        })
+            })
+    }
+
+    fn output(&mut self) -> Result<RenderOutput> {
+        self.renderer.output()
+    }
+
+    /// Downloaded again (`output` keeps only the images), and the device's film cleared.
+    fn take_film(&mut self) -> Result<Film> {
+        let film = self.renderer.film()?;
+        self.renderer.reset()?;
+        Ok(film)
     }
 
     fn describe(&self) -> Description {

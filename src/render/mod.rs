@@ -29,20 +29,48 @@ use crate::output::RenderOutput;
 use crate::scene::Scene;
 use crate::vk::{Context, ShaderCompiler};
 use anyhow::Result;
+use std::sync::Arc;
 
 /// A renderer of one tile of one scene, with a film that each [`render`](Renderer::render)
-/// call adds samples to.
+/// call adds samples to. A backend supplies the three steps of a call; what a call means (its
+/// timing, the film handed over) is [`render`](Renderer::render)'s, written once for both.
 pub trait Renderer {
     /// Adds the request's samples (the ones after those already in the film, or any while it is
-    /// empty) of every pixel of the tile, and returns the image so far. `progress` is called
-    /// from the rendering threads as the work goes on.
+    /// empty) of every pixel of the tile to the film, or says why it cannot. `progress` is
+    /// called from the rendering threads as the work goes on.
+    fn add_samples(
+        &mut self,
+        request: &RenderRequest,
+        progress: &(dyn Fn(Progress) + Sync),
+    ) -> Result<()>;
+    /// The image of all the samples in the film so far, and the counts of their paths.
+    fn output(&mut self) -> Result<RenderOutput>;
+    /// The film (its sums), handed over; the renderer's film is then empty again.
+    fn take_film(&mut self) -> Result<Film>;
+    /// The backend, device and set-up, for summaries.
+    fn describe(&self) -> Description;
+
+    /// Adds the request's samples ([`add_samples`](Renderer::add_samples)) and returns the image
+    /// so far, with the film when the request asks for it.
     fn render(
         &mut self,
         request: &RenderRequest,
         progress: &(dyn Fn(Progress) + Sync),
-    ) -> Result<Rendered>;
-    /// The backend, device and set-up, for summaries.
-    fn describe(&self) -> Description;
+    ) -> Result<Rendered> {
+        let t = std::time::Instant::now();
+        self.add_samples(request, progress)?;
+        let seconds_samples = t.elapsed().as_secs_f64();
+        let output = self.output()?;
+        let film = match request.take_film {
+            true => Some(self.take_film()?),
+            false => None,
+        };
+        Ok(Rendered {
+            output,
+            film,
+            seconds_samples,
+        })
+    }
 }
 
 /// What one [`Renderer::render`] call returns.
@@ -128,11 +156,13 @@ impl<'c> Backend<'c> {
 }
 
 /// A renderer of `tile` of `scene` (whose BVH is `bvh`) on `backend`, with an empty film. The
-/// tile must lie within the image.
+/// tile must lie within the image. The CPU reference keeps the BVH; the GPU uploads it and
+/// lets go of it, so a caller that passes its only reference frees the host's copy here (36 MB
+/// of nodes for a million triangles: BENCHMARKS.md, the scene's memory).
 pub fn open<'a>(
     backend: Backend<'a>,
     scene: &'a Scene,
-    bvh: &'a Bvh,
+    bvh: Arc<Bvh>,
     tile: Tile,
 ) -> Result<Box<dyn Renderer + 'a>> {
     tile.check_within(scene.width, scene.height)
@@ -150,11 +180,11 @@ pub fn open<'a>(
 /// Renders `scene.integrator.spp` samples per pixel of the whole image on `backend`, building
 /// the BVH: the common case of the tests and the stress harness.
 pub fn render_whole(backend: Backend<'_>, scene: &Scene) -> Result<RenderOutput> {
-    render_all(backend, scene, &crate::bvh::build(scene))
+    render_all(backend, scene, Arc::new(crate::bvh::build(scene)))
 }
 
 /// Renders `scene.integrator.spp` samples per pixel of the whole image on `backend`.
-pub fn render_all(backend: Backend<'_>, scene: &Scene, bvh: &Bvh) -> Result<RenderOutput> {
+pub fn render_all(backend: Backend<'_>, scene: &Scene, bvh: Arc<Bvh>) -> Result<RenderOutput> {
     let mut r = open(backend, scene, bvh, Tile::full(scene.width, scene.height))?;
     let request = RenderRequest::samples(0..scene.integrator.spp);
     Ok(r.render(&request, &|_| {})?.output)
@@ -181,15 +211,15 @@ mod tests {
     #[test]
     fn calls_and_tiles_do_not_change_the_cpu_image() {
         let s = cornell(12, 6);
-        let bvh = crate::bvh::build(&s);
-        let whole = render_all(Backend::Cpu, &s, &bvh).unwrap();
+        let bvh = Arc::new(crate::bvh::build(&s));
+        let whole = render_all(Backend::Cpu, &s, bvh.clone()).unwrap();
         let tile = Tile {
             x: 3,
             y: 5,
             width: 6,
             height: 4,
         };
-        let mut r = open(Backend::Cpu, &s, &bvh, tile).unwrap();
+        let mut r = open(Backend::Cpu, &s, bvh.clone(), tile).unwrap();
         r.render(&RenderRequest::samples(0..1), &|_| {}).unwrap();
         let last = r.render(&RenderRequest::samples(1..6), &|_| {}).unwrap();
         assert_eq!(last.output.spp, 6);
@@ -209,8 +239,8 @@ mod tests {
     #[test]
     fn take_film_hands_the_film_over() {
         let s = cornell(4, 3);
-        let bvh = crate::bvh::build(&s);
-        let mut r = open(Backend::Cpu, &s, &bvh, Tile::full(4, 4)).unwrap();
+        let bvh = Arc::new(crate::bvh::build(&s));
+        let mut r = open(Backend::Cpu, &s, bvh.clone(), Tile::full(4, 4)).unwrap();
         let request = RenderRequest {
             samples: 2..5,
             take_film: true,
@@ -227,8 +257,8 @@ mod tests {
     #[test]
     fn samples_must_follow_the_film() {
         let s = cornell(4, 2);
-        let bvh = crate::bvh::build(&s);
-        let mut r = open(Backend::Cpu, &s, &bvh, Tile::full(4, 4)).unwrap();
+        let bvh = Arc::new(crate::bvh::build(&s));
+        let mut r = open(Backend::Cpu, &s, bvh.clone(), Tile::full(4, 4)).unwrap();
         r.render(&RenderRequest::samples(0..2), &|_| {}).unwrap();
         let e = r
             .render(&RenderRequest::samples(3..4), &|_| {})
@@ -244,22 +274,22 @@ mod tests {
     #[test]
     fn open_refuses_a_tile_outside_the_image() {
         let s = cornell(4, 1);
-        let bvh = crate::bvh::build(&s);
+        let bvh = Arc::new(crate::bvh::build(&s));
         let outside = Tile {
             x: 2,
             y: 0,
             width: 3,
             height: 4,
         };
-        assert!(open(Backend::Cpu, &s, &bvh, outside).is_err());
+        assert!(open(Backend::Cpu, &s, bvh.clone(), outside).is_err());
     }
 
     /// The CPU reports every row of the tile once, in rows of the tile.
     #[test]
     fn cpu_progress_counts_rows() {
         let s = cornell(5, 1);
-        let bvh = crate::bvh::build(&s);
-        let mut r = open(Backend::Cpu, &s, &bvh, Tile::full(5, 5)).unwrap();
+        let bvh = Arc::new(crate::bvh::build(&s));
+        let mut r = open(Backend::Cpu, &s, bvh.clone(), Tile::full(5, 5)).unwrap();
         assert_eq!(r.describe().progress, ProgressUnit::Rows);
         let seen = Mutex::new(Vec::new());
         r.render(&RenderRequest::samples(0..1), &|p| {

@@ -121,7 +121,7 @@ pub static GROUPS: &[Group] = &[
 
 pub(super) fn render_cpu(s: &Scene) -> crate::output::RenderOutput {
     let b = crate::bvh::build(s);
-    crate::render::CpuBackend::render_all(s, &b)
+    crate::render::CpuBackend::render_all(s, std::sync::Arc::new(b))
 }
 
 pub(super) fn small(mut s: Scene, w: u32, spp: u32, seed: u32) -> Scene {

@@ -89,7 +89,7 @@ pub fn render_gpu_wave(ctx: &Context, s: &Scene, wave_paths: u32) -> (RenderOutp
                 ..GpuOptions::default()
             },
         };
-        let mut r = render::open(backend, s, &b, Tile::full(s.width, s.height))
+        let mut r = render::open(backend, s, b.into(), Tile::full(s.width, s.height))
             .expect("GPU renderer set-up");
         let request = RenderRequest::samples(0..s.integrator.spp);
         let out = r.render(&request, &|_| {}).expect("GPU render").output;
