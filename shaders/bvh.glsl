@@ -294,13 +294,16 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
                 live = false;
                 break;
             }
-            // Both children: the near one next, the far one pushed. Neither: pop (the top is
-            // read only then, and before the step moves it).
+            // Both children: the near one next, the far one pushed. Neither: pop. The top is
+            // read at every step, before the step moves it: reading it only for a pop (inside
+            // the ternary) made the array stack's traversal about 17 % slower on lavapipe (the
+            // 1M-triangle scene, paired CPU seconds; BENCHMARKS.md), the register stack's no
+            // faster.
             bool push = both && sp < uint(BVH_STACK_CAPACITY);
-            uint next = both ? (swap ? cr : cl) : (hl ? cl : (hr ? cr : BVH_STACK_TOP(stack, sp)));
+            uint top = BVH_STACK_TOP(stack, sp);
             BVH_STACK_STEP(stack, sp, push, pop, swap ? cl : cr)
             sp = push ? sp + 1u : (pop ? sp - 1u : sp);
-            cur = next;
+            cur = both ? (swap ? cr : cl) : (hl ? cl : (hr ? cr : top));
         }
         if (!live) break;
         uint first = (cur >> 3) & 0x0FFFFFFFu;
