@@ -246,14 +246,15 @@ impl<'a> GpuRenderer<'a> {
         let counters = Counters {
             queues: scene.shaded_models().len() as u32,
         };
+        // Read from the tree before create_buffers lets go of it.
+        let tiled = tile != Tile::full(scene.width, scene.height);
+        let common = kernels::common_defines(ctx, scene, &bvh, tiled);
         let t_upload = Instant::now();
         let sizes = kernels::Sizes {
             wave_paths,
             counters,
             tile,
         };
-        let tiled = tile != Tile::full(scene.width, scene.height);
-        let common = kernels::common_defines(ctx, scene, &bvh, tiled);
         let mut owned = kernels::create_buffers(ctx, scene, bvh, &sizes)?;
         setup.seconds_upload = t_upload.elapsed().as_secs_f64();
 
