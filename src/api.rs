@@ -141,6 +141,7 @@ pub fn render(scene: &Scene, options: &Options) -> Result<Render> {
             Backend::Cpu => crate::bvh::Traversal::Cpu,
         },
     );
+    crate::memory::release_free_heap();
     let gpu = match options.backend {
         Backend::Cpu => None,
         Backend::Gpu => {

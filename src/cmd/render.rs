@@ -453,6 +453,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
     }
     let outputs = Outputs::of(&a);
     outputs.prepare(&a.scene)?;
+    brdfwave::memory::release_free_heap();
     let t_bvh = Instant::now();
     let bvh = bvh::build_for(
         &sc,
@@ -463,6 +464,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
     );
     let seconds_bvh = t_bvh.elapsed().as_secs_f64();
     let bvh_nodes = bvh.nodes.len();
+    brdfwave::memory::release_free_heap();
     let gpu = match a.backend {
         Backend::Gpu => Some((
             vk::Context::new(&vk::ContextOptions {
