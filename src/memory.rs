@@ -63,11 +63,11 @@ pub fn check(bytes: u64, what: &str, advice: &str) -> anyhow::Result<()> {
 }
 
 /// Hands the heap's free memory back to the system (glibc's `malloc_trim`; nothing elsewhere).
-/// glibc keeps what a program frees for reuse, and after a large free it raises the size from
-/// which it maps big blocks apart, so later temporaries of tens of MB (the mesh file's text,
-/// the BVH build's boxes and centroids) come from the heap and stay there once freed: about
-/// 40 MB of the 1M-triangle scene's peak on both backends (BENCHMARKS.md, the scene's memory).
-/// Call it after the set-up's temporaries are gone, before the renderer's own memory is made.
+/// glibc keeps what a program frees for reuse (in per-thread arenas), and after a large free it
+/// raises the size from which it maps big blocks apart, so temporaries of tens of MB can stay
+/// in the heap once freed: after the 1M-triangle scene's load and BVH build, 35 MB of
+/// lavapipe's peak (BENCHMARKS.md, the scene's memory). Call it once the set-up's temporaries
+/// are gone, before the renderer's own memory is made.
 pub fn release_free_heap() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     // SAFETY: malloc_trim only returns free memory to the system; it may be called at any time.
