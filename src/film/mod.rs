@@ -46,7 +46,9 @@ mod sums;
 
 pub use merge::{merge, Merged};
 pub use part::{code_version, read_header, read_part, scene_hash, write_part, Part, PartHeader};
-pub use sums::{dyadic_blocks, mean_and_variance, sample_sums, Block, Film, PairwiseSum, Sums};
+pub use sums::{
+    check_continues, dyadic_blocks, mean_and_variance, sample_sums, Block, Film, PairwiseSum, Sums,
+};
 
 use serde::{Deserialize, Serialize};
 use std::ops::Range;

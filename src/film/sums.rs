@@ -93,6 +93,21 @@ pub struct Block {
     pub sums: Vec<Sums>,
 }
 
+/// Whether samples `asked` may be added to a film that holds samples `held` (empty when it
+/// holds none): they must continue it, so that the sums stay those of one render; any start is
+/// allowed while it is empty. Both renderers ask before they render.
+pub fn check_continues(held: &Range<u32>, asked: &Range<u32>) -> anyhow::Result<()> {
+    if !held.is_empty() && asked.start != held.end {
+        anyhow::bail!(
+            "samples from {} asked for, but the film holds samples {}..{}",
+            asked.start,
+            held.start,
+            held.end
+        );
+    }
+    Ok(())
+}
+
 /// Per-pixel sums of the samples `blocks` cover, for the pixels of `tile`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {

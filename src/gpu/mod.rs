@@ -307,15 +307,9 @@ impl<'a> GpuRenderer<'a> {
     /// each batch of waves, and, while a batch holds a single wave (a slow device), after each
     /// segment, as a fraction of the wave by segments.
     pub fn render_samples(&mut self, samples: Range<u32>, progress: &dyn Fn(f64)) -> Result<()> {
+        crate::film::check_continues(&self.film_samples, &samples)?;
         if self.film_samples.is_empty() {
             self.film_samples = samples.start..samples.start;
-        } else if samples.start != self.film_samples.end {
-            bail!(
-                "samples from {} asked for, but the film holds samples {}..{}",
-                samples.start,
-                self.film_samples.start,
-                self.film_samples.end
-            );
         }
         let pixels = self.tile.width * self.tile.height;
         let ctx = self.ctx;

@@ -7,7 +7,7 @@ use crate::cpu::{CpuFilm, CpuRenderer};
 use crate::film::{self, Film, Tile};
 use crate::output::RenderOutput;
 use crate::scene::Scene;
-use anyhow::{bail, Result};
+use anyhow::Result;
 use std::ops::Range;
 use std::sync::Arc;
 
@@ -36,14 +36,9 @@ impl<'a> CpuBackend<'a> {
     /// Adds the samples `samples` to the film.
     fn add(&mut self, samples: Range<u32>, progress: &(dyn Fn(Progress) + Sync)) {
         let total = ProgressUnit::Rows.total(self.film.film.tile, &samples);
+        let report = ProgressUnit::Rows.reporter(total, progress);
         self.renderer
-            .render_samples(&mut self.film, samples, &|rows| {
-                progress(Progress {
-                    done: rows as f64,
-                    total,
-                    unit: ProgressUnit::Rows,
-                })
-            });
+            .render_samples(&mut self.film, samples, &|rows| report(rows as f64));
     }
 }
 
@@ -54,15 +49,7 @@ impl Renderer for CpuBackend<'_> {
         progress: &(dyn Fn(Progress) + Sync),
     ) -> Result<()> {
         let tile = self.film.film.tile;
-        let held = self.film.film.samples();
-        if !self.film.film.blocks.is_empty() && request.samples.start != held.end {
-            bail!(
-                "samples from {} asked for, but the film holds samples {}..{}",
-                request.samples.start,
-                held.start,
-                held.end
-            );
-        }
+        film::check_continues(&self.film.film.samples(), &request.samples)?;
         // The film (6 f64 sums per pixel and block), the mean and variance images, and the
         // encoded output (a partial film is the sums again): an allocation that fails aborts,
         // so ask first.
