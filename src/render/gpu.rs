@@ -48,14 +48,9 @@ impl Renderer for GpuBackend<'_> {
         progress: &(dyn Fn(Progress) + Sync),
     ) -> Result<()> {
         let total = request.samples.len() as f64;
+        let report = ProgressUnit::Samples.reporter(total, progress);
         self.renderer
-            .render_samples(request.samples.clone(), &|done| {
-                progress(Progress {
-                    done,
-                    total,
-                    unit: ProgressUnit::Samples,
-                })
-            })
+            .render_samples(request.samples.clone(), &report)
     }
 
     fn output(&mut self) -> Result<RenderOutput> {

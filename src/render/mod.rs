@@ -110,6 +110,22 @@ impl ProgressUnit {
             ProgressUnit::Samples => samples.len() as f64,
         }
     }
+
+    /// `progress` as the callback of a backend's own renderer, which counts `done` in this
+    /// unit out of `total`.
+    pub fn reporter<'p>(
+        self,
+        total: f64,
+        progress: &'p (dyn Fn(Progress) + Sync),
+    ) -> impl Fn(f64) + Sync + 'p {
+        move |done| {
+            progress(Progress {
+                done,
+                total,
+                unit: self,
+            })
+        }
+    }
 }
 
 /// A renderer's backend, device and set-up.
