@@ -368,16 +368,25 @@ pub fn ggx_d(h: Vec3, alpha: f32) -> f32 {
 /// Cornell box's glossy material): a = 1/(α tanθ); G1 = 1 for a ≥ 1.6, else
 /// (3.535a + 2.181a²)/(1 + 2.276a + 2.577a²). Within 0.35 % of the exact erfc form.
 pub fn smith_g1_beckmann_walter(w: Vec3, alpha: f32) -> f32 {
+    match beckmann_a(w, alpha, 1.6) {
+        Ok(a) => (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a),
+        Err(g1) => g1,
+    }
+}
+
+/// The argument a = cosθ/(α sinθ) of the Beckmann Smith G1 forms, or `Err(G1)` where G1 is
+/// decided without it: 0 at or below the horizon, 1 from a ≥ `a_max`. The test a ≥ a_max is
+/// made as cosθ ≥ a_max α sinθ, so sinθ = 0 (normal incidence) never divides; below it
+/// α sinθ > cosθ/a_max > 0 and a is finite.
+fn beckmann_a(w: Vec3, alpha: f32, a_max: f32) -> Result<f32, f32> {
     if w.z <= 0.0 {
-        return 0.0;
+        return Err(0.0);
     }
     let s = (w.x * w.x + w.y * w.y).sqrt();
-    // a = cosθ/(α sinθ) ≥ 1.6 ⇔ cosθ ≥ 1.6 α sinθ (also covers sinθ = 0).
-    if w.z >= 1.6 * alpha * s {
-        return 1.0;
+    if w.z >= a_max * alpha * s {
+        return Err(1.0);
     }
-    let a = w.z / (alpha * s);
-    (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a)
+    Ok(w.z / (alpha * s))
 }
 
 /// Exact Smith G1 for GGX, 1/(1 + Λ) with Λ = (√(1 + α² tan²θ) − 1)/2, written as
@@ -422,17 +431,13 @@ pub fn sample_ggx_h(u: Vec2, alpha: f32) -> Vec3 {
 /// and e^(−a²) are below f32's normal range (normal incidence included). The visible-normal
 /// sampler of [`sample_beckmann_vndf`] draws exactly this G1's density.
 pub fn smith_g1_beckmann(w: Vec3, alpha: f32) -> f32 {
-    if w.z <= 0.0 {
-        return 0.0;
+    match beckmann_a(w, alpha, 10.0) {
+        Ok(a) => {
+            let den = a * (2.0 - erfc(a)) + (-a * a).exp() * FRAC_1_SQRT_PI;
+            (2.0 * a / den).min(1.0)
+        }
+        Err(g1) => g1,
     }
-    let s = (w.x * w.x + w.y * w.y).sqrt();
-    // a ≥ 10 ⇔ cosθ ≥ 10 α sinθ; below it α sinθ > cosθ/10 > 0 and a < 10 is finite.
-    if w.z >= 10.0 * alpha * s {
-        return 1.0;
-    }
-    let a = w.z / (alpha * s);
-    let den = a * (2.0 - erfc(a)) + (-a * a).exp() * FRAC_1_SQRT_PI;
-    (2.0 * a / den).min(1.0)
 }
 
 /// 1/√π.
