@@ -459,14 +459,12 @@ fn ply_delta_lights_and_twosided_map_to_their_toml_forms() {
 /// same lights and the same flag.
 #[test]
 fn convert_keeps_delta_lights_and_twosided() {
-    let toml = r#"
-[camera]
-position = [0.0, 1.0, -3.0]
-target = [0.0, 0.0, 0.0]
-fov_y = 40.0
-[film]
-width = 8
-height = 8
+    // The scene-file tests' small scene (a one-sided material "m" on an emitting sphere), with
+    // a two-sided material on a quad and two delta lights added.
+    let toml = format!(
+        "{}{}",
+        common::scene_file::BASE,
+        r#"
 [materials.back]
 model = "lambert"
 albedo = 0.25
@@ -482,8 +480,9 @@ intensity = [1.0, 2.0, 3.0]
 type = "directional"
 direction = [0.0, -1.0, 0.5]
 irradiance = 0.5
-"#;
-    let s = load_str(toml, Path::new("t.toml")).unwrap();
+"#
+    );
+    let s = load_str(&toml, Path::new("t.toml")).unwrap();
     let c = to_mitsuba(&s, "m", Options::default()).unwrap();
     assert!(
         c.xml.contains("<bsdf type=\"twosided\" id=\"back\">"),
@@ -516,7 +515,11 @@ irradiance = 0.5
         }
         other => panic!("{other:?}"),
     }
-    assert!(back.materials[0].twosided);
+    let twosided = |name: &str| {
+        let k = back.material_names.iter().position(|n| n == name).unwrap();
+        back.materials[k].twosided
+    };
+    assert!(twosided("back") && !twosided("m"));
     assert_eq!(back.triangles, s.triangles);
 }
 
