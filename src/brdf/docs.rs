@@ -151,7 +151,10 @@ pub fn update_model_file(text: &str, m: &ModelInfo) -> Option<String> {
 }
 
 /// `text` with each model's row (the line that starts with `` | `name` | ``) replaced by
-/// `row(model)`; the names of the models without a row.
+/// `row(model)`, and the names of the models that had no row. A missing row is inserted after
+/// the row of the model before it in `models` (registry order), so that a new model's row can be
+/// written; one whose predecessor has no row either (or the first model's) is left out of the
+/// text: the caller finds it by its absence.
 pub fn update_rows(
     text: &str,
     models: &[ModelInfo],
@@ -159,12 +162,23 @@ pub fn update_rows(
 ) -> (String, Vec<&'static str>) {
     let mut missing = Vec::new();
     let mut lines: Vec<String> = text.split('\n').map(String::from).collect();
+    // The line of the previous model's row, if it has one.
+    let mut previous: Option<usize> = None;
     for m in models {
         let key = format!("| `{}` |", m.name);
-        match lines.iter_mut().find(|l| l.starts_with(&key)) {
-            Some(l) => *l = row(m),
-            None => missing.push(m.name),
-        }
+        previous = match lines.iter().position(|l| l.starts_with(&key)) {
+            Some(at) => {
+                lines[at] = row(m);
+                Some(at)
+            }
+            None => {
+                missing.push(m.name);
+                previous.map(|at| {
+                    lines.insert(at + 1, row(m));
+                    at + 1
+                })
+            }
+        };
     }
     (lines.join("\n"), missing)
 }
@@ -194,8 +208,13 @@ mod tests {
     fn rows_are_replaced_and_missing_rows_named() {
         let text = "a\n| `lambert` | old |\nb";
         let (out, missing) = update_rows(text, &MODELS, readme_row);
-        assert_eq!(out, format!("a\n{}\nb", readme_row(&MODELS[0])));
+        // Lambert's row replaced, every other model's inserted after it in registry order.
+        let rows: Vec<String> = MODELS.iter().map(readme_row).collect();
+        assert_eq!(out, format!("a\n{}\nb", rows.join("\n")));
         assert_eq!(missing.len(), MODELS.len() - 1);
         assert!(missing.contains(&"ward"));
+        // Without the first model's row there is nothing to insert after.
+        let (out, missing) = update_rows("a\nb", &MODELS[..2], readme_row);
+        assert_eq!((out.as_str(), missing.len()), ("a\nb", 2));
     }
 }
