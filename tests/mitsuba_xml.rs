@@ -56,7 +56,12 @@ fn xml_twins_are_what_convert_writes() {
         };
         let on_disk = std::fs::read_to_string(repo().join(format!("scenes/xml/{name}.xml")))
             .unwrap_or_else(|e| panic!("scenes/xml/{name}.xml: {e}"));
-        assert_eq!(c.xml, on_disk, "scenes/xml/{name}.xml is stale");
+        assert_eq!(
+            c.xml, on_disk,
+            "scenes/xml/{name}.xml is stale: regenerate it with `brdfwave convert \
+             scenes/{name}.toml --to mitsuba scenes/xml/{name}.xml` (add --brdfwave-plugins \
+             where a model Mitsuba lacks is used)"
+        );
         for (file, text) in &c.meshes {
             let p = repo().join("scenes/xml").join(file);
             let on_disk = std::fs::read_to_string(&p).unwrap();
