@@ -6,7 +6,7 @@ use super::intersect::{intersect_sphere, Ray};
 use super::node::{link, LEAF_FLAG, STACK_SIZE};
 use super::{Bvh, Hit, SPHERE_BIT};
 use crate::scene::Scene;
-use glam::{Vec2, Vec3, Vec3A};
+use glam::{Vec2, Vec3};
 
 impl Bvh {
     /// Closest hit with t in (0, tmax); ties are resolved as the module documentation says.
@@ -58,8 +58,9 @@ impl Bvh {
                 }
             } else {
                 let n = &self.nodes[cur as usize];
-                let (hl, tl) = ray.box_hit(Vec3A::from(n.lmin), Vec3A::from(n.lmax), best.t);
-                let (hr, tr) = ray.box_hit(Vec3A::from(n.rmin), Vec3A::from(n.rmax), best.t);
+                let [lmin, lmax, rmin, rmax] = n.corners();
+                let (hl, tl) = ray.box_hit(lmin, lmax, best.t);
+                let (hr, tr) = ray.box_hit(rmin, rmax, best.t);
                 let hl = hl && (n.left_count != 0 || n.left != 0);
                 let hr = hr && (n.right_count != 0 || n.right != 0);
                 let cl = link(n.left, n.left_count);
