@@ -439,18 +439,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
         eprintln!("{w}");
     }
     let part = a.overrides().apply(&mut sc)?;
-    if let Some(w) = a.wave_paths {
-        brdfwave::gpu::check_wave_paths(w).context("--wave-paths")?;
-    }
-    if a.backend == Backend::Cpu {
-        warn_gpu_only(&[
-            ("--device", a.device.is_some()),
-            ("--validation", a.validation),
-            ("--wave-paths", a.wave_paths.is_some()),
-        ]);
-    } else if a.validation {
-        vk::require_validation().context("--validation")?;
-    }
+    check_backend_options(&a)?;
     let outputs = Outputs::of(&a);
     outputs.prepare(&a.scene)?;
     brdfwave::memory::release_free_heap();
@@ -550,6 +539,24 @@ pub fn run(a: RenderArgs) -> Result<()> {
             "warning: {} non-finite values were dropped (see the stages above)",
             rendered.output.nonfinite_samples
         );
+    }
+    Ok(())
+}
+
+/// The GPU-only options: checked for the GPU backend (the wave size's range, the validation
+/// layer present), and warned about as ignored on the CPU backend.
+fn check_backend_options(a: &RenderArgs) -> Result<()> {
+    if let Some(w) = a.wave_paths {
+        brdfwave::gpu::check_wave_paths(w).context("--wave-paths")?;
+    }
+    if a.backend == Backend::Cpu {
+        warn_gpu_only(&[
+            ("--device", a.device.is_some()),
+            ("--validation", a.validation),
+            ("--wave-paths", a.wave_paths.is_some()),
+        ]);
+    } else if a.validation {
+        vk::require_validation().context("--validation")?;
     }
     Ok(())
 }

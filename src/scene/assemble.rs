@@ -434,34 +434,13 @@ pub(super) fn shape_primitives(
         }
         Ok(q)
     };
-    let use_mtl = match &s.mtl {
-        Some(m) if s.obj.is_none() => {
-            let msg = "mtl applies only to obj shapes";
-            return Err(cx.err(m.span().or(shape.span()), &format!("{f}.mtl"), msg));
-        }
-        Some(m) => m.value,
-        None => false,
-    };
-    let face_normals = match &s.face_normals {
-        Some(n) if s.obj.is_none() && s.ply.is_none() => {
-            let msg = "face_normals applies only to obj and ply shapes";
-            return Err(cx.err(n.span().or(shape.span()), &format!("{f}.face_normals"), msg));
-        }
-        Some(n) => n.value,
-        None => false,
-    };
+    let MeshOptions {
+        use_mtl,
+        face_normals,
+    } = mesh_options(cx, f, shape)?;
     let first_mesh_triangle = out.triangles.len();
-
     let emitter = match &s.emission {
-        Some(e) => {
-            let radiance = cx.radiance(e, &format!("{f}.emission"))?;
-            if radiance == Vec3::ZERO {
-                None
-            } else {
-                out.emitters.push(Emitter { radiance });
-                Some(out.emitters.len() as u32 - 1)
-            }
-        }
+        Some(e) => shape_emitter(cx, f, e, out)?,
         None => None,
     };
 
@@ -530,6 +509,55 @@ pub(super) fn shape_primitives(
         }
     }
     Ok(())
+}
+
+/// The switches that apply to mesh shapes only.
+struct MeshOptions {
+    /// `mtl`: the OBJ file's own materials (obj only).
+    use_mtl: bool,
+    /// `face_normals`: drop the file's vertex normals (obj and ply).
+    face_normals: bool,
+}
+
+/// The shape's mesh switches; one given on a shape of another kind is an error.
+fn mesh_options(cx: &Cx, f: &str, shape: &Sp<RawShape>) -> Result<MeshOptions, SceneError> {
+    let s = &shape.value;
+    let use_mtl = match &s.mtl {
+        Some(m) if s.obj.is_none() => {
+            let msg = "mtl applies only to obj shapes";
+            return Err(cx.err(m.span().or(shape.span()), &format!("{f}.mtl"), msg));
+        }
+        Some(m) => m.value,
+        None => false,
+    };
+    let face_normals = match &s.face_normals {
+        Some(n) if s.obj.is_none() && s.ply.is_none() => {
+            let msg = "face_normals applies only to obj and ply shapes";
+            return Err(cx.err(n.span().or(shape.span()), &format!("{f}.face_normals"), msg));
+        }
+        Some(n) => n.value,
+        None => false,
+    };
+    Ok(MeshOptions {
+        use_mtl,
+        face_normals,
+    })
+}
+
+/// The emitter of a shape's `emission` (its index in `out.emitters`), or `None` for zero
+/// radiance: a shape that emits nothing is no light.
+fn shape_emitter(
+    cx: &Cx,
+    f: &str,
+    emission: &Sp<Triple>,
+    out: &mut Shapes,
+) -> Result<Option<u32>, SceneError> {
+    let radiance = cx.radiance(emission, &format!("{f}.emission"))?;
+    if radiance == Vec3::ZERO {
+        return Ok(None);
+    }
+    out.emitters.push(Emitter { radiance });
+    Ok(Some(out.emitters.len() as u32 - 1))
 }
 
 /// Refuses a shape with no geometry, or with more than one kind.
