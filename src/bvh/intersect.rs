@@ -27,7 +27,8 @@ pub(super) const SPHERE_ON_SURFACE: f32 = 1.0 / (1u32 << 18) as f32;
 /// Per-ray constants of the box and triangle tests.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Ray {
-    o: Vec3,
+    /// The origin on the permuted axes, (o[kx], o[ky], o[kz]) (triangle test).
+    op: Vec3,
     /// The origin as a SIMD vector (box test).
     o_a: Vec3A,
     /// Safe inverse direction (box test).
@@ -76,7 +77,7 @@ impl Ray {
         let (iy, py) = safe_inv(d.y);
         let (iz, pz) = safe_inv(d.z);
         Some(Ray {
-            o,
+            op: Vec3::new(o[kx], o[ky], o[kz]),
             o_a: Vec3A::from(o),
             inv: Vec3A::new(ix, iy, iz),
             pad: Vec3A::new(px, py, pz),
@@ -106,16 +107,20 @@ impl Ray {
     /// Woop–Benthin–Wald watertight test; (t, (b1, b2)) with t in (0, tmax).
     #[inline]
     pub(super) fn triangle(&self, v: &[Vec3; 3], tmax: f32) -> Option<(f32, Vec2)> {
+        // Each vertex relative to the origin on the ray's permuted axes (kx, ky, kz): the same
+        // subtractions as (v - o)[k], reading the vertex's components straight from memory.
         let (kx, ky, kz) = (self.kx, self.ky, self.kz);
-        let a = v[0] - self.o;
-        let b = v[1] - self.o;
-        let c = v[2] - self.o;
-        let ax = a[kx] - self.s.x * a[kz];
-        let ay = a[ky] - self.s.y * a[kz];
-        let bx = b[kx] - self.s.x * b[kz];
-        let by = b[ky] - self.s.y * b[kz];
-        let cx = c[kx] - self.s.x * c[kz];
-        let cy = c[ky] - self.s.y * c[kz];
+        let rel = |p: &Vec3| {
+            let p: &[f32; 3] = p.as_ref();
+            Vec3::new(p[kx] - self.op.x, p[ky] - self.op.y, p[kz] - self.op.z)
+        };
+        let (a, b, c) = (rel(&v[0]), rel(&v[1]), rel(&v[2]));
+        let ax = a.x - self.s.x * a.z;
+        let ay = a.y - self.s.y * a.z;
+        let bx = b.x - self.s.x * b.z;
+        let by = b.y - self.s.y * b.z;
+        let cx = c.x - self.s.x * c.z;
+        let cy = c.y - self.s.y * c.z;
         let u = cx * by - cy * bx;
         let v_ = ax * cy - ay * cx;
         let w = bx * ay - by * ax;
@@ -126,9 +131,9 @@ impl Ray {
         if det == 0.0 {
             return None;
         }
-        let az = self.s.z * a[kz];
-        let bz = self.s.z * b[kz];
-        let cz = self.s.z * c[kz];
+        let az = self.s.z * a.z;
+        let bz = self.s.z * b.z;
+        let cz = self.s.z * c.z;
         let tt = u * az + v_ * bz + w * cz;
         // t > 0 needs T and det of the same sign (and T != 0).
         if (det < 0.0 && tt >= 0.0) || (det > 0.0 && tt <= 0.0) {
