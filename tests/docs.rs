@@ -457,7 +457,7 @@ fn model_parameter_tables_are_generated_from_the_declarations() {
         for m in missing {
             failures.push(format!("{doc}: no table row for the model {m}"));
             // A row that writing cannot add (no row of the model before it to follow).
-            if !want.contains(&format!("| `{m}` |")) {
+            if !want.lines().any(|l| docs::is_row_of(l, m)) {
                 unwritable.push(format!("{doc}: no place for the row of the model {m}"));
             }
         }

@@ -150,7 +150,14 @@ pub fn update_model_file(text: &str, m: &ModelInfo) -> Option<String> {
     Some(out)
 }
 
-/// `text` with each model's row (the line that starts with `` | `name` | ``) replaced by
+/// Whether `line` is the table row of the model `name` (it starts with `` | `name` | ``).
+pub fn is_row_of(line: &str, name: &str) -> bool {
+    line.strip_prefix("| `")
+        .and_then(|rest| rest.strip_prefix(name))
+        .is_some_and(|rest| rest.starts_with("` |"))
+}
+
+/// `text` with each model's row (the line that [`is_row_of`] the model) replaced by
 /// `row(model)`, and the names of the models that had no row. A missing row is inserted after
 /// the row of the model before it in `models` (registry order), so that a new model's row can be
 /// written; one whose predecessor has no row either (or the first model's) is left out of the
@@ -165,8 +172,7 @@ pub fn update_rows(
     // The line of the previous model's row, if it has one.
     let mut previous: Option<usize> = None;
     for m in models {
-        let key = format!("| `{}` |", m.name);
-        previous = match lines.iter().position(|l| l.starts_with(&key)) {
+        previous = match lines.iter().position(|l| is_row_of(l, m.name)) {
             Some(at) => {
                 lines[at] = row(m);
                 Some(at)
