@@ -43,15 +43,6 @@ pub(super) struct Ray {
     s: Vec3,
 }
 
-#[inline]
-fn safe_inv(d: f32) -> (f32, f32) {
-    if d.abs() < ZERO_DIR {
-        (ZERO_INV, ZERO_PAD)
-    } else {
-        (1.0 / d, 0.0)
-    }
-}
-
 impl Ray {
     /// None for a zero, infinite or NaN direction: such a ray hits nothing.
     #[inline]
@@ -72,15 +63,18 @@ impl Ray {
         if d[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
-        let s = Vec3::new(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
-        let (ix, px) = safe_inv(d.x);
-        let (iy, py) = safe_inv(d.y);
-        let (iz, pz) = safe_inv(d.z);
+        // The divisions as two SIMD divisions (each lane the same IEEE quotient as a scalar
+        // division): the shear (d[kx] / d[kz], d[ky] / d[kz], 1 / d[kz]), and the safe inverse,
+        // which is ZERO_INV with the slab padded by ZERO_PAD where |d| < ZERO_DIR (there the
+        // quotient, possibly infinite, is not used).
+        let s = Vec3::from(Vec3A::new(d[kx], d[ky], 1.0) / Vec3A::splat(d[kz]));
+        let d_a = Vec3A::from(d);
+        let zero = d_a.abs().cmplt(Vec3A::splat(ZERO_DIR));
         Some(Ray {
             op: Vec3::new(o[kx], o[ky], o[kz]),
             o_a: Vec3A::from(o),
-            inv: Vec3A::new(ix, iy, iz),
-            pad: Vec3A::new(px, py, pz),
+            inv: Vec3A::select(zero, Vec3A::splat(ZERO_INV), Vec3A::ONE / d_a),
+            pad: Vec3A::select(zero, Vec3A::splat(ZERO_PAD), Vec3A::ZERO),
             kx,
             ky,
             kz,
