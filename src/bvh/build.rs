@@ -547,6 +547,12 @@ pub(super) fn build_with(scene: &Scene, parallel_prims: usize, traversal: Traver
             .collect(),
         Traversal::GpuOnly => Vec::new(),
     };
+    if traversal == Traversal::Cpu {
+        // The arrays the CPU traversal reads at random, on huge pages (fewer TLB misses).
+        crate::memory::advise_huge_pages(&nodes);
+        crate::memory::advise_huge_pages(&prims);
+        crate::memory::advise_huge_pages(&leaf_triangles);
+    }
     let (bounds_min, bounds_max) = if n > 0 {
         (root.bounds.min, root.bounds.max)
     } else {

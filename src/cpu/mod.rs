@@ -88,16 +88,20 @@ pub struct CpuRenderer<'a> {
 
 impl<'a> CpuRenderer<'a> {
     pub fn new(scene: &'a Scene, bvh: Arc<Bvh>) -> Self {
+        let normals: Vec<Vec3> = scene
+            .triangles
+            .par_iter()
+            .map(|t| t.geometric_normal())
+            .collect();
+        // Read at every hit, in no order: on huge pages, as the BVH's arrays are.
+        crate::memory::advise_huge_pages(&scene.triangles);
+        crate::memory::advise_huge_pages(&normals);
         CpuRenderer {
             scene,
             bvh,
             lights: LightTable::build(scene),
             camera: CameraBasis::new(scene),
-            normals: scene
-                .triangles
-                .par_iter()
-                .map(|t| t.geometric_normal())
-                .collect(),
+            normals,
         }
     }
 
