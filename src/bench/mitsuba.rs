@@ -154,14 +154,48 @@ fn protocol_line(r: &mut impl BufRead) -> Result<String> {
     bail!("the Mitsuba script wrote 10000 lines that are not its protocol")
 }
 
-/// The newest libLLVM of version 16 or later on the system, for Dr.Jit.
+/// A libLLVM of version 16 or later for Dr.Jit: the newest one on the system, else the Rust
+/// toolchain's own (`rustc --print sysroot`, `lib/libLLVM*.so*`), which every brdfwave build
+/// has and which Dr.Jit accepts. Debian 12's own is LLVM 15.
 fn newest_libllvm() -> Option<PathBuf> {
     let dir = Path::new("/usr/lib/x86_64-linux-gnu");
-    (16..=30)
+    let system = (16..=30)
         .rev()
         .flat_map(|v| [format!("libLLVM.so.{v}.1"), format!("libLLVM-{v}.so")])
         .map(|n| dir.join(n))
-        .find(|p| p.exists())
+        .find(|p| p.exists());
+    system.or_else(rust_toolchain_libllvm)
+}
+
+/// The Rust toolchain's libLLVM (rustup's toolchains bundle a recent LLVM: Rust 1.95's is
+/// LLVM 22), if `rustc` runs and its sysroot has one.
+fn rust_toolchain_libllvm() -> Option<PathBuf> {
+    let out = Command::new("rustc")
+        .args(["--print", "sysroot"])
+        .stderr(Stdio::null())
+        .output()
+        .ok()
+        .filter(|o| o.status.success())?;
+    let lib = Path::new(String::from_utf8(out.stdout).ok()?.trim()).join("lib");
+    // The shared object itself: beside it, `libLLVM-NN-rust-*.so` is a linker script.
+    let is_elf = |p: &Path| {
+        let mut magic = [0u8; 4];
+        std::fs::File::open(p)
+            .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut magic))
+            .is_ok_and(|_| magic == *b"\x7fELF")
+    };
+    let mut found: Vec<PathBuf> = std::fs::read_dir(lib)
+        .ok()?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with("libLLVM") && n.contains(".so"))
+                && is_elf(p)
+        })
+        .collect();
+    found.sort();
+    found.into_iter().next()
 }
 
 /// Whether `python3 -c "import mitsuba"` works.
