@@ -76,54 +76,60 @@ pub fn release_free_heap() {
     }
 }
 
-/// Asks Linux to back the memory of `data`, a large array that the renderers read at random
-/// (the BVH's nodes, the leaves' triangles), with 2 MiB transparent huge pages: a ray's walk
-/// through a tree of tens of MB then misses the TLB far less often. The pages already there are
-/// collapsed at once (`MADV_COLLAPSE`, Linux 6.1 and later); on older kernels `MADV_HUGEPAGE`
-/// lets the kernel's background thread do it later. Only the 2 MiB blocks that lie wholly inside
-/// `data` are advised, so no other allocation is touched. A hint: where the system refuses it
-/// (huge pages off, another OS) nothing changes, and the contents never do.
-pub fn advise_huge_pages<T>(data: &[T]) {
-    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+/// An empty vector with room for `capacity` values, whose memory Linux is asked to back with
+/// 2 MiB transparent huge pages when it is first written (`MADV_HUGEPAGE` on the 2 MiB blocks
+/// inside it), for the large arrays the CPU reference reads at random (the BVH's nodes, the
+/// leaves' triangles): a ray's walk through tens of MB then misses the TLB far less often.
+/// Debian's default THP mode is "madvise", under which nothing is on huge pages unasked. Fill
+/// it without growing it (`extend_from_slice`, rayon's `par_extend`), so that its pages are
+/// first touched where the advice holds. Advised before the first write, a page is made huge
+/// when it is faulted in; advising a filled array instead needs `MADV_COLLAPSE`, which copies
+/// every page (about 3 ms per MB here, 0.4 s for the 1M-triangle scene; BENCHMARKS.md). A hint
+/// only: where the system refuses it (huge pages off, another OS) nothing changes, and the
+/// contents never depend on it.
+pub fn huge_page_vec<T>(capacity: usize) -> Vec<T> {
+    let v = Vec::with_capacity(capacity);
+    #[cfg(target_os = "linux")]
     {
         const HUGE: usize = 2 << 20;
-        let start = data.as_ptr() as usize;
-        let end = start + std::mem::size_of_val(data);
+        let start = v.as_ptr() as usize;
+        let end = start + capacity * std::mem::size_of::<T>();
         let first = start.next_multiple_of(HUGE);
         let last = end / HUGE * HUGE;
         if last > first {
-            let (p, len) = (first as *mut libc::c_void, last - first);
-            // SAFETY: the range lies inside `data`'s allocation and is aligned to the page
-            // size; both advices change how its pages are backed, never their contents.
+            // SAFETY: the range lies inside the vector's allocation and is aligned to the page
+            // size; the advice changes how its pages are backed, never what they hold.
             unsafe {
-                libc::madvise(p, len, libc::MADV_HUGEPAGE);
-                libc::madvise(p, len, libc::MADV_COLLAPSE);
+                libc::madvise(
+                    first as *mut libc::c_void,
+                    last - first,
+                    libc::MADV_HUGEPAGE,
+                );
             }
         }
     }
-    #[cfg(not(all(target_os = "linux", target_env = "gnu")))]
-    let _ = data;
+    v
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// The advice keeps every value (an advice that discarded pages, as `MADV_DONTNEED` does,
-    /// would read back zeros), on an array spanning several 2 MiB blocks, at an unaligned start,
-    /// and on arrays too small to hold one block.
+    /// The vector holds its room and takes its values as any other, large (several 2 MiB
+    /// blocks) or small (none), and the advice leaves the memory it covers readable and
+    /// writable.
     #[test]
-    fn huge_page_advice_keeps_the_contents() {
-        let data: Vec<u32> = (0..3_000_000u32)
-            .map(|i| i.wrapping_mul(2_654_435_761))
-            .collect();
-        advise_huge_pages(&data);
-        advise_huge_pages(&data[1..]);
-        advise_huge_pages(&data[..10]);
-        advise_huge_pages::<u32>(&[]);
-        assert!(data
-            .iter()
-            .enumerate()
-            .all(|(i, &v)| v == (i as u32).wrapping_mul(2_654_435_761)));
+    fn huge_page_vectors_hold_what_is_put_in_them() {
+        for n in [0usize, 10, 3_000_000] {
+            let mut v: Vec<u32> = huge_page_vec(n);
+            let room = v.capacity();
+            assert!(v.is_empty() && room >= n);
+            v.extend((0..n as u32).map(|i| i.wrapping_mul(2_654_435_761)));
+            assert_eq!((v.len(), v.capacity()), (n, room), "filled without growing");
+            assert!(v
+                .iter()
+                .enumerate()
+                .all(|(i, &x)| x == (i as u32).wrapping_mul(2_654_435_761)));
+        }
     }
 }

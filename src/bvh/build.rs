@@ -4,6 +4,7 @@
 
 use super::node::{GpuNode, MAX_PRIMS, STACK_SIZE};
 use super::{Bvh, BvhStats, SPHERE_BIT};
+use crate::memory::huge_page_vec;
 use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -136,6 +137,19 @@ enum Decision {
 /// tree is the same as a serial build's, node for node.
 const PARALLEL_PRIMS: usize = 16 * 1024;
 
+/// An empty vector with room for `n` values, for one of the arrays the traversal reads at
+/// random (nodes, primitive references, leaf triangles): on huge pages for the CPU traversal
+/// ([`huge_page_vec`], fewer TLB misses). A tree for the GPU alone is uploaded and freed, and
+/// memory in huge pages that is freed back to the heap is returned to the system only in whole
+/// 2 MiB blocks (lavapipe's peak on the 1M-triangle scene rose by 60 MB with them), so it gets
+/// plain vectors.
+fn array_for<T>(traversal: Traversal, n: usize) -> Vec<T> {
+    match traversal {
+        Traversal::Cpu => huge_page_vec(n),
+        Traversal::GpuOnly => Vec::with_capacity(n),
+    }
+}
+
 /// Adds `offset` to the internal-node links of `nodes` (appended at `offset` in a parent).
 fn rebase(nodes: &mut [GpuNode], offset: u32) {
     for n in nodes {
@@ -154,14 +168,22 @@ impl<'a> Builder<'a> {
         self.nodes.len() + self.later.iter().map(|(_, v)| v.len()).sum::<usize>()
     }
 
-    /// All nodes: `nodes`, then the runs of `later` rebased, each run freed once copied.
-    fn join(mut nodes: Vec<GpuNode>, later: Vec<(u32, Vec<GpuNode>)>) -> Vec<GpuNode> {
-        nodes.reserve_exact(later.iter().map(|(_, v)| v.len()).sum());
+    /// All nodes in one vector ([`array_for`]): `nodes`, then the runs of `later` rebased, each
+    /// run freed once copied.
+    fn join(
+        nodes: Vec<GpuNode>,
+        later: Vec<(u32, Vec<GpuNode>)>,
+        traversal: Traversal,
+    ) -> Vec<GpuNode> {
+        let total = nodes.len() + later.iter().map(|(_, v)| v.len()).sum::<usize>();
+        let mut all = array_for(traversal, total);
+        all.extend_from_slice(&nodes);
+        drop(nodes);
         for (offset, mut run) in later {
             rebase(&mut run, offset);
-            nodes.extend_from_slice(&run);
+            all.extend_from_slice(&run);
         }
-        nodes
+        all
     }
 
     fn range(&self, start: usize, end: usize) -> &[u32] {
@@ -523,7 +545,7 @@ pub(super) fn build_with(scene: &Scene, parallel_prims: usize, traversal: Traver
     // leaves' triangles gathered, they no longer add to the set-up's peak memory (37 MB for a
     // million triangles; BENCHMARKS.md).
     drop((boxes, centroids));
-    let nodes = Builder::join(first, later);
+    let nodes = Builder::join(first, later, traversal);
     let root_area = root.bounds.half_area();
     stats.sah_cost = if root_area > 0.0 {
         (sah_sum / root_area) as f32
@@ -535,24 +557,20 @@ pub(super) fn build_with(scene: &Scene, parallel_prims: usize, traversal: Traver
     } else {
         0.0
     };
-    let prims: Vec<u32> = order.par_iter().map(|&i| refs[i as usize]).collect();
+    let mut prims: Vec<u32> = array_for(traversal, order.len());
+    prims.par_extend(order.par_iter().map(|&i| refs[i as usize]));
     drop((refs, order));
     let leaf_triangles = match traversal {
-        Traversal::Cpu => prims
-            .par_iter()
-            .map(|&r| match r & SPHERE_BIT {
+        Traversal::Cpu => {
+            let mut v = array_for(traversal, prims.len());
+            v.par_extend(prims.par_iter().map(|&r| match r & SPHERE_BIT {
                 0 => scene.triangles[r as usize].v,
                 _ => [Vec3::ZERO; 3],
-            })
-            .collect(),
+            }));
+            v
+        }
         Traversal::GpuOnly => Vec::new(),
     };
-    if traversal == Traversal::Cpu {
-        // The arrays the CPU traversal reads at random, on huge pages (fewer TLB misses).
-        crate::memory::advise_huge_pages(&nodes);
-        crate::memory::advise_huge_pages(&prims);
-        crate::memory::advise_huge_pages(&leaf_triangles);
-    }
     let (bounds_min, bounds_max) = if n > 0 {
         (root.bounds.min, root.bounds.max)
     } else {

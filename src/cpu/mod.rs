@@ -88,14 +88,9 @@ pub struct CpuRenderer<'a> {
 
 impl<'a> CpuRenderer<'a> {
     pub fn new(scene: &'a Scene, bvh: Arc<Bvh>) -> Self {
-        let normals: Vec<Vec3> = scene
-            .triangles
-            .par_iter()
-            .map(|t| t.geometric_normal())
-            .collect();
         // Read at every hit, in no order: on huge pages, as the BVH's arrays are.
-        crate::memory::advise_huge_pages(&scene.triangles);
-        crate::memory::advise_huge_pages(&normals);
+        let mut normals: Vec<Vec3> = crate::memory::huge_page_vec(scene.triangles.len());
+        normals.par_extend(scene.triangles.par_iter().map(|t| t.geometric_normal()));
         CpuRenderer {
             scene,
             bvh,
