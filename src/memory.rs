@@ -1,6 +1,8 @@
-//! How much memory a large allocation may take, asked before making it: an allocation that
-//! fails aborts the process (`memory allocation of N bytes failed`), so a render whose film
-//! cannot fit is refused up front with the figure and what to do instead.
+//! The process's memory: how much a large allocation may take, asked before making it (an
+//! allocation that fails aborts the process, `memory allocation of N bytes failed`, so a render
+//! whose film cannot fit is refused up front with the figure and what to do instead); handing
+//! freed heap back to the system; and vectors on huge pages for the arrays the CPU reference
+//! reads at random.
 
 /// The bytes this process can still allocate, as far as the system says: the least of the
 /// kernel's estimate of available memory (`MemAvailable`), the room left under a cgroup v2
