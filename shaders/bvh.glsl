@@ -124,7 +124,8 @@ bool bvh_box_hit(BvhRay r, vec3 bmin, vec3 bmax, float tmax, out float tnear) {
     return tnear <= tfar;
 }
 
-// Woop–Benthin–Wald watertight test: t in (0, tmax) and (b1, b2).
+// Woop–Benthin–Wald watertight test: t in (0, tmax] and (b1, b2); a hit at exactly tmax is
+// returned, for the tie rule (bvh_traverse).
 bool bvh_triangle(BvhRay r, vec3 v0, vec3 v1, vec3 v2, float tmax, out float t, out vec2 bary) {
     t = 0.0;
     bary = vec2(0.0);
@@ -150,14 +151,15 @@ bool bvh_triangle(BvhRay r, vec3 v0, vec3 v1, vec3 v2, float tmax, out float t, 
     if ((det < 0.0 && tt >= 0.0) || (det > 0.0 && tt <= 0.0)) return false;
     precise float rcp = 1.0 / det;
     precise float th = tt * rcp;
-    if (!(th > 0.0 && th < tmax)) return false;
+    if (!(th > 0.0 && th <= tmax)) return false;
     t = th;
     bary = vec2(v * rcp, w * rcp);
     return true;
 }
 
-// Ray/sphere (Ray Tracing Gems ch. 7): the smallest root in (0, tmax); an origin on the
-// surface (within about 16 ulps of max(|o|, radius)) drops the root at t ≈ 0. Rust: intersect_sphere.
+// Ray/sphere (Ray Tracing Gems ch. 7): the smallest root in (0, tmax]; an origin on the
+// surface (within about 16 ulps of max(|o|, radius)) drops the root at t ≈ 0. Rust: sphere in
+// src/bvh/intersect.rs.
 bool bvh_sphere(vec3 o, vec3 d, vec3 center, float radius, float tmax, out float t) {
     t = 0.0;
     precise vec3 f = o - center;
@@ -180,11 +182,11 @@ bool bvh_sphere(vec3 o, vec3 d, vec3 center, float radius, float tmax, out float
     precise float t1 = q / a;
     float lo = t0 <= t1 ? t0 : t1;
     float hi = t0 <= t1 ? t1 : t0;
-    if (lo > 0.0 && lo < tmax) {
+    if (lo > 0.0 && lo <= tmax) {
         t = lo;
         return true;
     }
-    if (hi > 0.0 && hi < tmax) {
+    if (hi > 0.0 && hi <= tmax) {
         t = hi;
         return true;
     }
@@ -204,7 +206,7 @@ uint bvh_link(uint index, uint count) {
 #define BVH_SPHERES
 #endif
 
-// Ray against primitive reference `ref`: t in (0, tmax) and (b1, b2) for triangles.
+// Ray against primitive reference `ref`: t in (0, tmax] and (b1, b2) for triangles.
 bool bvh_primitive(BvhRay r, vec3 o, vec3 d, uint ref, float tmax, out float t, out vec2 bary) {
     bary = vec2(0.0);
 #if defined(BVH_SPHERES) && defined(BVH_TRIANGLES)
@@ -247,8 +249,10 @@ bool bvh_primitive(BvhRay r, vec3 o, vec3 d, uint ref, float tmax, out float t, 
 #define BVH_STACK_TOP(st, sp) st[(sp) == 0u ? 0u : (sp) - 1u]
 #endif
 
-// Near-first stack traversal (Rust: Bvh::traverse; the same nodes and primitives in the same
-// order). any_hit stops at the first hit. Inner nodes are walked in a loop of their own until
+// Near-first stack traversal of the binary tree. The CPU reference walks a 4-wide tree
+// collapsed from it (src/bvh/traverse.rs), in another order; both keep the same hit, because
+// the tie rule (among equal t the smallest primitive reference) does not depend on the order.
+// any_hit stops at the first hit. Inner nodes are walked in a loop of their own until
 // the ray reaches a leaf ("while-while", Aila & Laine 2009): on a SIMD machine the lanes that
 // reached a leaf wait there, and the costly leaf code runs once for all of them. The stack
 // cannot overflow: the builder bounds the depth below BVH_STACK_SIZE, and the host defines
@@ -312,7 +316,9 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
             uint ref = bvh_prim(i);
             float t;
             vec2 bary;
-            if (bvh_primitive(r, o, d, ref, hit.t, t, bary)) {
+            // The tie rule: a smaller t, or the same t and a smaller reference. Before the
+            // first hit, hit.t is tmax and only t < tmax counts.
+            if (bvh_primitive(r, o, d, ref, hit.t, t, bary) && (t < hit.t || (found && ref < hit.prim))) {
                 hit.t = t;
                 hit.prim = ref;
                 hit.bary = bary;

@@ -138,7 +138,7 @@ pub fn render(scene: &Scene, options: &Options) -> Result<Render> {
         &sc,
         match options.backend {
             Backend::Gpu => crate::bvh::Traversal::GpuOnly,
-            Backend::Cpu => crate::bvh::Traversal::Cpu,
+            Backend::Cpu => crate::bvh::Traversal::CpuOnly,
         },
     );
     crate::memory::release_free_heap();

@@ -249,8 +249,9 @@ fn compare_probe(
                 hits += 1;
                 let gt = f32::from_bits(t);
                 let gb = Vec2::new(f32::from_bits(b1), f32::from_bits(b2));
-                // The traversal order, and so the primitive kept among equal-t hits, is
-                // the same on both sides.
+                // The tie rule (among equal t the smallest reference) does not depend on
+                // the traversal order: the GPU's binary tree and the CPU's wide tree keep the
+                // same primitive.
                 assert_eq!(
                     prim, h.prim,
                     "{name}: GPU hit {prim:#x} at {gt}, CPU {h:?}: o={o} d={d}"

@@ -137,16 +137,17 @@ enum Decision {
 /// tree is the same as a serial build's, node for node.
 const PARALLEL_PRIMS: usize = 16 * 1024;
 
-/// An empty vector with room for `n` values, for one of the arrays the traversal reads at
-/// random (nodes, primitive references, leaf triangles): on huge pages for the CPU traversal
-/// ([`huge_page_vec`], fewer TLB misses). A tree for the GPU alone is uploaded and freed, and
-/// memory in huge pages that is freed back to the heap is returned to the system only in whole
-/// 2 MiB blocks (lavapipe's peak on the 1M-triangle scene rose by 60 MB with them), so it gets
-/// plain vectors.
-fn array_for<T>(traversal: Traversal, n: usize) -> Vec<T> {
-    match traversal {
-        Traversal::Cpu => huge_page_vec(n),
-        Traversal::GpuOnly => Vec::with_capacity(n),
+/// An empty vector with room for `n` values, for one of the arrays the traversals read at
+/// random (nodes, primitive references, leaf triangles, wide nodes): on huge pages where the
+/// CPU traversal reads it ([`huge_page_vec`], fewer TLB misses). Arrays that are uploaded or
+/// collapsed and then freed get plain vectors: memory in huge pages that is freed back to the
+/// heap is returned to the system only in whole 2 MiB blocks (lavapipe's peak on the
+/// 1M-triangle scene rose by 60 MB with them).
+fn array_for<T>(cpu_reads_it: bool, n: usize) -> Vec<T> {
+    if cpu_reads_it {
+        huge_page_vec(n)
+    } else {
+        Vec::with_capacity(n)
     }
 }
 
@@ -173,10 +174,10 @@ impl<'a> Builder<'a> {
     fn join(
         nodes: Vec<GpuNode>,
         later: Vec<(u32, Vec<GpuNode>)>,
-        traversal: Traversal,
+        cpu_reads_it: bool,
     ) -> Vec<GpuNode> {
         let total = nodes.len() + later.iter().map(|(_, v)| v.len()).sum::<usize>();
-        let mut all = array_for(traversal, total);
+        let mut all = array_for(cpu_reads_it, total);
         all.extend_from_slice(&nodes);
         drop(nodes);
         for (offset, mut run) in later {
@@ -491,20 +492,30 @@ fn bin_of(c: f32, lo: f32, scale: f32) -> usize {
 /// If the scene has more than [`MAX_PRIMS`] (2^28) primitives, the limit of the traversal's
 /// leaf encoding.
 pub fn build(scene: &Scene) -> Bvh {
-    build_with(scene, PARALLEL_PRIMS, Traversal::Cpu)
+    build_with(scene, PARALLEL_PRIMS, Traversal::Both)
 }
 
-/// Which renderer walks a tree. The CPU traversal reads each leaf's triangles from a copy in
-/// leaf order ([`Bvh::leaf_triangles`], 36 bytes a triangle); the GPU kernels read the scene's
-/// own triangle buffer, so a tree built for them alone leaves the copy out (36 MB for a million
-/// triangles: the GPU path's memory at its peak, BENCHMARKS.md).
+/// Which traversals a tree is for. The GPU kernels walk the binary [`Bvh::nodes`] and read the
+/// scene's own triangle buffer; the CPU traversal walks the 4-wide [`Bvh::wide`], collapsed
+/// from them, and reads each leaf's triangles from a copy in leaf order
+/// ([`Bvh::leaf_triangles`], 36 bytes a triangle). A tree for one renderer leaves out what only
+/// the other reads (for a million triangles 36 MB of triangles, or the binary nodes once the
+/// wide tree is made: the renderers' peak memory, BENCHMARKS.md).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Traversal {
-    /// The CPU traversal (and the GPU's): everything [`Bvh`] holds.
-    Cpu,
-    /// The GPU kernels only: no [`Bvh::leaf_triangles`]; [`Bvh::closest`] and
-    /// [`Bvh::occluded`] panic on such a tree.
+    /// Both: everything [`Bvh`] holds ([`build`]; the tests compare the two traversals).
+    Both,
+    /// The CPU traversal only: `nodes` is empty (freed once collapsed into `wide`).
+    CpuOnly,
+    /// The GPU kernels only: no [`Bvh::leaf_triangles`] and no [`Bvh::wide`];
+    /// [`Bvh::closest`] and [`Bvh::occluded`] panic on such a tree.
     GpuOnly,
+}
+
+impl Traversal {
+    fn cpu(self) -> bool {
+        self != Traversal::GpuOnly
+    }
 }
 
 /// [`build`] for the renderer `traversal` says: the same nodes and primitives either way.
@@ -545,7 +556,19 @@ pub(super) fn build_with(scene: &Scene, parallel_prims: usize, traversal: Traver
     // leaves' triangles gathered, they no longer add to the set-up's peak memory (37 MB for a
     // million triangles; BENCHMARKS.md).
     drop((boxes, centroids));
-    let nodes = Builder::join(first, later, traversal);
+    let mut nodes = Builder::join(first, later, traversal == Traversal::Both);
+    // The wide tree straight after the nodes, so that a tree for the CPU alone frees them
+    // before the primitive arrays are made.
+    let wide = if traversal.cpu() {
+        let mut w = array_for(true, nodes.len());
+        super::wide::collapse(&nodes, &mut w);
+        w
+    } else {
+        Vec::new()
+    };
+    if traversal == Traversal::CpuOnly {
+        nodes = Vec::new();
+    }
     let root_area = root.bounds.half_area();
     stats.sah_cost = if root_area > 0.0 {
         (sah_sum / root_area) as f32
@@ -557,19 +580,18 @@ pub(super) fn build_with(scene: &Scene, parallel_prims: usize, traversal: Traver
     } else {
         0.0
     };
-    let mut prims: Vec<u32> = array_for(traversal, order.len());
+    let mut prims: Vec<u32> = array_for(traversal.cpu(), order.len());
     prims.par_extend(order.par_iter().map(|&i| refs[i as usize]));
     drop((refs, order));
-    let leaf_triangles = match traversal {
-        Traversal::Cpu => {
-            let mut v = array_for(traversal, prims.len());
-            v.par_extend(prims.par_iter().map(|&r| match r & SPHERE_BIT {
-                0 => scene.triangles[r as usize].v,
-                _ => [Vec3::ZERO; 3],
-            }));
-            v
-        }
-        Traversal::GpuOnly => Vec::new(),
+    let leaf_triangles = if traversal.cpu() {
+        let mut v = array_for(true, prims.len());
+        v.par_extend(prims.par_iter().map(|&r| match r & SPHERE_BIT {
+            0 => scene.triangles[r as usize].v,
+            _ => [Vec3::ZERO; 3],
+        }));
+        v
+    } else {
+        Vec::new()
     };
     let (bounds_min, bounds_max) = if n > 0 {
         (root.bounds.min, root.bounds.max)
@@ -580,6 +602,7 @@ pub(super) fn build_with(scene: &Scene, parallel_prims: usize, traversal: Traver
         nodes,
         prims,
         leaf_triangles,
+        wide,
         bounds_min,
         bounds_max,
         stats,
@@ -596,8 +619,8 @@ mod tests {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.toml");
         let mut s = crate::scene::load(&path).unwrap();
         crate::bench::add_sphere_mesh(&mut s, 40_000);
-        let serial = build_with(&s, usize::MAX, Traversal::Cpu);
-        let parallel = build_with(&s, 1000, Traversal::Cpu);
+        let serial = build_with(&s, usize::MAX, Traversal::Both);
+        let parallel = build_with(&s, 1000, Traversal::Both);
         assert!(serial.nodes.len() > 1000);
         assert!(serial.nodes == parallel.nodes, "nodes differ");
         assert_eq!(serial.prims, parallel.prims);
@@ -607,19 +630,26 @@ mod tests {
         assert_eq!(serial.leaf_triangles, parallel.leaf_triangles);
     }
 
-    /// A tree for the GPU alone is the same tree without the CPU's copy of the leaves'
-    /// triangles, which the CPU's tree has for every primitive.
+    /// A tree for one renderer is the tree for both without what only the other reads: the
+    /// GPU's without the leaves' triangles and the wide tree, the CPU's without the binary
+    /// nodes.
     #[test]
-    fn gpu_only_build_is_the_same_tree_without_leaf_triangles() {
+    fn single_renderer_builds_are_the_same_tree_without_the_other_half() {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.toml");
         let mut s = crate::scene::load(&path).unwrap();
         crate::bench::add_sphere_mesh(&mut s, 4_000);
-        let cpu = build_for(&s, Traversal::Cpu);
+        let both = build_for(&s, Traversal::Both);
         let gpu = build_for(&s, Traversal::GpuOnly);
-        assert!(cpu.nodes == gpu.nodes, "nodes differ");
-        assert_eq!(cpu.prims, gpu.prims);
-        assert_eq!(cpu.leaf_triangles.len(), cpu.prims.len());
-        assert!(gpu.leaf_triangles.is_empty());
+        let cpu = build_for(&s, Traversal::CpuOnly);
+        assert!(both.nodes == gpu.nodes, "nodes differ");
+        assert_eq!(both.prims, gpu.prims);
+        assert_eq!(both.leaf_triangles.len(), both.prims.len());
+        assert!(gpu.leaf_triangles.is_empty() && gpu.wide.is_empty());
+        assert!(cpu.nodes.is_empty());
+        assert!(cpu.wide == both.wide, "wide nodes differ");
+        assert_eq!(cpu.prims, both.prims);
+        assert_eq!(cpu.leaf_triangles, both.leaf_triangles);
+        assert_eq!(cpu.stats, both.stats);
     }
 
     #[test]

@@ -3,7 +3,7 @@
 //! methods and their numerics are those of the [`crate::bvh`] module documentation.
 
 use crate::robust::dot3;
-use glam::{Vec2, Vec3, Vec3A};
+use glam::{Vec2, Vec3, Vec3A, Vec4};
 
 /// Ize 2013: the far slab distance is multiplied by this (1 + 2^-20, exact in f32), more than
 /// the 1 + 2·γ₃ the three roundings of `(b - o) · inv` need, to absorb the rounding of the
@@ -82,23 +82,19 @@ impl Ray {
         })
     }
 
-    /// Conservative slab test: (hit, entry distance clamped to 0). In SIMD registers
-    /// (`Vec3A`: the CPU reference about 5 % faster; BENCHMARKS.md). For a finite origin, a
-    /// direction that [`Ray::new`] accepts and a finite box no value here is NaN, so the
-    /// minima and maxima are those of the GLSL twin's scalar order (a NaN would be dropped by
-    /// one order and kept by another).
+    /// The per-axis splats of the box test's constants, for [`RaySplats::box_hit4`].
     #[inline]
-    pub(super) fn box_hit(&self, bmin: Vec3A, bmax: Vec3A, tmax: f32) -> (bool, f32) {
-        let t0 = (bmin - self.o_a) * self.inv;
-        let t1 = (bmax - self.o_a) * self.inv;
-        let tn = t0.min(t1) - self.pad;
-        let tf = t0.max(t1) + self.pad;
-        let tnear = tn.max_element().max(0.0);
-        let tfar = tf.min_element().min(tmax) * BOX_WIDEN;
-        (tnear <= tfar, tnear)
+    pub(super) fn splats(&self) -> RaySplats {
+        let splat = |v: Vec3A| [Vec4::splat(v.x), Vec4::splat(v.y), Vec4::splat(v.z)];
+        RaySplats {
+            o: splat(self.o_a),
+            inv: splat(self.inv),
+            pad: splat(self.pad),
+        }
     }
 
-    /// Woop–Benthin–Wald watertight test; (t, (b1, b2)) with t in (0, tmax).
+    /// Woop–Benthin–Wald watertight test; (t, (b1, b2)) with t in (0, tmax]: a hit at
+    /// exactly `tmax` is returned, for the tie rule (the [`crate::bvh`] module documentation).
     #[inline]
     pub(super) fn triangle(&self, v: &[Vec3; 3], tmax: f32) -> Option<(f32, Vec2)> {
         // Each vertex relative to the origin on the ray's permuted axes (kx, ky, kz): the same
@@ -135,17 +131,48 @@ impl Ray {
         }
         let rcp = 1.0 / det;
         let t = tt * rcp;
-        if !(t > 0.0 && t < tmax) {
+        if !(t > 0.0 && t <= tmax) {
             return None;
         }
         Some((t, Vec2::new(v_ * rcp, w * rcp)))
     }
 }
 
+/// The box test's per-ray constants, each component in all four lanes (x, y, z).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct RaySplats {
+    o: [Vec4; 3],
+    inv: [Vec4; 3],
+    pad: [Vec4; 3],
+}
+
+impl RaySplats {
+    /// Conservative slab test (Ize 2013) of the four boxes of a wide node at once, in SIMD
+    /// registers: the hit lanes as bits (absent children included; the caller masks them) and
+    /// the entry distances, clamped to 0. Per lane the arithmetic of the GLSL twin
+    /// (`bvh_box_hit`), so both find the same boxes hit: for a finite origin, a direction
+    /// that [`Ray::new`] accepts and a finite box no value here is NaN, so the minima and
+    /// maxima are those of the GLSL's scalar order (a NaN would be dropped by one order and
+    /// kept by another).
+    #[inline]
+    pub(super) fn box_hit4(&self, lo: &[Vec4; 3], hi: &[Vec4; 3], tmax: f32) -> (u32, Vec4) {
+        let mut tnear = Vec4::ZERO;
+        let mut tfar = Vec4::splat(tmax);
+        for a in 0..3 {
+            let t0 = (lo[a] - self.o[a]) * self.inv[a];
+            let t1 = (hi[a] - self.o[a]) * self.inv[a];
+            tnear = tnear.max(t0.min(t1) - self.pad[a]);
+            tfar = tfar.min(t0.max(t1) + self.pad[a]);
+        }
+        let tfar = tfar * BOX_WIDEN;
+        (tnear.cmple(tfar).bitmask(), tnear)
+    }
+}
+
 /// Watertight ray/triangle intersection (Woop, Benthin & Wald 2013): the hit distance `t` in
 /// (0, tmax) and the barycentrics (b1, b2) of v1 and v2. None for a zero direction.
 pub fn intersect_triangle(o: Vec3, d: Vec3, v: &[Vec3; 3], tmax: f32) -> Option<(f32, Vec2)> {
-    Ray::new(o, d)?.triangle(v, tmax)
+    Ray::new(o, d)?.triangle(v, tmax).filter(|h| h.0 < tmax)
 }
 
 /// Ray/sphere intersection (Ray Tracing Gems ch. 7): the smallest root in (0, tmax), so a ray
@@ -153,6 +180,12 @@ pub fn intersect_triangle(o: Vec3, d: Vec3, v: &[Vec3; 3], tmax: f32) -> Option<
 /// coordinate (or of the radius) from the surface counts as on it: the root at t ≈ 0 is dropped, so a ray leaving the surface inwards finds
 /// the far side and one leaving outwards finds nothing. `d` need not be normalised.
 pub fn intersect_sphere(o: Vec3, d: Vec3, center: Vec3, radius: f32, tmax: f32) -> Option<f32> {
+    sphere(o, d, center, radius, tmax).filter(|&t| t < tmax)
+}
+
+/// [`intersect_sphere`] with t in (0, tmax]: the smallest root in (0, tmax], as the traversal's
+/// tie rule needs (a root at exactly `tmax` is returned).
+pub(super) fn sphere(o: Vec3, d: Vec3, center: Vec3, radius: f32, tmax: f32) -> Option<f32> {
     let f = o - center;
     let a = dot3(d, d);
     // Also rejects NaN (GLSL: `!(a > 0.0)`).
@@ -179,9 +212,9 @@ pub fn intersect_sphere(o: Vec3, d: Vec3, center: Vec3, radius: f32, tmax: f32) 
     let t0 = if on_surface { 0.0 } else { c / q };
     let t1 = q / a;
     let (lo, hi) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
-    if lo > 0.0 && lo < tmax {
+    if lo > 0.0 && lo <= tmax {
         Some(lo)
-    } else if hi > 0.0 && hi < tmax {
+    } else if hi > 0.0 && hi <= tmax {
         Some(hi)
     } else {
         None

@@ -1,8 +1,9 @@
 //! Host BVH: binned-SAH construction, the 64-byte GPU node layout and the CPU traversal.
 //!
 //! One job per file: `build.rs` the construction, `node.rs` the node layout and the stack's
-//! link encoding, `intersect.rs` the ray set-up and the box and primitive tests, `traverse.rs`
-//! the traversal; this file the public types. The robust-geometry helpers the renderers apply
+//! link encoding, `wide.rs` the CPU's 4-wide tree collapsed from the binary one,
+//! `intersect.rs` the ray set-up and the box and primitive tests, `traverse.rs` the CPU
+//! traversal; this file the public types. The robust-geometry helpers the renderers apply
 //! to a hit (error bounds, ray-origin offsets) are [`crate::robust`]'s.
 //!
 //! The GLSL twin of the traversal and of every intersection routine is `shaders/bvh.glsl`; it
@@ -29,28 +30,38 @@
 //! left child is that leaf and whose right child is absent; an empty scene gets a root with two
 //! absent children (and `prims` is empty).
 //!
+//! # The CPU's wide tree
+//! The CPU traversal walks [`Bvh::wide`]: the binary tree collapsed into [`WideNode`]s of up
+//! to [`WIDTH`] children (each starts from a binary node's two children and opens the inner
+//! child with the largest box until it has four), whose boxes are tested four at a time in
+//! SIMD registers. Its leaves are the binary tree's, so it indexes the same `prims`. A ray
+//! fetches fewer nodes and pushes fewer stack entries than in the binary tree (BENCHMARKS.md).
+//!
 //! # Traversal
-//! Iterative, near child first, with a private stack of [`STACK_SIZE`] entries (on the GPU, for
-//! a tree at most 15 deep, [`register_stack_size`] entries held in registers instead: the same
-//! entries in the same order, so the same nodes are visited). A stack entry
-//! is an inner node index, or a leaf encoded as `LEAF_FLAG | first << 3 | (count - 1)` (so at
-//! most 2^28 primitives). Box tests follow Ize 2013 ("Robust BVH Ray Traversal", JCGT 2(2)):
+//! Iterative, near child first, with a private stack: on the GPU over the binary tree, with
+//! [`STACK_SIZE`] entries (for a tree at most 15 deep, [`register_stack_size`] entries held in
+//! registers instead: the same entries in the same order, so the same nodes are visited); on
+//! the CPU over the wide tree, its hit children in the order of their entry distances. A stack
+//! entry is an inner node index, or a leaf encoded as `LEAF_FLAG | first << 3 | (count - 1)`
+//! (so at most 2^28 primitives). Box tests follow Ize 2013 ("Robust BVH Ray Traversal", JCGT 2(2)):
 //! the far distance is widened by [`BOX_WIDEN`] so rounding never rejects a box the ray
 //! touches. Direction components with `|d| < ZERO_DIR` are treated as exactly parallel to the
 //! slab: the inverse is a large finite number and the slab interval is padded by `ZERO_PAD`,
 //! which makes a ray lying in a box's face plane count as inside the slab (no `0 * inf` NaN, no
 //! lost hits for axis-aligned rays grazing box faces).
 //!
-//! **Ties.** The closest hit is replaced only by a strictly smaller `t`. Among primitives at
-//! the same `t` the first one met wins; the order is: children in near-first order (left first
-//! when both entry distances are equal), the far child after the whole near subtree, and the
-//! primitives of a leaf in `prims` order. The GLSL traversal visits in exactly this order.
+//! **Ties.** Among the primitives hit at the smallest `t` the one with the smallest primitive
+//! reference wins (so triangles before spheres). The primitive tests return a `t` equal to the
+//! current best one, and a hit replaces the best if its `t` is smaller, or equal with a smaller
+//! reference. The result does not depend on the order in which primitives are met, so the
+//! GPU's binary traversal and the CPU's wide one find the same hit, and both find the hit of a
+//! brute-force loop over all primitives.
 //!
 //! # Intersections
 //! * Triangles: Woop, Benthin & Wald 2013, "Watertight Ray/Triangle Intersection" (JCGT 2(1)),
 //!   single precision without the double-precision fallback: an edge function that rounds to
 //!   zero counts as inside on both triangles sharing the edge, so a ray through a shared edge
-//!   or vertex hits at least one of them (it may hit both; the first found is kept).
+//!   or vertex hits at least one of them (it may hit both; the tie rule picks one).
 //! * Spheres: the quadratic in the form of Haines et al. 2019, "Precision Improvements for
 //!   Ray/Sphere Intersection" (Ray Tracing Gems ch. 7): the discriminant from the distance of
 //!   the centre to the line, and the two roots as `c/q` and `q/a` without cancellation.
@@ -69,6 +80,7 @@ mod build;
 mod intersect;
 mod node;
 mod traverse;
+mod wide;
 
 /// The robust-geometry helpers (hit points with error bounds, ray-origin offsets) are
 /// [`crate::robust`]'s; re-exported for callers that name them `bvh::…`.
@@ -79,6 +91,7 @@ pub use crate::robust::{
 pub use build::{build, build_for, Traversal, BINS, C_INT, C_TRAV, MAX_DEPTH, MAX_LEAF};
 pub use intersect::{intersect_sphere, intersect_triangle, BOX_WIDEN};
 pub use node::{register_stack_size, GpuNode, MAX_PRIMS, REGISTER_STACK_MAX, STACK_SIZE};
+pub use wide::{WideNode, WIDTH};
 
 use glam::{Vec2, Vec3};
 
@@ -126,6 +139,8 @@ impl std::fmt::Display for BvhStats {
 /// The built hierarchy: nodes (root = 0) and the primitive references the leaves index.
 #[derive(Clone, Debug, Default)]
 pub struct Bvh {
+    /// The binary tree the GPU kernels walk. Empty in a tree built for the CPU alone
+    /// ([`Traversal::CpuOnly`]).
     pub nodes: Vec<GpuNode>,
     /// Primitive references (triangle index, or sphere index | `SPHERE_BIT`), leaf-contiguous.
     pub prims: Vec<u32>,
@@ -133,6 +148,9 @@ pub struct Bvh {
     /// traversal reads a leaf's triangles from consecutive memory instead of the scene's larger
     /// `Triangle` records. Empty in a tree built for the GPU alone ([`Traversal::GpuOnly`]).
     pub leaf_triangles: Vec<[Vec3; 3]>,
+    /// The CPU traversal's 4-wide tree, collapsed from `nodes` (root = 0; the same leaves).
+    /// Empty in a tree built for the GPU alone.
+    pub wide: Vec<WideNode>,
     /// Box of the whole scene (empty scene: both zero).
     pub bounds_min: Vec3,
     pub bounds_max: Vec3,

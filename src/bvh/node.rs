@@ -2,8 +2,6 @@
 //! see the [`crate::bvh`] module documentation. GLSL twin: `bvh_node`, `bvh_link` and the
 //! `BVH_*` defines in `shaders/bvh.glsl`.
 
-use glam::{BVec4A, Vec3A, Vec4};
-
 /// Traversal stack entries (Rust and GLSL).
 pub const STACK_SIZE: usize = 64;
 /// Marks a leaf in a traversal stack entry.
@@ -50,23 +48,6 @@ pub struct GpuNode {
 }
 
 const _: () = assert!(std::mem::size_of::<GpuNode>() == 64);
-
-impl GpuNode {
-    /// The children's box corners (lmin, lmax, rmin, rmax) as SIMD vectors for the CPU box
-    /// test: each one 16-byte load of its vec4, the u32 field's lane cleared (a small integer
-    /// read as f32 is a denormal, which SSE arithmetic is slow on), instead of three scalar
-    /// loads and two shuffles. The x, y, z lanes are the fields' values, bit for bit.
-    #[inline]
-    pub(super) fn corners(&self) -> [Vec3A; 4] {
-        let f: &[f32; 16] = bytemuck::cast_ref(self);
-        let xyz = BVec4A::new(true, true, true, false);
-        let corner = |i: usize| {
-            let v = Vec4::from_slice(&f[4 * i..4 * i + 4]);
-            Vec3A::from_vec4(Vec4::select(xyz, v, Vec4::ZERO))
-        };
-        [corner(0), corner(1), corner(2), corner(3)]
-    }
-}
 
 /// Stack entry of a child link.
 #[inline]

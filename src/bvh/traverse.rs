@@ -1,12 +1,15 @@
-//! The CPU traversal: near child first, with a private stack (GLSL twin: `bvh_traverse` in
-//! `shaders/bvh.glsl`, the same nodes and primitives in the same order); the tie rule is the
-//! [`crate::bvh`] module documentation's.
+//! The CPU traversal: the 4-wide tree ([`super::wide`]), near children first, with a private
+//! stack. Its GLSL twin, `bvh_traverse` in `shaders/bvh.glsl`, walks the binary tree the wide
+//! one was collapsed from, with the same box and primitive tests; the two meet the primitives
+//! in different orders and find the same hit, because the tie rule (the [`crate::bvh`] module
+//! documentation) does not depend on the order.
 
-use super::intersect::{intersect_sphere, Ray};
-use super::node::{link, LEAF_FLAG, STACK_SIZE};
+use super::intersect::{sphere, Ray};
+use super::node::LEAF_FLAG;
+use super::wide::{WIDE_STACK_SIZE, WIDTH};
 use super::{Bvh, Hit, SPHERE_BIT};
 use crate::scene::Scene;
-use glam::{Vec2, Vec3};
+use glam::{UVec4, Vec2, Vec3};
 
 impl Bvh {
     /// Closest hit with t in (0, tmax); ties are resolved as the module documentation says.
@@ -23,17 +26,18 @@ impl Bvh {
 
     fn traverse<const ANY: bool>(&self, scene: &Scene, o: Vec3, d: Vec3, tmax: f32) -> Option<Hit> {
         assert!(
-            self.leaf_triangles.len() == self.prims.len(),
+            !self.wide.is_empty(),
             "the CPU traversal of a BVH built for the GPU alone (bvh::Traversal::GpuOnly)"
         );
         let ray = Ray::new(o, d)?;
+        let splats = ray.splats();
         let mut best = Hit {
             t: tmax,
             prim: u32::MAX,
             bary: Vec2::ZERO,
         };
         let mut found = false;
-        let mut stack = [0u32; STACK_SIZE];
+        let mut stack = [0u32; WIDE_STACK_SIZE];
         let mut sp = 0usize;
         let mut cur = 0u32;
         loop {
@@ -44,44 +48,60 @@ impl Bvh {
                     let r = self.prims[i as usize];
                     let h = if r & SPHERE_BIT != 0 {
                         let s = &scene.spheres[(r & !SPHERE_BIT) as usize];
-                        intersect_sphere(o, d, s.center, s.radius, best.t).map(|t| (t, Vec2::ZERO))
+                        sphere(o, d, s.center, s.radius, best.t).map(|t| (t, Vec2::ZERO))
                     } else {
                         ray.triangle(&self.leaf_triangles[i as usize], best.t)
                     };
                     if let Some((t, bary)) = h {
-                        best = Hit { t, prim: r, bary };
-                        found = true;
-                        if ANY {
-                            return Some(best);
+                        // The tie rule: a smaller t, or the same t and a smaller reference.
+                        // Before the first hit, best.t is tmax and only t < tmax counts.
+                        if t < best.t || (found && r < best.prim) {
+                            best = Hit { t, prim: r, bary };
+                            found = true;
+                            if ANY {
+                                return Some(best);
+                            }
                         }
                     }
                 }
             } else {
-                let n = &self.nodes[cur as usize];
-                let [lmin, lmax, rmin, rmax] = n.corners();
-                let (hl, tl) = ray.box_hit(lmin, lmax, best.t);
-                let (hr, tr) = ray.box_hit(rmin, rmax, best.t);
-                let hl = hl && (n.left_count != 0 || n.left != 0);
-                let hr = hr && (n.right_count != 0 || n.right != 0);
-                let cl = link(n.left, n.left_count);
-                let cr = link(n.right, n.right_count);
-                if hl && hr {
-                    let (near, far) = if tr < tl { (cr, cl) } else { (cl, cr) };
-                    debug_assert!(sp < STACK_SIZE, "BVH deeper than the traversal stack");
-                    if sp < STACK_SIZE {
-                        stack[sp] = far;
-                        sp += 1;
+                let n = &self.wide[cur as usize];
+                let (hits, tnear) = splats.box_hit4(&n.lo, &n.hi, best.t);
+                let present = UVec4::from(n.child).cmpne(UVec4::ZERO).bitmask();
+                let mut hits = hits & present;
+                match hits.count_ones() {
+                    0 => {}
+                    1 => {
+                        cur = n.child[hits.trailing_zeros() as usize];
+                        continue;
                     }
-                    cur = near;
-                    continue;
-                }
-                if hl {
-                    cur = cl;
-                    continue;
-                }
-                if hr {
-                    cur = cr;
-                    continue;
+                    k => {
+                        // Near first: the hit children by entry distance (equal distances in
+                        // child order), the nearest next and the others pushed far to near.
+                        let tn = tnear.to_array();
+                        let mut order = [0usize; WIDTH];
+                        for slot in order.iter_mut().take(k as usize) {
+                            *slot = hits.trailing_zeros() as usize;
+                            hits &= hits - 1;
+                        }
+                        let order = &mut order[..k as usize];
+                        for i in 1..order.len() {
+                            let mut j = i;
+                            while j > 0 && tn[order[j]] < tn[order[j - 1]] {
+                                order.swap(j, j - 1);
+                                j -= 1;
+                            }
+                        }
+                        for &c in order[1..].iter().rev() {
+                            debug_assert!(sp < WIDE_STACK_SIZE, "BVH deeper than the stack");
+                            if sp < WIDE_STACK_SIZE {
+                                stack[sp] = n.child[c];
+                                sp += 1;
+                            }
+                        }
+                        cur = n.child[order[0]];
+                        continue;
+                    }
                 }
             }
             if sp == 0 {

@@ -175,6 +175,7 @@ struct RenderSummary {
     #[serde(flatten)]
     gpu: Option<GpuSetup>,
     seconds_bvh: f64,
+    /// Nodes of the tree the backend walks: binary on the GPU, 4-wide on the CPU.
     bvh_nodes: usize,
     seconds_setup: f64,
     seconds_render: f64,
@@ -448,11 +449,15 @@ pub fn run(a: RenderArgs) -> Result<()> {
         &sc,
         match a.backend {
             Backend::Gpu => bvh::Traversal::GpuOnly,
-            Backend::Cpu => bvh::Traversal::Cpu,
+            Backend::Cpu => bvh::Traversal::CpuOnly,
         },
     );
     let seconds_bvh = t_bvh.elapsed().as_secs_f64();
-    let bvh_nodes = bvh.nodes.len();
+    // The nodes of the tree the backend walks: binary on the GPU, 4-wide on the CPU.
+    let bvh_nodes = match a.backend {
+        Backend::Gpu => bvh.nodes.len(),
+        Backend::Cpu => bvh.wide.len(),
+    };
     brdfwave::memory::release_free_heap();
     let gpu = match a.backend {
         Backend::Gpu => Some((

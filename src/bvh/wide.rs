@@ -1,0 +1,216 @@
+//! The CPU traversal's 4-wide tree: the binary tree collapsed (each wide node holds up to four
+//! of a binary node's descendants), with the four children's boxes stored axis by axis so
+//! that one SIMD test checks all four. Its leaves are the binary tree's leaves, so it indexes
+//! the same [`super::Bvh::prims`]. The GPU kernels walk the binary tree; both find the same
+//! hits because the tie rule does not depend on the order in which primitives are met (the
+//! [`crate::bvh`] module documentation).
+
+use super::node::{link, GpuNode};
+use super::MAX_DEPTH;
+use glam::Vec4;
+
+/// Children per wide node.
+pub const WIDTH: usize = 4;
+
+/// Traversal stack entries for the wide tree: visiting a node at wide depth k leaves at most
+/// three entries per level above it and three of its own, and a wide node is never deeper than
+/// the binary node it was made from.
+pub(super) const WIDE_STACK_SIZE: usize = 3 * (MAX_DEPTH as usize + 1);
+
+/// One node of the wide tree (128 bytes, two cache lines).
+#[repr(C, align(64))]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WideNode {
+    /// The children's lower box corners: x of all four, then y, then z.
+    pub lo: [Vec4; 3],
+    /// The children's upper box corners, likewise.
+    pub hi: [Vec4; 3],
+    /// Child links in the stack encoding ([`super::node::link`]) over wide nodes and
+    /// `prims`; 0 for an absent child (the root, node 0, is nobody's child).
+    pub child: [u32; WIDTH],
+}
+
+const _: () = assert!(std::mem::size_of::<WideNode>() == 128);
+
+impl WideNode {
+    const EMPTY: WideNode = WideNode {
+        lo: [Vec4::ZERO; 3],
+        hi: [Vec4::ZERO; 3],
+        child: [0; WIDTH],
+    };
+}
+
+/// A child of a binary node: its box and link fields.
+#[derive(Clone, Copy)]
+struct Child {
+    min: [f32; 3],
+    max: [f32; 3],
+    index: u32,
+    count: u32,
+}
+
+impl Child {
+    fn is_inner(&self) -> bool {
+        self.count == 0
+    }
+    fn half_area(&self) -> f32 {
+        let e = [0, 1, 2].map(|a| (self.max[a] - self.min[a]).max(0.0));
+        e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
+    }
+}
+
+/// The present children of binary node `n`, left first.
+fn children(n: &GpuNode) -> impl Iterator<Item = Child> {
+    let l = Child {
+        min: n.lmin,
+        max: n.lmax,
+        index: n.left,
+        count: n.left_count,
+    };
+    let r = Child {
+        min: n.rmin,
+        max: n.rmax,
+        index: n.right,
+        count: n.right_count,
+    };
+    [l, r].into_iter().filter(|c| c.count != 0 || c.index != 0)
+}
+
+/// The wide tree of the binary tree `nodes` (root = node 0, which every built tree has),
+/// appended to `out` (empty). Each wide node starts from a binary node's children and opens
+/// the inner child with the largest box until it has four children or only leaves; the wide
+/// children of a node are stored next to each other.
+pub(super) fn collapse(nodes: &[GpuNode], out: &mut Vec<WideNode>) {
+    debug_assert!(out.is_empty());
+    if nodes.is_empty() {
+        return;
+    }
+    out.push(WideNode::EMPTY);
+    fill(nodes, 0, 0, out);
+}
+
+fn fill(nodes: &[GpuNode], binary: usize, wide: usize, out: &mut Vec<WideNode>) {
+    let mut kids: Vec<Child> = children(&nodes[binary]).collect();
+    while kids.len() < WIDTH {
+        let widest = (0..kids.len())
+            .filter(|&i| kids[i].is_inner())
+            .max_by(|&a, &b| kids[a].half_area().total_cmp(&kids[b].half_area()));
+        let Some(i) = widest else { break };
+        let opened = kids.remove(i);
+        for (k, c) in children(&nodes[opened.index as usize]).enumerate() {
+            kids.insert(i + k, c);
+        }
+    }
+    let first = out.len();
+    let inner = kids.iter().filter(|c| c.is_inner()).count();
+    out.resize(first + inner, WideNode::EMPTY);
+    let mut node = WideNode::EMPTY;
+    let mut next = first;
+    let mut below = Vec::with_capacity(inner);
+    for (k, c) in kids.iter().enumerate() {
+        for a in 0..3 {
+            node.lo[a][k] = c.min[a];
+            node.hi[a][k] = c.max[a];
+        }
+        node.child[k] = if c.is_inner() {
+            below.push((c.index as usize, next));
+            next += 1;
+            link((next - 1) as u32, 0)
+        } else {
+            link(c.index, c.count)
+        };
+    }
+    out[wide] = node;
+    for (b, w) in below {
+        fill(nodes, b, w, out);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bvh::node::LEAF_FLAG;
+
+    type Leaf = (u32, [f32; 3], [f32; 3]);
+
+    /// The leaves under binary node `n` (as stack links, with their boxes), left to right.
+    fn binary_leaves(nodes: &[GpuNode], n: usize, out: &mut Vec<Leaf>) {
+        for c in children(&nodes[n]) {
+            if c.is_inner() {
+                binary_leaves(nodes, c.index as usize, out);
+            } else {
+                out.push((link(c.index, c.count), c.min, c.max));
+            }
+        }
+    }
+
+    /// The leaves under wide node `n`, likewise; checks that every node is reached once.
+    fn wide_leaves(wide: &[WideNode], n: usize, seen: &mut [bool], out: &mut Vec<Leaf>) {
+        assert!(!seen[n], "wide node {n} reached twice");
+        seen[n] = true;
+        let w = &wide[n];
+        for k in 0..WIDTH {
+            let c = w.child[k];
+            if c & LEAF_FLAG != 0 {
+                let lo = [0, 1, 2].map(|a| w.lo[a][k]);
+                let hi = [0, 1, 2].map(|a| w.hi[a][k]);
+                out.push((c, lo, hi));
+            } else if c != 0 {
+                wide_leaves(wide, c as usize, seen, out);
+            }
+        }
+    }
+
+    /// The wide tree of a real build holds the binary tree's leaves with their boxes, each
+    /// once and in the same left-to-right order, in fewer nodes, each one full unless all its
+    /// children are leaves.
+    #[test]
+    fn collapse_keeps_every_leaf_once_in_order() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.toml");
+        let mut s = crate::scene::load(&path).unwrap();
+        crate::bench::add_sphere_mesh(&mut s, 20_000);
+        let b = crate::bvh::build(&s);
+        let mut want = Vec::new();
+        binary_leaves(&b.nodes, 0, &mut want);
+        let mut got = Vec::new();
+        let mut seen = vec![false; b.wide.len()];
+        wide_leaves(&b.wide, 0, &mut seen, &mut got);
+        assert_eq!(got.len(), b.stats.leaves);
+        assert!(
+            got == want,
+            "the wide tree's leaves differ from the binary tree's"
+        );
+        assert!(seen.iter().all(|&s| s), "unreachable wide nodes");
+        let (w, n) = (b.wide.len(), b.nodes.len());
+        assert!(w * 2 < n, "{w} wide nodes for {n} binary ones");
+        // A node with room left has only leaves: there was no inner child to open.
+        for (i, n) in b.wide.iter().enumerate() {
+            let present = n.child.iter().filter(|&&c| c != 0).count();
+            let inner = n
+                .child
+                .iter()
+                .filter(|&&c| c != 0 && c & LEAF_FLAG == 0)
+                .count();
+            assert!(present == WIDTH || inner == 0, "node {i}: {:?}", n.child);
+        }
+    }
+
+    /// A one-leaf scene: the root's left child is the leaf, the right one absent.
+    #[test]
+    fn collapse_of_a_single_leaf_and_of_an_empty_tree() {
+        let leaf = GpuNode {
+            lmax: [1.0; 3],
+            left: 0,
+            left_count: 3,
+            ..Default::default()
+        };
+        let mut w = Vec::new();
+        collapse(&[leaf], &mut w);
+        assert_eq!(w.len(), 1);
+        assert_eq!(w[0].child, [link(0, 3), 0, 0, 0]);
+        let mut w = Vec::new();
+        collapse(&[GpuNode::default()], &mut w);
+        assert_eq!(w.len(), 1);
+        assert_eq!(w[0].child, [0; WIDTH]);
+    }
+}
