@@ -150,7 +150,7 @@ impl RaySplats {
     /// Conservative slab test (Ize 2013) of the four boxes of a wide node at once, in SIMD
     /// registers: the hit lanes as bits (absent children included; the caller masks them) and
     /// the entry distances, clamped to 0. Per lane the arithmetic of the GLSL twin
-    /// (`bvh_box_hit`), so both find the same boxes hit: for a finite origin, a direction
+    /// (`bvh_box_hit`), so a box is hit or missed alike on both sides: for a finite origin, a direction
     /// that [`Ray::new`] accepts and a finite box no value here is NaN, so the minima and
     /// maxima are those of the GLSL's scalar order (a NaN would be dropped by one order and
     /// kept by another).
