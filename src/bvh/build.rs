@@ -23,9 +23,9 @@ pub const MAX_DEPTH: u32 = 60;
 const _: () = assert!((MAX_DEPTH as usize) < STACK_SIZE);
 
 #[derive(Clone, Copy)]
-struct Aabb {
-    min: Vec3,
-    max: Vec3,
+pub(super) struct Aabb {
+    pub(super) min: Vec3,
+    pub(super) max: Vec3,
 }
 
 impl Aabb {
@@ -52,7 +52,7 @@ impl Aabb {
         self.max = Vec3::new(hi(n.x, b.max.x), hi(n.y, b.max.y), hi(n.z, b.max.z));
     }
     /// Half the surface area (f64: no overflow for huge boxes); 0 for empty or flat boxes.
-    fn half_area(&self) -> f64 {
+    pub(super) fn half_area(&self) -> f64 {
         let e = (self.max - self.min).max(Vec3::ZERO).as_dvec3();
         e.x * e.y + e.y * e.z + e.z * e.x
     }
@@ -89,12 +89,19 @@ fn levels_needed(n: usize) -> u32 {
     }
 }
 
-/// A child link under construction.
+/// A child link: under construction, or read back from a node ([`children`]).
 #[derive(Clone, Copy)]
-struct Link {
-    bounds: Aabb,
-    index: u32,
-    count: u32,
+pub(super) struct Link {
+    pub(super) bounds: Aabb,
+    /// Node index if `count == 0`, else first index into `prims` (the [`GpuNode`] fields).
+    pub(super) index: u32,
+    pub(super) count: u32,
+}
+
+impl Link {
+    pub(super) fn is_inner(&self) -> bool {
+        self.count == 0
+    }
 }
 
 const ABSENT: Link = Link {
@@ -138,11 +145,12 @@ enum Decision {
 const PARALLEL_PRIMS: usize = 16 * 1024;
 
 /// An empty vector with room for `n` values, for one of the arrays the traversals read at
-/// random (nodes, primitive references, leaf triangles, wide nodes): on huge pages where the
-/// CPU traversal reads it ([`huge_page_vec`], fewer TLB misses). Arrays that are uploaded or
-/// collapsed and then freed get plain vectors: memory in huge pages that is freed back to the
-/// heap is returned to the system only in whole 2 MiB blocks (lavapipe's peak on the
-/// 1M-triangle scene rose by 60 MB with them).
+/// random (primitive references, leaf triangles, wide nodes): on huge pages where the CPU
+/// traversal reads it ([`huge_page_vec`], fewer TLB misses). Arrays that only the GPU reads
+/// (uploaded, then freed), and the binary nodes (which the CPU traversal no longer reads), get
+/// plain vectors: memory in huge pages that is freed back to the heap is returned to the system
+/// only in whole 2 MiB blocks (lavapipe's peak on the 1M-triangle scene rose by 60 MB with
+/// them).
 fn array_for<T>(cpu_reads_it: bool, n: usize) -> Vec<T> {
     if cpu_reads_it {
         huge_page_vec(n)
@@ -169,15 +177,11 @@ impl<'a> Builder<'a> {
         self.nodes.len() + self.later.iter().map(|(_, v)| v.len()).sum::<usize>()
     }
 
-    /// All nodes in one vector ([`array_for`]): `nodes`, then the runs of `later` rebased, each
-    /// run freed once copied.
-    fn join(
-        nodes: Vec<GpuNode>,
-        later: Vec<(u32, Vec<GpuNode>)>,
-        cpu_reads_it: bool,
-    ) -> Vec<GpuNode> {
+    /// All nodes in one vector: `nodes`, then the runs of `later` rebased, each run freed once
+    /// copied.
+    fn join(nodes: Vec<GpuNode>, later: Vec<(u32, Vec<GpuNode>)>) -> Vec<GpuNode> {
         let total = nodes.len() + later.iter().map(|(_, v)| v.len()).sum::<usize>();
-        let mut all = array_for(cpu_reads_it, total);
+        let mut all = array_for(false, total);
         all.extend_from_slice(&nodes);
         drop(nodes);
         for (offset, mut run) in later {
@@ -481,6 +485,21 @@ fn make_node(l: &Link, r: &Link) -> GpuNode {
     }
 }
 
+/// The present children of node `n`, left first: [`make_node`] read back.
+pub(super) fn children(n: &GpuNode) -> impl Iterator<Item = Link> {
+    let link = |min: [f32; 3], max: [f32; 3], index, count| Link {
+        bounds: Aabb {
+            min: Vec3::from_array(min),
+            max: Vec3::from_array(max),
+        },
+        index,
+        count,
+    };
+    let l = link(n.lmin, n.lmax, n.left, n.left_count);
+    let r = link(n.rmin, n.rmax, n.right, n.right_count);
+    [l, r].into_iter().filter(|c| c.count != 0 || c.index != 0)
+}
+
 /// Bin of a centroid coordinate; clamped, and 0 for NaN (the cast saturates).
 fn bin_of(c: f32, lo: f32, scale: f32) -> usize {
     (((c - lo) * scale) as usize).min(BINS - 1)
@@ -556,7 +575,7 @@ pub(super) fn build_with(scene: &Scene, parallel_prims: usize, traversal: Traver
     // leaves' triangles gathered, they no longer add to the set-up's peak memory (37 MB for a
     // million triangles; BENCHMARKS.md).
     drop((boxes, centroids));
-    let mut nodes = Builder::join(first, later, traversal == Traversal::Both);
+    let mut nodes = Builder::join(first, later);
     // The wide tree straight after the nodes, so that a tree for the CPU alone frees them
     // before the primitive arrays are made.
     let wide = if traversal.cpu() {

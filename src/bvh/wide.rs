@@ -5,6 +5,7 @@
 //! hits because the tie rule does not depend on the order in which primitives are met (the
 //! [`crate::bvh`] module documentation).
 
+use super::build::children;
 use super::node::{link, GpuNode};
 use super::MAX_DEPTH;
 use glam::Vec4;
@@ -40,42 +41,6 @@ impl WideNode {
     };
 }
 
-/// A child of a binary node: its box and link fields.
-#[derive(Clone, Copy)]
-struct Child {
-    min: [f32; 3],
-    max: [f32; 3],
-    index: u32,
-    count: u32,
-}
-
-impl Child {
-    fn is_inner(&self) -> bool {
-        self.count == 0
-    }
-    fn half_area(&self) -> f32 {
-        let e = [0, 1, 2].map(|a| (self.max[a] - self.min[a]).max(0.0));
-        e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
-    }
-}
-
-/// The present children of binary node `n`, left first.
-fn children(n: &GpuNode) -> impl Iterator<Item = Child> {
-    let l = Child {
-        min: n.lmin,
-        max: n.lmax,
-        index: n.left,
-        count: n.left_count,
-    };
-    let r = Child {
-        min: n.rmin,
-        max: n.rmax,
-        index: n.right,
-        count: n.right_count,
-    };
-    [l, r].into_iter().filter(|c| c.count != 0 || c.index != 0)
-}
-
 /// The wide tree of the binary tree `nodes` (root = node 0, which every built tree has),
 /// appended to `out` (empty). Each wide node starts from a binary node's children and opens
 /// the inner child with the largest box until it has four children or only leaves; the wide
@@ -90,36 +55,36 @@ pub(super) fn collapse(nodes: &[GpuNode], out: &mut Vec<WideNode>) {
 }
 
 fn fill(nodes: &[GpuNode], binary: usize, wide: usize, out: &mut Vec<WideNode>) {
-    let mut kids: Vec<Child> = children(&nodes[binary]).collect();
+    let mut kids: Vec<_> = children(&nodes[binary]).collect();
     while kids.len() < WIDTH {
+        let area = |i: usize| kids[i].bounds.half_area();
         let widest = (0..kids.len())
             .filter(|&i| kids[i].is_inner())
-            .max_by(|&a, &b| kids[a].half_area().total_cmp(&kids[b].half_area()));
+            .max_by(|&a, &b| area(a).total_cmp(&area(b)));
         let Some(i) = widest else { break };
         let opened = kids.remove(i);
         for (k, c) in children(&nodes[opened.index as usize]).enumerate() {
             kids.insert(i + k, c);
         }
     }
+    // The wide nodes of the inner children, next to each other: first, first + 1, ...
     let first = out.len();
-    let inner = kids.iter().filter(|c| c.is_inner()).count();
-    out.resize(first + inner, WideNode::EMPTY);
+    let mut below = Vec::new();
     let mut node = WideNode::EMPTY;
-    let mut next = first;
-    let mut below = Vec::with_capacity(inner);
     for (k, c) in kids.iter().enumerate() {
         for a in 0..3 {
-            node.lo[a][k] = c.min[a];
-            node.hi[a][k] = c.max[a];
+            node.lo[a][k] = c.bounds.min[a];
+            node.hi[a][k] = c.bounds.max[a];
         }
         node.child[k] = if c.is_inner() {
-            below.push((c.index as usize, next));
-            next += 1;
-            link((next - 1) as u32, 0)
+            let w = first + below.len();
+            below.push((c.index as usize, w));
+            link(w as u32, 0)
         } else {
             link(c.index, c.count)
         };
     }
+    out.resize(first + below.len(), WideNode::EMPTY);
     out[wide] = node;
     for (b, w) in below {
         fill(nodes, b, w, out);
@@ -139,7 +104,8 @@ mod tests {
             if c.is_inner() {
                 binary_leaves(nodes, c.index as usize, out);
             } else {
-                out.push((link(c.index, c.count), c.min, c.max));
+                let (lo, hi) = (c.bounds.min.to_array(), c.bounds.max.to_array());
+                out.push((link(c.index, c.count), lo, hi));
             }
         }
     }
