@@ -54,8 +54,12 @@
 //! reference wins (so triangles before spheres). The primitive tests return a `t` equal to the
 //! current best one, and a hit replaces the best if its `t` is smaller, or equal with a smaller
 //! reference. The result does not depend on the order in which primitives are met, so the
-//! GPU's binary traversal and the CPU's wide one find the same hit, and both find the hit of a
-//! brute-force loop over all primitives.
+//! GPU's binary traversal and the CPU's wide one find the same hit, and on the rays of
+//! `tests/bvh.rs` that of a brute-force loop over all primitives. Not on every ray: a ray
+//! that leaves a plane from a hair behind it can get a false hit at `t` of about 1e-7 from the
+//! triangle test (the sheared coordinates cancel), which the box tests cull when the
+//! triangle's box lies behind the origin (a ray leaving a wall of a box-shaped room) and a
+//! loop over the primitives does not (BENCHMARKS.md, 2026-12-05).
 //!
 //! # Intersections
 //! * Triangles: Woop, Benthin & Wald 2013, "Watertight Ray/Triangle Intersection" (JCGT 2(1)),

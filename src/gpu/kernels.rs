@@ -4,7 +4,7 @@
 
 use super::interface::{self, Push};
 use super::layout::{self, Binding, Counters, Kind, Queue};
-use super::stages::{ModelQueue, Schedule, ShadeKernel, Stage, WaveKernels};
+use super::stages::{separate_stages, ModelQueue, Schedule, ShadeKernel, Stage, WaveKernels};
 use super::{scene_buffers, Integrator, SetupStats};
 use crate::brdf::glsl::model_define;
 use crate::brdf::MODELS;
@@ -82,6 +82,9 @@ pub(super) struct Sizes {
     pub wave_paths: u32,
     pub counters: Counters,
     pub tile: Tile,
+    /// Whether the schedule runs the separate stages, which alone use the stage records
+    /// ([`Binding::is_stage_record`]; [`super::stages::separate_stages`]).
+    pub separate_stages: bool,
 }
 
 /// Uploads the scene and allocates the path state, queues, counters and film: one buffer (and
@@ -98,6 +101,7 @@ pub(super) fn create_buffers<'a>(
         wave_paths,
         counters,
         tile,
+        separate_stages,
     } = *sizes;
     let num_queues = counters.queues;
     let lights = LightTable::build(scene);
@@ -155,6 +159,11 @@ pub(super) fn create_buffers<'a>(
             Binding::Globals => data(bytemuck::bytes_of(&scene_buffers::globals(
                 scene, &lights, num_queues, wave_paths, tile,
             )))?,
+            // A schedule without the separate stages never touches their records: one texel
+            // each instead of 16 bytes a path (64 MB at the default wave of 2^20 paths).
+            b if b.is_stage_record() && !separate_stages => {
+                ctx.create_buffer(name, 16, usage, gpu)?
+            }
             Binding::RayO
             | Binding::RayD
             | Binding::Beta
@@ -365,7 +374,7 @@ pub(super) fn build_kernels<'a>(
                 generate: b.stage(Stage::Generate)?,
                 prepare: b.stage(Stage::Prepare)?,
             };
-            if let [model] = models {
+            if let (false, [model]) = (separate_stages(integrator, models.len()), models) {
                 // One shaded model: extend shades in place and traces the shadow ray
                 // (extend_shade.comp); the material and shadow queues would only cost.
                 let kernel = b.model_stage(Stage::ExtendShade, scene, *model)?;

@@ -124,6 +124,17 @@ impl Binding {
         }
     }
 
+    /// A record one of the separate wavefront stages leaves for the next (the hit record from
+    /// `extend` for `shade`, the shadow ray from `shade` for `shadow`): read and written only by
+    /// the kernels of `stages::Schedule::Wavefront`, so the other schedules get it as one
+    /// texel (`stages::separate_stages`).
+    pub fn is_stage_record(self) -> bool {
+        matches!(
+            self,
+            Binding::HitRec | Binding::ShadowO | Binding::ShadowD | Binding::ShadowL
+        )
+    }
+
     pub fn kind(self) -> Kind {
         use vk::Format as F;
         match self {

@@ -254,6 +254,7 @@ impl<'a> GpuRenderer<'a> {
             wave_paths,
             counters,
             tile,
+            separate_stages: stages::separate_stages(integrator, counters.queues as usize),
         };
         let mut owned = kernels::create_buffers(ctx, scene, bvh, &sizes)?;
         setup.seconds_upload = t_upload.elapsed().as_secs_f64();

@@ -9,7 +9,7 @@
 use super::interface::Push;
 use super::kernels::KernelId;
 use super::layout::{Args, Binding, Counter, MegakernelPhase, Prepare, Queue, LOCAL_SIZE};
-use super::{GpuRenderer, SEGMENTS_PER_CHECK};
+use super::{GpuRenderer, Integrator, SEGMENTS_PER_CHECK};
 use crate::vk::Recorder;
 use anyhow::{bail, Result};
 
@@ -127,6 +127,15 @@ pub(super) enum Schedule {
         /// The queue slots it counts each model's non-finite values at, as the shade stages.
         models: Vec<ModelQueue>,
     },
+}
+
+/// Whether a render with `integrator` (resolved) of a scene that shades `models` models runs
+/// the separate stages ([`Schedule::Wavefront`]): the only schedule that passes hit records and
+/// shadow rays between kernels through buffers ([`Binding::is_stage_record`]). With one model
+/// the wavefront is [`Schedule::Fused`]. `kernels::build_kernels` chooses by it, and
+/// `kernels::create_buffers` sizes those buffers by it.
+pub(super) fn separate_stages(integrator: Integrator, models: usize) -> bool {
+    integrator != Integrator::Megakernel && models != 1
 }
 
 impl Schedule {
