@@ -159,11 +159,6 @@ pub(super) fn create_buffers<'a>(
             Binding::Globals => data(bytemuck::bytes_of(&scene_buffers::globals(
                 scene, &lights, num_queues, wave_paths, tile,
             )))?,
-            // A schedule without the separate stages never touches their records: one texel
-            // each instead of 16 bytes a path (64 MB at the default wave of 2^20 paths).
-            b if b.is_stage_record() && !separate_stages => {
-                ctx.create_buffer(name, 16, usage, gpu)?
-            }
             Binding::RayO
             | Binding::RayD
             | Binding::Beta
@@ -171,7 +166,15 @@ pub(super) fn create_buffers<'a>(
             | Binding::HitRec
             | Binding::ShadowO
             | Binding::ShadowD
-            | Binding::ShadowL => ctx.create_buffer(name, cap * 16, usage, gpu)?,
+            | Binding::ShadowL => {
+                // A schedule without the separate stages never touches their records: one
+                // texel each instead of 16 bytes a path (64 MB at the default wave of 2^20).
+                let texels = match b.is_stage_record() && !separate_stages {
+                    true => 1,
+                    false => cap,
+                };
+                ctx.create_buffer(name, texels * 16, usage, gpu)?
+            }
             Binding::Queues => ctx.create_buffer(name, queue_bytes, usage, gpu)?,
             // Film and counters are read and written by every pass and read back once: device
             // memory, downloaded through a staging copy (in host-visible memory every accumulate
