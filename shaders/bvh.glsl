@@ -43,14 +43,18 @@ struct Hit {
 #define BVH_SPHERE_BIT 0x80000000u
 #define BVH_LEAF_FLAG 0x80000000u
 #define BVH_STACK_SIZE 64
-// 1 + 2^-20 (Rust BOX_WIDEN), 2^-80 (ZERO_DIR), 2^120 (ZERO_INV), 2^80 (ZERO_PAD),
-// 2^-18 (SPHERE_ON_SURFACE), largest finite float.
+// 1 + 2^-20 (Rust BOX_WIDEN), 2^-80 (ZERO_DIR), 2^120 (ZERO_INV), 2^80 (ZERO_PAD), largest
+// finite float, 2^-98 (SPHERE_C_ERROR, a double).
 #define BVH_BOX_WIDEN uintBitsToFloat(0x3F800008u)
 #define BVH_ZERO_DIR uintBitsToFloat(0x17800000u)
 #define BVH_ZERO_INV uintBitsToFloat(0x7B800000u)
 #define BVH_ZERO_PAD uintBitsToFloat(0x67800000u)
-#define BVH_SPHERE_ON_SURFACE uintBitsToFloat(0x36800000u)
 #define BVH_FLT_MAX uintBitsToFloat(0x7F7FFFFFu)
+#define BVH_SPHERE_C_ERROR packDouble2x32(uvec2(0x0u, 0x39d00000u))
+// gamma(2), gamma(3), gamma(5) (Rust: robust::gamma), for the triangle test's t error bound.
+#define BVH_GAMMA2 uintBitsToFloat(0x34000001u)
+#define BVH_GAMMA3 uintBitsToFloat(0x34400002u)
+#define BVH_GAMMA5 uintBitsToFloat(0x34a00003u)
 
 // Per-ray constants (Rust: struct Ray).
 struct BvhRay {
@@ -126,6 +130,27 @@ bool bvh_box_hit(BvhRay r, vec3 bmin, vec3 bmax, float tmax, out float tnear) {
 
 // Woop–Benthin–Wald watertight test: t in (0, tmax] and (b1, b2); a hit at exactly tmax is
 // returned, for the tie rule (bvh_traverse).
+// Rust: triangle_t_error. The bound on the rounding error of the watertight test's t (Pharr,
+// Jakob & Humphreys 2016, sec. 3.9.6), from the vertices relative to the origin on the permuted
+// axes before the shear (ra, rb, rc), the sheared x and y, the scaled heights z, the edge
+// functions and 1/det; a hit counts only beyond it.
+float bvh_triangle_t_error(vec3 ra, vec3 rb, vec3 rc, vec3 x, vec3 y, vec3 z, vec3 e, float rcp) {
+    vec3 ax = abs(x);
+    vec3 ay = abs(y);
+    vec3 az = abs(z);
+    vec3 ae = abs(e);
+    float max_x = max(max(ax.x, ax.y), ax.z);
+    float max_y = max(max(ay.x, ay.y), ay.z);
+    float max_z = max(max(az.x, az.y), az.z);
+    float max_e = max(max(ae.x, ae.y), ae.z);
+    vec3 rel_max = max(max(abs(ra), abs(rb)), abs(rc));
+    precise float delta_x = BVH_GAMMA5 * (rel_max.x + rel_max.z);
+    precise float delta_y = BVH_GAMMA5 * (rel_max.y + rel_max.z);
+    precise float delta_z = BVH_GAMMA3 * max_z;
+    precise float delta_e = 2.0 * (BVH_GAMMA2 * max_x * max_y + delta_y * max_x + delta_x * max_y);
+    precise float bound = 3.0 * (BVH_GAMMA3 * max_e * max_z + delta_e * max_z + delta_z * max_e) * abs(rcp);
+    return bound;
+}
 bool bvh_triangle(BvhRay r, vec3 v0, vec3 v1, vec3 v2, float tmax, out float t, out vec2 bary) {
     t = 0.0;
     bary = vec2(0.0);
@@ -152,34 +177,79 @@ bool bvh_triangle(BvhRay r, vec3 v0, vec3 v1, vec3 v2, float tmax, out float t, 
     precise float rcp = 1.0 / det;
     precise float th = tt * rcp;
     if (!(th > 0.0 && th <= tmax)) return false;
+    if (th <= bvh_triangle_t_error(vec3(a[r.kx], a[r.ky], a[r.kz]), vec3(b[r.kx], b[r.ky], b[r.kz]),
+                                   vec3(c[r.kx], c[r.ky], c[r.kz]), vec3(ax, bx, cx), vec3(ay, by, cy),
+                                   vec3(az, bz, cz), vec3(u, v, w), rcp))
+        return false;
     t = th;
     bary = vec2(v * rcp, w * rcp);
     return true;
 }
 
-// Ray/sphere (Ray Tracing Gems ch. 7): the smallest root in (0, tmax]; an origin on the
-// surface (within about 16 ulps of max(|o|, radius)) drops the root at t ≈ 0. Rust: sphere in
-// src/bvh/intersect.rs.
+// Rust: sphere_c. c = |o - center|^2 - radius^2 from the ten products o_i^2, -2 o_i center_i,
+// center_i^2 and -radius^2, each exact in double, summed with error-free transformations
+// (Ogita, Rump & Oishi 2005, Sum2), and its error bound 2^-98 sum |terms| (the part that can
+// change c's sign).
+double bvh_sphere_c(vec3 o, vec3 center, float radius, out double c_err) {
+    dvec3 od = dvec3(o);
+    dvec3 cd = dvec3(center);
+    double rd = double(radius);
+    double terms[10];
+    precise double t0 = od.x * od.x;
+    precise double t1 = -2.0lf * od.x * cd.x;
+    precise double t2 = cd.x * cd.x;
+    precise double t3 = od.y * od.y;
+    precise double t4 = -2.0lf * od.y * cd.y;
+    precise double t5 = cd.y * cd.y;
+    precise double t6 = od.z * od.z;
+    precise double t7 = -2.0lf * od.z * cd.z;
+    precise double t8 = cd.z * cd.z;
+    precise double t9 = -(rd * rd);
+    terms[0] = t0; terms[1] = t1; terms[2] = t2; terms[3] = t3; terms[4] = t4;
+    terms[5] = t5; terms[6] = t6; terms[7] = t7; terms[8] = t8; terms[9] = t9;
+    precise double s = 0.0lf;
+    precise double e = 0.0lf;
+    precise double sum_abs = 0.0lf;
+    for (int i = 0; i < 10; i++) {
+        precise double x = terms[i];
+        precise double sum = s + x;
+        precise double bb = sum - s;
+        precise double err = (s - (sum - bb)) + (x - bb);
+        s = sum;
+        e = e + err;
+        sum_abs = sum_abs + abs(x);
+    }
+    precise double ce = sum_abs * BVH_SPHERE_C_ERROR;
+    c_err = ce;
+    precise double c = s + e;
+    return c;
+}
+
+// Ray/sphere, in double from the float inputs (Rust: sphere in src/bvh/intersect.rs): the
+// quadratic in the form of Haines et al. 2019 (Ray Tracing Gems ch. 7), c from bvh_sphere_c;
+// the smallest root in (0, tmax]; the near root c/q is dropped when |c| is within its error
+// bound (the origin is on the surface as far as the test can tell).
 bool bvh_sphere(vec3 o, vec3 d, vec3 center, float radius, float tmax, out float t) {
     t = 0.0;
-    precise vec3 f = o - center;
-    float a = bvh_dot3(d, d);
-    if (!(a > 0.0)) return false;
-    float b = bvh_dot3(f, d);
-    precise float r2 = radius * radius;
-    precise float c = bvh_dot3(f, f) - r2;
-    precise float k = b / a;
-    precise vec3 l = f - d * k;
-    precise float disc = a * (r2 - bvh_dot3(l, l));
-    if (disc < 0.0) return false;
-    float sq = sqrt(disc);
-    precise float q = b >= 0.0 ? -b - sq : -b + sq;
-    if (q == 0.0) return false;
-    float m = max(max(abs(o.x), abs(o.y)), max(abs(o.z), abs(radius)));
-    precise float tol = abs(radius) * m * BVH_SPHERE_ON_SURFACE;
-    bool on_surface = abs(c) <= tol;
-    precise float t0 = on_surface ? 0.0 : c / q;
-    precise float t1 = q / a;
+    precise dvec3 f = dvec3(o) - dvec3(center);
+    dvec3 dd = dvec3(d);
+    precise double a = dd.x * dd.x + dd.y * dd.y + dd.z * dd.z;
+    if (!(a > 0.0lf)) return false;
+    precise double b = f.x * dd.x + f.y * dd.y + f.z * dd.z;
+    precise double r2 = double(radius) * double(radius);
+    double c_err;
+    double c = bvh_sphere_c(o, center, radius, c_err);
+    precise double k = b / a;
+    precise dvec3 l = f - dd * k;
+    precise double disc = a * (r2 - (l.x * l.x + l.y * l.y + l.z * l.z));
+    if (!(disc >= 0.0lf)) return false;
+    double sq = sqrt(disc);
+    precise double q = b >= 0.0lf ? -b - sq : -b + sq;
+    if (q == 0.0lf) return false;
+    precise double c_over_q = c / q;
+    precise double q_over_a = q / a;
+    float t0 = abs(c) <= c_err ? 0.0 : float(c_over_q);
+    float t1 = float(q_over_a);
     float lo = t0 <= t1 ? t0 : t1;
     float hi = t0 <= t1 ? t1 : t0;
     if (lo > 0.0 && lo <= tmax) {

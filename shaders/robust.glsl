@@ -1,7 +1,9 @@
-// Robust geometry in f32: overflow-safe vectors, hit points with rounding-error bounds, and ray
-// origins offset off the surface they leave. Rust twin: src/robust.rs, the same functions under
-// the same names; every step repeats the Rust arithmetic in the same order, with intermediate
-// values `precise` so that the compiler cannot fuse multiply-adds.
+// Robust geometry: overflow-safe vectors, hit points with rounding-error bounds, and ray origins
+// offset off the surface they leave. Rust twin: src/robust.rs, the same functions under the same
+// names; every step repeats the Rust arithmetic in the same order, with intermediate values
+// `precise` so that the compiler cannot fuse multiply-adds. How every ray that leaves a surface
+// is kept off it (origins here, the hit tests' error bounds in bvh.glsl) is stated once, in
+// src/robust.rs, section "Every ray that leaves a surface".
 //
 // Include after `#version 460`.
 #ifndef ROBUST_GLSL
@@ -14,6 +16,9 @@
 #define GAMMA4 uintBitsToFloat(0x34800002u)
 #define GAMMA5 uintBitsToFloat(0x34a00003u)
 #define SHIFT_ULPS 4.0
+// 2^-24 and 2^-50 (Rust: SPHERE_ROUND, SPHERE_F64).
+#define SPHERE_ROUND uintBitsToFloat(0x33800000u)
+#define SPHERE_F64 uintBitsToFloat(0x26800000u)
 // The spacing of the floats at x >= 0 (2^(exponent - 23)).
 float ulp(float x) {
     uint e = (floatBitsToUint(x) >> 23) & 0xffu;
@@ -45,14 +50,18 @@ void triangle_point(vec3 v0, vec3 v1, vec3 v2, float b1, float b2, out vec3 p, o
     p = q;
     err = e;
 }
-// p = c + u r for a (nearly) unit u; err bounds its distance from the sphere per coordinate.
-void sphere_point(vec3 c, vec3 u, float r, out vec3 p, out vec3 err) {
-    precise vec3 ur = u * r;
-    precise vec3 q = c + ur;
-    precise float radial = abs(1.0 - (u.x * u.x + u.y * u.y + u.z * u.z)) * abs(r);
-    precise vec3 e = abs(ur) * GAMMA5 + abs(q) * GAMMA2 + vec3(radial);
-    p = q;
+// Rust: sphere_point. The point of the sphere (c, r) in the direction `toward` from its centre,
+// computed in double and rounded once; err bounds its distance from the sphere per coordinate
+// (2^-24 |p| + 2^-50 (|c| + r)); n is the unit outward normal.
+void sphere_point(vec3 c, float r, dvec3 toward, out vec3 p, out vec3 err, out vec3 n) {
+    precise double len = sqrt(toward.x * toward.x + toward.y * toward.y + toward.z * toward.z);
+    precise dvec3 u = toward / len;
+    precise dvec3 q = dvec3(c) + u * double(r);
+    vec3 pf = vec3(q);
+    precise vec3 e = abs(pf) * SPHERE_ROUND + (abs(c) + vec3(abs(r))) * SPHERE_F64;
+    p = pf;
     err = e;
+    n = vec3(u);
 }
 
 // Rust: scale_to_unit_exponent and triangle_normal. A vector scaled by the power of two

@@ -1,5 +1,5 @@
-//! Robust geometry in f32: overflow-safe vectors, hit points with rounding-error bounds, and
-//! ray origins offset off the surface they leave. GLSL twin: `shaders/robust.glsl`, the same
+//! Robust geometry: overflow-safe vectors, hit points with rounding-error bounds, ray origins
+//! offset off the surface they leave, and the limits of single precision for spheres. GLSL twin: `shaders/robust.glsl`, the same
 //! functions under the same names with the same arithmetic (intermediate values `precise`, so
 //! no fused multiply-adds).
 //!
@@ -11,12 +11,61 @@
 //! direction bit for bit where nothing overflowed and a finite one where something would have
 //! (GLSL: `frexp`/`ldexp`, also exact).
 //!
-//! # Hit points and ray origins
-//! A hit point is computed with an absolute bound on its distance from the surface
-//! ([`triangle_point`], [`sphere_point`], from [`gamma`]), moved inside the triangle's edges
-//! ([`pull_inside`]), and a new ray leaves from it offset by that bound
-//! ([`offset_ray_origin`]), after Pharr, Jakob & Humphreys 2016 ("Physically Based
-//! Rendering", 3rd ed., sec. 3.9). Shadow rays stop [`SHADOW_EPSILON`] short of the light.
+//! # Every ray that leaves a surface
+//! This section is the one statement of how the renderers keep a ray from finding the surface
+//! it leaves (or the light it aims at) where there is none; the CPU reference
+//! (`src/cpu/scatter.rs`, `src/cpu/surface.rs`) and the GPU twins (`shaders/wavefront/scatter.glsl`,
+//! `shaders/wavefront/surface.glsl`, `shaders/bvh.glsl`) cite it and do the same, operation for
+//! operation. It follows Pharr, Jakob & Humphreys 2016 ("Physically Based Rendering", 3rd ed.,
+//! sec. 3.9; pbrt-v4's `OffsetRayOrigin` and `SpawnRayTo`), which bounds the rounding error of
+//! both halves of the problem, the point a ray leaves from and the hit test it meets:
+//!
+//! 1. **The origin.** A hit point is computed with an absolute bound on its distance from the
+//!    true surface, per coordinate ([`triangle_point`], from the barycentrics, never from
+//!    `o + t·d`; [`sphere_point`], in f64). A triangle's barycentrics are first moved a few ulps
+//!    inside its edges ([`pull_inside`]), so that a point near an edge is not on the plane of
+//!    the neighbouring face. The new ray leaves from the point moved along the geometric normal,
+//!    to the side it goes to, by that bound and one float more ([`offset_ray_origin`]): in
+//!    exact arithmetic the origin is then strictly on that side of the surface.
+//! 2. **The hit test.** That alone is not enough: the test that meets the new ray has its own
+//!    rounding. A triangle test's `t` carries an error that grows with the triangle's extent
+//!    relative to the origin, not with the origin's coordinates, so where the origin's bound is
+//!    small (a floor through y = 0 tilted by 2.4e-16, or by 1e-3) a ray leaving the floor got a
+//!    false hit on it at t ≈ 1e-7: 16 % of a lone floor's sky light was lost. So a triangle
+//!    hit counts only where `t` exceeds the bound on its own error (the module
+//!    `crate::bvh::intersect`'s `triangle_t_error`, after the book's sec. 3.9.6); then an
+//!    origin strictly in front of a triangle can never hit it. A sphere's test computes the
+//!    origin's side, `|o − c|² − r²`, from exact products summed without loss
+//!    ([`crate::bvh::sphere_c`]), and drops the root at the origin when that value is within
+//!    its error bound.
+//!
+//! The rays, one by one:
+//! * **Continuation rays** (BSDF samples) leave from the origin of point 1, on the side of the
+//!   geometric normal that the incoming ray came from; a direction below that side ends the
+//!   path (the renderers never sample through a surface).
+//! * **Two-sided surfaces** seen from behind are shaded as a front with both normals turned,
+//!   so the origin moves to the back: the same rule.
+//! * **Shadow rays to points on area lights** (triangles, spheres): the same origin; the
+//!   sampled point is itself offset off the light, towards the side it emits to, by its own
+//!   bound, and the segment ends [`SHADOW_EPSILON`] of its length before that point, so the
+//!   light's own surface, whose hit carries the rounding of the whole segment, is not taken
+//!   for an occluder.
+//! * **Shadow rays to point lights** end [`SHADOW_EPSILON`] of their length before the light.
+//! * **Shadow rays to directions** (directional lights) have no end (`f32::MAX`); the sky is
+//!   found by continuation rays that hit nothing.
+//! * **Large, small and far meshes, transformed meshes**: every bound above is relative to the
+//!   coordinates or the extents involved, so it scales with the scene; transforms are applied
+//!   to the vertices when the scene loads, so the tests see world-space triangles only.
+//! * **Spheres, huge and small**: the f64 test and point resolve a ground sphere of radius
+//!   1e20 under a camera one unit above it. What single precision cannot render (a sphere
+//!   smaller than a few hundred float steps at its centre, one too large to place the camera
+//!   beside, one whose bounds overflow) the loader refuses ([`sphere_precision_problem`]).
+//!
+//! Fixed offsets (Wächter & Binder 2019, "A Fast and Robust Method for Avoiding
+//! Self-Intersection", Ray Tracing Gems ch. 6: 256 integer ulps, or 1/65536 near zero) are
+//! cheaper but not scale-free: they moved origins by a visible part of a scene scaled by 1e-6
+//! and can fall short for a large triangle seen from near its plane. `stress --group
+//! self_shadow` counts false occlusions and leaks of every kind of ray above.
 
 use glam::{DVec3, Vec3};
 
@@ -130,18 +179,78 @@ pub fn ulp(x: f32) -> f32 {
     }
 }
 
-/// The sphere point `center + u·radius` for a unit vector `u` (up to `|1 - u·u|`: a normalised
-/// vector, or one made from sines and cosines), and its absolute error bound per coordinate:
-/// `gamma(5)·|u·radius| + gamma(2)·|p|` for the roundings of `u` and of the product and sum,
-/// plus `|1 - u·u|·|radius|` for a `u` that is not exactly unit (Pharr et al. 2016, sec. 3.9.4,
-/// the sphere's reprojected point).
-pub fn sphere_point(center: Vec3, u: Vec3, radius: f32) -> (Vec3, Vec3) {
-    let ur = u * radius;
-    let p = center + ur;
-    let radial = (1.0 - dot3(u, u)).abs() * radius.abs();
-    let err = ur.abs() * gamma(5) + p.abs() * gamma(2) + Vec3::splat(radial);
-    (p, err)
+/// The point of the sphere (`center`, `radius`) in the direction `toward` from its centre (any
+/// non-zero length), its absolute error bound per coordinate, and the unit outward normal
+/// there.
+///
+/// Computed in f64 and rounded once: `center + toward · (radius / |toward|)`, so the point is
+/// on the sphere to within half an ulp of its own coordinates (plus the f64 roundings, about
+/// 2^-50 of the sphere's extent): for a hit, `toward = o + t·d − center` in f64. An f32
+/// reprojection (`center + u·radius`) would be off the surface by a few ulps of the radius,
+/// which for a sphere of radius 1e6 under a camera one unit above is far larger than the
+/// camera's height. The bound is `2^-24·|p| + 2^-50·(|center| + radius)`.
+pub fn sphere_point(center: Vec3, radius: f32, toward: DVec3) -> (Vec3, Vec3, Vec3) {
+    let c = center.as_dvec3();
+    let len = (toward.x * toward.x + toward.y * toward.y + toward.z * toward.z).sqrt();
+    let u = toward / len;
+    let p = (c + u * radius as f64).as_vec3();
+    let err = p.abs() * SPHERE_ROUND + (center.abs() + Vec3::splat(radius.abs())) * SPHERE_F64;
+    (p, err, u.as_vec3())
 }
+
+/// Why single precision cannot render the sphere (`center`, `radius`) seen from `camera`, or
+/// `None` when it can. The scene loader refuses such a sphere with this message.
+///
+/// * Its bounds must be finite floats (the BVH's boxes are f32).
+/// * Its radius must span at least [`SPHERE_MIN_STEPS`] floats at its centre: below that, the
+///   f32 points on it are too coarse to shade (a sphere of radius 1e-4 at 1e7, where floats
+///   are 1 apart, has no points of its own).
+/// * The sphere test must tell on which side of the surface the camera is, by a factor of
+///   [`SPHERE_MIN_RESOLUTION`]: the test resolves distances from the surface down to about
+///   2^-97·(|center| + radius)²/radius ([`crate::bvh::sphere_c`]), so a ground sphere of
+///   radius 1e20 under a camera one unit above it renders right, and one of radius 1e30 does
+///   not.
+pub fn sphere_precision_problem(center: Vec3, radius: f32, camera: Vec3) -> Option<String> {
+    let extent = center.abs().max_element() as f64 + radius as f64;
+    if extent > f32::MAX as f64 {
+        return Some(format!(
+            "the sphere reaches {extent:e}, beyond the largest float ({:e})",
+            f32::MAX
+        ));
+    }
+    let step = ulp(center.abs().max_element());
+    if radius < step * SPHERE_MIN_STEPS {
+        return Some(format!(
+            "radius {radius:e} is smaller than {SPHERE_MIN_STEPS} float steps at its centre \
+             (floats there are {step:e} apart), so single precision cannot place points on it"
+        ));
+    }
+    let (c, c_err) = crate::bvh::sphere_c(camera, center, radius);
+    if c.abs() <= c_err * SPHERE_MIN_RESOLUTION {
+        let r2 = 2.0 * radius as f64;
+        return Some(format!(
+            "the camera is {:.3e} from its surface, and the sphere test resolves distances from \
+             a sphere of radius {radius:e} there only to about {:.1e}: too large a sphere for \
+             single precision to place the camera beside it (a large flat ground is better \
+             made as a quad)",
+            c.abs() / r2,
+            c_err / r2
+        ));
+    }
+    None
+}
+
+/// The fewest float steps at its centre a sphere's radius may span
+/// ([`sphere_precision_problem`]).
+pub const SPHERE_MIN_STEPS: f32 = 256.0;
+/// How many times the sphere test's resolution the camera's distance from a sphere must be
+/// ([`sphere_precision_problem`]).
+pub const SPHERE_MIN_RESOLUTION: f64 = (1u32 << 20) as f64;
+
+/// 2^-24, the rounding of an f64 value to f32 (relative; [`sphere_point`]).
+const SPHERE_ROUND: f32 = 1.0 / (1u32 << 24) as f32;
+/// 2^-50, a bound on the f64 roundings of [`sphere_point`] relative to the sphere's extent.
+const SPHERE_F64: f32 = 1.0 / (1u64 << 50) as f32;
 
 /// Shadow rays end this fraction of their length before the point on the light (Pharr, Jakob &
 /// Humphreys 2016, sec. 3.9.5, `ShadowEpsilon`): the light point is offset off its surface by
@@ -316,5 +425,9 @@ mod tests {
             format!("uintBitsToFloat({:#010x}u)", SHADOW_EPSILON.to_bits())
         );
         assert_eq!(define("SHIFT_ULPS").parse::<f32>().unwrap(), SHIFT_ULPS);
+        for (name, v) in [("SPHERE_ROUND", SPHERE_ROUND), ("SPHERE_F64", SPHERE_F64)] {
+            let want = format!("uintBitsToFloat({:#010x}u)", v.to_bits());
+            assert_eq!(define(name), want);
+        }
     }
 }

@@ -172,7 +172,8 @@ fn spheres_match_brute_force_from_outside_inside_and_on_surface() {
 
 #[test]
 fn rays_from_a_room_surface_find_the_far_side() {
-    // Points on an inward room sphere, rays going inwards: the far side, never t ≈ 0.
+    // Points on an inward room sphere, offset off it as the renderers offset them, rays going
+    // inwards: the far side, never t ≈ 0; rays going outwards: nothing.
     let mut rng = Rng::new(3);
     for &(c, r) in &[
         (Vec3::ZERO, 1.0f32),
@@ -182,8 +183,9 @@ fn rays_from_a_room_surface_find_the_far_side() {
         let s = scene(vec![], vec![(c, r, true)]);
         let b = bvh::build(&s);
         for _ in 0..500 {
-            let u = rng.dir();
-            let p = c + u * r;
+            let (p, err, u) = robust::sphere_point(c, r, rng.dir().as_dvec3());
+            let inside = robust::offset_ray_origin(p, err, -u);
+            let outside = robust::offset_ray_origin(p, err, u);
             // Any inward direction, down to grazing ones.
             let mut d = rng.dir();
             if d.dot(u) > 0.0 {
@@ -195,8 +197,8 @@ fn rays_from_a_room_surface_find_the_far_side() {
             }
             let chord = -2.0 * r * d.dot(u) / d.length_squared();
             let h = b
-                .closest(&s, p, d, f32::MAX)
-                .unwrap_or_else(|| panic!("no hit from {p} along {d}"));
+                .closest(&s, inside, d, f32::MAX)
+                .unwrap_or_else(|| panic!("no hit from {inside} along {d}"));
             // p is off the surface by up to about one ulp of its coordinates.
             let cos = -d.dot(u) / d.length();
             let tol =
@@ -207,7 +209,7 @@ fn rays_from_a_room_surface_find_the_far_side() {
                 h.t
             );
             // Leaving outwards from the surface finds nothing.
-            assert!(b.closest(&s, p, -d, f32::MAX).is_none());
+            assert!(b.closest(&s, outside, -d, f32::MAX).is_none());
         }
     }
 }
@@ -417,8 +419,8 @@ fn offset_origins_do_not_hit_their_own_surface() {
             // A surface point of the primitive hit (spheres: a random one) and its normal.
             let (p, err, ng, radius) = if h.prim & SPHERE_BIT != 0 {
                 let sph = &s.spheres[(h.prim & !SPHERE_BIT) as usize];
-                let u = rng.dir();
-                let (p, err) = robust::sphere_point(sph.center, u, sph.radius);
+                let (p, err, u) =
+                    robust::sphere_point(sph.center, sph.radius, rng.dir().as_dvec3());
                 (p, err, u, sph.radius)
             } else {
                 let v = s.triangles[h.prim as usize].v;

@@ -177,9 +177,8 @@ fn probe_rays(s: &Scene, b: &Bvh, rng: &mut Rng) -> Vec<(Vec3, Vec3, f32)> {
         };
         let (p, err, n) = if h.prim & SPHERE_BIT != 0 {
             let sph = &s.spheres[(h.prim & !SPHERE_BIT) as usize];
-            let u = (o + d * h.t - sph.center).normalize();
-            let (p, err) = robust::sphere_point(sph.center, u, sph.radius);
-            (p, err, u)
+            let toward = o.as_dvec3() + d.as_dvec3() * h.t as f64 - sph.center.as_dvec3();
+            robust::sphere_point(sph.center, sph.radius, toward)
         } else {
             let v = s.triangles[h.prim as usize].v;
             let (p, err) = robust::triangle_point(&v, h.bary.x, h.bary.y);

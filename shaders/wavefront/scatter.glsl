@@ -69,6 +69,8 @@ Scatter shade_vertex(uint path, uint depth, Surface s, vec3 d, vec3 b, uint c) {
 #endif
     vec3 wo = to_local(s.frame, -d);
     if (wo.z <= 0.0) return r;
+    // Every ray from here leaves from this origin (src/robust.rs, "Every ray that leaves a
+    // surface").
     vec3 origin = offset_ray_origin(s.p, s.p_err, s.ng);
     // The light choice and the lobe choice are one pair (DIM_LIGHT_SELECT, DIM_BSDF_LOBE).
     vec2 u_choice = rand2(path, depth, DIM_LIGHT_SELECT);

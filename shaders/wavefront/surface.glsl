@@ -47,8 +47,9 @@ Surface surface_sphere(uint i, float t, vec3 o, vec3 d) {
     vec4 cr;
     uvec4 info;
     sphere_texels(i, cr, info);
-    vec3 outward = normalize(o + d * t - cr.xyz);
-    sphere_point(cr.xyz, outward, cr.w, s.p, s.p_err);
+    precise dvec3 toward = dvec3(o) + dvec3(d) * double(t) - dvec3(cr.xyz);
+    vec3 outward;
+    sphere_point(cr.xyz, cr.w, toward, s.p, s.p_err, outward);
     s.ng = info.z != 0u ? -outward : outward;
     s.front = dot(d, s.ng) < 0.0;
     s.frame = make_frame(s.ng, cross(vec3(0.0, 1.0, 0.0), outward));
@@ -141,7 +142,7 @@ LightSample sample_sphere_light(uint i, float u1, float u2) {
     float r = sqrt(max(1.0 - z * z, 0.0));
     float phi = 2.0 * PI * u2;
     vec3 dir = vec3(r * cos(phi), r * sin(phi), z);
-    sphere_point(cr.xyz, dir, cr.w, ls.p, ls.p_err);
+    sphere_point(cr.xyz, cr.w, dvec3(dir), ls.p, ls.p_err, dir);
     ls.n = info.z != 0u ? -dir : dir;
     ls.radiance = emitter(info.y).xyz;
     ls.density = emitter(info.y).w;

@@ -2,7 +2,7 @@
 //! `shaders/bvh.glsl`: `bvh_make_ray`, `bvh_box_hit`, `bvh_triangle`, `bvh_sphere`); the
 //! methods and their numerics are those of the [`crate::bvh`] module documentation.
 
-use crate::robust::dot3;
+use crate::robust::gamma;
 use glam::{Vec2, Vec3, Vec3A, Vec4};
 
 /// Ize 2013: the far slab distance is multiplied by this (1 + 2^-20, exact in f32), more than
@@ -17,12 +17,6 @@ pub(super) const ZERO_INV: f32 = (1u128 << 120) as f32;
 /// slab, or on its faces, gets an interval wider than any `t` a scene can produce; one outside
 /// by more than `ZERO_PAD / ZERO_INV = 2^-40` gets an empty one.
 pub(super) const ZERO_PAD: f32 = (1u128 << 80) as f32;
-
-/// A ray origin closer to a sphere's surface than about `M · 2^-19`, M = max(|o|∞, r), counts
-/// as on the surface (16 ulps of the largest coordinate, more than the rounding of a point
-/// computed on the sphere): the root at t ≈ 0 is dropped so the ray finds the far side (see
-/// [`intersect_sphere`]). `|f|² - r²` is compared with `r · M · SPHERE_ON_SURFACE`.
-pub(super) const SPHERE_ON_SURFACE: f32 = 1.0 / (1u32 << 18) as f32;
 
 /// Per-ray constants of the box and triangle tests.
 #[derive(Clone, Copy, Debug)]
@@ -134,8 +128,51 @@ impl Ray {
         if !(t > 0.0 && t <= tmax) {
             return None;
         }
+        // A hit counts only where t exceeds the bound on its own rounding error, so that it
+        // lies in front of the origin in exact arithmetic too (Pharr, Jakob & Humphreys 2016,
+        // "Physically Based Rendering" 3rd ed., sec. 3.9.6; the `crate::robust` module
+        // documentation says why the ray offsets need it).
+        if t <= triangle_t_error(
+            [a, b, c],
+            [ax, bx, cx],
+            [ay, by, cy],
+            [az, bz, cz],
+            [u, v_, w],
+            rcp,
+        ) {
+            return None;
+        }
         Some((t, Vec2::new(v_ * rcp, w * rcp)))
     }
+}
+
+/// The bound on the rounding error of the watertight test's `t` = (Σ eᵢ·zᵢ)/det, after Pharr,
+/// Jakob & Humphreys 2016 ("Physically Based Rendering" 3rd ed., sec. 3.9.6): the vertices
+/// relative to the origin `rel` (on the permuted axes, before the shear), the sheared `x`,
+/// `y`, the scaled heights `z`, the edge functions `e` and 1/det. The translation and shear
+/// bound the errors of x and y (by γ₅ of the unsheared coordinates: |Sx|, |Sy| ≤ 1) and of z
+/// (γ₃ of z itself), these the edge functions', and all of them t's. (The book bounds the
+/// shear's error by the *scaled* heights, which equal the unscaled ones only for a unit
+/// direction; the traversal's directions are not normalised.) A ray whose origin is off a
+/// triangle's plane by a rounding error's worth, leaving it, gets at most this `t` from that
+/// triangle, however the sheared coordinates cancel.
+#[inline]
+fn triangle_t_error(
+    rel: [Vec3; 3],
+    x: [f32; 3],
+    y: [f32; 3],
+    z: [f32; 3],
+    e: [f32; 3],
+    rcp: f32,
+) -> f32 {
+    let max3 = |a: [f32; 3]| a[0].abs().max(a[1].abs()).max(a[2].abs());
+    let (max_x, max_y, max_z, max_e) = (max3(x), max3(y), max3(z), max3(e));
+    let rel_max = rel[0].abs().max(rel[1].abs()).max(rel[2].abs());
+    let delta_x = gamma(5) * (rel_max.x + rel_max.z);
+    let delta_y = gamma(5) * (rel_max.y + rel_max.z);
+    let delta_z = gamma(3) * max_z;
+    let delta_e = 2.0 * (gamma(2) * max_x * max_y + delta_y * max_x + delta_x * max_y);
+    3.0 * (gamma(3) * max_e * max_z + delta_e * max_z + delta_z * max_e) * rcp.abs()
 }
 
 /// The box test's per-ray constants, each component in all four lanes (x, y, z).
@@ -175,31 +212,79 @@ pub fn intersect_triangle(o: Vec3, d: Vec3, v: &[Vec3; 3], tmax: f32) -> Option<
     Ray::new(o, d)?.triangle(v, tmax).filter(|h| h.0 < tmax)
 }
 
-/// Ray/sphere intersection (Ray Tracing Gems ch. 7): the smallest root in (0, tmax), so a ray
-/// starting inside finds the far side. An origin within about 16 ulps of its largest
-/// coordinate (or of the radius) from the surface counts as on it: the root at t ≈ 0 is dropped, so a ray leaving the surface inwards finds
-/// the far side and one leaving outwards finds nothing. `d` need not be normalised.
+/// Ray/sphere intersection: the smallest root in (0, tmax), so a ray starting inside finds the
+/// far side; see [`sphere`]. `d` need not be normalised.
 pub fn intersect_sphere(o: Vec3, d: Vec3, center: Vec3, radius: f32, tmax: f32) -> Option<f32> {
     sphere(o, d, center, radius, tmax).filter(|&t| t < tmax)
 }
 
+/// `c = |o − center|² − radius²`, whose sign says on which side of the sphere the origin
+/// lies, and a bound on its error: the sum of the ten products `oᵢ², −2·oᵢ·centerᵢ, centerᵢ²`
+/// and `−radius²`, each exact in f64 (two 24-bit significands), summed with error-free
+/// transformations (Ogita, Rump & Oishi 2005, "Accurate Sum and Dot Product", SIAM J. Sci.
+/// Comput. 26(6), algorithm Sum2). The result is as accurate as a sum in twice f64's precision:
+/// the error is at most 2^-52·|c| + γ₉²·Σ|terms| (their proposition 4.5), and the bound
+/// returned, 2^-98·Σ|terms|, covers the second part, the only one that can change c's sign.
+/// A camera one unit above a ground sphere of radius 1e19 is told from its surface with
+/// room to spare; f64 alone (`|o − center|²` rounded) would blur the surface by 2^-50 of the
+/// radius.
+pub fn sphere_c(o: Vec3, center: Vec3, radius: f32) -> (f64, f64) {
+    let (o, c, r) = (o.as_dvec3(), center.as_dvec3(), radius as f64);
+    let terms = [
+        o.x * o.x,
+        -2.0 * o.x * c.x,
+        c.x * c.x,
+        o.y * o.y,
+        -2.0 * o.y * c.y,
+        c.y * c.y,
+        o.z * o.z,
+        -2.0 * o.z * c.z,
+        c.z * c.z,
+        -(r * r),
+    ];
+    let (mut s, mut e, mut abs) = (0.0f64, 0.0f64, 0.0f64);
+    for x in terms {
+        // TwoSum (Knuth): s + x = sum + err exactly.
+        let sum = s + x;
+        let bb = sum - s;
+        let err = (s - (sum - bb)) + (x - bb);
+        s = sum;
+        e += err;
+        abs += x.abs();
+    }
+    (s + e, abs * SPHERE_C_ERROR)
+}
+
+/// 2^-98 ([`sphere_c`]).
+pub(super) const SPHERE_C_ERROR: f64 = 1.0 / (1u128 << 98) as f64;
+
 /// [`intersect_sphere`] with t in (0, tmax]: the smallest root in (0, tmax], as the traversal's
 /// tie rule needs (a root at exactly `tmax` is returned).
+///
+/// In f64, from the f32 inputs. The quadratic in the form of Haines et al. 2019 ("Precision
+/// Improvements for Ray/Sphere Intersection", Ray Tracing Gems ch. 7): the discriminant from
+/// the distance of the centre to the line, the roots as `c/q` and `q/a` without cancellation,
+/// with `c` from [`sphere_c`]. The near root `c/q` is dropped when |c| is within its error
+/// bound: the origin is then on the surface as far as the test can tell, so a ray leaving the
+/// surface outwards finds nothing and one leaving it inwards finds the far side. Every ray
+/// that leaves a sphere starts off it by the hit point's error bound ([`crate::robust`]),
+/// thousands of times that resolution for spheres the scene loader accepts.
 pub(super) fn sphere(o: Vec3, d: Vec3, center: Vec3, radius: f32, tmax: f32) -> Option<f32> {
-    let f = o - center;
-    let a = dot3(d, d);
+    let f = o.as_dvec3() - center.as_dvec3();
+    let d = d.as_dvec3();
+    let a = d.x * d.x + d.y * d.y + d.z * d.z;
     // Also rejects NaN (GLSL: `!(a > 0.0)`).
     if a.is_nan() || a <= 0.0 {
         return None;
     }
-    let b = dot3(f, d);
-    let r2 = radius * radius;
-    let c = dot3(f, f) - r2;
+    let b = f.x * d.x + f.y * d.y + f.z * d.z;
+    let r2 = radius as f64 * radius as f64;
+    let (c, c_err) = sphere_c(o, center, radius);
     // Discriminant / a from the squared distance of the centre to the line.
     let k = b / a;
     let l = f - d * k;
-    let disc = a * (r2 - dot3(l, l));
-    if disc < 0.0 {
+    let disc = a * (r2 - (l.x * l.x + l.y * l.y + l.z * l.z));
+    if disc.is_nan() || disc < 0.0 {
         return None;
     }
     let sq = disc.sqrt();
@@ -207,10 +292,12 @@ pub(super) fn sphere(o: Vec3, d: Vec3, center: Vec3, radius: f32, tmax: f32) -> 
     if q == 0.0 {
         return None;
     }
-    let m = o.x.abs().max(o.y.abs()).max(o.z.abs().max(radius.abs()));
-    let on_surface = c.abs() <= radius.abs() * m * SPHERE_ON_SURFACE;
-    let t0 = if on_surface { 0.0 } else { c / q };
-    let t1 = q / a;
+    let t0 = if c.abs() <= c_err {
+        0.0
+    } else {
+        (c / q) as f32
+    };
+    let t1 = (q / a) as f32;
     let (lo, hi) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
     if lo > 0.0 && lo <= tmax {
         Some(lo)

@@ -55,23 +55,26 @@
 //! current best one, and a hit replaces the best if its `t` is smaller, or equal with a smaller
 //! reference. The result does not depend on the order in which primitives are met, so the
 //! GPU's binary traversal and the CPU's wide one find the same hit, and on the rays of
-//! `tests/bvh.rs` that of a brute-force loop over all primitives. Not on every ray: a ray
-//! that leaves a plane from a hair behind it can get a false hit at `t` of about 1e-7 from the
-//! triangle test (the sheared coordinates cancel), which the box tests cull when the
-//! triangle's box lies behind the origin (a ray leaving a wall of a box-shaped room) and a
-//! loop over the primitives does not (BENCHMARKS.md, 2026-12-05).
+//! `tests/bvh.rs` that of a brute-force loop over all primitives. (Before the triangle test
+//! had its `t` error bound, a ray leaving a plane from a hair behind it could get a false hit
+//! at t ≈ 1e-7 that the box tests culled and a loop over the primitives did not; the bound
+//! removes such hits from both.)
 //!
 //! # Intersections
 //! * Triangles: Woop, Benthin & Wald 2013, "Watertight Ray/Triangle Intersection" (JCGT 2(1)),
 //!   single precision without the double-precision fallback: an edge function that rounds to
 //!   zero counts as inside on both triangles sharing the edge, so a ray through a shared edge
-//!   or vertex hits at least one of them (it may hit both; the tie rule picks one).
-//! * Spheres: the quadratic in the form of Haines et al. 2019, "Precision Improvements for
-//!   Ray/Sphere Intersection" (Ray Tracing Gems ch. 7): the discriminant from the distance of
-//!   the centre to the line, and the two roots as `c/q` and `q/a` without cancellation.
-//! * Self-intersection (in [`crate::robust`], GLSL `shaders/robust.glsl`): [`offset_ray_origin`]
-//!   from the hit point's own rounding-error bound ([`triangle_point`], [`sphere_point`]), after
-//!   Pharr, Jakob & Humphreys 2016 ("Physically Based Rendering", 3rd ed., sec. 3.9).
+//!   or vertex hits at least one of them (it may hit both; the tie rule picks one). A hit
+//!   counts only where `t` exceeds the bound on its own rounding error (Pharr, Jakob &
+//!   Humphreys 2016, sec. 3.9.6).
+//! * Spheres: in f64 from the f32 inputs, the quadratic in the form of Haines et al. 2019,
+//!   "Precision Improvements for Ray/Sphere Intersection" (Ray Tracing Gems ch. 7): the
+//!   discriminant from the distance of the centre to the line, the two roots as `c/q` and
+//!   `q/a` without cancellation, and `c = |o − center|² − r²` summed from exact products
+//!   without loss ([`sphere_c`]).
+//! * Self-intersection: [`crate::robust`]'s section "Every ray that leaves a surface" (GLSL
+//!   `shaders/robust.glsl`) says how both halves, the ray's origin and these tests, keep a ray
+//!   off the surface it leaves.
 //!
 //! # Tests
 //! `tests/bvh.rs` compares both traversals with brute force over all primitives (random soups,
@@ -93,7 +96,7 @@ pub use crate::robust::{
     triangle_point, ulp, SHADOW_EPSILON, SHIFT_ULPS,
 };
 pub use build::{build, build_for, Traversal, BINS, C_INT, C_TRAV, MAX_DEPTH, MAX_LEAF};
-pub use intersect::{intersect_sphere, intersect_triangle, BOX_WIDEN};
+pub use intersect::{intersect_sphere, intersect_triangle, sphere_c, BOX_WIDEN};
 pub use node::{register_stack_size, GpuNode, MAX_PRIMS, REGISTER_STACK_MAX, STACK_SIZE};
 pub use wide::{WideNode, WIDTH};
 
@@ -175,7 +178,7 @@ pub struct Hit {
 
 #[cfg(test)]
 mod tests {
-    use super::intersect::{SPHERE_ON_SURFACE, ZERO_DIR, ZERO_INV, ZERO_PAD};
+    use super::intersect::{SPHERE_C_ERROR, ZERO_DIR, ZERO_INV, ZERO_PAD};
     use super::node::LEAF_FLAG;
     use super::*;
 
@@ -205,7 +208,19 @@ mod tests {
         assert_eq!(bits("BVH_ZERO_DIR"), ZERO_DIR.to_bits());
         assert_eq!(bits("BVH_ZERO_INV"), ZERO_INV.to_bits());
         assert_eq!(bits("BVH_ZERO_PAD"), ZERO_PAD.to_bits());
-        assert_eq!(bits("BVH_SPHERE_ON_SURFACE"), SPHERE_ON_SURFACE.to_bits());
+        let dbits = |name: &str| {
+            let v = define(name);
+            let hex = v
+                .strip_prefix("packDouble2x32(uvec2(0x")
+                .and_then(|v| v.strip_suffix("u))"))
+                .expect(v);
+            let (lo, hi) = hex.split_once("u, 0x").expect(v);
+            u64::from_str_radix(lo, 16).unwrap() | u64::from_str_radix(hi, 16).unwrap() << 32
+        };
+        assert_eq!(dbits("BVH_SPHERE_C_ERROR"), SPHERE_C_ERROR.to_bits());
         assert_eq!(bits("BVH_FLT_MAX"), f32::MAX.to_bits());
+        for n in [2, 3, 5] {
+            assert_eq!(bits(&format!("BVH_GAMMA{n}")), gamma(n).to_bits());
+        }
     }
 }

@@ -102,6 +102,8 @@ impl CpuRenderer<'_> {
         if wo.z <= 0.0 {
             return r;
         }
+        // Every ray from here leaves from this origin (the `robust` module documentation,
+        // "Every ray that leaves a surface").
         let origin = robust::offset_ray_origin(si.p, si.p_err, si.ng);
         // The light choice and the lobe choice are one pair (LIGHT_SELECT, BSDF_LOBE).
         let u_choice = rng.get2(depth, dim::LIGHT_SELECT);

@@ -84,8 +84,8 @@ impl Surface {
 pub fn surface_at(scene: &Scene, normals: &[Vec3], hit: &Hit, o: Vec3, d: Vec3) -> Surface {
     if hit.prim & SPHERE_BIT != 0 {
         let s = &scene.spheres[(hit.prim & !SPHERE_BIT) as usize];
-        let out = (o + d * hit.t - s.center).normalize();
-        let (p, p_err) = sphere_point(s.center, out, s.radius);
+        let toward = o.as_dvec3() + d.as_dvec3() * hit.t as f64 - s.center.as_dvec3();
+        let (p, p_err, out) = sphere_point(s.center, s.radius, toward);
         let ng = if s.inward { -out } else { out };
         let front = d.dot(ng) < 0.0;
         // Tangent along lines of latitude around the world y axis.
@@ -173,7 +173,7 @@ pub fn sample_light(
         let phi = 2.0 * PI * u2;
         let dir = Vec3::new(r * phi.cos(), r * phi.sin(), z);
         let e = s.emitter.expect("light table holds emitters only");
-        let (p, p_err) = sphere_point(s.center, dir, s.radius);
+        let (p, p_err, dir) = sphere_point(s.center, s.radius, dir.as_dvec3());
         LightSample {
             p,
             p_err,

@@ -242,6 +242,14 @@ impl<'a> GpuRenderer<'a> {
         setup.wave_paths = wave_paths;
         let integrator = integrator.resolve(wave_paths);
         setup.subgroup_queues = ctx.features.subgroup_ballot;
+        if !scene.spheres.is_empty() && !ctx.features.shader_float64 {
+            bail!(
+                "the scene has spheres, and this device ({}) cannot run double-precision \
+                 shaders (shaderFloat64), which the sphere test needs; render it with \
+                 --backend cpu, or on another device (brdfwave devices)",
+                ctx.device_name
+            );
+        }
         // One material queue per model of the scene's materials that scatter.
         let counters = Counters {
             queues: scene.shaded_models().len() as u32,

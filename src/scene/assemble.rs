@@ -137,6 +137,7 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
 
     let mut out = Shapes {
         material_base: materials.len() as u32,
+        camera: camera.position,
         ..Shapes::default()
     };
     for (i, shape) in raw.shapes.iter().enumerate() {
@@ -403,6 +404,9 @@ pub(super) struct Shapes {
     pub(super) mtl_materials: Vec<(String, brdf::Material)>,
     /// The number of the scene's own materials (the MTL ones are numbered from it).
     pub(super) material_base: u32,
+    /// The camera's position, which spheres are checked against
+    /// ([`crate::robust::sphere_precision_problem`]).
+    pub(super) camera: Vec3,
 }
 
 pub(super) fn shape_primitives(
@@ -460,6 +464,12 @@ pub(super) fn shape_primitives(
     if let Some(sp) = &s.sphere {
         let placed = xf.as_ref().zip(s.transform.as_ref().map(|t| t.span()));
         let sphere = sphere_primitive(cx, f, &sp.value, placed, (material, emitter))?;
+        if let Some(why) =
+            crate::robust::sphere_precision_problem(sphere.center, sphere.radius, out.camera)
+        {
+            let msg = format!("{label}: {why}");
+            return Err(cx.err(sp.value.radius.span(), &format!("{f}.sphere.radius"), msg));
+        }
         out.spheres.push(sphere);
     }
     // A mesh's vertices: placed by the transform, or taken as written (a Mitsuba XML twin's

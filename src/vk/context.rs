@@ -40,6 +40,9 @@ pub struct DeviceFeatures {
     /// Compute shaders have the basic and ballot subgroup operations (Vulkan 1.1 core
     /// properties; GL_KHR_shader_subgroup_ballot).
     pub subgroup_ballot: bool,
+    /// `shaderFloat64`: the sphere test and sphere points compute in double
+    /// (`shaders/bvh.glsl`, `shaders/robust.glsl`), so scenes with spheres need it.
+    pub shader_float64: bool,
 }
 
 /// Timestamp queries available per command buffer.

@@ -179,19 +179,24 @@ pub(super) fn create_device(
                 .contains(vk::SubgroupFeatureFlags::BASIC | vk::SubgroupFeatureFlags::BALLOT)
     };
     // Optional features: enable what is supported, nothing else.
-    let (scalar, int8) = {
+    let (scalar, int8, float64) = {
         let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
         let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f12);
         unsafe { instance.get_physical_device_features2(pd, &mut f2) };
+        let float64 = f2.features.shader_float64 == vk::TRUE;
         (
             f12.scalar_block_layout == vk::TRUE,
             f12.storage_buffer8_bit_access == vk::TRUE,
+            float64,
         )
     };
     let mut f12 = vk::PhysicalDeviceVulkan12Features::default()
         .scalar_block_layout(scalar)
         .storage_buffer8_bit_access(int8);
-    let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f12);
+    let core = vk::PhysicalDeviceFeatures::default().shader_float64(float64);
+    let mut f2 = vk::PhysicalDeviceFeatures2::default()
+        .features(core)
+        .push_next(&mut f12);
     let priorities = [1.0f32];
     let queue_info = [vk::DeviceQueueCreateInfo::default()
         .queue_family_index(queue_family)
@@ -206,6 +211,7 @@ pub(super) fn create_device(
         storage_buffer_8bit_access: int8,
         timestamps: timestamp_valid_bits > 0,
         subgroup_ballot,
+        shader_float64: float64,
     };
     Ok((device, features))
 }
