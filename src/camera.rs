@@ -1,11 +1,19 @@
-//! Pinhole camera rays, shared by both renderers through the same precomputed vectors
-//! (GLSL: `camera_ray` in `shaders/wavefront/generate.comp`).
+//! Camera rays, shared by both renderers through the same precomputed vectors (GLSL:
+//! `camera_ray` in `shaders/wavefront/path.glsl`).
 //!
 //! Image x runs to the camera's right and row 0 is the top (cornell_box.json conventions).
 //! The pixel filter is a box one pixel wide: the sample position is uniform in the pixel.
+//!
+//! A pinhole, or a thin lens (Pharr, Jakob & Humphreys 2016, *Physically Based Rendering*,
+//! 3rd ed., §6.2.3; Mitsuba 3's `thinlens`): a lens of radius `aperture_radius` in the plane
+//! through the camera's position perpendicular to the view direction, focused on the plane at
+//! `focus_distance` along it. The ray through film position (sx, sy) leaves from a point of the
+//! lens drawn uniformly by Shirley & Chiu's (1997) concentric map of the 2-D sample (depth 0,
+//! dimensions `LENS_U`, `LENS_V`) and passes through the point the pinhole ray would meet on
+//! the plane in focus: o + d·f with d = forward + sx·right + sy·up (d·forward = 1).
 
 use crate::scene::Scene;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CameraBasis {
@@ -15,6 +23,11 @@ pub struct CameraBasis {
     pub right: Vec3,
     /// Camera up, scaled by tan(fov_y/2).
     pub up: Vec3,
+    /// The unit right and up vectors times the aperture radius (zero for a pinhole).
+    pub lens_right: Vec3,
+    pub lens_up: Vec3,
+    /// The distance of the plane in focus.
+    pub focus_distance: f32,
 }
 
 impl CameraBasis {
@@ -33,7 +46,29 @@ impl CameraBasis {
             forward,
             right: right * (tan_half * aspect),
             up: up * tan_half,
+            lens_right: right * c.aperture_radius,
+            lens_up: up * c.aperture_radius,
+            focus_distance: c.focus_distance,
         }
+    }
+
+    /// Whether the camera has a lens (else a pinhole).
+    pub fn thin_lens(&self) -> bool {
+        self.lens_right != Vec3::ZERO
+    }
+
+    /// The thin lens's ray (origin, unit direction) through film position (fx, fy), the lens
+    /// point drawn by `u` (module docs).
+    pub fn lens_ray(&self, fx: f32, fy: f32, width: u32, height: u32, u: Vec2) -> (Vec3, Vec3) {
+        let sx = 2.0 * fx / width as f32 - 1.0;
+        let sy = 1.0 - 2.0 * fy / height as f32;
+        let d = self.forward + sx * self.right + sy * self.up;
+        let lens = concentric_disk(u);
+        let offset = lens.x * self.lens_right + lens.y * self.lens_up;
+        (
+            self.origin + offset,
+            (d * self.focus_distance - offset).normalize(),
+        )
     }
 
     /// Direction through film position (fx, fy) in pixels, (0,0) the top-left corner.
@@ -41,5 +76,56 @@ impl CameraBasis {
         let sx = 2.0 * fx / width as f32 - 1.0;
         let sy = 1.0 - 2.0 * fy / height as f32;
         (self.forward + sx * self.right + sy * self.up).normalize()
+    }
+}
+
+/// Shirley & Chiu's (1997) concentric map of the unit square onto the unit disc: uniform in
+/// area, each ring of the square onto a ring of the disc. GLSL twin: `concentric_disk`
+/// (path.glsl).
+pub fn concentric_disk(u: Vec2) -> Vec2 {
+    let (a, b) = (2.0 * u.x - 1.0, 2.0 * u.y - 1.0);
+    if a == 0.0 && b == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, phi) = if a.abs() > b.abs() {
+        (a, std::f32::consts::FRAC_PI_4 * (b / a))
+    } else {
+        (
+            b,
+            std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (a / b),
+        )
+    };
+    Vec2::new(r * phi.cos(), r * phi.sin())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The concentric map is uniform: equal numbers of a grid in each of 8 sectors and in the
+    /// inner and outer halves of the area.
+    #[test]
+    fn the_concentric_map_is_uniform_on_the_disc() {
+        let n = 256;
+        let (mut sectors, mut inner) = ([0u32; 8], 0u32);
+        for i in 0..n {
+            for j in 0..n {
+                let p = concentric_disk(Vec2::new(
+                    (i as f32 + 0.5) / n as f32,
+                    (j as f32 + 0.5) / n as f32,
+                ));
+                assert!(p.length() <= 1.0 + 1e-6);
+                let s = ((p.y.atan2(p.x) + std::f32::consts::PI) / (std::f32::consts::PI / 4.0))
+                    as usize;
+                sectors[s.min(7)] += 1;
+                inner += (p.length_squared() < 0.5) as u32;
+            }
+        }
+        let total = (n * n) as f32;
+        for s in sectors {
+            assert!((s as f32 / total - 0.125).abs() < 0.003, "{sectors:?}");
+        }
+        // The grid's rings: 182² of 256² points (0.505) lie within r² < 1/2.
+        assert!((inner as f32 / total - 0.5).abs() < 0.01, "{inner}");
     }
 }

@@ -21,6 +21,7 @@
 //!   `bench`, `stress` and the tests render through (the commands themselves are `src/cmd/`,
 //!   one module each, dispatched by `src/main.rs`);
 //! * `camera`, `lights` — camera rays and the emitter table both renderers sample;
+//!   `envmap` — environment maps: lookup and importance sampling (`shaders/envmap.glsl`);
 //! * `output` — what a render returns, whichever backend made it;
 //! * `conventions` — what both renderers agree on (e.g. the ray counts by segment);
 //! * `film` — per-pixel sample sums, partial films of split renders, and their exact merge;
@@ -63,6 +64,7 @@ pub mod bvh;
 pub mod camera;
 pub mod conventions;
 pub mod cpu;
+pub mod envmap;
 pub mod errors;
 pub mod film;
 pub mod fit;

@@ -29,6 +29,11 @@
 //! `DistantLight::Phi`). W then includes them, and so does every emitter's lum(Le)/W. Without
 //! such lights the table is built exactly as before, bit for bit. A delta light's entry is
 //! [`DELTA_TAG`] | its first texel in the GPU's emitter data ([`LightTable::delta_base`]).
+//!
+//! An environment map ([`crate::envmap`]) is the last entry, [`ENV_ENTRY`], of weight
+//! R²·∫lum(L)dω (power π·R²·∫L dω over the scene's bounding disc, as pbrt-v4's
+//! `ImageInfiniteLight::Phi`); a light sample that chooses it draws a direction from the map's
+//! own distribution. A scene without a map has no such entry.
 
 use crate::bvh::SPHERE_BIT;
 use crate::scene::{DeltaLight, Scene};
@@ -41,6 +46,10 @@ pub const DELTA_TAG: u32 = 0xC000_0000;
 /// The tag of an entry that is a pair of triangles, `first | PAIR_BIT`, the second triangle
 /// being `first + 1` (see the module's text). GLSL twin: `PAIR_BIT`.
 pub const PAIR_BIT: u32 = 0x4000_0000;
+
+/// The entry of the environment map in [`LightTable::prims`]: the largest delta-tagged value,
+/// which no delta light reaches (its index would need 2^29 emitters). GLSL twin: `ENV_ENTRY`.
+pub const ENV_ENTRY: u32 = 0xFFFF_FFFF;
 
 /// The largest relative difference of the two areas for which two triangles are sampled as a
 /// pair. Each gets half the samples, a density 1/(2·A_i) per unit area where the table assumes
@@ -110,6 +119,9 @@ pub struct LightTable {
     /// The index of the first delta light's texels in the GPU's emitter data: the number of
     /// emitters (each emitter one texel, each delta light two after them).
     pub delta_base: u32,
+    /// The probability that next-event estimation chooses the environment map (its entry
+    /// [`ENV_ENTRY`]); 0 without one.
+    pub env_select: f32,
 }
 
 impl LightTable {
@@ -181,11 +193,24 @@ impl LightTable {
                 }
             }
         }
+        let n_delta = delta.len();
+        if let Some(m) = &scene.environment_map {
+            let w = bounding_radius(scene).powi(2) * m.luminance_integral;
+            if w > 0.0 && w.is_finite() {
+                prims.push(ENV_ENTRY);
+                weights.push(w);
+            }
+        }
+        let n_env = prims.last().map_or(0, |&p| (p == ENV_ENTRY) as usize);
         let total: f64 = weights.iter().sum();
-        let n_area = weights.len() - delta.len();
+        let n_area = weights.len() - n_delta - n_env;
         for (d, w) in delta.iter_mut().zip(&weights[n_area..]) {
             d.select_prob = (w / total) as f32;
         }
+        let env_select = match n_env {
+            1 => (weights[weights.len() - 1] / total) as f32,
+            _ => 0.0,
+        };
         let mut acc = 0.0;
         let mut cdf: Vec<f32> = weights
             .iter()
@@ -214,12 +239,13 @@ impl LightTable {
             select_density,
             delta,
             delta_base,
+            env_select,
         }
     }
 
     /// The delta light of a `prims` entry, if it is one.
     pub fn delta_at(&self, prim: u32) -> Option<&DeltaEntry> {
-        if prim & DELTA_TAG != DELTA_TAG {
+        if prim & DELTA_TAG != DELTA_TAG || prim == ENV_ENTRY {
             return None;
         }
         let k = (prim & !DELTA_TAG).checked_sub(self.delta_base)?;
@@ -236,6 +262,7 @@ impl LightTable {
         let mut k = (false, false, false);
         for &p in &self.prims {
             if p & DELTA_TAG == DELTA_TAG {
+                // A delta light or the environment map.
                 continue;
             } else if p & SPHERE_BIT != 0 {
                 k.2 = true;

@@ -354,7 +354,13 @@ fn unsupported_elements_are_refused_where_they_are() {
         "dielectric",
         "supported: diffuse, conductor, roughconductor, plastic, roughplastic, and the survey's models by name: lambert",
     );
-    expect_error(r#"<emitter type="envmap"/>"#, "envmap", "is not supported");
+    expect_error(r#"<emitter type="spot"/>"#, "spot", "is not supported");
+    // The test scene has a constant environment already.
+    expect_error(
+        r#"<emitter type="envmap"/>"#,
+        "envmap",
+        "a second environment emitter (constant or envmap)",
+    );
     expect_error(
         r#"<texture type="bitmap"/>"#,
         "bitmap",

@@ -8,8 +8,31 @@
 #ifndef PATH_GLSL
 #define PATH_GLSL
 #include "wavefront/surface.glsl"
+#include "envmap.glsl"
 
-// Camera ray of path slot `path`: box pixel filter, uniform position in the pixel.
+#ifdef CAMERA_THIN_LENS
+// Shirley & Chiu's (1997) concentric map of the unit square onto the unit disc. Rust twin:
+// camera::concentric_disk.
+vec2 concentric_disk(vec2 u) {
+    float a = 2.0 * u.x - 1.0;
+    float b = 2.0 * u.y - 1.0;
+    if (a == 0.0 && b == 0.0) return vec2(0.0);
+    float r;
+    float phi;
+    if (abs(a) > abs(b)) {
+        r = a;
+        phi = (0.25 * PI) * (b / a);
+    } else {
+        r = b;
+        phi = (0.5 * PI) - (0.25 * PI) * (a / b);
+    }
+    return vec2(r * cos(phi), r * sin(phi));
+}
+#endif
+
+// Camera ray of path slot `path`: box pixel filter, uniform position in the pixel; with
+// CAMERA_THIN_LENS from a point of the lens, through the pinhole ray's point on the plane in
+// focus (src/camera.rs).
 void camera_ray(uint path, out vec3 o, out vec3 d) {
     uint pixel = path_pixel(path);
     uint x = pixel % g.width;
@@ -19,8 +42,16 @@ void camera_ray(uint path, out vec3 o, out vec3 d) {
     float fy = float(y) + sub_pixel.y;
     float sx = 2.0 * fx / float(g.width) - 1.0;
     float sy = 1.0 - 2.0 * fy / float(g.height);
+#ifdef CAMERA_THIN_LENS
+    vec3 dd = g.cam_forward + sx * g.cam_right + sy * g.cam_up;
+    vec2 lens = concentric_disk(rand2(path, 0u, DIM_LENS_U));
+    vec3 offset = lens.x * g.lens_right + lens.y * g.lens_up;
+    o = g.cam_origin + offset;
+    d = normalize(dd * g.focus_distance - offset);
+#else
     o = g.cam_origin;
     d = normalize(g.cam_forward + sx * g.cam_right + sy * g.cam_up);
+#endif
 }
 
 // The end of path segment `depth` (ray o + t d, throughput b, pdf of the BSDF sample that chose
@@ -32,7 +63,11 @@ void camera_ray(uint path, out vec3 o, out vec3 d) {
 uint segment_end(uint depth, vec3 o, vec3 d, float prev_pdf, vec3 b, out vec3 e, out Hit hit, out Surface s) {
     e = vec3(0.0);
     if (!trace_closest(o, d, 3.402823e38, hit)) {
+#ifdef SCENE_ENV_MAP
+        vec3 env = b * env_radiance(d) * env_weight(d, prev_pdf);
+#else
         vec3 env = b * g.environment;
+#endif
         if (finite_or_count(env, counter_nonfinite_extend())) e = env;
         return NO_QUEUE;
     }

@@ -42,6 +42,32 @@ void delta_light_ray(uint prim, Surface s, Material m, vec3 origin, vec3 wo, vec
 }
 #endif
 
+#ifdef SCENE_ENV_MAP
+// Next-event estimation towards the environment map, its direction drawn by the path's light
+// pair, MIS-weighted against BSDF sampling. Writes r's shadow ray. Rust twin: env_light_ray in
+// src/cpu/scatter.rs.
+void env_light_ray(uint path, uint depth, Surface s, Material m, vec3 origin, vec3 wo, vec3 b, uint c, inout Scatter r) {
+    vec2 u = rand2(path, depth, DIM_LIGHT_U);
+    vec3 wi;
+    float pdf;
+    vec3 radiance;
+    if (!env_sample(u.x, u.y, wi, pdf, radiance)) return;
+    vec3 wi_local = to_local(s.frame, wi);
+    if (!(dot(wi, s.ng) > 0.0 && wi_local.z > 0.0)) return;
+    float pdf_l = g.env_select * pdf;
+    vec3 f = BRDF_EVAL(m, wi_local, wo);
+    if (!(pdf_l > 0.0) || (f.x == 0.0 && f.y == 0.0 && f.z == 0.0)) return;
+    float w = power_heuristic(pdf_l, BRDF_PDF(m, wo, wi_local));
+    vec3 contrib = b * f * (wi_local.z * w / pdf_l) * radiance;
+    if (!finite_or_count(contrib, c)) return;
+    r.shadow = true;
+    r.shadow_o = origin;
+    r.shadow_d = wi;
+    r.shadow_tmax = 3.402823e38;
+    r.shadow_l = contrib;
+}
+#endif
+
 // Shades the vertex at the end of segment `depth` (surface s, reached along direction d with
 // throughput b): one light sample (next-event estimation) and one BRDF sample, keyed on (path,
 // depth). Non-finite light contributions and continuations are counted at counter c and dropped.
@@ -76,8 +102,15 @@ Scatter shade_vertex(uint path, uint depth, Surface s, vec3 d, vec3 b, uint c) {
     vec2 u_choice = rand2(path, depth, DIM_LIGHT_SELECT);
 
     // Next-event estimation.
-#ifdef SCENE_DELTA_LIGHTS
+#if defined(SCENE_DELTA_LIGHTS) || defined(SCENE_ENV_MAP)
     uint light_prim = g.num_lights > 0u ? light_entry(select_light(u_choice.x)).x : 0u;
+#endif
+#ifdef SCENE_ENV_MAP
+    if (g.num_lights > 0u && light_prim == ENV_ENTRY) {
+        env_light_ray(path, depth, s, m, origin, wo, b, c, r);
+    } else
+#endif
+#ifdef SCENE_DELTA_LIGHTS
     if (g.num_lights > 0u && (light_prim & DELTA_TAG) == DELTA_TAG) {
         delta_light_ray(light_prim, s, m, origin, wo, b, c, r);
     } else

@@ -19,12 +19,29 @@ pub(super) struct SegmentEnd {
 }
 
 impl CpuRenderer<'_> {
-    /// Camera ray through pixel (x, y): box pixel filter, uniform position in the pixel.
+    /// The MIS weight of the environment map's light seen along `d` by a BSDF sample of
+    /// solid-angle pdf `prev_pdf` (1 after the camera and after delta lobes), against
+    /// next-event estimation choosing the map and then `d`. GLSL twin: `env_weight`
+    /// (envmap.glsl).
+    pub(super) fn env_weight(&self, m: &crate::envmap::EnvMap, d: Vec3, prev_pdf: f32) -> f32 {
+        if prev_pdf > 0.0 {
+            power_heuristic(prev_pdf, self.lights.env_select * m.pdf(d))
+        } else {
+            1.0
+        }
+    }
+
+    /// Camera ray through pixel (x, y): box pixel filter, uniform position in the pixel; from
+    /// a point of the lens when the camera has one (`crate::camera`).
     pub(super) fn camera_ray(&self, x: u32, y: u32, rng: &PathRng) -> (Vec3, Vec3) {
         let s = self.scene;
         let sub_pixel = rng.get2(0, dim::PIXEL_X);
         let fx = x as f32 + sub_pixel.x;
         let fy = y as f32 + sub_pixel.y;
+        if self.camera.thin_lens() {
+            let u = rng.get2(0, dim::LENS_U);
+            return self.camera.lens_ray(fx, fy, s.width, s.height, u);
+        }
         let o = self.camera.origin;
         let d = self.camera.ray_direction(fx, fy, s.width, s.height);
         (o, d)
@@ -47,7 +64,10 @@ impl CpuRenderer<'_> {
         let s = self.scene;
         let mut end = SegmentEnd::default();
         let Some(hit) = self.bvh.closest(s, o, d, f32::MAX) else {
-            let e = beta * s.environment;
+            let e = match &s.environment_map {
+                None => beta * s.environment,
+                Some(m) => beta * m.radiance(d) * self.env_weight(m, d, prev_pdf),
+            };
             if e.is_finite() {
                 end.e = Some(e);
             } else {

@@ -4,7 +4,8 @@
 use super::surface::{light_pdf, power_heuristic, sample_delta_light, sample_light, Surface};
 use super::{CpuRenderer, PathStats};
 use crate::brdf::Brdf;
-use crate::lights::DeltaEntry;
+use crate::envmap::EnvMap;
+use crate::lights::{DeltaEntry, ENV_ENTRY};
 use crate::rng::{dim, PathRng};
 use crate::robust;
 use glam::Vec3;
@@ -72,6 +73,45 @@ impl CpuRenderer<'_> {
         })
     }
 
+    /// Next-event estimation towards the environment map `m`, its direction drawn by the 2-D
+    /// sample `u`, from `origin` on `si` (view direction `wo`, local), MIS-weighted against
+    /// BSDF sampling. GLSL twin: `env_light_ray` in `shaders/wavefront/scatter.glsl`.
+    #[allow(clippy::too_many_arguments)]
+    fn env_light_ray(
+        &self,
+        (m, u): (&EnvMap, glam::Vec2),
+        si: &Surface,
+        origin: Vec3,
+        wo: Vec3,
+        beta: Vec3,
+        model: usize,
+        stats: &mut PathStats,
+    ) -> Option<ShadowRay> {
+        let brdf = self.scene.materials[si.material as usize].brdf.as_ref();
+        let es = m.sample(u.x, u.y)?;
+        let wi_local = si.frame.to_local(es.wi);
+        if !(es.wi.dot(si.ng) > 0.0 && wi_local.z > 0.0) {
+            return None;
+        }
+        let pdf_l = self.lights.env_select * es.pdf;
+        let f = brdf.eval(wi_local, wo);
+        if !(pdf_l > 0.0) || f == Vec3::ZERO {
+            return None;
+        }
+        let w = power_heuristic(pdf_l, brdf.pdf(wo, wi_local));
+        let contrib = beta * f * (wi_local.z * w / pdf_l) * es.radiance;
+        if !contrib.is_finite() {
+            stats.nonfinite_shade[model] += 1;
+            return None;
+        }
+        Some(ShadowRay {
+            o: origin,
+            d: es.wi,
+            tmax: f32::MAX,
+            l: contrib,
+        })
+    }
+
     /// Shades the vertex at the end of segment `depth` (surface `si`, reached along direction
     /// `d` with throughput `beta`): one light sample (next-event estimation) and one BRDF
     /// sample, keyed on (path, depth). Non-finite light contributions and continuations are
@@ -115,7 +155,15 @@ impl CpuRenderer<'_> {
                     .delta_at(self.lights.prims[self.lights.select(u_choice.x)])
             })
             .flatten();
-        if let Some(l) = delta {
+        let env = s.environment_map.as_deref().filter(|_| {
+            !self.lights.is_empty()
+                && self.lights.prims[self.lights.select(u_choice.x)] == ENV_ENTRY
+        });
+        if let Some(m) = env {
+            let u_light = rng.get2(depth, dim::LIGHT_U);
+            let light = (m, u_light);
+            r.shadow = self.env_light_ray(light, si, origin, wo, beta, material.model, stats);
+        } else if let Some(l) = delta {
             r.shadow = self.delta_light_ray(l, si, origin, wo, beta, material.model, stats);
         } else if !self.lights.is_empty() {
             let u_light = rng.get2(depth, dim::LIGHT_U);

@@ -78,6 +78,10 @@ pub fn scene_hash(s: &crate::scene::Scene) -> String {
         s.spheres,
         s.environment
     );
+    // Only a scene with a map adds it: every other scene keeps the hash it had.
+    if let Some(m) = &s.environment_map {
+        let _ = write!(h, "{m:?}|");
+    }
     hash_triangles(&mut h, s);
     if it.sampler == crate::rng::Sampler::Multijitter {
         let _ = write!(

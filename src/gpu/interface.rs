@@ -114,6 +114,20 @@ glsl_block! {
         pub tile_width: u32,
         /// multijitter: the pattern has 2^pattern_bits points (rng::multijitter_bits)
         pub pattern_bits: u32,
+        /// SCENE_ENV_MAP: the rows of the world-to-map rotation (src/envmap.rs)
+        pub env_x: [f32; 3],
+        pub env_y: [f32; 3],
+        pub env_z: [f32; 3],
+        /// SCENE_ENV_MAP: the map's size in texels
+        pub env_width: u32,
+        pub env_height: u32,
+        /// SCENE_ENV_MAP: the probability that a light sample chooses the map
+        pub env_select: f32,
+        /// CAMERA_THIN_LENS: the camera's unit right and up vectors times the aperture radius
+        pub lens_right: [f32; 3],
+        pub lens_up: [f32; 3],
+        /// CAMERA_THIN_LENS: the distance of the plane in focus along the view direction
+        pub focus_distance: f32,
     }
 }
 
@@ -137,6 +151,7 @@ fn texel_format(f: vk::Format) -> (&'static str, bool) {
         vk::Format::R32G32_UINT => ("rg32ui", true),
         vk::Format::R32G32B32A32_UINT => ("rgba32ui", true),
         vk::Format::R32G32B32A32_SFLOAT => ("rgba32f", false),
+        vk::Format::R32_SFLOAT => ("r32f", false),
         other => panic!("no GLSL format for {other:?}: add it to gpu::interface::texel_format"),
     }
 }
@@ -338,7 +353,7 @@ mod tests {
         assert_eq!(std::mem::size_of::<Push>(), 4 * words(Push::FIELDS));
         assert_eq!(std::mem::size_of::<Globals>(), 4 * words(Globals::FIELDS));
         assert_eq!(Push::FIELDS[0].name, "depth");
-        assert_eq!(Globals::FIELDS.last().unwrap().name, "pattern_bits");
+        assert_eq!(Globals::FIELDS.last().unwrap().name, "focus_distance");
     }
 
     /// A probe's header numbers its bindings by position, declares each once, and says which

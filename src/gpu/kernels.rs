@@ -190,6 +190,8 @@ pub(super) fn create_buffers<'a>(
             Binding::MeasuredTable => data(bytemuck::cast_slice(
                 &scene_buffers::MeasuredTables::of(&scene.materials).texels(),
             ))?,
+            Binding::Images => data(bytemuck::cast_slice(&scene_buffers::image_texels(scene)))?,
+            Binding::EnvDist => data(bytemuck::cast_slice(&scene_buffers::env_dist(scene)))?,
         };
         owned.buffers.push(buffer);
         if b == Binding::BvhPrims {
@@ -428,7 +430,8 @@ pub(super) fn build_kernels<'a>(
 /// LIGHT_SPHERES: src/lights.rs), per-vertex shading normals
 /// and texture coordinates (SCENE_SHADING_NORMALS, SCENE_UVS), point and directional lights
 /// (SCENE_DELTA_LIGHTS), two-sided materials (SCENE_TWOSIDED), Russian roulette
-/// (RUSSIAN_ROULETTE). On lavapipe both sides of every branch run for all lanes, so code for
+/// (RUSSIAN_ROULETTE), an environment map (SCENE_ENV_MAP), images (SCENE_IMAGES: the map or
+/// textures), a thin-lens camera (CAMERA_THIN_LENS). On lavapipe both sides of every branch run for all lanes, so code for
 /// something the scene lacks is not free.
 pub fn scene_features(scene: &Scene) -> Vec<&'static str> {
     let mut f = Vec::new();
@@ -462,6 +465,15 @@ pub fn scene_features(scene: &Scene) -> Vec<&'static str> {
     }
     if scene.integrator.russian_roulette {
         f.push("RUSSIAN_ROULETTE");
+    }
+    if scene.environment_map.is_some() {
+        f.push("SCENE_ENV_MAP");
+    }
+    if scene.environment_map.is_some() {
+        f.push("SCENE_IMAGES");
+    }
+    if scene.camera.aperture_radius > 0.0 {
+        f.push("CAMERA_THIN_LENS");
     }
     f
 }

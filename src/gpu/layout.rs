@@ -60,11 +60,15 @@ pub enum Binding {
     Film2,
     // Measured materials' tables, read only (declared under MEASURED_TABLE only).
     MeasuredTable,
+    // Images (the environment map, textures) and the environment map's distribution, read
+    // only (declared under SCENE_IMAGES and SCENE_ENV_MAP only).
+    Images,
+    EnvDist,
 }
 
 impl Binding {
     /// Every binding, in binding-number order.
-    pub const ALL: [Binding; 23] = [
+    pub const ALL: [Binding; 25] = [
         Binding::BvhNodes,
         Binding::BvhPrims,
         Binding::Triangles,
@@ -88,6 +92,8 @@ impl Binding {
         Binding::Film,
         Binding::Film2,
         Binding::MeasuredTable,
+        Binding::Images,
+        Binding::EnvDist,
     ];
 
     /// The binding number.
@@ -121,6 +127,8 @@ impl Binding {
             Binding::Film => "film",
             Binding::Film2 => "film2",
             Binding::MeasuredTable => "measured_table",
+            Binding::Images => "images",
+            Binding::EnvDist => "env_dist",
         }
     }
 
@@ -144,7 +152,8 @@ impl Binding {
             | Binding::TriAttrs
             | Binding::Materials
             | Binding::Emitters => Kind::ReadImage(F::R32G32B32A32_UINT),
-            Binding::MeasuredTable => Kind::ReadImage(F::R32G32B32A32_SFLOAT),
+            Binding::MeasuredTable | Binding::Images => Kind::ReadImage(F::R32G32B32A32_SFLOAT),
+            Binding::EnvDist => Kind::ReadImage(F::R32_SFLOAT),
             Binding::BvhPrims => Kind::ReadImage(F::R32_UINT),
             Binding::Lights => Kind::ReadImage(F::R32G32_UINT),
             Binding::Globals => Kind::Uniform,
@@ -197,6 +206,8 @@ impl Binding {
             Binding::Film => ("film", "running sums of radiance per pixel, .w the scale exponent k (accumulate.comp)"),
             Binding::Film2 => ("film2", "running sums of radiance² per pixel"),
             Binding::MeasuredTable => ("measured_table", "one texel per MERL cell of every distinct measured table, (f_r red, green, blue, unused), negative = missing (src/brdf/measured.rs)"),
+            Binding::Images => ("image_texels", "(r, g, b, unused) texels of the scene's images, row by row: the environment map's radiance first (src/envmap.rs), then the textures (src/texture.rs)"),
+            Binding::EnvDist => ("env_dist_data", "the environment map's marginal CDF (H values), its rows' conditional CDFs ((H - 1) x (W + 1)) and its cells' densities in (u, v) ((H - 1) x W) (src/envmap.rs)"),
         }
     }
 
@@ -206,6 +217,8 @@ impl Binding {
     pub fn condition(self) -> Option<&'static str> {
         match self {
             Binding::MeasuredTable => Some("MEASURED_TABLE"),
+            Binding::Images => Some("SCENE_IMAGES"),
+            Binding::EnvDist => Some("SCENE_ENV_MAP"),
             _ => None,
         }
     }

@@ -218,6 +218,8 @@ pub fn globals(
 ) -> Globals {
     let cam = CameraBasis::new(scene);
     let it = &scene.integrator;
+    let env = scene.environment_map.as_deref();
+    let [env_x, env_y, env_z] = env.map_or([glam::Vec3::ZERO; 3], |m| m.to_local_rows());
     Globals {
         cam_origin: cam.origin.to_array(),
         cam_forward: cam.forward.to_array(),
@@ -237,6 +239,43 @@ pub fn globals(
         tile_y: tile.y,
         tile_width: tile.width,
         pattern_bits: crate::rng::multijitter_bits(it.pattern_spp()),
+        env_x: env_x.to_array(),
+        env_y: env_y.to_array(),
+        env_z: env_z.to_array(),
+        env_width: env.map_or(0, |m| m.width),
+        env_height: env.map_or(0, |m| m.height),
+        env_select: lights.env_select,
+        lens_right: cam.lens_right.to_array(),
+        lens_up: cam.lens_up.to_array(),
+        focus_distance: cam.focus_distance,
+    }
+}
+
+/// The texels of binding `images`: the environment map's radiance (r, g, b, 0), row by row,
+/// then the textures'; one zero texel for a scene without images (a buffer cannot be empty).
+pub fn image_texels(scene: &Scene) -> Vec<[f32; 4]> {
+    let mut out = Vec::new();
+    if let Some(m) = &scene.environment_map {
+        out.extend(m.texels.iter().map(|t| [t[0], t[1], t[2], 0.0]));
+    }
+    if out.is_empty() {
+        out.push([0.0; 4]);
+    }
+    out
+}
+
+/// Binding `env_dist`: the environment map's marginal CDF, then its rows' conditional CDFs,
+/// then its cells' densities (`crate::envmap::EnvMap`); one zero without a map.
+pub fn env_dist(scene: &Scene) -> Vec<f32> {
+    match &scene.environment_map {
+        Some(m) => m
+            .marginal
+            .iter()
+            .chain(&m.conditional)
+            .chain(&m.cell_pdf)
+            .copied()
+            .collect(),
+        None => vec![0.0],
     }
 }
 

@@ -26,8 +26,10 @@
 //! [`Provenance`]; the file layout is described in `openexr.rs`).
 
 mod openexr;
+mod stored;
 
 pub use openexr::{Extras, Layered, Provenance, VARIANCE_LAYER};
+pub use stored::{read_stored, write_hdr, Stored, STORED_EXTENSIONS};
 
 use std::fmt;
 use std::fs::File;

@@ -190,16 +190,20 @@ pub fn sobol_pair_key(pixel_key: u32, depth: u32, pair: u32) -> u32 {
 /// |---|---|---|---|---|
 /// | 0 | 0 | `PIXEL_X` | sub-pixel x (box filter, one pixel wide) | 0 |
 /// | 0 | 1 | `PIXEL_Y` | sub-pixel y | 0 |
+/// | 0 | 2 | `LENS_U` | point on the thin lens, first coordinate (`crate::camera`) | 1 |
+/// | 0 | 3 | `LENS_V` | point on the thin lens, second coordinate | 1 |
 /// | k >= 1 | 0 | `LIGHT_SELECT` | which emitter (next-event estimation) | 0 |
 /// | k >= 1 | 1 | `BSDF_LOBE` | which lobe of the BSDF | 0 |
-/// | k >= 1 | 2 | `LIGHT_U` | point on the emitter, first coordinate | 1 |
-/// | k >= 1 | 3 | `LIGHT_V` | point on the emitter, second coordinate | 1 |
+/// | k >= 1 | 2 | `LIGHT_U` | point on the emitter (or direction of the environment map), first coordinate | 1 |
+/// | k >= 1 | 3 | `LIGHT_V` | point on the emitter (or direction of the environment map), second coordinate | 1 |
 /// | k >= 1 | 4 | `BSDF_U` | BSDF direction, first coordinate | 2 |
 /// | k >= 1 | 5 | `BSDF_V` | BSDF direction, second coordinate | 2 |
 /// | k >= 1 | 6 | `RR` | Russian roulette | 3 |
 pub mod dim {
     pub const PIXEL_X: u32 = 0;
     pub const PIXEL_Y: u32 = 1;
+    pub const LENS_U: u32 = 2;
+    pub const LENS_V: u32 = 3;
     pub const LIGHT_SELECT: u32 = 0;
     pub const BSDF_LOBE: u32 = 1;
     pub const LIGHT_U: u32 = 2;
@@ -208,9 +212,11 @@ pub mod dim {
     pub const BSDF_V: u32 = 5;
     pub const RR: u32 = 6;
     /// Every dimension with its name, for the GLSL defines (`DIM_<name>`).
-    pub const ALL: [(&str, u32); 9] = [
+    pub const ALL: [(&str, u32); 11] = [
         ("PIXEL_X", PIXEL_X),
         ("PIXEL_Y", PIXEL_Y),
+        ("LENS_U", LENS_U),
+        ("LENS_V", LENS_V),
         ("LIGHT_SELECT", LIGHT_SELECT),
         ("BSDF_LOBE", BSDF_LOBE),
         ("LIGHT_U", LIGHT_U),
@@ -502,7 +508,13 @@ mod tests {
         }
         assert_eq!(Sampler::parse("halton"), None);
         assert_eq!(Sampler::default(), Sampler::Multijitter);
-        let later: Vec<u32> = dim::ALL[2..].iter().map(|d| d.1).collect();
+        let camera: Vec<u32> = dim::ALL[..4].iter().map(|d| d.1).collect();
+        assert_eq!(
+            camera,
+            [0, 1, 2, 3],
+            "depth 0: the pixel pair, then the lens pair"
+        );
+        let later: Vec<u32> = dim::ALL[4..].iter().map(|d| d.1).collect();
         for (i, a) in later.iter().enumerate() {
             assert!(*a < 64, "the independent key has 64 dimensions per depth");
             assert!(later[i + 1..].iter().all(|b| b != a), "{later:?}");

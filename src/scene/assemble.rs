@@ -109,10 +109,8 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
 
     let integrator = integrator(cx, raw.integrator.as_ref())?;
 
-    let environment = match raw.environment.as_ref().and_then(|e| e.radiance.as_ref()) {
-        Some(r) => cx.radiance(r, "environment.radiance")?,
-        None => Vec3::ZERO,
-    };
+    let (environment, environment_map) =
+        super::environment::environment(cx, raw.environment.as_ref())?;
     // The depth limit of the renderers (`--max-depth` is held to the same): the random-number
     // key of a deeper segment would reuse another depth's numbers.
     if let Some(d) = raw.integrator.as_ref().and_then(|i| i.max_depth.as_ref()) {
@@ -175,7 +173,11 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
         return Err(no_primitives(cx, &raw.shapes));
     }
     let lights = super::delta_lights::delta_lights(cx, &raw.lights)?;
-    if out.emitters.is_empty() && lights.is_empty() && environment == Vec3::ZERO {
+    if out.emitters.is_empty()
+        && lights.is_empty()
+        && environment == Vec3::ZERO
+        && environment_map.is_none()
+    {
         cx.warnings.push(format!(
             "warning: {}: the scene has no emitter and a black environment: every image will be black",
             cx.file
@@ -197,6 +199,7 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
         spheres: out.spheres,
         lights,
         environment,
+        environment_map,
         warnings: std::mem::take(&mut cx.warnings),
     })
 }
@@ -385,12 +388,53 @@ pub(super) fn camera(cx: &Cx, c: &RawCamera) -> Result<Camera, SceneError> {
         );
         return Err(cx.err(up_span, "camera.up", msg));
     }
+    let (aperture_radius, focus_distance) = lens(cx, c, diff)?;
     Ok(Camera {
         position,
         target,
         up,
         fov_y_deg: fov,
+        aperture_radius,
+        focus_distance,
     })
+}
+
+/// The thin lens of `[camera]`: `aperture_radius` ≥ 0 (0, the default, is a pinhole) and
+/// `focus_distance` > 0, by default the distance to the target (`diff` = target − position).
+fn lens(cx: &Cx, c: &RawCamera, diff: Vec3) -> Result<(f32, f32), SceneError> {
+    let aperture = match &c.aperture_radius {
+        Some(a) => {
+            let v = cx.finite(a.span(), "camera.aperture_radius", a.value)?;
+            if !(v >= 0.0) {
+                let msg = format!(
+                    "{} is out of range: the aperture radius must be >= 0 (0: a pinhole)",
+                    fmt_num(v)
+                );
+                return Err(cx.err(a.span(), "camera.aperture_radius", msg));
+            }
+            v
+        }
+        None => 0.0,
+    };
+    let focus = match &c.focus_distance {
+        Some(f) => {
+            let v = cx.finite(f.span(), "camera.focus_distance", f.value)?;
+            if !(v > 0.0) {
+                let msg = format!(
+                    "{} is out of range: the focus distance must be > 0",
+                    fmt_num(v)
+                );
+                return Err(cx.err(f.span(), "camera.focus_distance", msg));
+            }
+            if aperture == 0.0 && c.aperture_radius.is_none() {
+                let msg = "focus_distance applies only to a thin lens: give aperture_radius too";
+                return Err(cx.err(f.span(), "camera.focus_distance", msg));
+            }
+            v
+        }
+        None => (diff.as_dvec3().length() as f32).max(f32::MIN_POSITIVE),
+    };
+    Ok((aperture, focus))
 }
 
 #[derive(Default)]

@@ -14,8 +14,10 @@
 
 mod assemble;
 mod delta_lights;
+mod environment;
 mod error;
 mod geometry;
+mod images;
 pub mod load;
 pub mod mitsuba;
 mod mtl;
@@ -32,13 +34,18 @@ mod transform;
 use crate::brdf::Material;
 use glam::{Vec2, Vec3};
 
-/// Pinhole camera. `fov_y_deg` is the full vertical field of view.
+/// The camera: a pinhole, or a thin lens when `aperture_radius` > 0. `fov_y_deg` is the full
+/// vertical field of view.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Camera {
     pub position: Vec3,
     pub target: Vec3,
     pub up: Vec3,
     pub fov_y_deg: f32,
+    /// The lens's radius; 0 for a pinhole (`crate::camera`).
+    pub aperture_radius: f32,
+    /// The distance, along the view direction, of the plane in focus (thin lens only).
+    pub focus_distance: f32,
 }
 
 /// Integrator settings; the command line may override them.
@@ -161,6 +168,9 @@ pub struct Scene {
     pub lights: Vec<DeltaLight>,
     /// Constant environment radiance seen by rays that leave the scene.
     pub environment: Vec3,
+    /// The environment map, when the scene has one (then `environment` is zero): radiance by
+    /// direction, sampled for next-event estimation ([`crate::envmap`]).
+    pub environment_map: Option<std::sync::Arc<crate::envmap::EnvMap>>,
     /// Legal but suspicious content found while loading (unused materials, skipped
     /// zero-area OBJ triangles, ignored MTL files, …), each `warning: file:line: …`.
     pub warnings: Vec<String>,

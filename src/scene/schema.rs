@@ -50,6 +50,10 @@ pub(super) struct RawCamera {
     pub(super) target: V3,
     pub(super) up: Option<V3>,
     pub(super) fov_y: Sp<f64>,
+    /// The thin lens's radius (0 or absent: a pinhole).
+    pub(super) aperture_radius: Option<Sp<f64>>,
+    /// The distance of the plane in focus (default: the target's distance).
+    pub(super) focus_distance: Option<Sp<f64>>,
 }
 
 #[derive(Deserialize)]
@@ -74,6 +78,12 @@ pub(super) struct RawIntegrator {
 #[serde(deny_unknown_fields)]
 pub(super) struct RawEnvironment {
     pub(super) radiance: Option<Sp<Triple>>,
+    /// An equirectangular image of the environment ([`super::environment`]).
+    pub(super) map: Option<Sp<String>>,
+    /// The factor the map's values are multiplied by.
+    pub(super) scale: Option<Sp<f64>>,
+    /// The map's rotation, in the form of a shape's `transform`.
+    pub(super) transform: Option<Sp<RawTransform>>,
 }
 
 #[derive(Deserialize)]

@@ -274,6 +274,8 @@ fn geometry_inside_closed_mesh(env: &mut Env, r: &mut Rng, seed: u64) -> Result<
         target,
         up: *r.pick(&[Vec3::Y, Vec3::X, Vec3::new(0.3, 0.9, -0.1)]),
         fov_y_deg: r.range(20.0, 150.0),
+        aperture_radius: 0.0,
+        focus_distance: 1.0,
     };
     scene.width = 16;
     scene.height = 16;

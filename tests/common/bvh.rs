@@ -33,6 +33,8 @@ pub fn scene(tris: Vec<[Vec3; 3]>, spheres: Vec<(Vec3, f32, bool)>) -> Scene {
             target: Vec3::Z,
             up: Vec3::Y,
             fov_y_deg: 45.0,
+            aperture_radius: 0.0,
+            focus_distance: 1.0,
         },
         width: 1,
         height: 1,
@@ -62,6 +64,7 @@ pub fn scene(tris: Vec<[Vec3; 3]>, spheres: Vec<(Vec3, f32, bool)>) -> Scene {
             .collect(),
         lights: Vec::new(),
         environment: Vec3::ZERO,
+        environment_map: None,
         warnings: Vec::new(),
     }
 }

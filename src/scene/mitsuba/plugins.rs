@@ -198,7 +198,7 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
                 if environment.is_some() {
                     return Err(cx.el_err(
                         el,
-                        "a second <emitter type=\"constant\">: brdfwave has one environment",
+                        "a second environment emitter (constant or envmap): brdfwave has one environment",
                     ));
                 }
                 let mut p = Props::new(cx, el)?;
@@ -209,7 +209,19 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
                 p.finish(cx, "radiance")?;
                 environment = Some(RawEnvironment {
                     radiance: Some(radiance),
+                    map: None,
+                    scale: None,
+                    transform: None,
                 });
+            }
+            ("emitter", Some("envmap")) => {
+                if environment.is_some() {
+                    return Err(cx.el_err(
+                        el,
+                        "a second environment emitter (constant or envmap): brdfwave has one environment",
+                    ));
+                }
+                environment = Some(envmap(cx, el)?);
             }
             ("emitter", Some("point" | "directional")) => lights.push(delta_light(cx, el)?),
             ("emitter", _) => return Err(emitter_error(cx, el, false)),
@@ -218,7 +230,7 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
             }
             _ => {
                 let msg = format!(
-                    "{} is not supported at the top level (supported: sensor, integrator, bsdf, shape, emitter type=\"constant\", include, default)",
+                    "{} is not supported at the top level (supported: sensor, integrator, bsdf, shape, emitter type=\"constant\" or \"envmap\", include, default)",
                     el.describe()
                 );
                 return Err(cx.el_err(el, msg));
@@ -243,6 +255,30 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
         materials,
         shapes,
         lights,
+    })
+}
+
+/// A top-level `envmap` emitter → `[environment]` with a `map`: `filename` (relative to the
+/// file that names it), `scale` (default 1) and `to_world` (a rotation, checked by the
+/// assembly).
+fn envmap(cx: &Cx, el: &El) -> Result<RawEnvironment, SceneError> {
+    let mut p = Props::new(cx, el)?;
+    let Some(f) = p.take("filename") else {
+        return Err(cx.el_err(el, "<emitter type=\"envmap\"> needs a filename"));
+    };
+    let file = f.dir.join(cx.string(f)?);
+    let map = Some(sp(f, file.display().to_string()));
+    let scale = match p.take("scale") {
+        Some(e) => Some(sp(e, cx.float(e)?)),
+        None => None,
+    };
+    let transform = shape_transform(cx, p.take("to_world"))?;
+    p.finish(cx, "filename, scale, to_world")?;
+    Ok(RawEnvironment {
+        radiance: None,
+        map,
+        scale,
+        transform,
     })
 }
 
@@ -299,11 +335,11 @@ pub(super) fn emitter_error(cx: &Cx, el: &El, in_shape: bool) -> SceneError {
     match el.attr("type") {
         Some("point" | "directional") if in_shape => cx.el_err(el, format!("an <emitter type=\"{}\"> belongs at the top level, not in a <shape>", el.attr("type").unwrap_or_default())),
         Some("area") if !in_shape => cx.el_err(el, "an <emitter type=\"area\"> belongs inside a <shape>"),
-        Some("constant") if in_shape => cx.el_err(el, "an <emitter type=\"constant\"> belongs at the top level, not in a <shape>"),
+        Some(t @ ("constant" | "envmap")) if in_shape => cx.el_err(el, format!("an <emitter type=\"{t}\"> belongs at the top level, not in a <shape>")),
         _ => cx.el_err(
             el,
             format!(
-                "{} is not supported (supported: area inside a shape; constant, point and directional at the top level)",
+                "{} is not supported (supported: area inside a shape; constant, envmap, point and directional at the top level)",
                 el.describe()
             ),
         ),

@@ -29,14 +29,31 @@ pub(super) fn sensor(
     el: &El,
     integrator: &mut RawIntegrator,
 ) -> Result<(RawCamera, RawFilm), SceneError> {
-    if el.attr("type") != Some("perspective") {
+    let thin_lens = el.attr("type") == Some("thinlens");
+    if el.attr("type") != Some("perspective") && !thin_lens {
         let msg = format!(
-            "{} is not supported (supported: perspective)",
+            "{} is not supported (supported: perspective, thinlens)",
             el.describe()
         );
         return Err(cx.el_err(el, msg));
     }
     let mut p = Props::new(cx, el)?;
+    // thinlens: the aperture (required, as in Mitsuba) and the distance in focus (Mitsuba's
+    // default: the far clipping plane's, 10^4 unless given).
+    let mut far_clip = 1e4;
+    let lens = match thin_lens {
+        false => None,
+        true => {
+            let Some(a) = p.take("aperture_radius") else {
+                return Err(cx.el_err(
+                    el,
+                    "<sensor type=\"thinlens\"> needs a <float name=\"aperture_radius\">",
+                ));
+            };
+            let f = p.take("focus_distance");
+            Some((a, f))
+        }
+    };
     let fov_el = p.take("fov");
     let fov = match fov_el {
         Some(f) => cx.float(f)?,
@@ -54,7 +71,10 @@ pub(super) fn sensor(
     };
     for ignored in ["near_clip", "far_clip"] {
         if let Some(c) = p.take(ignored) {
-            cx.float(c)?;
+            let v = cx.float(c)?;
+            if ignored == "far_clip" {
+                far_clip = v;
+            }
             cx.warn(
                 Some(c.span.clone()),
                 &c.path,
@@ -67,7 +87,10 @@ pub(super) fn sensor(
     let samplers = p.take_tag("sampler");
     p.finish(
         cx,
-        "fov, fov_axis, to_world, near_clip, far_clip, film, sampler",
+        match thin_lens {
+            false => "fov, fov_axis, to_world, near_clip, far_clip, film, sampler",
+            true => "aperture_radius, focus_distance, fov, fov_axis, to_world, near_clip, far_clip, film, sampler",
+        },
     )?;
 
     let film = match films.as_slice() {
@@ -98,7 +121,7 @@ pub(super) fn sensor(
         }
     };
     let fov_y = sp(fov_el, fov_y);
-    let camera = match camera_el {
+    let mut camera = match camera_el {
         None => {
             // Mitsuba's identity camera: at the origin, looking along +z, +y up.
             let v = |x: [f64; 3]| sp(el, Arr(x));
@@ -107,10 +130,19 @@ pub(super) fn sensor(
                 target: v([0.0, 0.0, 1.0]),
                 up: Some(v([0.0, 1.0, 0.0])),
                 fov_y,
+                aperture_radius: None,
+                focus_distance: None,
             }
         }
         Some(t) => camera(cx, t, fov_y)?,
     };
+    if let Some((a, f)) = lens {
+        camera.aperture_radius = Some(sp(a, cx.float(a)?));
+        camera.focus_distance = Some(match f {
+            Some(f) => sp(f, cx.float(f)?),
+            None => sp(el, far_clip),
+        });
+    }
     Ok((camera, film))
 }
 
@@ -123,6 +155,8 @@ fn camera(cx: &Cx, t: &El, fov_y: Sp<f64>) -> Result<RawCamera, SceneError> {
             target: v(target),
             up: Some(v(up)),
             fov_y,
+            aperture_radius: None,
+            focus_distance: None,
         });
     }
     let m = tw.m;
@@ -140,6 +174,8 @@ fn camera(cx: &Cx, t: &El, fov_y: Sp<f64>) -> Result<RawCamera, SceneError> {
         target: v(m.transform_point3(DVec3::Z).to_array()),
         up: Some(v(m.transform_vector3(DVec3::Y).to_array())),
         fov_y,
+        aperture_radius: None,
+        focus_distance: None,
     })
 }
 

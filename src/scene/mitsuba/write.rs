@@ -68,6 +68,34 @@ pub fn to_mitsuba(s: &Scene, mesh_dir: &str, opts: Options) -> Result<Converted,
             rgb(s.environment)
         );
     }
+    if let Some(m) = &s.environment_map {
+        let dir = opts.xml_dir.as_deref().unwrap_or(scene_dir);
+        let file = file_for_xml(Path::new(""), &m.path.to_string_lossy(), Some(dir));
+        let _ = writeln!(
+            x,
+            "    <emitter type=\"envmap\">\n        <string name=\"filename\" value=\"{}\"/>",
+            attr(&file)
+        );
+        if m.scale != 1.0 {
+            let _ = writeln!(x, "        <float name=\"scale\" value=\"{}\"/>", m.scale);
+        }
+        if m.to_world != glam::Mat3::IDENTITY {
+            let r = m.to_world;
+            let v: Vec<String> = (0..3)
+                .flat_map(|i| {
+                    let row = r.row(i);
+                    [row.x, row.y, row.z, 0.0].map(|c| c.to_string())
+                })
+                .chain(["0", "0", "0", "1"].map(String::from))
+                .collect();
+            let _ = writeln!(
+                x,
+                "        <transform name=\"to_world\">\n            <matrix value=\"{}\"/>\n        </transform>",
+                v.join(" ")
+            );
+        }
+        x.push_str("    </emitter>\n");
+    }
     for l in &s.lights {
         x.push_str(&match l {
             DeltaLight::Point {
@@ -195,9 +223,21 @@ fn sensor(x: &mut String, s: &Scene) {
         crate::rng::Sampler::Independent => "independent",
         _ => "multijitter",
     };
+    // A thin lens as Mitsuba's `thinlens` (the same lens: the plane through the position
+    // perpendicular to the view, focused on the plane at focus_distance).
+    let (kind, lens) = match c.aperture_radius > 0.0 {
+        true => (
+            "thinlens",
+            format!(
+                "\n        <float name=\"aperture_radius\" value=\"{}\"/>\n        <float name=\"focus_distance\" value=\"{}\"/>",
+                c.aperture_radius, c.focus_distance
+            ),
+        ),
+        false => ("perspective", String::new()),
+    };
     let _ = write!(
         x,
-        "    <sensor type=\"perspective\">
+        "    <sensor type=\"{kind}\">{lens}
         <float name=\"fov\" value=\"{}\"/>
         <string name=\"fov_axis\" value=\"y\"/>
         <transform name=\"to_world\">
