@@ -254,7 +254,7 @@ fn expected_cell_mass(b: &dyn Brdf, given: Vec3, nt: usize, np: usize, sub: usiz
 /// Pearson's statistic over `cells` (expected, observed), sorted by expected count: cells
 /// under `min_expected` are pooled into one (with the cells after them until the pool reaches
 /// it). The statistic and the number of cells it sums.
-fn pooled_statistic(cells: Vec<(f64, f64)>, min_expected: f64) -> (f64, usize) {
+pub fn pooled_statistic(cells: Vec<(f64, f64)>, min_expected: f64) -> (f64, usize) {
     let (mut stat, mut ncells) = (0.0f64, 0usize);
     let (mut pool_e, mut pool_o) = (0.0f64, 0.0f64);
     for (e, o) in cells {
