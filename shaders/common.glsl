@@ -30,4 +30,34 @@ float luminance(vec3 c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
 bool is_finite_f(float x) { return (floatBitsToUint(x) & 0x7f800000u) != 0x7f800000u; }
 bool is_finite_v(vec3 v) { return is_finite_f(v.x) && is_finite_f(v.y) && is_finite_f(v.z); }
 
+#if defined(SCENE_ENV_MAP) || defined(SCENE_TEXTURES)
+// atan2(y, x) by basic operations only, `precise` so that no multiply-add is fused: the same
+// bits as the Rust twin envmap::atan2_f32, which explains the reduction and the series (the
+// library atan differs from Rust's by about 1e-5 rad on lavapipe). Environment maps and the
+// texture coordinates of spheres use it. 0 at (0, 0).
+float atan2_f32(float y, float x) {
+    float ax = abs(x);
+    float ay = abs(y);
+    float hi = max(ax, ay);
+    float lo = min(ax, ay);
+    if (!(hi > 0.0)) return 0.0;
+    precise float a = lo / hi;
+    bool big = a > 0.41421357;
+    precise float t = big ? (a - 1.0) / (a + 1.0) : a;
+    precise float s = t * t;
+    precise float p = -1.0 / 15.0;
+    p = p * s + 1.0 / 13.0;
+    p = p * s - 1.0 / 11.0;
+    p = p * s + 1.0 / 9.0;
+    p = p * s - 1.0 / 7.0;
+    p = p * s + 1.0 / 5.0;
+    p = p * s - 1.0 / 3.0;
+    precise float r = t + t * (s * p);
+    if (big) r += 0.78539819;
+    if (ay > ax) r = 1.5707964 - r;
+    if (x < 0.0) r = 3.1415927 - r;
+    return y < 0.0 ? -r : r;
+}
+#endif
+
 #endif

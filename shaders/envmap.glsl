@@ -23,40 +23,13 @@ float env_dot(vec3 a, vec3 b) {
 vec3 env_to_local(vec3 d) { return vec3(env_dot(g.env_x, d), env_dot(g.env_y, d), env_dot(g.env_z, d)); }
 vec3 env_to_world(vec3 l) { return g.env_x * l.x + g.env_y * l.y + g.env_z * l.z; }
 
-// atan2(y, x) by basic operations only, `precise` so that no multiply-add is fused: the same
-// bits as the Rust twin envmap::atan2_f32 (which explains the reduction and the series); the
-// library atan differs from Rust's by about 1e-5 rad on lavapipe. 0 at (0, 0).
-float env_atan2(float y, float x) {
-    float ax = abs(x);
-    float ay = abs(y);
-    float hi = max(ax, ay);
-    float lo = min(ax, ay);
-    if (!(hi > 0.0)) return 0.0;
-    precise float a = lo / hi;
-    bool big = a > 0.41421357;
-    precise float t = big ? (a - 1.0) / (a + 1.0) : a;
-    precise float s = t * t;
-    precise float p = -1.0 / 15.0;
-    p = p * s + 1.0 / 13.0;
-    p = p * s - 1.0 / 11.0;
-    p = p * s + 1.0 / 9.0;
-    p = p * s - 1.0 / 7.0;
-    p = p * s + 1.0 / 5.0;
-    p = p * s - 1.0 / 3.0;
-    precise float r = t + t * (s * p);
-    if (big) r += 0.78539819;
-    if (ay > ax) r = 1.5707964 - r;
-    if (x < 0.0) r = 3.1415927 - r;
-    return y < 0.0 ? -r : r;
-}
-
 // (u, v) of a direction in the map's frame, u in [0, 1).
 vec2 env_uv(vec3 l) {
-    precise float u = env_atan2(l.x, -l.z) * 0.15915494;
+    precise float u = atan2_f32(l.x, -l.z) * 0.15915494;
     if (u < 0.0) u += 1.0;
     if (u >= 1.0) u = 0.0;
     precise float sin_theta = sqrt(l.x * l.x + l.z * l.z);
-    precise float v = env_atan2(sin_theta, l.y) * 0.31830987;
+    precise float v = atan2_f32(sin_theta, l.y) * 0.31830987;
     return vec2(u, min(v, 1.0));
 }
 

@@ -29,7 +29,8 @@
 //! * `measured` — measured reflectance tables: the MERL BRDF database's files (`merl`);
 //! * `fit` — `brdfwave brdf fit`: the survey's models fitted to a measured table (loss, domain,
 //!   parameter space from the registry, Nelder–Mead);
-//! * `imageio`, `metrics` — image files and image comparison;
+//! * `imageio`, `metrics` — image files and image comparison; `texture` — image textures on
+//!   material parameters (`shaders/texture.glsl`);
 //! * `memory` — the memory left for a large allocation, asked before making it;
 //! * `outfile` — the atomic writer of every file, and the up-front checks of output paths;
 //! * `hash` — the stable hash (FNV-1a) of cache keys and of the scene hash of partial films;
@@ -84,4 +85,5 @@ pub mod rng;
 pub mod robust;
 pub mod scene;
 pub mod stress;
+pub mod texture;
 pub mod vk;

@@ -67,4 +67,17 @@ bool blinn_phong_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSa
     RETURN_SCATTERED(wi, blinn_phong_pdf(m, given, wi), blinn_phong_eval(m, wi, given));
 }
 
+
+#ifdef SCENE_TEXTURES
+// A textured material's record after its parameters' values are written (texture.glsl): the
+// lobe-selection probability p[2].x and Giesen's k_n p[2].y recomputed as BlinnPhong::new does
+// (Rust twin: blinn_phong::with_params).
+void blinn_phong_textured(inout Material m) {
+    float n = m.p[0].w;
+    float es = m.p[1].w == BLINN_PHONG_NORMALIZED ? 1.0 : 8.0 * PI * (1.0 - exp2(-0.5 * (n + 2.0))) / (n + 2.0);
+    m.p[2].x = specular_probability(luminance(m.p[0].xyz), luminance(m.p[1].xyz) * es);
+    m.p[2].y = (n + 2.0) * (n + 4.0) / (8.0 * PI * (exp2(-0.5 * n) + n));
+}
+#endif
+
 #endif

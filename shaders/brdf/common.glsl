@@ -391,6 +391,10 @@ float diffuse_pdf(vec3 given, vec3 sampled) {
 // Ward): the specular lobe, of density `ps` at `sampled`, is sampled with probability p_spec
 // (u_lobe < p_spec in their samplers), the cosine-weighted diffuse lobe otherwise. For
 // directions both above the surface (the caller checks). Rust: diffuse_specular_pdf.
+// The probability of the specular lobe from the lobes' albedo estimates d and s (Rust:
+// brdf::common::specular_probability).
+float specular_probability(float d, float s) { return d + s > 0.0 ? s / (d + s) : 0.0; }
+
 float diffuse_specular_pdf(float p_spec, float ps, vec3 sampled) {
     return (1.0 - p_spec) * cosine_hemisphere_pdf(sampled.z) + p_spec * ps;
 }

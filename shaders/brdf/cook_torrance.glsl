@@ -99,3 +99,9 @@ bool cook_torrance_sample(Material m, vec3 given, float u_lobe, vec2 u, out Brdf
     }
     RETURN_SCATTERED(wi, cook_torrance_pdf(m, given, wi), cook_torrance_eval(m, wi, given));
 }
+
+#ifdef SCENE_TEXTURES
+// A textured material's record after its parameters' values are written (texture.glsl): cook_torrance
+// derives nothing from them (Rust twin: cook_torrance::with_params).
+void cook_torrance_textured(inout Material m) {}
+#endif

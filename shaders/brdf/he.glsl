@@ -259,3 +259,10 @@ bool he_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s) {
     }
     RETURN_SCATTERED(wi, he_pdf(m, given, wi), he_eval(m, wi, given));
 }
+
+#ifdef SCENE_TEXTURES
+// A textured material's record after its parameters' values are written (texture.glsl): the
+// flag p[0].z (sigma0 > 0), which no shader reads (HE_SERIES decides). Rust twin:
+// he::with_params.
+void he_textured(inout Material m) { m.p[0].z = m.p[0].x > 0.0 ? 1.0 : 0.0; }
+#endif

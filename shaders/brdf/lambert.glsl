@@ -18,3 +18,9 @@ bool lambert_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample
     s.weight = m.p[0].xyz;
     return true;
 }
+
+#ifdef SCENE_TEXTURES
+// A textured material's record after its parameters' values are written (texture.glsl): lambert
+// derives nothing from them (Rust twin: lambert::with_params).
+void lambert_textured(inout Material m) {}
+#endif

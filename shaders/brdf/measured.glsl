@@ -142,4 +142,11 @@ bool measured_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSampl
     RETURN_SCATTERED(wi, measured_pdf(m, given, wi), measured_eval(m, wi, given));
 }
 
+
+#ifdef SCENE_TEXTURES
+// A textured material's record after its parameters' values are written (texture.glsl): measured
+// derives nothing from them (Rust twin: measured::with_params).
+void measured_textured(inout Material m) {}
+#endif
+
 #endif

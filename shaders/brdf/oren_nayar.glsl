@@ -60,4 +60,11 @@ bool oren_nayar_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSam
     return true;
 }
 
+
+#ifdef SCENE_TEXTURES
+// A textured material's record after its parameters' values are written (texture.glsl): oren_nayar
+// derives nothing from them (Rust twin: oren_nayar::with_params).
+void oren_nayar_textured(inout Material m) {}
+#endif
+
 #endif

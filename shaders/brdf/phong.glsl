@@ -48,4 +48,16 @@ bool phong_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s
     RETURN_SCATTERED(wi, phong_pdf(m, given, wi), phong_eval(m, wi, given));
 }
 
+
+#ifdef SCENE_TEXTURES
+// A textured material's record after its parameters' values are written (texture.glsl): the
+// lobe-selection probability p[2].x recomputed as Phong::new does (Rust twin:
+// phong::with_params): the specular lobe's albedo estimate 2π/(n + 1) (survey) or 1.
+void phong_textured(inout Material m) {
+    float n = m.p[0].w;
+    float es = m.p[1].w == PHONG_NORMALIZED ? 1.0 : 2.0 * PI / (n + 1.0);
+    m.p[2].x = specular_probability(luminance(m.p[0].xyz), luminance(m.p[1].xyz) * es);
+}
+#endif
+
 #endif

@@ -197,3 +197,9 @@ bool schlick_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample
     }
     RETURN_SCATTERED(wi, schlick_pdf(m, given, wi), schlick_eval(m, wi, given));
 }
+
+#ifdef SCENE_TEXTURES
+// A textured material's record after its parameters' values are written (texture.glsl): schlick
+// derives nothing from them (Rust twin: schlick::with_params).
+void schlick_textured(inout Material m) {}
+#endif

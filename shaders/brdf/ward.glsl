@@ -130,4 +130,13 @@ bool ward_sample(Material m, vec3 given, float u_lobe, vec2 u, out BrdfSample s)
     return true;
 }
 
+
+#ifdef SCENE_TEXTURES
+// A textured material's record after its parameters' values are written (texture.glsl): the
+// lobe-selection probability p[1].w recomputed as Ward::new does (Rust twin: ward::with_params).
+void ward_textured(inout Material m) {
+    m.p[1].w = specular_probability(luminance(m.p[0].xyz), luminance(m.p[1].xyz));
+}
+#endif
+
 #endif

@@ -9,6 +9,7 @@
 #define PATH_GLSL
 #include "wavefront/surface.glsl"
 #include "envmap.glsl"
+#include "texture.glsl"
 
 #ifdef CAMERA_THIN_LENS
 // Shirley & Chiu's (1997) concentric map of the unit square onto the unit disc. Rust twin:
@@ -72,6 +73,9 @@ uint segment_end(uint depth, vec3 o, vec3 d, float prev_pdf, vec3 b, out vec3 e,
         return NO_QUEUE;
     }
     s = surface_at(hit.prim, hit.bary, hit.t, o, d);
+#ifdef SCENE_TEXTURES
+    s.uv = surface_uv(hit.prim, hit.bary, s.p);
+#endif
     if (!s.front) {
 #ifdef SCENE_TWOSIDED
         // The back of a two-sided material scatters (shade_vertex turns it to the front) but

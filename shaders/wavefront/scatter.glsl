@@ -84,6 +84,14 @@ Scatter shade_vertex(uint path, uint depth, Surface s, vec3 d, vec3 b, uint c) {
     r.beta = vec3(0.0);
     r.pdf = 0.0;
     Material m = load_material(s.material);
+#ifdef SCENE_TEXTURES
+    // A textured material: its parameters' values at this point written into the record, and
+    // what the model derives from them (brdf/textured.rs).
+    if (m.header.w != 0u) {
+        apply_textures(m, s.uv);
+        BRDF_TEXTURED(m);
+    }
+#endif
 #ifdef SCENE_TWOSIDED
     // A two-sided material seen from behind: its back is shaded as a front, the geometric and
     // shading normals turned to the side the ray came from (header.z: src/gpu/scene_buffers.rs).

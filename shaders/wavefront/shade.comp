@@ -21,6 +21,9 @@ void run_kernel() {
     hit.t = uintBitsToFloat(h.w);
     vec3 d = ray_d(path).xyz;
     Surface s = surface_at(hit.prim, hit.bary, hit.t, ray_o(path).xyz, d);
+#ifdef SCENE_TEXTURES
+    s.uv = surface_uv(hit.prim, hit.bary, s.p);
+#endif
     Scatter sc = shade_vertex(path, pc.depth, s, d, beta(path).xyz, counter_nonfinite_shade(pc.queue_slot));
     if (sc.shadow) {
         shadow_o_set(path, vec4(sc.shadow_o, sc.shadow_tmax));

@@ -40,6 +40,9 @@ struct Surface {
     Frame frame;
     uint material;
     uint emitter;  // NO_EMITTER when not emissive
+#ifdef SCENE_TEXTURES
+    vec2 uv;       // texture coordinates (texture.glsl surface_uv), set by the caller of surface_at
+#endif
 };
 
 Surface surface_sphere(uint i, float t, vec3 o, vec3 d) {

@@ -114,9 +114,9 @@ impl BlinnPhong {
 declare_model! {
     survey: "§2.1.4, eq. 5";
     params: {
-        KD = rgb("kd", "RGB, unitless", [0.5; 3], (0.0, 1.0), "diffuse coefficient k_d (f_d = k_d/π, eq. 3)");
-        KS = rgb("ks", "RGB, unitless", [0.3; 3], (0.0, 1.0), "specular coefficient k_s");
-        EXPONENT = scalar("exponent", "unitless", 80.0, (0.0, 1e6), "shininess n (≈ 4× the Phong exponent for a similar highlight)");
+        KD = rgb("kd", "RGB, unitless", [0.5; 3], (0.0, 1.0), "diffuse coefficient k_d (f_d = k_d/π, eq. 3)").at(0);
+        KS = rgb("ks", "RGB, unitless", [0.3; 3], (0.0, 1.0), "specular coefficient k_s").at(4);
+        EXPONENT = scalar("exponent", "unitless", 80.0, (0.0, 1e6), "shininess n (≈ 4× the Phong exponent for a similar highlight)").at(3);
         FORM = choice("form", Form::NAMES, Form::Classic.name(), "the survey's form (eq. 5) or the energy-normalised reciprocal lobe");
     }
     representative: Representative::EachOption(r#"model = "blinn_phong", kd = 0.0, ks = 0.8, exponent = 200"#, FORM);
@@ -203,6 +203,14 @@ pub fn sample(m: &BlinnPhong, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfS
 }
 
 impl_brdf!(BlinnPhong {
+    fn with_params(&self, v: &super::textured::ParamValues) -> Arc<dyn Brdf> {
+        Arc::new(BlinnPhong::new(
+            v.rgb(&KD, self.kd),
+            v.rgb(&KS, self.ks),
+            v.scalar(&EXPONENT, self.exponent),
+            self.form,
+        ))
+    }
     fn pack(&self) -> Params {
         Params::from_vec4s([
             self.kd.extend(self.exponent),

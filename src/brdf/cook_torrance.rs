@@ -190,17 +190,17 @@ impl CookTorrance {
 declare_model! {
     survey: "eqs. 6–9";
     params: {
-        KD = rgb("kd", "RGB", [0.0; 3], (0.0, 1.0), "Lambertian diffuse albedo (survey: \"simply adding\" a diffuse part)");
-        KS = rgb("ks", "RGB", [1.0; 3], (0.0, 1.0), "scale of the specular lobe");
-        ROUGHNESS = scalar("roughness", "rms slope m", 0.3, (0.0, 4.0), "Beckmann m = GGX α; below 1e-3 the lobe is a delta mirror");
+        KD = rgb("kd", "RGB", [0.0; 3], (0.0, 1.0), "Lambertian diffuse albedo (survey: \"simply adding\" a diffuse part)").at(0);
+        KS = rgb("ks", "RGB", [1.0; 3], (0.0, 1.0), "scale of the specular lobe").at(4);
+        ROUGHNESS = scalar("roughness", "rms slope m", 0.3, (0.0, 4.0), "Beckmann m = GGX α; below 1e-3 the lobe is a delta mirror").at(3);
         DISTRIBUTION = choice("distribution", Distribution::NAMES, Distribution::Beckmann.name(), "microfacet NDF (`beckmann`: survey eq. 6)");
         GEOMETRY = choice("geometry", Geometry::NAMES, Geometry::VCavity.name(), "masking-shadowing G (`v_cavity`: survey eq. 8)");
         FRESNEL = choice("fresnel", Fresnel::NAMES, Fresnel::Dielectric.name(), "Fresnel term at c = wi·h (`dielectric`: survey eq. 7; `conductor`: the exact formula)");
-        IOR = scalar("ior", "—", 1.5, (1.0, 100.0), "relative index, `fresnel = \"dielectric\"` (eq. 7)");
+        IOR = scalar("ior", "—", 1.5, (1.0, 100.0), "relative index, `fresnel = \"dielectric\"` (eq. 7)").at(8);
         // η > 0 is checked in `parse`.
-        ETA = rgb("eta", "RGB", [0.143_036, 0.375_307, 1.442_05], (0.0, 100.0), "real part η of the complex index η + iκ, `fresnel = \"conductor\"` (default gold-like)").range_text("(0, 100]");
-        K = rgb("k", "RGB", [3.983, 2.385_56, 1.603_36], (0.0, 100.0), "imaginary part κ of the complex index, `fresnel = \"conductor\"`");
-        F0 = rgb("f0", "RGB", [0.04; 3], (0.0, 1.0), "normal-incidence reflectance, `fresnel = \"schlick\"`");
+        ETA = rgb("eta", "RGB", [0.143_036, 0.375_307, 1.442_05], (0.0, 100.0), "real part η of the complex index η + iκ, `fresnel = \"conductor\"` (default gold-like)").range_text("(0, 100]").at(8).texels_in(f32::MIN_POSITIVE, 100.0);
+        K = rgb("k", "RGB", [3.983, 2.385_56, 1.603_36], (0.0, 100.0), "imaginary part κ of the complex index, `fresnel = \"conductor\"`").at(12);
+        F0 = rgb("f0", "RGB", [0.04; 3], (0.0, 1.0), "normal-incidence reflectance, `fresnel = \"schlick\"`").at(8);
         NORMALIZATION = choice("normalization", Normalization::NAMES, Normalization::Survey.name(), "the specular denominator: `survey` (eq. 9) or `walter`, see below");
     }
     representative: Representative::Listed(&[
@@ -423,6 +423,33 @@ pub fn sample_with(
 }
 
 impl_brdf!(CookTorrance {
+    fn with_params(&self, v: &super::textured::ParamValues) -> Arc<dyn Brdf> {
+        Arc::new(CookTorrance {
+            kd: v.rgb(&KD, self.kd),
+            ks: v.rgb(&KS, self.ks),
+            roughness: v.scalar(&ROUGHNESS, self.roughness),
+            ior: v.scalar(&IOR, self.ior),
+            eta: v.rgb(&ETA, self.eta),
+            k: v.rgb(&K, self.k),
+            f0: v.rgb(&F0, self.f0),
+            ..self.clone()
+        })
+    }
+    /// The Fresnel slot (words 8–10) holds the parameter of this material's Fresnel term
+    /// only: the dielectric's ior (in all three words), the conductor's η, or Schlick's f0;
+    /// κ only for a conductor.
+    fn record_slot(&self, p: &Param) -> Option<super::textured::RecordSlot> {
+        use super::textured::{RecordSlot, SlotMode};
+        match (p.name, self.fresnel) {
+            ("ior", Fresnel::Dielectric) => Some(RecordSlot {
+                word: 8,
+                mode: SlotMode::Splat,
+            }),
+            ("eta" | "k", Fresnel::Conductor) | ("f0", Fresnel::Schlick) => p.slot,
+            ("ior" | "eta" | "k" | "f0", _) => None,
+            _ => p.slot,
+        }
+    }
     fn pack(&self) -> Params {
         let fresnel = self.fresnel.code();
         let a = match self.fresnel {

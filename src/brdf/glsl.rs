@@ -97,6 +97,17 @@ pub fn any_glsl() -> String {
         }
         let _ = write!(s, "    default: return {};\n    }}\n}}\n", e.fallback);
     }
+    // A textured material's derived record words (brdf/textured.rs), under SCENE_TEXTURES.
+    s += "\n#ifdef SCENE_TEXTURES\nvoid any_textured(inout Material m) {\n    switch (m.header.x) {\n";
+    for m in MODELS.iter() {
+        let d = model_define(m.name);
+        let _ = writeln!(
+            s,
+            "#ifdef {d}\n    case {d}: {}_textured(m); return;\n#endif",
+            m.name
+        );
+    }
+    s += "    default: return;\n    }\n}\n#define BRDF_TEXTURED any_textured\n#endif\n";
     s += "\n#define BRDF_EVAL any_eval\n#define BRDF_PDF any_pdf\n#define BRDF_SAMPLE any_sample\n\n#endif\n";
     s
 }

@@ -110,14 +110,14 @@ impl Default for He {
 declare_model! {
     survey: "eqs. 10–15";
     params: {
-        SIGMA0 = scalar("sigma0", "µm", 0.18, (0.0, 50.0), "rms surface height σ₀ (survey fig. 9: 0.18–0.38 µm)");
+        SIGMA0 = scalar("sigma0", "µm", 0.18, (0.0, 50.0), "rms surface height σ₀ (survey fig. 9: 0.18–0.38 µm)").at(0);
         // τ > 0 is checked in `parse`.
-        TAU = scalar("tau", "µm", 3.0, (f32::NEG_INFINITY, 1000.0), "autocorrelation length τ (survey fig. 9: 3.0 µm)").range_text("(0, 1000]");
+        TAU = scalar("tau", "µm", 3.0, (f32::NEG_INFINITY, 1000.0), "autocorrelation length τ (survey fig. 9: 3.0 µm)").range_text("(0, 1000]").at(1).texels_in(f32::MIN_POSITIVE, 1000.0);
         // n > 0 is checked in `parse`.
-        IOR = rgb("ior", "RGB", [1.37, 0.96, 0.62], (f32::NEG_INFINITY, 100.0), "real part n(λ) of the complex index").range_text("(0, 100]");
-        K = rgb("k", "RGB", [7.62, 6.69, 5.47], (0.0, 100.0), "imaginary part κ(λ) (defaults: approximate aluminium, the survey's fig. 9 material)");
-        WAVELENGTHS = rgb("wavelengths", "µm per channel", [0.65, 0.55, 0.45], (0.2, 5.0), "λ at which each channel is evaluated");
-        DIFFUSE = rgb("diffuse", "RGB albedo", [0.0; 3], (0.0, 1.0), "uniform-diffuse a(λ) as an albedo: f_ud = `diffuse`/π (survey eq. 15)");
+        IOR = rgb("ior", "RGB", [1.37, 0.96, 0.62], (f32::NEG_INFINITY, 100.0), "real part n(λ) of the complex index").range_text("(0, 100]").at(4).texels_in(f32::MIN_POSITIVE, 100.0);
+        K = rgb("k", "RGB", [7.62, 6.69, 5.47], (0.0, 100.0), "imaginary part κ(λ) (defaults: approximate aluminium, the survey's fig. 9 material)").at(8);
+        WAVELENGTHS = rgb("wavelengths", "µm per channel", [0.65, 0.55, 0.45], (0.2, 5.0), "λ at which each channel is evaluated").at(12);
+        DIFFUSE = rgb("diffuse", "RGB albedo", [0.0; 3], (0.0, 1.0), "uniform-diffuse a(λ) as an albedo: f_ud = `diffuse`/π (survey eq. 15)").at(16);
     }
     representative: Representative::One(r#"model = "he", sigma0 = 0.4, tau = 4.0"#);
     record_codes: [];
@@ -517,6 +517,23 @@ pub fn sample(m: &He, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
 }
 
 impl_brdf!(He {
+    fn with_params(&self, v: &super::textured::ParamValues) -> Arc<dyn Brdf> {
+        Arc::new(He {
+            sigma0: v.scalar(&SIGMA0, self.sigma0),
+            tau: v.scalar(&TAU, self.tau),
+            ior: v.rgb(&IOR, self.ior),
+            k: v.rgb(&K, self.k),
+            wavelengths: v.rgb(&WAVELENGTHS, self.wavelengths),
+            diffuse: v.rgb(&DIFFUSE, self.diffuse),
+        })
+    }
+    /// A textured σ₀ may be positive anywhere: the series is compiled in.
+    fn textured_defines(&self, textured: &[&str]) -> Vec<&'static str> {
+        match textured.contains(&"sigma0") {
+            true => vec!["HE_SERIES"],
+            false => self.defines(),
+        }
+    }
     fn pack(&self) -> Params {
         Params::from_vec4s([
             Vec4::new(self.sigma0, self.tau, flag(self.sigma0 > 0.0), 0.0),

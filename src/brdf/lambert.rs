@@ -23,7 +23,7 @@ pub struct Lambert {
 declare_model! {
     survey: "eq. 3";
     params: {
-        ALBEDO = rgb("albedo", "RGB, unitless", [0.5; 3], (0.0, 1.0), "hemispherical reflectance ρ (f_r = ρ/π, survey eq. 3)");
+        ALBEDO = rgb("albedo", "RGB, unitless", [0.5; 3], (0.0, 1.0), "hemispherical reflectance ρ (f_r = ρ/π, survey eq. 3)").at(0);
     }
     representative: Representative::One(r#"model = "lambert", albedo = 0.8"#);
     record_codes: [];
@@ -52,6 +52,11 @@ pub fn sample(m: &Lambert, given: Vec3, _u_lobe: f32, u: Vec2) -> Option<BrdfSam
 }
 
 impl_brdf!(Lambert {
+    fn with_params(&self, v: &super::textured::ParamValues) -> Arc<dyn Brdf> {
+        Arc::new(Lambert {
+            albedo: v.rgb(&ALBEDO, self.albedo),
+        })
+    }
     fn pack(&self) -> Params {
         Params::from_vec4s([self.albedo.extend(0.0)])
     }

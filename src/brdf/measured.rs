@@ -220,6 +220,10 @@ pub fn sample(m: &Measured, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSam
 }
 
 impl_brdf!(Measured {
+    /// A measured table has no parameter a texture can vary.
+    fn with_params(&self, _: &super::textured::ParamValues) -> Arc<dyn Brdf> {
+        Arc::new(self.clone())
+    }
     fn pack(&self) -> Params {
         let w = self.lobe().pack().0;
         let v = |k: usize| Vec4::from_slice(&w[4 * k..4 * k + 4]);

@@ -61,6 +61,7 @@ pub mod glsl;
 pub mod inline;
 #[macro_use]
 pub mod params;
+pub mod textured;
 pub mod validate;
 
 use glam::{Vec2, Vec3, Vec4};
@@ -181,6 +182,24 @@ pub trait Brdf: Debug + Send + Sync {
     fn measured(&self) -> Option<&measured::Measured> {
         None
     }
+    /// The same material with the values `v` of its textured parameters at one point, built
+    /// as the model's parser builds it (derived quantities recomputed): [`textured`]. GLSL
+    /// twin: `<model>_textured` after the values are written into the record.
+    fn with_params(&self, v: &textured::ParamValues) -> Arc<dyn Brdf>;
+    /// Where the value of parameter `p` goes in this material's GPU record, for a texture
+    /// (the declared slot; a model whose record depends on other parameters overrides it).
+    /// `None`: this material's record does not hold `p` (Cook–Torrance's `eta` with
+    /// dielectric Fresnel), and its shaders never read it.
+    fn record_slot(&self, p: &Param) -> Option<textured::RecordSlot> {
+        p.slot
+    }
+    /// The `#define`s this material needs when the parameters `textured` vary over the
+    /// surface: its own, and those a textured parameter may call for anywhere (Ward's
+    /// anisotropy for a textured `alpha_x`).
+    fn textured_defines(&self, textured: &[&str]) -> Vec<&'static str> {
+        let _ = textured;
+        self.defines()
+    }
 }
 
 /// A model of the survey: its registry row. Everything a model needs besides its two twin
@@ -275,11 +294,40 @@ pub struct Material {
     /// The back side shades like the front (a scene material's `twosided = true`, read by the
     /// scene loader, not by the model): see `scenes/README.md`.
     pub twosided: bool,
+    /// The parameters that vary over the surface, with their textures (`kd = { texture = … }`,
+    /// read by the scene loader): `brdf` holds each one's largest value.
+    pub textures: Vec<crate::texture::ParamTexture>,
 }
 
 impl Material {
     pub fn model_name(&self) -> &'static str {
         MODELS[self.model].name
+    }
+
+    /// The BRDF at a surface point of texture coordinates `uv`: `brdf` itself without textures,
+    /// else the model with each textured parameter's value there ([`Brdf::with_params`]).
+    pub fn at(&self, uv: Vec2) -> Arc<dyn Brdf> {
+        if self.textures.is_empty() {
+            return self.brdf.clone();
+        }
+        let values = textured::ParamValues {
+            values: self
+                .textures
+                .iter()
+                .map(|t| (t.param.name, t.texture.lookup(uv)))
+                .collect(),
+        };
+        self.brdf.with_params(&values)
+    }
+
+    /// The `#define`s the material needs in its model's shade pipeline: the model's own, and
+    /// those its textured parameters may call for ([`Brdf::textured_defines`]).
+    pub fn defines(&self) -> Vec<&'static str> {
+        if self.textures.is_empty() {
+            return self.brdf.defines();
+        }
+        let names: Vec<&str> = self.textures.iter().map(|t| t.param.name).collect();
+        self.brdf.textured_defines(&names)
     }
 }
 
@@ -306,6 +354,7 @@ pub fn parse_material(
             model,
             brdf,
             twosided,
+            textures: Vec::new(),
         },
         warnings,
     ))

@@ -64,9 +64,9 @@ choice_enum! {
 declare_model! {
     survey: "§2.1.2 (Oren & Nayar 1994)";
     params: {
-        ALBEDO = rgb("albedo", "RGB, unitless", [0.5; 3], (0.0, 1.0), "facet albedo ρ");
+        ALBEDO = rgb("albedo", "RGB, unitless", [0.5; 3], (0.0, 1.0), "facet albedo ρ").at(0);
         // The upper end, π/2, is checked in `parse` with a message about degrees.
-        SIGMA = scalar("sigma", "radians", 0.3, (0.0, f32::INFINITY), "std-dev σ of the facet slope angle (σ = 0 is Lambert)").range_text("[0, π/2]");
+        SIGMA = scalar("sigma", "radians", 0.3, (0.0, f32::INFINITY), "std-dev σ of the facet slope angle (σ = 0 is Lambert)").range_text("[0, π/2]").at(3).texels_in(0.0, std::f32::consts::FRAC_PI_2);
         VARIANT = choice("variant", Variant::NAMES, Variant::Full.name(), "the paper's full model or its qualitative simplification");
     }
     representative: Representative::One(r#"model = "oren_nayar", albedo = 0.8, sigma = 0.3"#);
@@ -170,6 +170,13 @@ pub fn sample(m: &OrenNayar, given: Vec3, _u_lobe: f32, u: Vec2) -> Option<BrdfS
 }
 
 impl_brdf!(OrenNayar {
+    fn with_params(&self, v: &super::textured::ParamValues) -> Arc<dyn Brdf> {
+        Arc::new(OrenNayar {
+            albedo: v.rgb(&ALBEDO, self.albedo),
+            sigma: v.scalar(&SIGMA, self.sigma),
+            variant: self.variant,
+        })
+    }
     fn pack(&self) -> Params {
         Params::from_vec4s([
             self.albedo.extend(self.sigma),

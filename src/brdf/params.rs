@@ -237,6 +237,12 @@ pub struct Param {
     pub range_text: Option<&'static str>,
     /// One line: what it means, with the equation it enters.
     pub meaning: &'static str,
+    /// Where the model's `pack` writes the value in the GPU record, for a texture
+    /// (`super::textured`); `None` for a parameter that cannot be textured.
+    pub slot: Option<super::textured::RecordSlot>,
+    /// The range a texture's values are clamped into, where the model accepts less than
+    /// [`min`, `max`] (the ranges of `range_text`); `None`: [`min`, `max`].
+    pub texel_range: Option<(f32, f32)>,
 }
 
 impl Param {
@@ -255,6 +261,8 @@ impl Param {
             default_text: None,
             range_text: None,
             meaning,
+            slot: None,
+            texel_range: None,
         }
     }
     /// An RGB parameter with every channel in [`min`, `max`].
@@ -310,6 +318,37 @@ impl Param {
             range_text: Some(text),
             ..self
         }
+    }
+    /// The parameter may be a texture: its value goes to word `word` of the GPU record (three
+    /// words for a colour, one for a scalar).
+    pub const fn at(self, word: u32) -> Param {
+        Param {
+            slot: Some(super::textured::RecordSlot::of(&self, word)),
+            ..self
+        }
+    }
+    /// The parameter, an angle in degrees, may be a texture: the record holds its cosine and
+    /// sine at words `word` and `word + 1`.
+    pub const fn angle_at(self, word: u32) -> Param {
+        Param {
+            slot: Some(super::textured::RecordSlot {
+                word,
+                mode: super::textured::SlotMode::Angle,
+            }),
+            ..self
+        }
+    }
+    /// The range a texture's values are clamped into, where the model's `parse` accepts less
+    /// than [`min`, `max`] (an open end: the smallest positive float).
+    pub const fn texels_in(self, min: f32, max: f32) -> Param {
+        Param {
+            texel_range: Some((min, max)),
+            ..self
+        }
+    }
+    /// The range a texture's values are clamped into.
+    pub fn texture_range(&self) -> (f32, f32) {
+        self.texel_range.unwrap_or((self.min, self.max))
     }
 }
 

@@ -96,9 +96,9 @@ fn spec_albedo_estimate(n: f32, form: Form) -> f32 {
 declare_model! {
     survey: "§2.1.3, eq. 4";
     params: {
-        KD = rgb("kd", "RGB, unitless", [0.5; 3], (0.0, 1.0), "diffuse coefficient k_d (f_d = k_d/π)");
-        KS = rgb("ks", "RGB, unitless", [0.3; 3], (0.0, 1.0), "specular coefficient k_s");
-        EXPONENT = scalar("exponent", "unitless", 20.0, (0.0, 1e6), "shininess n_s (0: dull, ∞: mirror)");
+        KD = rgb("kd", "RGB, unitless", [0.5; 3], (0.0, 1.0), "diffuse coefficient k_d (f_d = k_d/π)").at(0);
+        KS = rgb("ks", "RGB, unitless", [0.3; 3], (0.0, 1.0), "specular coefficient k_s").at(4);
+        EXPONENT = scalar("exponent", "unitless", 20.0, (0.0, 1e6), "shininess n_s (0: dull, ∞: mirror)").at(3);
         FORM = choice("form", Form::NAMES, Form::Survey.name(), "eq. 4 as written, or the energy-normalised reciprocal lobe");
     }
     representative: Representative::EachOption(r#"model = "phong", kd = 0.0, ks = 0.8, exponent = 50"#, FORM);
@@ -169,6 +169,14 @@ pub fn sample(m: &Phong, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample
 }
 
 impl_brdf!(Phong {
+    fn with_params(&self, v: &super::textured::ParamValues) -> Arc<dyn Brdf> {
+        Arc::new(Phong::new(
+            v.rgb(&KD, self.kd),
+            v.rgb(&KS, self.ks),
+            v.scalar(&EXPONENT, self.exponent),
+            self.form,
+        ))
+    }
     fn pack(&self) -> Params {
         Params::from_vec4s([
             self.kd.extend(self.exponent),

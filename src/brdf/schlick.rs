@@ -131,14 +131,14 @@ impl Default for Schlick {
 declare_model! {
     survey: "eqs. 18–26";
     params: {
-        C = rgb("c", "RGB", [0.8; 3], (0.0, 1.0), "C_λ, reflectance at normal incidence (eq. 18's f_λ)");
-        R = scalar("r", "—", 0.2, (0.0, 1.0), "roughness: 0 mirror, 0.5 purely glossy, 1 Lambertian (continuum form)");
-        P = scalar("p", "—", 1.0, (0.0, 1.0), "isotropy: 1 isotropic, → 0 fully anisotropic (clamped to ≥ 1e-3 inside A)");
-        C2 = rgb("c2", "RGB", [0.5; 3], (0.0, 1.0), "C_λ of the second (lower) layer of eq. 22; giving `c2` makes the material heterogeneous");
-        R2 = scalar("r2", "—", 1.0, (0.0, 1.0), "roughness of the second layer (needs `c2`)");
-        P2 = scalar("p2", "—", 1.0, (0.0, 1.0), "isotropy of the second layer (needs `c2`)");
+        C = rgb("c", "RGB", [0.8; 3], (0.0, 1.0), "C_λ, reflectance at normal incidence (eq. 18's f_λ)").at(0);
+        R = scalar("r", "—", 0.2, (0.0, 1.0), "roughness: 0 mirror, 0.5 purely glossy, 1 Lambertian (continuum form)").at(3);
+        P = scalar("p", "—", 1.0, (0.0, 1.0), "isotropy: 1 isotropic, → 0 fully anisotropic (clamped to ≥ 1e-3 inside A)").at(8);
+        C2 = rgb("c2", "RGB", [0.5; 3], (0.0, 1.0), "C_λ of the second (lower) layer of eq. 22; giving `c2` makes the material heterogeneous").at(4);
+        R2 = scalar("r2", "—", 1.0, (0.0, 1.0), "roughness of the second layer (needs `c2`)").at(7);
+        P2 = scalar("p2", "—", 1.0, (0.0, 1.0), "isotropy of the second layer (needs `c2`)").at(9);
         FORM = choice("form", Form::NAMES, Form::Continuum.name(), "the directional factor D (eqs. 24, 25, 26)");
-        ROTATION = scalar("rotation", "degrees", 0.0, (-360.0, 360.0), "rotation of the anisotropy axis (tangent x) about the normal");
+        ROTATION = scalar("rotation", "degrees", 0.0, (-360.0, 360.0), "rotation of the anisotropy axis (tangent x) about the normal").angle_at(12);
     }
     representative: Representative::One(r#"model = "schlick", c = 0.8, r = 0.1, p = 1.0"#);
     record_codes: [Form];
@@ -431,6 +431,26 @@ pub fn sample(m: &Schlick, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSamp
 }
 
 impl_brdf!(Schlick {
+    fn with_params(&self, v: &super::textured::ParamValues) -> Arc<dyn Brdf> {
+        Arc::new(Schlick {
+            c: v.rgb(&C, self.c),
+            r: v.scalar(&R, self.r),
+            p: v.scalar(&P, self.p),
+            c2: v.rgb(&C2, self.c2),
+            r2: v.scalar(&R2, self.r2),
+            p2: v.scalar(&P2, self.p2),
+            rotation: v.scalar(&ROTATION, self.rotation),
+            ..self.clone()
+        })
+    }
+    /// A textured isotropy may fall below 1 anywhere: the anisotropic factor is compiled in.
+    fn textured_defines(&self, textured: &[&str]) -> Vec<&'static str> {
+        let mut d = self.defines();
+        if (textured.contains(&"p") || textured.contains(&"p2")) && !d.contains(&"SCHLICK_ANISOTROPIC") {
+            d.push("SCHLICK_ANISOTROPIC");
+        }
+        d
+    }
     fn pack(&self) -> Params {
         let (cs, sn) = self.rotation_cs();
         let form = self.form.code();

@@ -132,13 +132,13 @@ impl Ward {
 declare_model! {
     survey: "§2.4, eqs. 16–17";
     params: {
-        KD = rgb("kd", "RGB, unitless", [0.5; 3], (0.0, 1.0), "diffuse coefficient ρd (f_d = ρd/π)");
-        KS = rgb("ks", "RGB, unitless", [0.3; 3], (0.0, 1.0), "specular coefficient ρs");
+        KD = rgb("kd", "RGB, unitless", [0.5; 3], (0.0, 1.0), "diffuse coefficient ρd (f_d = ρd/π)").at(0);
+        KS = rgb("ks", "RGB, unitless", [0.3; 3], (0.0, 1.0), "specular coefficient ρs").at(4);
         // The alphas' range is checked in `parse`, with one message for both sides.
-        ALPHA_X = scalar("alpha_x", "unitless (rms slope)", 0.1, (f32::NEG_INFINITY, f32::INFINITY), "slope std-dev along the tangent x").range_text("[0.001, 1]");
-        ALPHA_Y = scalar("alpha_y", "unitless (rms slope)", 0.1, (f32::NEG_INFINITY, f32::INFINITY), "slope std-dev along the bitangent y (equal: isotropic eq. 16)").range_text("[0.001, 1]").default_text("= `alpha_x`");
+        ALPHA_X = scalar("alpha_x", "unitless (rms slope)", 0.1, (f32::NEG_INFINITY, f32::INFINITY), "slope std-dev along the tangent x").range_text("[0.001, 1]").at(8).texels_in(0.001, 1.0);
+        ALPHA_Y = scalar("alpha_y", "unitless (rms slope)", 0.1, (f32::NEG_INFINITY, f32::INFINITY), "slope std-dev along the bitangent y (equal: isotropic eq. 16)").range_text("[0.001, 1]").default_text("= `alpha_x`").at(9).texels_in(0.001, 1.0);
         VARIANT = choice("variant", Variant::NAMES, Variant::Ward1992.name(), "normalisation of the specular lobe");
-        ROTATION = scalar("rotation", "degrees", 0.0, (-360.0, 360.0), "rotation of the tangent frame about the normal (anisotropic only)");
+        ROTATION = scalar("rotation", "degrees", 0.0, (-360.0, 360.0), "rotation of the tangent frame about the normal (anisotropic only)").angle_at(10);
     }
     representative: Representative::EachOption(r#"model = "ward", kd = 0.0, ks = 0.8, alpha_x = 0.2, alpha_y = 0.2"#, VARIANT);
     record_codes: [Variant];
@@ -301,6 +301,24 @@ pub fn sample(m: &Ward, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample>
 }
 
 impl_brdf!(Ward {
+    fn with_params(&self, v: &super::textured::ParamValues) -> Arc<dyn Brdf> {
+        Arc::new(Ward::new(
+            v.rgb(&KD, self.kd),
+            v.rgb(&KS, self.ks),
+            v.scalar(&ALPHA_X, self.alpha_x),
+            v.scalar(&ALPHA_Y, self.alpha_y),
+            self.variant,
+            v.scalar(&ROTATION, self.rotation),
+        ))
+    }
+    /// Textured slopes or rotation may make the lobe anisotropic anywhere.
+    fn textured_defines(&self, textured: &[&str]) -> Vec<&'static str> {
+        let varies = ["alpha_x", "alpha_y", "rotation"];
+        match textured.iter().any(|t| varies.contains(t)) {
+            true => vec!["WARD_ANISOTROPIC"],
+            false => self.defines(),
+        }
+    }
     fn pack(&self) -> Params {
         Params::from_vec4s([
             self.kd.extend(self.variant.code()),

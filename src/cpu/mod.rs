@@ -84,6 +84,8 @@ pub struct CpuRenderer<'a> {
     /// The geometric normal of each triangle ([`crate::scene::Triangle::geometric_normal`]),
     /// computed once instead of at every hit and light sample (the same bits either way).
     normals: Vec<Vec3>,
+    /// Some material has textures: surfaces get their texture coordinates.
+    textured: bool,
 }
 
 impl<'a> CpuRenderer<'a> {
@@ -97,6 +99,7 @@ impl<'a> CpuRenderer<'a> {
             lights: LightTable::build(scene),
             camera: CameraBasis::new(scene),
             normals,
+            textured: scene.materials.iter().any(|m| !m.textures.is_empty()),
         }
     }
 

@@ -75,7 +75,10 @@ impl CpuRenderer<'_> {
             }
             return end;
         };
-        let si = surface_at(s, &self.normals, &hit, o, d);
+        let mut si = surface_at(s, &self.normals, &hit, o, d);
+        if self.textured {
+            si.uv = crate::texture::hit_uv(s, &hit, si.p);
+        }
         if !si.front {
             // The back of a two-sided material scatters (shade_vertex turns it to the front)
             // but emits nothing.

@@ -42,7 +42,7 @@ impl CpuRenderer<'_> {
     #[allow(clippy::too_many_arguments)]
     fn delta_light_ray(
         &self,
-        l: &DeltaEntry,
+        (l, brdf): (&DeltaEntry, &dyn Brdf),
         si: &Surface,
         origin: Vec3,
         wo: Vec3,
@@ -50,7 +50,6 @@ impl CpuRenderer<'_> {
         model: usize,
         stats: &mut PathStats,
     ) -> Option<ShadowRay> {
-        let brdf = self.scene.materials[si.material as usize].brdf.as_ref();
         let ds = sample_delta_light(l, origin)?;
         let wi_local = si.frame.to_local(ds.wi);
         if !(ds.wi.dot(si.ng) > 0.0 && wi_local.z > 0.0) {
@@ -79,7 +78,7 @@ impl CpuRenderer<'_> {
     #[allow(clippy::too_many_arguments)]
     fn env_light_ray(
         &self,
-        (m, u): (&EnvMap, glam::Vec2),
+        (m, u, brdf): (&EnvMap, glam::Vec2, &dyn Brdf),
         si: &Surface,
         origin: Vec3,
         wo: Vec3,
@@ -87,7 +86,6 @@ impl CpuRenderer<'_> {
         model: usize,
         stats: &mut PathStats,
     ) -> Option<ShadowRay> {
-        let brdf = self.scene.materials[si.material as usize].brdf.as_ref();
         let es = m.sample(u.x, u.y)?;
         let wi_local = si.frame.to_local(es.wi);
         if !(es.wi.dot(si.ng) > 0.0 && wi_local.z > 0.0) {
@@ -128,7 +126,15 @@ impl CpuRenderer<'_> {
         let s = self.scene;
         let mut r = Scatter::default();
         let material = &s.materials[si.material as usize];
-        let brdf: &dyn Brdf = material.brdf.as_ref();
+        // A textured material: the model with its parameters' values at this point.
+        let at;
+        let brdf: &dyn Brdf = match material.textures.is_empty() {
+            true => material.brdf.as_ref(),
+            false => {
+                at = material.at(si.uv);
+                at.as_ref()
+            }
+        };
         // A two-sided material seen from behind: its back is shaded as a front, the geometric
         // and shading normals turned to the side the ray came from.
         let back;
@@ -161,10 +167,11 @@ impl CpuRenderer<'_> {
         });
         if let Some(m) = env {
             let u_light = rng.get2(depth, dim::LIGHT_U);
-            let light = (m, u_light);
+            let light = (m, u_light, brdf);
             r.shadow = self.env_light_ray(light, si, origin, wo, beta, material.model, stats);
         } else if let Some(l) = delta {
-            r.shadow = self.delta_light_ray(l, si, origin, wo, beta, material.model, stats);
+            let light = (l, brdf);
+            r.shadow = self.delta_light_ray(light, si, origin, wo, beta, material.model, stats);
         } else if !self.lights.is_empty() {
             let u_light = rng.get2(depth, dim::LIGHT_U);
             let ls = sample_light(

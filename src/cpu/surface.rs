@@ -61,6 +61,8 @@ pub struct Surface {
     pub frame: Frame,
     pub material: u32,
     pub emitter: Option<u32>,
+    /// Texture coordinates (`crate::texture::hit_uv`), set only in a scene with textures.
+    pub uv: Vec2,
 }
 
 impl Surface {
@@ -98,6 +100,7 @@ pub fn surface_at(scene: &Scene, normals: &[Vec3], hit: &Hit, o: Vec3, d: Vec3) 
             frame: make_frame(ng, hint),
             material: s.material,
             emitter: s.emitter,
+            uv: Vec2::ZERO,
         }
     } else {
         let tri = &scene.triangles[hit.prim as usize];
@@ -139,6 +142,7 @@ pub fn surface_at(scene: &Scene, normals: &[Vec3], hit: &Hit, o: Vec3, d: Vec3) 
             frame: make_frame(ns, hint),
             material: tri.material,
             emitter: tri.emitter,
+            uv: Vec2::ZERO,
         }
     }
 }

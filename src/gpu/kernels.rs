@@ -192,6 +192,9 @@ pub(super) fn create_buffers<'a>(
             ))?,
             Binding::Images => data(bytemuck::cast_slice(&scene_buffers::image_texels(scene)))?,
             Binding::EnvDist => data(bytemuck::cast_slice(&scene_buffers::env_dist(scene)))?,
+            Binding::TexInfo => data(bytemuck::cast_slice(
+                &scene_buffers::TextureTable::of(scene).info,
+            ))?,
         };
         owned.buffers.push(buffer);
         if b == Binding::BvhPrims {
@@ -339,7 +342,7 @@ fn model_features(scene: &Scene, model: usize) -> BTreeSet<&'static str> {
         .iter()
         .filter(|m| m.model == model && m.brdf.scatters())
     {
-        f.extend(m.brdf.defines());
+        f.extend(m.defines());
     }
     f
 }
@@ -430,8 +433,9 @@ pub(super) fn build_kernels<'a>(
 /// LIGHT_SPHERES: src/lights.rs), per-vertex shading normals
 /// and texture coordinates (SCENE_SHADING_NORMALS, SCENE_UVS), point and directional lights
 /// (SCENE_DELTA_LIGHTS), two-sided materials (SCENE_TWOSIDED), Russian roulette
-/// (RUSSIAN_ROULETTE), an environment map (SCENE_ENV_MAP), images (SCENE_IMAGES: the map or
-/// textures), a thin-lens camera (CAMERA_THIN_LENS). On lavapipe both sides of every branch run for all lanes, so code for
+/// (RUSSIAN_ROULETTE), an environment map (SCENE_ENV_MAP), textured materials
+/// (SCENE_TEXTURES), images (SCENE_IMAGES: the map or textures), a thin-lens camera
+/// (CAMERA_THIN_LENS). On lavapipe both sides of every branch run for all lanes, so code for
 /// something the scene lacks is not free.
 pub fn scene_features(scene: &Scene) -> Vec<&'static str> {
     let mut f = Vec::new();
@@ -469,7 +473,11 @@ pub fn scene_features(scene: &Scene) -> Vec<&'static str> {
     if scene.environment_map.is_some() {
         f.push("SCENE_ENV_MAP");
     }
-    if scene.environment_map.is_some() {
+    let textured = scene.materials.iter().any(|m| !m.textures.is_empty());
+    if textured {
+        f.push("SCENE_TEXTURES");
+    }
+    if scene.environment_map.is_some() || textured {
         f.push("SCENE_IMAGES");
     }
     if scene.camera.aperture_radius > 0.0 {
@@ -494,6 +502,7 @@ pub(crate) fn model_shader_inputs<'f>(
     defines.push(("BRDF_EVAL".into(), format!("{name}_eval")));
     defines.push(("BRDF_PDF".into(), format!("{name}_pdf")));
     defines.push(("BRDF_SAMPLE".into(), format!("{name}_sample")));
+    defines.push(("BRDF_TEXTURED".into(), format!("{name}_textured")));
     let overrides = vec![("brdf/model.glsl".to_string(), format!("brdf/{name}.glsl"))];
     (defines, overrides)
 }

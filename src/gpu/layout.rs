@@ -64,11 +64,13 @@ pub enum Binding {
     // only (declared under SCENE_IMAGES and SCENE_ENV_MAP only).
     Images,
     EnvDist,
+    // The textures' headers and the textured materials' lists (declared under SCENE_TEXTURES).
+    TexInfo,
 }
 
 impl Binding {
     /// Every binding, in binding-number order.
-    pub const ALL: [Binding; 25] = [
+    pub const ALL: [Binding; 26] = [
         Binding::BvhNodes,
         Binding::BvhPrims,
         Binding::Triangles,
@@ -94,6 +96,7 @@ impl Binding {
         Binding::MeasuredTable,
         Binding::Images,
         Binding::EnvDist,
+        Binding::TexInfo,
     ];
 
     /// The binding number.
@@ -129,6 +132,7 @@ impl Binding {
             Binding::MeasuredTable => "measured_table",
             Binding::Images => "images",
             Binding::EnvDist => "env_dist",
+            Binding::TexInfo => "tex_info",
         }
     }
 
@@ -151,7 +155,8 @@ impl Binding {
             | Binding::Spheres
             | Binding::TriAttrs
             | Binding::Materials
-            | Binding::Emitters => Kind::ReadImage(F::R32G32B32A32_UINT),
+            | Binding::Emitters
+            | Binding::TexInfo => Kind::ReadImage(F::R32G32B32A32_UINT),
             Binding::MeasuredTable | Binding::Images => Kind::ReadImage(F::R32G32B32A32_SFLOAT),
             Binding::EnvDist => Kind::ReadImage(F::R32_SFLOAT),
             Binding::BvhPrims => Kind::ReadImage(F::R32_UINT),
@@ -207,6 +212,7 @@ impl Binding {
             Binding::Film2 => ("film2", "running sums of radiance² per pixel"),
             Binding::MeasuredTable => ("measured_table", "one texel per MERL cell of every distinct measured table, (f_r red, green, blue, unused), negative = missing (src/brdf/measured.rs)"),
             Binding::Images => ("image_texels", "(r, g, b, unused) texels of the scene's images, row by row: the environment map's radiance first (src/envmap.rs), then the textures (src/texture.rs)"),
+            Binding::TexInfo => ("texture_info", "texel 0 unused, 3 texels per texture ((first texel, width, height, filter | wrap << 4), to_uv's two rows), then each textured material's list at its record's header.w: (count), (texture, record word, slot mode) per parameter (src/texture.rs, shaders/texture.glsl)"),
             Binding::EnvDist => ("env_dist_data", "the environment map's marginal CDF (H values), its rows' conditional CDFs ((H - 1) x (W + 1)) and its cells' densities in (u, v) ((H - 1) x W) (src/envmap.rs)"),
         }
     }
@@ -219,6 +225,7 @@ impl Binding {
             Binding::MeasuredTable => Some("MEASURED_TABLE"),
             Binding::Images => Some("SCENE_IMAGES"),
             Binding::EnvDist => Some("SCENE_ENV_MAP"),
+            Binding::TexInfo => Some("SCENE_TEXTURES"),
             _ => None,
         }
     }

@@ -93,9 +93,79 @@ pub fn queue_slots(scene: &Scene) -> Vec<u32> {
         .collect()
 }
 
-/// Material records; `queue_slot[m]` is the material's queue (or NO_QUEUE).
+/// Material records; `queue_slot[m]` is the material's queue (or NO_QUEUE). A textured
+/// material's header.w is its list in the texture table ([`TextureTable`]), 0 for none.
 pub fn material_records(scene: &Scene, queue_slot: &[u32]) -> Vec<[u32; RECORD_WORDS]> {
-    records(&scene.materials, queue_slot)
+    let mut r = records(&scene.materials, queue_slot);
+    let table = TextureTable::of(scene);
+    for (rec, list) in r.iter_mut().zip(&table.lists) {
+        rec[3] = *list;
+    }
+    r
+}
+
+/// The scene's textures as the GPU reads them (`shaders/texture.glsl`): the texels, which
+/// follow the environment map's in binding `images`, and binding `tex_info`: texel 0 unused,
+/// then three texels per distinct texture, (first texel, width, height, filter | wrap << 4) and
+/// the two rows of its `to_uv` as float bits, then each textured material's list: (count) and
+/// per textured parameter (texture, record word, slot mode). A parameter whose value the
+/// record does not hold (no slot) is left out.
+pub struct TextureTable {
+    pub texels: Vec<[f32; 4]>,
+    pub info: Vec<[u32; 4]>,
+    /// Per material, its list in `info` (0: no textures).
+    pub lists: Vec<u32>,
+}
+
+impl TextureTable {
+    pub fn of(scene: &Scene) -> TextureTable {
+        use std::sync::Arc;
+        let base = scene.environment_map.as_ref().map_or(0, |m| m.texels.len()) as u32;
+        // The distinct textures, in the order the materials first name them.
+        let mut textures: Vec<&Arc<crate::texture::Texture>> = Vec::new();
+        let mut body: Vec<[u32; 4]> = Vec::new();
+        let mut offsets: Vec<Option<u32>> = Vec::new();
+        for m in &scene.materials {
+            let mut bound = Vec::new();
+            for t in &m.textures {
+                let Some(slot) = t.slot else { continue };
+                let k = match textures.iter().position(|x| Arc::ptr_eq(x, &t.texture)) {
+                    Some(k) => k,
+                    None => {
+                        textures.push(&t.texture);
+                        textures.len() - 1
+                    }
+                };
+                bound.push([k as u32, slot.word, slot.mode as u32, 0]);
+            }
+            if bound.is_empty() {
+                offsets.push(None);
+                continue;
+            }
+            offsets.push(Some(body.len() as u32));
+            body.push([bound.len() as u32, 0, 0, 0]);
+            body.extend(bound);
+        }
+        let mut texels = Vec::new();
+        let mut info = vec![[0u32; 4]];
+        for t in &textures {
+            let first = base + texels.len() as u32;
+            let flags = t.filter as u32 | (t.wrap as u32) << 4;
+            info.push([first, t.width, t.height, flags]);
+            for row in t.to_uv {
+                info.push([row[0].to_bits(), row[1].to_bits(), row[2].to_bits(), 0]);
+            }
+            texels.extend(t.texels.iter().map(|c| [c[0], c[1], c[2], 0.0]));
+        }
+        let start = info.len() as u32;
+        let lists = offsets.iter().map(|o| o.map_or(0, |o| start + o)).collect();
+        info.extend(body);
+        TextureTable {
+            texels,
+            info,
+            lists,
+        }
+    }
 }
 
 /// Records of materials outside a scene (queue slot 0).
@@ -258,6 +328,7 @@ pub fn image_texels(scene: &Scene) -> Vec<[f32; 4]> {
     if let Some(m) = &scene.environment_map {
         out.extend(m.texels.iter().map(|t| [t[0], t[1], t[2], 0.0]));
     }
+    out.extend(TextureTable::of(scene).texels);
     if out.is_empty() {
         out.push([0.0; 4]);
     }

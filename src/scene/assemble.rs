@@ -12,7 +12,7 @@ use super::spanned::{Cx, Sp};
 use super::{Camera, Emitter, Integrator, Scene, Sphere, Triangle, VertexAttributes};
 use crate::brdf::params::fmt_num;
 use crate::brdf::{self, Origin};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use std::collections::{BTreeMap, HashMap};
 use std::ops::Range;
 use std::path::Path;
@@ -151,7 +151,8 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
             return Err(cx.err(m.span(), &format!("{f}.material"), msg));
         };
         used[material] = true;
-        shape_primitives(cx, &f, shape, material as u32, &mut out)?;
+        let textured = !materials[material].textures.is_empty();
+        shape_primitives(cx, &f, shape, (material as u32, textured), &mut out)?;
     }
 
     // The MTL materials of OBJ shapes with `mtl = true` follow the scene's own.
@@ -266,7 +267,15 @@ fn materials(
     let mut material_names = Vec::new();
     let mut material_spans = Vec::new();
     let mut params = Vec::new();
-    for (name, span, table) in defs {
+    let mut cache = super::textures::TextureCache::default();
+    for (name, span, mut table) in defs {
+        // The fields as written, texture tables included (`Scene::material_params`).
+        let written: BTreeMap<String, toml::Value> = table
+            .iter()
+            .filter(|(k, _)| *k != "twosided")
+            .map(|(k, v)| (k.clone(), v.value.clone()))
+            .collect();
+        let textures = super::textures::texture_fields(cx, &name, &mut table, &mut cache)?;
         // The spans are made relative to the file that holds the table (one of several for
         // a Mitsuba scene with includes).
         let table_span = span.clone().unwrap_or(0..0);
@@ -295,12 +304,7 @@ fn materials(
             };
             fields.insert(key, toml::Spanned::new(s.start - at..s.end - at, v.value));
         }
-        params.push(
-            fields
-                .iter()
-                .map(|(k, v)| (k.clone(), v.get_ref().clone()))
-                .collect(),
-        );
+        params.push(written);
         let origin = Origin {
             file,
             source,
@@ -310,6 +314,7 @@ fn materials(
         };
         let (mut m, w) = brdf::parse_material(origin, fields)?;
         m.twosided = twosided;
+        super::textures::bind(&mut m, textures);
         cx.warnings.extend(w);
         materials.push(m);
         material_names.push(name);
@@ -453,11 +458,13 @@ pub(super) struct Shapes {
     pub(super) camera: Vec3,
 }
 
+/// The primitives of one shape, of material `material`; `textured`: the material has textures,
+/// so a quad gets its own texture coordinates (`crate::texture`).
 pub(super) fn shape_primitives(
     cx: &mut Cx,
     f: &str,
     shape: &Sp<RawShape>,
-    material: u32,
+    (material, textured): (u32, bool),
     out: &mut Shapes,
 ) -> Result<(), SceneError> {
     let s = &shape.value;
@@ -499,7 +506,24 @@ pub(super) fn shape_primitives(
     };
     if let Some(quads) = &s.quads {
         let tris = &mut out.triangles;
+        let first = tris.len();
         polygon_triangles(cx, (f, &label, "quad"), quads, &place, &tri, tris)?;
+        if textured {
+            // Each quad's own (u, v): (0, 0), (1, 0), (1, 1), (0, 1) at v0 … v3.
+            let (a, b, c, d) = (Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y);
+            out.attributes.resize(first, VertexAttributes::NONE);
+            for k in first..out.triangles.len() {
+                let uv = if (k - first) % 2 == 0 {
+                    [a, b, c]
+                } else {
+                    [a, c, d]
+                };
+                out.attributes.push(VertexAttributes {
+                    n: None,
+                    uv: Some(uv),
+                });
+            }
+        }
     }
     if let Some(listed) = &s.triangles {
         let tris = &mut out.triangles;

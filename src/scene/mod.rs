@@ -29,6 +29,7 @@ mod schema;
 pub mod shapes;
 pub mod sniff;
 mod spanned;
+mod textures;
 mod transform;
 
 use crate::brdf::Material;

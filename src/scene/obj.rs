@@ -398,7 +398,9 @@ fn obj_face(
             n[j] = xf.normal(Vec3::from_slice(&m.normals[3 * i..3 * i + 3]));
         }
         if has_uv {
-            uv[j] = Vec2::new(m.texcoords[2 * i], m.texcoords[2 * i + 1]);
+            // OBJ's v runs up the image; a texture's v down from its top row (as Mitsuba 3
+            // reads OBJ files: `crate::texture`).
+            uv[j] = Vec2::new(m.texcoords[2 * i], 1.0 - m.texcoords[2 * i + 1]);
         }
     }
     if let Some(msg) = edge_overflow(&v) {

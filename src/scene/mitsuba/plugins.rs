@@ -142,6 +142,9 @@ impl Cx<'_> {
         }
     }
     fn color_value(&self, el: &El) -> Result<Sp<Value>, SceneError> {
+        if el.tag == "texture" {
+            return texture_value(self, el);
+        }
         let c = self.color_of(el)?;
         Ok(sp(
             el,
@@ -408,9 +411,9 @@ pub(super) fn bsdf(cx: &Cx, el: &El) -> Result<MaterialTable, SceneError> {
                         sp(c, Value::String(file.display().to_string()))
                     }
                     "string" => sp(c, Value::String(cx.string(c)?.to_string())),
-                    "rgb" => cx.color_value(c)?,
+                    "rgb" | "texture" => cx.color_value(c)?,
                     _ => {
-                        let msg = format!("{}: parameter '{n}' is a {}: expected float, integer, boolean, string or rgb", el.describe(), c.describe());
+                        let msg = format!("{}: parameter '{n}' is a {}: expected float, integer, boolean, string, rgb or texture", el.describe(), c.describe());
                         return Err(cx.el_err(c, msg));
                     }
                 };
@@ -426,6 +429,56 @@ pub(super) fn bsdf(cx: &Cx, el: &El) -> Result<MaterialTable, SceneError> {
         }
     }
     Ok(t)
+}
+
+/// A `<texture type="bitmap">` parameter → the TOML texture table (`kd = { texture = … }`):
+/// `filename` (relative to the file that names it), `raw`, `filter_type` (`bilinear`,
+/// `nearest`), `wrap_mode` (`repeat`, `mirror`, `clamp`) and `to_uv` (its 2-D part, as Mitsuba
+/// takes it: a 3×3 matrix as written, else rows and columns 0, 1 and 3 of the 4×4 transform).
+/// The assembly reads the image and checks the values (`crate::scene::textures`).
+fn texture_value(cx: &Cx, el: &El) -> Result<Sp<Value>, SceneError> {
+    if el.attr("type") != Some("bitmap") {
+        let msg = format!("{} is not supported (supported: bitmap)", el.describe());
+        return Err(cx.el_err(el, msg));
+    }
+    let mut p = Props::new(cx, el)?;
+    let Some(f) = p.take("filename") else {
+        return Err(cx.el_err(el, "<texture type=\"bitmap\"> needs a filename"));
+    };
+    let mut t = toml::map::Map::new();
+    let file = f.dir.join(cx.string(f)?);
+    t.insert("texture".into(), Value::String(file.display().to_string()));
+    if let Some(r) = p.take("raw") {
+        t.insert("raw".into(), Value::Boolean(cx.bool_of(r)?));
+    }
+    if let Some(x) = p.take("filter_type") {
+        t.insert("filter".into(), Value::String(cx.string(x)?.to_string()));
+    }
+    if let Some(x) = p.take("wrap_mode") {
+        t.insert("wrap".into(), Value::String(cx.string(x)?.to_string()));
+    }
+    if let Some(x) = p.take("to_uv") {
+        let rows = match x.children.as_slice() {
+            [m] if m.tag == "matrix" && cx.numbers(m, cx.attr(m, "value")?)?.len() == 9 => {
+                let v = cx.numbers(m, cx.attr(m, "value")?)?;
+                [[v[0], v[1], v[2]], [v[3], v[4], v[5]]]
+            }
+            _ => {
+                let m = to_world(cx, x)?.m;
+                let r = rows(&m);
+                [[r[0][0], r[0][1], r[0][3]], [r[1][0], r[1][1], r[1][3]]]
+            }
+        };
+        let row = |r: [f64; 3]| Value::Array(r.iter().map(|v| Value::Float(*v)).collect());
+        let mut m = toml::map::Map::new();
+        m.insert(
+            "matrix".into(),
+            Value::Array(vec![row(rows[0]), row(rows[1])]),
+        );
+        t.insert("to_uv".into(), Value::Table(m));
+    }
+    p.finish(cx, "filename, raw, filter_type, wrap_mode, to_uv")?;
+    Ok(sp(el, Value::Table(t)))
 }
 
 fn put(t: &mut MaterialTable, el: &El, k: &str, v: Value) {
@@ -474,6 +527,10 @@ fn microfacet(
         put(t, d, "distribution", Value::String(name.into()));
     }
     let alpha = match (p.take("alpha"), p.take("alpha_u"), p.take("alpha_v")) {
+        (Some(a), None, None) if a.tag == "texture" => {
+            t.insert("roughness".into(), texture_value(cx, a)?);
+            None
+        }
         (Some(a), None, None) => Some((a, cx.float(a)?)),
         (None, Some(u), Some(v)) => {
             let (au, av) = (cx.float(u)?, cx.float(v)?);
@@ -489,6 +546,7 @@ fn microfacet(
     };
     match alpha {
         Some((a, x)) => put(t, a, "roughness", Value::Float(x)),
+        None if t.contains_key("roughness") => {}
         // Mitsuba's default α.
         None => put(t, el, "roughness", Value::Float(0.1)),
     }

@@ -275,15 +275,32 @@ fn bsdf(
 ) -> Result<String, String> {
     let id = attr(name);
     let any = m.brdf.as_any();
+    let xml_dir = opts.xml_dir.as_deref().unwrap_or(s_dir);
+    // A textured parameter as a nested bitmap under Mitsuba's name for it.
+    let texture = |ours: &str, theirs: &str| {
+        m.textures
+            .iter()
+            .find(|t| t.param.name == ours)
+            .map(|t| bitmap(&t.texture, theirs, xml_dir))
+    };
     if let Some(l) = any.downcast_ref::<Lambert>() {
+        let reflectance = texture("albedo", "reflectance").unwrap_or_else(|| {
+            format!(
+                "        <rgb name=\"reflectance\" value=\"{}\"/>\n",
+                rgb(l.albedo)
+            )
+        });
         return Ok(format!(
-            "    <bsdf type=\"diffuse\" id=\"{id}\">\n        <rgb name=\"reflectance\" value=\"{}\"/>\n    </bsdf>\n",
-            rgb(l.albedo)
+            "    <bsdf type=\"diffuse\" id=\"{id}\">\n{reflectance}    </bsdf>\n"
         ));
     }
     if let Some(c) = any.downcast_ref::<CookTorrance>() {
-        if let Some(b) = cook_torrance(c, &id) {
-            return Ok(b);
+        // Mitsuba's plugins take textures for these three only.
+        let twins = ["kd", "ks", "roughness"];
+        if m.textures.iter().all(|t| twins.contains(&t.param.name)) {
+            if let Some(b) = cook_torrance(c, &id, &texture) {
+                return Ok(b);
+            }
         }
     }
     let why = format!(
@@ -303,6 +320,10 @@ fn bsdf(
     for (k, v) in params.iter().filter(|(k, _)| *k != "model") {
         let k = attr(k);
         let line = match v {
+            toml::Value::Table(_) => match texture(&k, &k) {
+                Some(b) => b.trim().to_string(),
+                None => return Err(format!("material '{name}', '{k}': not a texture")),
+            },
             toml::Value::Float(f) => format!("<float name=\"{k}\" value=\"{}\"/>", *f as f32),
             toml::Value::Integer(i) => format!("<integer name=\"{k}\" value=\"{i}\"/>"),
             toml::Value::Boolean(t) => format!("<boolean name=\"{k}\" value=\"{t}\"/>"),
@@ -337,8 +358,52 @@ fn bsdf(
     Ok(b)
 }
 
-/// Cook–Torrance as `(rough)conductor` or `(rough)plastic`, when it is one.
-fn cook_torrance(c: &CookTorrance, id: &str) -> Option<String> {
+/// A texture as Mitsuba's `bitmap` named `name`, its file relative to `xml_dir` when below
+/// it (its lines, indented for a BSDF's parameter). `to_uv` goes as the 4×4 matrix whose rows
+/// and columns 0, 1, 3 are the 2-D map (what Mitsuba takes from a 4×4 `to_uv`).
+fn bitmap(t: &crate::texture::Texture, name: &str, xml_dir: &Path) -> String {
+    let file = file_for_xml(Path::new(""), &t.path.to_string_lossy(), Some(xml_dir));
+    let mut b = format!(
+        "        <texture type=\"bitmap\" name=\"{}\">\n            <string name=\"filename\" value=\"{}\"/>\n",
+        attr(name),
+        attr(&file)
+    );
+    if t.raw {
+        b += "            <boolean name=\"raw\" value=\"true\"/>\n";
+    }
+    if t.filter != crate::texture::Filter::Bilinear {
+        let _ = writeln!(
+            b,
+            "            <string name=\"filter_type\" value=\"{}\"/>",
+            t.filter.name()
+        );
+    }
+    if t.wrap != crate::texture::Wrap::Repeat {
+        let _ = writeln!(
+            b,
+            "            <string name=\"wrap_mode\" value=\"{}\"/>",
+            t.wrap.name()
+        );
+    }
+    if t.to_uv != crate::texture::IDENTITY_UV {
+        let [r0, r1] = t.to_uv;
+        let _ = writeln!(
+            b,
+            "            <transform name=\"to_uv\">\n                <matrix value=\"{} {} 0 {} {} {} 0 {} 0 0 1 0 0 0 0 1\"/>\n            </transform>",
+            r0[0], r0[1], r0[2], r1[0], r1[1], r1[2]
+        );
+    }
+    b += "        </texture>\n";
+    b
+}
+
+/// Cook–Torrance as `(rough)conductor` or `(rough)plastic`, when it is one; `texture(ours,
+/// theirs)` is the bitmap of a textured parameter.
+fn cook_torrance(
+    c: &CookTorrance,
+    id: &str,
+    texture: &dyn Fn(&str, &str) -> Option<String>,
+) -> Option<String> {
     if c.normalization != Normalization::Walter || c.geometry != Geometry::Smith {
         return None;
     }
@@ -351,13 +416,20 @@ fn cook_torrance(c: &CookTorrance, id: &str) -> Option<String> {
             Distribution::Ggx => "ggx",
         };
         let _ = writeln!(p, "        <string name=\"distribution\" value=\"{d}\"/>");
-        let _ = writeln!(
-            p,
-            "        <float name=\"alpha\" value=\"{}\"/>",
-            c.roughness
-        );
+        match texture("roughness", "alpha") {
+            Some(b) => p += &b,
+            None => {
+                let _ = writeln!(
+                    p,
+                    "        <float name=\"alpha\" value=\"{}\"/>",
+                    c.roughness
+                );
+            }
+        }
     }
-    if c.ks != Vec3::ONE {
+    if let Some(b) = texture("ks", "specular_reflectance") {
+        p += &b;
+    } else if c.ks != Vec3::ONE {
         let _ = writeln!(
             p,
             "        <rgb name=\"specular_reflectance\" value=\"{}\"/>",
@@ -375,11 +447,16 @@ fn cook_torrance(c: &CookTorrance, id: &str) -> Option<String> {
             "conductor"
         }
         Fresnel::Dielectric => {
-            let _ = writeln!(
-                p,
-                "        <rgb name=\"diffuse_reflectance\" value=\"{}\"/>",
-                rgb(c.kd)
-            );
+            match texture("kd", "diffuse_reflectance") {
+                Some(b) => p += &b,
+                None => {
+                    let _ = writeln!(
+                        p,
+                        "        <rgb name=\"diffuse_reflectance\" value=\"{}\"/>",
+                        rgb(c.kd)
+                    );
+                }
+            }
             let _ = writeln!(p, "        <float name=\"int_ior\" value=\"{}\"/>", c.ior);
             let _ = writeln!(p, "        <float name=\"ext_ior\" value=\"1\"/>");
             "plastic"
@@ -502,8 +579,10 @@ fn obj_text(tris: &[(&Triangle, VertexAttributes)]) -> String {
     for n in &ns {
         let _ = writeln!(o, "vn {} {} {}", n[0], n[1], n[2]);
     }
+    // Texture coordinates are kept with v down from the image's top; OBJ's v runs up (the
+    // reader flips it back, exactly for v in [0, 1]).
     for t in &ts {
-        let _ = writeln!(o, "vt {} {}", t[0], t[1]);
+        let _ = writeln!(o, "vt {} {}", t[0], 1.0 - t[1]);
     }
     o.push_str(&faces);
     o
