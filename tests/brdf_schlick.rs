@@ -56,6 +56,12 @@ impl Brdf for GlossyOnly {
     fn as_any(&self) -> &dyn std::any::Any {
         self
     }
+    fn with_params(&self, _: &brdfwave::brdf::textured::ParamValues) -> std::sync::Arc<dyn Brdf> {
+        std::sync::Arc::new(GlossyOnly {
+            r: self.r,
+            p: self.p,
+        })
+    }
 }
 
 #[test]

@@ -314,6 +314,13 @@ impl Brdf for Tampered {
     fn scatters(&self) -> bool {
         self.inner.scatters()
     }
+    fn with_params(&self, v: &brdfwave::brdf::textured::ParamValues) -> Arc<dyn Brdf> {
+        Arc::new(Tampered {
+            inner: self.inner.with_params(v),
+            pdf: self.pdf,
+            sample: self.sample,
+        })
+    }
 }
 
 /// The grey value of an RGB reflectance (the mean of the channels, as the albedo functions
