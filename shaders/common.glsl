@@ -60,4 +60,35 @@ float atan2_f32(float y, float x) {
 }
 #endif
 
+
+#if defined(SCENE_ENV_MAP) || defined(CAMERA_THIN_LENS)
+// (sin 2 pi t, cos 2 pi t) by basic operations only, `precise`: the same bits as the Rust twin
+// envmap::sincos_turns, which explains the reduction and the series.
+vec2 sincos_turns(float t) {
+    precise float q = floor(t * 4.0 + 0.5);
+    precise float x = (t - q * 0.25) * 6.2831855;
+    precise float s2 = x * x;
+    precise float sp = 1.0 / 6227020800.0;
+    sp = sp * s2 - 1.0 / 39916800.0;
+    sp = sp * s2 + 1.0 / 362880.0;
+    sp = sp * s2 - 1.0 / 5040.0;
+    sp = sp * s2 + 1.0 / 120.0;
+    sp = sp * s2 - 1.0 / 6.0;
+    precise float s = x + x * (s2 * sp);
+    precise float cp = 1.0 / 87178291200.0;
+    cp = cp * s2 - 1.0 / 479001600.0;
+    cp = cp * s2 + 1.0 / 3628800.0;
+    cp = cp * s2 - 1.0 / 40320.0;
+    cp = cp * s2 + 1.0 / 720.0;
+    cp = cp * s2 - 1.0 / 24.0;
+    cp = cp * s2 + 0.5;
+    precise float c = 1.0 - s2 * cp;
+    int k = int(q) & 3;
+    if (k == 0) return vec2(s, c);
+    if (k == 1) return vec2(c, -s);
+    if (k == 2) return vec2(-s, -c);
+    return vec2(-c, s);
+}
+#endif
+
 #endif

@@ -104,10 +104,12 @@ bool env_sample(float u1, float u2, out vec3 wi, out float pdf, out vec3 radianc
     float u = (float(x) + 0.5 + du) / float(w);
     if (u >= 1.0) u -= 1.0;
     float v = (float(y) + dv) / float(h - 1u);
-    float sin_t = sin(PI * v);
-    float cos_t = cos(PI * v);
-    float sin_p = sin(2.0 * PI * u);
-    float cos_p = cos(2.0 * PI * u);
+    vec2 theta = sincos_turns(0.5 * v);
+    vec2 phi = sincos_turns(u);
+    float sin_t = theta.x;
+    float cos_t = theta.y;
+    float sin_p = phi.x;
+    float cos_p = phi.y;
     if (!(sin_t > 0.0)) return false;
     pdf = env_dist(env_pdf_base() + y * w + x) / (2.0 * PI * PI * sin_t);
     if (!(pdf > 0.0)) return false;

@@ -87,15 +87,14 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
     if a == 0.0 && b == 0.0 {
         return Vec2::ZERO;
     }
-    let (r, phi) = if a.abs() > b.abs() {
-        (a, std::f32::consts::FRAC_PI_4 * (b / a))
+    // φ in turns, its sine and cosine by basic operations (the same bits on both renderers).
+    let (r, turns) = if a.abs() > b.abs() {
+        (a, 0.125 * (b / a))
     } else {
-        (
-            b,
-            std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (a / b),
-        )
+        (b, 0.25 - 0.125 * (a / b))
     };
-    Vec2::new(r * phi.cos(), r * phi.sin())
+    let (s, c) = crate::envmap::sincos_turns(turns);
+    Vec2::new(r * c, r * s)
 }
 
 #[cfg(test)]

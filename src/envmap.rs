@@ -268,8 +268,8 @@ impl EnvMap {
             u -= 1.0;
         }
         let v = (y as f32 + dv) / (h - 1) as f32;
-        let (sin_t, cos_t) = (PI * v).sin_cos();
-        let (sin_p, cos_p) = (2.0 * PI * u).sin_cos();
+        let (sin_t, cos_t) = sincos_turns(0.5 * v);
+        let (sin_p, cos_p) = sincos_turns(u);
         if !(sin_t > 0.0) {
             return None;
         }
@@ -340,6 +340,39 @@ pub fn atan2_f32(y: f32, x: f32) -> f32 {
         -r
     } else {
         r
+    }
+}
+
+/// (sin 2πt, cos 2πt) in f32 by basic operations only, for the same bits on both renderers
+/// (lavapipe's `sin` and `cos` differ from Rust's in the last bits, and a light sample's
+/// direction that moves by an ulp can graze past a silhouette on one side only). The angle is
+/// reduced exactly in turns to the quadrant q = ⌊4t + ½⌋ and r = t − q/4 in [−⅛, ⅛], x = 2πr
+/// in [−π/4, π/4], where the Taylor series to x¹³ (sine) and x¹⁴ (cosine) are within 1e-12;
+/// then the quadrant is restored. GLSL twin: `sincos_turns` (common.glsl).
+pub fn sincos_turns(t: f32) -> (f32, f32) {
+    let q = (t * 4.0 + 0.5).floor();
+    let x = (t - q * 0.25) * (2.0 * PI);
+    let s2 = x * x;
+    let mut sp = 1.0 / 6_227_020_800.0;
+    sp = sp * s2 - 1.0 / 39_916_800.0;
+    sp = sp * s2 + 1.0 / 362_880.0;
+    sp = sp * s2 - 1.0 / 5040.0;
+    sp = sp * s2 + 1.0 / 120.0;
+    sp = sp * s2 - 1.0 / 6.0;
+    let s = x + x * (s2 * sp);
+    let mut cp = 1.0 / 87_178_291_200.0;
+    cp = cp * s2 - 1.0 / 479_001_600.0;
+    cp = cp * s2 + 1.0 / 3_628_800.0;
+    cp = cp * s2 - 1.0 / 40320.0;
+    cp = cp * s2 + 1.0 / 720.0;
+    cp = cp * s2 - 1.0 / 24.0;
+    cp = cp * s2 + 0.5;
+    let c = 1.0 - s2 * cp;
+    match (q as i32).rem_euclid(4) {
+        0 => (s, c),
+        1 => (c, -s),
+        2 => (-s, -c),
+        _ => (-c, s),
     }
 }
 
@@ -526,6 +559,23 @@ mod tests {
         assert!(worst < 4.8e-7, "{worst}");
         assert_eq!(atan2_f32(0.0, 0.0), 0.0);
         assert_eq!(atan2_f32(0.0, -1.0), std::f32::consts::PI);
+    }
+
+    #[test]
+    fn sincos_matches_the_library_within_an_ulp_or_two() {
+        let mut worst = 0.0f64;
+        for i in 0..100_000 {
+            let t = i as f32 / 100_000.0 * 1.5 - 0.25;
+            let (s, c) = sincos_turns(t);
+            let a = 2.0 * std::f64::consts::PI * t as f64;
+            worst = worst
+                .max((s as f64 - a.sin()).abs())
+                .max((c as f64 - a.cos()).abs());
+        }
+        assert!(worst < 2.5e-7, "{worst}");
+        assert_eq!(sincos_turns(0.0), (0.0, 1.0));
+        assert_eq!(sincos_turns(0.25), (1.0, 0.0));
+        assert_eq!(sincos_turns(0.5), (0.0, -1.0));
     }
 
     #[test]

@@ -12,8 +12,10 @@ use common::{context, line_of, render_cpu, render_gpu, repo};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 
-/// The shipped TOML scenes, each with its twin `scenes/xml/NAME.xml`.
+/// The shipped TOML scenes, each with its twin `scenes/xml/NAME.xml` (the material preview's
+/// measured table written first).
 fn shipped() -> Vec<String> {
+    common::material_preview_table();
     let mut names: Vec<String> = std::fs::read_dir(repo().join("scenes"))
         .unwrap()
         .filter_map(|e| {

@@ -18,16 +18,18 @@ vec2 concentric_disk(vec2 u) {
     float a = 2.0 * u.x - 1.0;
     float b = 2.0 * u.y - 1.0;
     if (a == 0.0 && b == 0.0) return vec2(0.0);
+    // phi in turns, its sine and cosine by basic operations (common.glsl sincos_turns).
     float r;
-    float phi;
+    precise float turns;
     if (abs(a) > abs(b)) {
         r = a;
-        phi = (0.25 * PI) * (b / a);
+        turns = 0.125 * (b / a);
     } else {
         r = b;
-        phi = (0.5 * PI) - (0.25 * PI) * (a / b);
+        turns = 0.25 - 0.125 * (a / b);
     }
-    return vec2(r * cos(phi), r * sin(phi));
+    vec2 sc = sincos_turns(turns);
+    return vec2(r * sc.y, r * sc.x);
 }
 #endif
 

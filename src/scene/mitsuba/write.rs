@@ -160,18 +160,34 @@ pub fn to_mitsuba(s: &Scene, mesh_dir: &str, opts: Options) -> Result<Converted,
 
 /// A two-sided material: its BSDF element (`b`, as [`bsdf`] writes it) nested, without its id,
 /// in a `twosided` BSDF that takes the id.
-/// A file parameter as the scene gave it (relative to the scene file's directory `s_dir`), as
-/// the XML in `xml_dir` must name it: relative to `xml_dir` when the file lies below it, else
-/// absolute (so that the XML may be written anywhere).
+/// A file named by the scene (a measured table, an image; `given` relative to the scene file's
+/// directory `s_dir`), as the XML in `xml_dir` must name it: relative to `xml_dir` when the two
+/// share a directory below the root (`../material-preview/studio.hdr` from `scenes/xml/`, so
+/// that the pair moves together), else absolute.
 fn file_for_xml(s_dir: &Path, given: &str, xml_dir: Option<&Path>) -> String {
+    use std::path::Component;
     let full = s_dir.join(given);
     let full = full.canonicalize().unwrap_or(full);
+    let full = std::path::absolute(&full).unwrap_or(full);
     let dir = xml_dir.unwrap_or(s_dir);
     let dir = dir.canonicalize().unwrap_or_else(|_| dir.to_path_buf());
-    let p: PathBuf = match full.strip_prefix(&dir) {
-        Ok(rel) => rel.to_path_buf(),
-        Err(_) => std::path::absolute(&full).unwrap_or(full),
-    };
+    let dir = std::path::absolute(&dir).unwrap_or(dir);
+    let (a, b): (Vec<Component>, Vec<Component>) =
+        (full.components().collect(), dir.components().collect());
+    let common = a.iter().zip(&b).take_while(|(x, y)| x == y).count();
+    let shares = a[..common]
+        .iter()
+        .any(|c| matches!(c, Component::Normal(_)));
+    if !shares {
+        return full.to_string_lossy().into_owned();
+    }
+    let mut p = PathBuf::new();
+    for _ in common..b.len() {
+        p.push("..");
+    }
+    for c in &a[common..] {
+        p.push(c);
+    }
     p.to_string_lossy().into_owned()
 }
 
