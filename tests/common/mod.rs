@@ -4,6 +4,7 @@
 pub mod brdf;
 pub mod bvh;
 pub mod cli;
+pub mod mitsuba;
 pub mod scene_file;
 
 use brdfwave::film::Tile;
