@@ -32,6 +32,9 @@
 //! Mitsuba's samplers run at different speeds at different counts). (A Mitsuba
 //! configuration's wall time is thus about four times the time of its last render; its budget
 //! share counts the last render.)
+//!
+//! A scene with textured materials also gets a "Textures" section (`textures.rs`): its speed
+//! against the same scene with each textured parameter its texture's mean, on both backends.
 
 mod config;
 mod mitsuba;
@@ -39,10 +42,12 @@ mod reference;
 mod runner;
 mod scaling;
 mod tables;
+mod textures;
 
 pub use config::{Config, DEFAULT_CONFIGS, MITSUBA_SAMPLERS};
 pub use scaling::add_sphere_mesh;
 pub use tables::TABLE_SPP;
+pub use textures::constant_parameters;
 
 use crate::bvh::{self, Bvh};
 use crate::imageio::Image;
@@ -428,6 +433,11 @@ fn write_outputs(
     let md = tables::summary(o, sc, seconds_setup, records, details, &notes);
     let md = match o.scaling {
         Some(n) => format!("{md}\n{}", scaling::scaling(o, n)?),
+        None => md,
+    };
+    // A scene with textures: what they cost against constant parameters.
+    let md = match textures::texture_cost(o)? {
+        Some(t) => format!("{md}\n## Textures\n\nThe scene against the same scene with each textured parameter its texture's mean (4 spp, the faster of 3 passes each):\n\n{t}"),
         None => md,
     };
     crate::outfile::write(&o.out.join("bench.md"), md.as_bytes())?;
