@@ -109,6 +109,49 @@ impl fmt::Debug for Texture {
     }
 }
 
+/// A field of a texture table (`kd = { texture = "wood.png", … }`): the parser takes exactly
+/// these, and scenes/README.md's table of them is generated from here (`brdf::docs`).
+pub struct TableField {
+    pub name: &'static str,
+    pub kind: &'static str,
+    pub default: &'static str,
+    pub meaning: &'static str,
+}
+
+/// The fields of a texture table.
+pub const TABLE_FIELDS: &[TableField] = &[
+    TableField {
+        name: "texture",
+        kind: "string, path",
+        default: "required",
+        meaning: "the image: `.exr`, `.hdr` (Radiance RGBE), `.pfm` or `.png` (8 or 16 bits), relative to the scene file's directory",
+    },
+    TableField {
+        name: "raw",
+        kind: "boolean",
+        default: "`false`",
+        meaning: "a colour parameter takes a PNG's values as stored instead of decoding the sRGB curve (a number parameter always does)",
+    },
+    TableField {
+        name: "filter",
+        kind: "string",
+        default: "`\"bilinear\"`",
+        meaning: "`bilinear` (the four nearest texels) or `nearest` (the texel that holds the point)",
+    },
+    TableField {
+        name: "wrap",
+        kind: "string",
+        default: "`\"repeat\"`",
+        meaning: "texel indices outside the image: `repeat`, `mirror` or `clamp`",
+    },
+    TableField {
+        name: "to_uv",
+        kind: "table",
+        default: "identity",
+        meaning: "a 2-D map of the surface's (u, v) before the lookup: `{ scale = s or [su, sv], translate = [tu, tv] }` (scale first) or `{ matrix = [[a, b, c], [d, e, f]] }`",
+    },
+];
+
 /// The identity `to_uv`.
 pub const IDENTITY_UV: [[f32; 3]; 2] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
 

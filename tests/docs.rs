@@ -489,6 +489,13 @@ fn model_parameter_tables_are_generated_from_the_declarations() {
             ));
         }
     }
+    // The table of a texture's fields, generated from their declaration.
+    let table = docs::texture_fields_table();
+    if !read("scenes/README.md").contains(&table) {
+        failures.push(format!(
+            "scenes/README.md: the texture fields' table should be\n{table}"
+        ));
+    }
     assert!(unwritable.is_empty(), "{}", unwritable.join("\n"));
     assert!(
         failures.is_empty() || write,

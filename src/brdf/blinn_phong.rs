@@ -1,12 +1,12 @@
 //! Blinn–Phong (1977): Phong's lobe with the halfway vector. Survey §2.1.4, eq. 5:
 //! H = (L + V)/|L + V|; the lobe is (N·H)ⁿ in place of Phong's (R·V)ⁿ (eq. 4).
 //!
-//! | parameter | unit | default | range | meaning |
-//! |---|---|---|---|---|
-//! | `kd` | RGB, unitless | `[0.5, 0.5, 0.5]` | [0, 1] | diffuse coefficient k_d (f_d = k_d/π, eq. 3) |
-//! | `ks` | RGB, unitless | `[0.3, 0.3, 0.3]` | [0, 1] | specular coefficient k_s |
-//! | `exponent` | unitless | `80` | [0, 1e6] | shininess n (≈ 4× the Phong exponent for a similar highlight) |
-//! | `form` | — | `"classic"` | `classic`, `normalized` | the survey's form (eq. 5) or the energy-normalised reciprocal lobe |
+//! | parameter | unit | default | range | meaning | texture: GPU record |
+//! |---|---|---|---|---|---|
+//! | `kd` | RGB, unitless | `[0.5, 0.5, 0.5]` | [0, 1] | diffuse coefficient k_d (f_d = k_d/π, eq. 3) | `p[0].xyz` |
+//! | `ks` | RGB, unitless | `[0.3, 0.3, 0.3]` | [0, 1] | specular coefficient k_s | `p[1].xyz` |
+//! | `exponent` | unitless | `80` | [0, 1e6] | shininess n (≈ 4× the Phong exponent for a similar highlight) | `p[0].w` |
+//! | `form` | — | `"classic"` | `classic`, `normalized` | the survey's form (eq. 5) or the energy-normalised reciprocal lobe | — |
 //!
 //! * `classic` (default): f = k_d/π + k_s·max(0, N·H)ⁿ / cosθi. The survey defines Blinn–Phong
 //!   as Phong's model (eq. 4) with R·V replaced by N·H (eq. 5), so it keeps eq. 4's 1/(N·L):

@@ -1,19 +1,19 @@
 //! Cook–Torrance (1982): microfacet specular lobe plus an optional Lambertian diffuse lobe.
 //! Survey eqs. 6 (Beckmann D), 7 (dielectric Fresnel), 8 (V-cavity G) and 9 (the BRDF).
 //!
-//! | parameter | unit | default | range | meaning |
-//! |---|---|---|---|---|
-//! | `kd` | RGB | `[0, 0, 0]` | [0, 1] | Lambertian diffuse albedo (survey: "simply adding" a diffuse part) |
-//! | `ks` | RGB | `[1, 1, 1]` | [0, 1] | scale of the specular lobe |
-//! | `roughness` | rms slope m | `0.3` | [0, 4] | Beckmann m = GGX α; below 1e-3 the lobe is a delta mirror |
-//! | `distribution` | — | `"beckmann"` | `beckmann`, `ggx` | microfacet NDF (`beckmann`: survey eq. 6) |
-//! | `geometry` | — | `"v_cavity"` | `v_cavity`, `smith` | masking-shadowing G (`v_cavity`: survey eq. 8) |
-//! | `fresnel` | — | `"dielectric"` | `dielectric`, `conductor`, `schlick` | Fresnel term at c = wi·h (`dielectric`: survey eq. 7; `conductor`: the exact formula) |
-//! | `ior` | — | `1.5` | [1, 100] | relative index, `fresnel = "dielectric"` (eq. 7) |
-//! | `eta` | RGB | `[0.143036, 0.375307, 1.44205]` | (0, 100] | real part η of the complex index η + iκ, `fresnel = "conductor"` (default gold-like) |
-//! | `k` | RGB | `[3.983, 2.38556, 1.60336]` | [0, 100] | imaginary part κ of the complex index, `fresnel = "conductor"` |
-//! | `f0` | RGB | `[0.04, 0.04, 0.04]` | [0, 1] | normal-incidence reflectance, `fresnel = "schlick"` |
-//! | `normalization` | — | `"survey"` | `survey`, `walter` | the specular denominator: `survey` (eq. 9) or `walter`, see below |
+//! | parameter | unit | default | range | meaning | texture: GPU record |
+//! |---|---|---|---|---|---|
+//! | `kd` | RGB | `[0, 0, 0]` | [0, 1] | Lambertian diffuse albedo (survey: "simply adding" a diffuse part) | `p[0].xyz` |
+//! | `ks` | RGB | `[1, 1, 1]` | [0, 1] | scale of the specular lobe | `p[1].xyz` |
+//! | `roughness` | rms slope m | `0.3` | [0, 4] | Beckmann m = GGX α; below 1e-3 the lobe is a delta mirror | `p[0].w` |
+//! | `distribution` | — | `"beckmann"` | `beckmann`, `ggx` | microfacet NDF (`beckmann`: survey eq. 6) | — |
+//! | `geometry` | — | `"v_cavity"` | `v_cavity`, `smith` | masking-shadowing G (`v_cavity`: survey eq. 8) | — |
+//! | `fresnel` | — | `"dielectric"` | `dielectric`, `conductor`, `schlick` | Fresnel term at c = wi·h (`dielectric`: survey eq. 7; `conductor`: the exact formula) | — |
+//! | `ior` | — | `1.5` | [1, 100] | relative index, `fresnel = "dielectric"` (eq. 7) | `p[2].x` |
+//! | `eta` | RGB | `[0.143036, 0.375307, 1.44205]` | (0, 100] | real part η of the complex index η + iκ, `fresnel = "conductor"` (default gold-like) | `p[2].xyz` |
+//! | `k` | RGB | `[3.983, 2.38556, 1.60336]` | [0, 100] | imaginary part κ of the complex index, `fresnel = "conductor"` | `p[3].xyz` |
+//! | `f0` | RGB | `[0.04, 0.04, 0.04]` | [0, 1] | normal-incidence reflectance, `fresnel = "schlick"` | `p[2].xyz` |
+//! | `normalization` | — | `"survey"` | `survey`, `walter` | the specular denominator: `survey` (eq. 9) or `walter`, see below | — |
 //!
 //! f_r = kd/π + ks · F(wi·h) · D(h) · G · N / (4 cosθi cosθo), with D normalised
 //! (∫ D cosθh dω = 1) and N = 4 for `survey`, N = 1 for `walter`.

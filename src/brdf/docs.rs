@@ -78,16 +78,57 @@ fn range_text(p: &Param) -> String {
 /// The parameter table of the model's Rust file, as `//! ` doc lines.
 pub fn model_file_table(m: &ModelInfo) -> String {
     let mut s = String::from(
-        "//! | parameter | unit | default | range | meaning |\n//! |---|---|---|---|---|\n",
+        "//! | parameter | unit | default | range | meaning | texture: GPU record |\n//! |---|---|---|---|---|---|\n",
     );
     for p in m.params {
         s += &format!(
-            "//! | `{}` | {} | {} | {} | {} |\n",
+            "//! | `{}` | {} | {} | {} | {} | {} |\n",
             p.name,
             cell(p.unit),
             cell(&default_text(p)),
             cell(&range_text(p)),
-            cell(p.meaning)
+            cell(p.meaning),
+            slot_text(p)
+        );
+    }
+    s
+}
+
+/// Where a textured parameter's value goes in the GPU record (`brdf::textured`), as the
+/// model-file table writes it: `p[1].xyz`, `p[0].w`, `p[2].zw` (cos, sin); `—` for a parameter
+/// that cannot be a texture.
+fn slot_text(p: &Param) -> String {
+    use super::textured::SlotMode;
+    let Some(slot) = p.slot else {
+        return "—".to_string();
+    };
+    let n = match slot.mode {
+        SlotMode::Rgb | SlotMode::Splat => 3,
+        SlotMode::Scalar => 1,
+        SlotMode::Angle => 2,
+    };
+    let (v, c) = (slot.word / 4, slot.word % 4);
+    let comps: String = (c..c + n)
+        .map(|k| ["x", "y", "z", "w"][k as usize])
+        .collect();
+    let mut t = format!("`p[{v}].{comps}`");
+    if slot.mode == SlotMode::Angle {
+        t += " (cos, sin)";
+    }
+    t
+}
+
+/// The table of a texture's fields (`kd = { texture = "…", … }`) in scenes/README.md, from
+/// their declaration ([`crate::texture::TABLE_FIELDS`]).
+pub fn texture_fields_table() -> String {
+    let mut s = String::from("| field | type | default | meaning |\n|---|---|---|---|\n");
+    for f in crate::texture::TABLE_FIELDS {
+        s += &format!(
+            "| `{}` | {} | {} | {} |\n",
+            f.name,
+            cell(f.kind),
+            cell(f.default),
+            cell(f.meaning)
         );
     }
     s
@@ -199,6 +240,13 @@ mod tests {
         for m in MODELS.iter() {
             let t = model_file_table(m);
             assert_eq!(t.lines().count(), 2 + m.params.len(), "{}", m.name);
+            // A colour or number parameter has its texture's place in the record.
+            for p in m.params {
+                let has = t
+                    .lines()
+                    .any(|l| l.contains(&format!("`{}`", p.name)) && l.contains("`p["));
+                assert_eq!(has, p.slot.is_some(), "{}.{}", m.name, p.name);
+            }
             for p in m.params {
                 assert!(
                     readme_row(m).contains(&format!("`{}`", p.name)),

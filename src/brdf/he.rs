@@ -6,14 +6,14 @@
 //! Torrance–Sparrow rough limit (tests/brdf_he.rs); they correct the survey's transcription in
 //! three places.
 //!
-//! | parameter | unit | default | range | meaning |
-//! |---|---|---|---|---|
-//! | `sigma0` | µm | `0.18` | [0, 50] | rms surface height σ₀ (survey fig. 9: 0.18–0.38 µm) |
-//! | `tau` | µm | `3` | (0, 1000] | autocorrelation length τ (survey fig. 9: 3.0 µm) |
-//! | `ior` | RGB | `[1.37, 0.96, 0.62]` | (0, 100] | real part n(λ) of the complex index |
-//! | `k` | RGB | `[7.62, 6.69, 5.47]` | [0, 100] | imaginary part κ(λ) (defaults: approximate aluminium, the survey's fig. 9 material) |
-//! | `wavelengths` | µm per channel | `[0.65, 0.55, 0.45]` | [0.2, 5] | λ at which each channel is evaluated |
-//! | `diffuse` | RGB albedo | `[0, 0, 0]` | [0, 1] | uniform-diffuse a(λ) as an albedo: f_ud = `diffuse`/π (survey eq. 15) |
+//! | parameter | unit | default | range | meaning | texture: GPU record |
+//! |---|---|---|---|---|---|
+//! | `sigma0` | µm | `0.18` | [0, 50] | rms surface height σ₀ (survey fig. 9: 0.18–0.38 µm) | `p[0].x` |
+//! | `tau` | µm | `3` | (0, 1000] | autocorrelation length τ (survey fig. 9: 3.0 µm) | `p[0].y` |
+//! | `ior` | RGB | `[1.37, 0.96, 0.62]` | (0, 100] | real part n(λ) of the complex index | `p[1].xyz` |
+//! | `k` | RGB | `[7.62, 6.69, 5.47]` | [0, 100] | imaginary part κ(λ) (defaults: approximate aluminium, the survey's fig. 9 material) | `p[2].xyz` |
+//! | `wavelengths` | µm per channel | `[0.65, 0.55, 0.45]` | [0.2, 5] | λ at which each channel is evaluated | `p[3].xyz` |
+//! | `diffuse` | RGB albedo | `[0, 0, 0]` | [0, 1] | uniform-diffuse a(λ) as an albedo: f_ud = `diffuse`/π (survey eq. 15) | `p[4].xyz` |
 //!
 //! **Terms** (v = wi + wo, v_z = cosθi + cosθo, v_xy² = v_x² + v_y², k = 2π/λ):
 //! * f_dd = F(wi·h)·G·S·D / (π cosθi cosθo) (eq. 15), G = (v·v/v_z)² (unpolarised form of He's

@@ -1,8 +1,8 @@
 //! Lambert: the ideal diffuse reflector. Survey eq. 3, f_r = ρ/π.
 //!
-//! | parameter | unit | default | range | meaning |
-//! |---|---|---|---|---|
-//! | `albedo` | RGB, unitless | `[0.5, 0.5, 0.5]` | [0, 1] | hemispherical reflectance ρ (f_r = ρ/π, survey eq. 3) |
+//! | parameter | unit | default | range | meaning | texture: GPU record |
+//! |---|---|---|---|---|---|
+//! | `albedo` | RGB, unitless | `[0.5, 0.5, 0.5]` | [0, 1] | hemispherical reflectance ρ (f_r = ρ/π, survey eq. 3) | `p[0].xyz` |
 //!
 //! Reciprocal and energy conserving for ρ ≤ 1; the directional albedo is ρ at every angle
 //! (Lambert 1760; survey eq. 3). Sampling is cosine-weighted, so the sample weight is exactly ρ.

@@ -3,9 +3,9 @@
 //! analytic fit. Not a model of the survey: the survey's models are what `brdf fit` compares
 //! against it.
 //!
-//! | parameter | unit | default | range | meaning |
-//! |---|---|---|---|---|
-//! | `file` | path | required | a MERL `.binary` file | the measured table (relative to the scene file's directory; to the working directory for `--material`) |
+//! | parameter | unit | default | range | meaning | texture: GPU record |
+//! |---|---|---|---|---|---|
+//! | `file` | path | required | a MERL `.binary` file | the measured table (relative to the scene file's directory; to the working directory for `--material`) | — |
 //!
 //! **Evaluation** is [`MerlTable::lookup`] (`src/measured/merl.rs`): Rusinkiewicz's (1998)
 //! half/difference angles, the √θh index, the φd fold by reciprocity, the channel scales, and

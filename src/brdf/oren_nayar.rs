@@ -3,11 +3,11 @@
 //! equation, so the formulas are the paper's: Oren & Nayar 1994, the full model with its
 //! interreflection term, and the paper's qualitative model for `qualitative`).
 //!
-//! | parameter | unit | default | range | meaning |
-//! |---|---|---|---|---|
-//! | `albedo` | RGB, unitless | `[0.5, 0.5, 0.5]` | [0, 1] | facet albedo ρ |
-//! | `sigma` | radians | `0.3` | [0, π/2] | std-dev σ of the facet slope angle (σ = 0 is Lambert) |
-//! | `variant` | — | `"full"` | `full`, `qualitative` | the paper's full model or its qualitative simplification |
+//! | parameter | unit | default | range | meaning | texture: GPU record |
+//! |---|---|---|---|---|---|
+//! | `albedo` | RGB, unitless | `[0.5, 0.5, 0.5]` | [0, 1] | facet albedo ρ | `p[0].xyz` |
+//! | `sigma` | radians | `0.3` | [0, π/2] | std-dev σ of the facet slope angle (σ = 0 is Lambert) | `p[0].w` |
+//! | `variant` | — | `"full"` | `full`, `qualitative` | the paper's full model or its qualitative simplification | — |
 //!
 //! **Default `full`.** The survey presents Oren–Nayar only as "a generalization of the Lambert
 //! model" by reference to the 1994 paper; the model of that paper is the full one (C1, C2, C3

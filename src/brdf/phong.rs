@@ -2,12 +2,12 @@
 //! §2.1.3, eq. 4: f_r(L, V) = k_s (R·V)^{n_s} / (N·L), R = L mirrored about N; the diffuse base
 //! is eq. 3 with k_d.
 //!
-//! | parameter | unit | default | range | meaning |
-//! |---|---|---|---|---|
-//! | `kd` | RGB, unitless | `[0.5, 0.5, 0.5]` | [0, 1] | diffuse coefficient k_d (f_d = k_d/π) |
-//! | `ks` | RGB, unitless | `[0.3, 0.3, 0.3]` | [0, 1] | specular coefficient k_s |
-//! | `exponent` | unitless | `20` | [0, 1e6] | shininess n_s (0: dull, ∞: mirror) |
-//! | `form` | — | `"survey"` | `survey`, `normalized` | eq. 4 as written, or the energy-normalised reciprocal lobe |
+//! | parameter | unit | default | range | meaning | texture: GPU record |
+//! |---|---|---|---|---|---|
+//! | `kd` | RGB, unitless | `[0.5, 0.5, 0.5]` | [0, 1] | diffuse coefficient k_d (f_d = k_d/π) | `p[0].xyz` |
+//! | `ks` | RGB, unitless | `[0.3, 0.3, 0.3]` | [0, 1] | specular coefficient k_s | `p[1].xyz` |
+//! | `exponent` | unitless | `20` | [0, 1e6] | shininess n_s (0: dull, ∞: mirror) | `p[0].w` |
+//! | `form` | — | `"survey"` | `survey`, `normalized` | eq. 4 as written, or the energy-normalised reciprocal lobe | — |
 //!
 //! * `survey` (default, eq. 4 exactly): f = k_d/π + k_s·max(0, R·V)ⁿ / cosθi.
 //! * `normalized` (Lafortune & Willems 1994, Lewis 1994): f = k_d/π + k_s (n+2)/(2π)·max(0, R·V)ⁿ.

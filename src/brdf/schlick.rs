@@ -1,16 +1,16 @@
 //! Schlick 1994, "An Inexpensive BRDF Model for Physically-based Rendering": single
 //! (homogeneous) and double (heterogeneous, two-layer) materials. Survey eqs. 18–26.
 //!
-//! | parameter | unit | default | range | meaning |
-//! |---|---|---|---|---|
-//! | `c` | RGB | `[0.8, 0.8, 0.8]` | [0, 1] | C_λ, reflectance at normal incidence (eq. 18's f_λ) |
-//! | `r` | — | `0.2` | [0, 1] | roughness: 0 mirror, 0.5 purely glossy, 1 Lambertian (continuum form) |
-//! | `p` | — | `1` | [0, 1] | isotropy: 1 isotropic, → 0 fully anisotropic (clamped to ≥ 1e-3 inside A) |
-//! | `c2` | RGB | `[0.5, 0.5, 0.5]` | [0, 1] | C_λ of the second (lower) layer of eq. 22; giving `c2` makes the material heterogeneous |
-//! | `r2` | — | `1` | [0, 1] | roughness of the second layer (needs `c2`) |
-//! | `p2` | — | `1` | [0, 1] | isotropy of the second layer (needs `c2`) |
-//! | `form` | — | `"continuum"` | `basic`, `attenuated`, `continuum` | the directional factor D (eqs. 24, 25, 26) |
-//! | `rotation` | degrees | `0` | [-360, 360] | rotation of the anisotropy axis (tangent x) about the normal |
+//! | parameter | unit | default | range | meaning | texture: GPU record |
+//! |---|---|---|---|---|---|
+//! | `c` | RGB | `[0.8, 0.8, 0.8]` | [0, 1] | C_λ, reflectance at normal incidence (eq. 18's f_λ) | `p[0].xyz` |
+//! | `r` | — | `0.2` | [0, 1] | roughness: 0 mirror, 0.5 purely glossy, 1 Lambertian (continuum form) | `p[0].w` |
+//! | `p` | — | `1` | [0, 1] | isotropy: 1 isotropic, → 0 fully anisotropic (clamped to ≥ 1e-3 inside A) | `p[2].x` |
+//! | `c2` | RGB | `[0.5, 0.5, 0.5]` | [0, 1] | C_λ of the second (lower) layer of eq. 22; giving `c2` makes the material heterogeneous | `p[1].xyz` |
+//! | `r2` | — | `1` | [0, 1] | roughness of the second layer (needs `c2`) | `p[1].w` |
+//! | `p2` | — | `1` | [0, 1] | isotropy of the second layer (needs `c2`) | `p[2].y` |
+//! | `form` | — | `"continuum"` | `basic`, `attenuated`, `continuum` | the directional factor D (eqs. 24, 25, 26) | — |
+//! | `rotation` | degrees | `0` | [-360, 360] | rotation of the anisotropy axis (tangent x) about the normal | `p[3].xy` (cos, sin) |
 //!
 //! The survey gives no numerical defaults; the defaults are a light-grey, fairly glossy
 //! isotropic single material in Schlick's final (eq. 26) form.

@@ -20,6 +20,9 @@
 //! Missing directories are not created here: writing into one is an error naming the path (the
 //! command line creates them up front, see [`crate::outfile::prepare`]).
 //!
+//! Scene inputs (environment maps, textures) are read by `stored.rs` ([`read_stored`]): EXR,
+//! Radiance HDR, PFM and PNG, their values as stored, with whether they are sRGB codes.
+//!
 //! Renderers that estimate per-pixel variance produce two plain [`Image`]s (mean and sample
 //! variance), from the sums of their film (`crate::film::mean_and_variance`); in an EXR file
 //! both go together with what produced them ([`write_layered`], [`read_layered`],

@@ -10,7 +10,9 @@
 //! flattening); `assemble` uses `obj` (OBJ meshes) and `ply_shape`
 //! (PLY meshes, read by `ply`); both use `geometry` (the shape transform and
 //! the triangle checks); every step reports an `error::SceneError`. A file that is not TOML is
-//! named by `sniff` ("this looks like a pbrt scene").
+//! named by `sniff` ("this looks like a pbrt scene"). `environment` checks `[environment]` (a
+//! constant or an environment map), `textures` a material's texture tables, both reading their
+//! images through `images`.
 
 mod assemble;
 mod delta_lights;

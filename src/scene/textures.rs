@@ -15,9 +15,6 @@ use std::collections::{BTreeMap, HashMap};
 use std::sync::Arc;
 use toml::Value;
 
-/// The keys of a texture table.
-const KEYS: &str = "texture, raw, filter, wrap, to_uv";
-
 /// Images already read, by path (a file named by several parameters is read once), and the
 /// textures made, by everything that makes them differ.
 #[derive(Default)]
@@ -110,10 +107,15 @@ fn texture(
     cache: &mut TextureCache,
 ) -> Result<Arc<Texture>, SceneError> {
     let err = |cx: &Cx, msg: String| cx.err(span.clone(), field, msg);
-    if let Some(k) = spec.keys().find(|k| !KEYS.split(", ").any(|x| x == *k)) {
+    let known = crate::texture::TABLE_FIELDS;
+    if let Some(k) = spec.keys().find(|k| !known.iter().any(|f| f.name == *k)) {
+        let names: Vec<&str> = known.iter().map(|f| f.name).collect();
         return Err(err(
             cx,
-            format!("unknown field '{k}' in a texture (it takes: {KEYS})"),
+            format!(
+                "unknown field '{k}' in a texture (it takes: {})",
+                names.join(", ")
+            ),
         ));
     }
     let file = match spec.get("texture") {
