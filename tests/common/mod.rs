@@ -34,21 +34,25 @@ pub fn run_ok(cmd: &mut Command) -> Output {
 }
 
 /// Writes the measured table of `scenes/material-preview.toml` (35 MB, not committed) when it
-/// is missing, as `scripts/material-preview.sh` does: `brdf merl` of the material in
-/// `scenes/material-preview/measured.material`. Tests that load every shipped scene call it
-/// first. The file is written atomically, so tests running at once may both write it.
+/// is missing, by running `scripts/material-preview.sh` with this build's program (`brdf merl`
+/// of the material in `scenes/material-preview/measured.material`). Tests that load every
+/// shipped scene call it first. The file is written atomically, so tests running at once may
+/// both write it.
 pub fn material_preview_table() {
-    let dir = repo().join("scenes/material-preview");
-    let table = dir.join("measured.binary");
-    if table.is_file() {
+    if repo()
+        .join("scenes/material-preview/measured.binary")
+        .is_file()
+    {
         return;
     }
-    let material = std::fs::read_to_string(dir.join("measured.material")).unwrap();
     run_ok(
-        Command::new(env!("CARGO_BIN_EXE_brdfwave"))
-            .args(["brdf", "merl", "--material", material.trim(), "--out"])
-            .arg(&table),
+        Command::new("bash")
+            .arg(repo().join("scripts/material-preview.sh"))
+            .env("BRDFWAVE", env!("CARGO_BIN_EXE_brdfwave")),
     );
+    assert!(repo()
+        .join("scenes/material-preview/measured.binary")
+        .is_file());
 }
 
 /// The `render` options of a quick check of the command line: CPU, 8×8, one sample per pixel.
