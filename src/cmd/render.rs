@@ -183,6 +183,8 @@ struct RenderSummary {
     rays_per_second: f64,
     extension_rays: u64,
     shadow_rays: u64,
+    /// Shadow rays that found an occluder.
+    shadow_rays_occluded: u64,
     rays_by_segment: Vec<SegmentRays>,
     nonfinite_samples: u64,
     nonfinite_by_stage: Vec<StageCount>,
@@ -726,6 +728,7 @@ fn summary(
         rays_per_second: rays / times.render.max(1e-9),
         extension_rays: output.extension_rays,
         shadow_rays: output.shadow_rays,
+        shadow_rays_occluded: output.shadow_rays_occluded,
         rays_by_segment: output
             .rays_by_segment
             .iter()

@@ -428,6 +428,7 @@ impl<'a> GpuRenderer<'a> {
             // counts its rays itself).
             extension_rays: c.total(&counters, Counter::ExtensionRaysLo),
             shadow_rays: c.total(&counters, Counter::ShadowRaysLo),
+            shadow_rays_occluded: c.total(&counters, Counter::OccludedLo),
             rays_by_segment: (1..=scene
                 .integrator
                 .max_depth
