@@ -590,6 +590,7 @@ pub(super) fn raw_shape(el: &El, material: Sp<String>) -> RawShape {
         face_normals: None,
         transform: None,
         as_written: false,
+        smooth_if_no_normals: false,
     }
 }
 
