@@ -470,8 +470,10 @@ fn write_scene(c: &Case, dir: &Path, max_depth: u32) -> Result<std::path::PathBu
                     let ext = if c.seed % 2 == 0 { "obj" } else { "ply" };
                     let file = mesh_file(ext)?;
                     let tw = if c.by_transform { to_world.as_str() } else { "" };
+                    // Flat shading, which the analytic answers assume (Mitsuba would give a
+                    // mesh without normals smooth ones).
                     format!(
-                        "<shape type=\"{ext}\"><string name=\"filename\" value=\"{file}\"/>{tw}{bsdf}</shape>"
+                        "<shape type=\"{ext}\"><string name=\"filename\" value=\"{file}\"/><boolean name=\"face_normals\" value=\"true\"/>{tw}{bsdf}</shape>"
                     )
                 }
             };
