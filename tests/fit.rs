@@ -202,12 +202,15 @@ fn a_table_with_every_value_missing_is_refused() {
     assert!(e.to_string().contains("too few to fit"), "{e}");
 }
 
+/// Fields of a material: (name, value; equal channels for a scalar).
+type Fields = &'static [(&'static str, [f32; 3])];
+
 /// A model with variants: the fields of its data away from the defaults, and the fields that
 /// only some options take (`(option, fields)`: Cook–Torrance's Fresnel parameters).
 struct VariantCase {
     model: &'static str,
-    fields: &'static [(&'static str, [f32; 3])],
-    per_option: &'static [(&'static str, &'static [(&'static str, [f32; 3])])],
+    fields: Fields,
+    per_option: &'static [(&'static str, Fields)],
 }
 
 const VARIANT_CASES: &[VariantCase] = &[

@@ -56,14 +56,14 @@ pub struct Bound {
 
 impl Bound {
     /// The coordinate of a value (the scale's transform).
-    fn to_coord(&self, v: f32) -> f32 {
+    fn coord_of(&self, v: f32) -> f32 {
         match self.scale {
             Scale::Linear => v,
             Scale::Log => v.ln(),
             Scale::Log1p => v.ln_1p(),
         }
     }
-    fn from_coord(&self, t: f32) -> f32 {
+    fn value_at_coord(&self, t: f32) -> f32 {
         match self.scale {
             Scale::Linear => t,
             Scale::Log => t.exp(),
@@ -77,14 +77,14 @@ impl Bound {
         if u == 0.0 || u == 1.0 {
             return if u == 0.0 { self.lo } else { self.hi };
         }
-        let (a, b) = (self.to_coord(self.lo), self.to_coord(self.hi));
-        self.from_coord(a + u * (b - a)).clamp(self.lo, self.hi)
+        let (a, b) = (self.coord_of(self.lo), self.coord_of(self.hi));
+        self.value_at_coord(a + u * (b - a)).clamp(self.lo, self.hi)
     }
     /// The unit coordinate of `v` (clamped into the interval).
     pub fn unit(&self, v: f32) -> f64 {
         let v = v.clamp(self.lo, self.hi);
-        let (a, b) = (self.to_coord(self.lo), self.to_coord(self.hi));
-        ((self.to_coord(v) - a) / (b - a)) as f64
+        let (a, b) = (self.coord_of(self.lo), self.coord_of(self.hi));
+        ((self.coord_of(v) - a) / (b - a)) as f64
     }
     /// How `fit.md` names the scale (empty for linear).
     pub fn scale_text(&self) -> &'static str {
@@ -602,7 +602,7 @@ mod tests {
         assert!(ior.iter().all(|l| l.contains(":dielectric (ior = 1.8)")));
         // The label is the entry of that variant alone.
         for l in ct {
-            assert_eq!(labels(&l), [l.clone()]);
+            assert_eq!(labels(&l), std::slice::from_ref(&l));
         }
         let e = ModelSpec::expand("ward:foo").unwrap_err().to_string();
         assert!(
