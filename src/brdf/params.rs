@@ -237,6 +237,13 @@ pub struct Param {
     pub range_text: Option<&'static str>,
     /// One line: what it means, with the equation it enters.
     pub meaning: &'static str,
+    /// For a choice whose other options give no function that its default does not (they
+    /// rescale a fitted coefficient: Cook–Torrance's `walter` with ks is `survey` with ks/4),
+    /// why: `brdf fit` then fits the default option only, where it fits every option of the
+    /// other choices ([`ModelSpec::expand`]).
+    ///
+    /// [`ModelSpec::expand`]: crate::fit::space::ModelSpec::expand
+    pub same_family: Option<&'static str>,
 }
 
 impl Param {
@@ -255,6 +262,7 @@ impl Param {
             default_text: None,
             range_text: None,
             meaning,
+            same_family: None,
         }
     }
     /// An RGB parameter with every channel in [`min`, `max`].
@@ -308,6 +316,14 @@ impl Param {
     pub const fn range_text(self, text: &'static str) -> Param {
         Param {
             range_text: Some(text),
+            ..self
+        }
+    }
+    /// A choice whose other options give no function its default does not (the field
+    /// `same_family`), with the reason.
+    pub const fn same_family(self, why: &'static str) -> Param {
+        Param {
+            same_family: Some(why),
             ..self
         }
     }
