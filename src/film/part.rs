@@ -264,7 +264,7 @@ fn parse_header(bytes: &[u8], file_len: u64) -> Result<(PartHeader, usize)> {
             bail!("header field '{field}': {text:?} holds control characters");
         }
     }
-    let max = crate::scene::load::MAX_FILM_SIZE;
+    let max = crate::conventions::MAX_FILM_SIZE;
     if h.width == 0 || h.height == 0 || h.width > max || h.height > max {
         bail!(
             "header fields 'width' and 'height': {}x{} is not an image size (1 to {max} per side)",

@@ -493,10 +493,10 @@ pub(crate) fn open(path: &Path) -> Result<File, ImageError> {
 }
 
 /// Refuses an image of `width` × `height` read from `path` when either side is over the film
-/// limit ([`crate::scene::load::MAX_FILM_SIZE`]), before anything of that size is allocated: a
+/// limit ([`crate::conventions::MAX_FILM_SIZE`]), before anything of that size is allocated: a
 /// file of a few bytes can declare 10^10 pixels.
 pub(crate) fn check_size(path: &Path, width: u64, height: u64) -> Result<(), ImageError> {
-    let max = crate::scene::load::MAX_FILM_SIZE as u64;
+    let max = crate::conventions::MAX_FILM_SIZE as u64;
     if width > max || height > max {
         return Err(ImageError::InvalidImage {
             path: path.to_path_buf(),

@@ -15,7 +15,7 @@ pub struct Overrides {
     pub spp: Option<u32>,
     /// Image size (width, height), checked by the parser of `--res`.
     pub res: Option<(u32, u32)>,
-    /// Maximum path segments, 1 ..= [`crate::gpu::MAX_DEPTH`].
+    /// Maximum path segments, 1 ..= [`crate::conventions::MAX_DEPTH`].
     pub max_depth: Option<u32>,
     pub seed: Option<u32>,
     pub sampler: Option<Sampler>,
@@ -51,10 +51,10 @@ impl Overrides {
             if d == 0 {
                 bail!("--max-depth must be at least 1 (the camera segment)");
             }
-            if d > crate::gpu::MAX_DEPTH {
+            if d > crate::conventions::MAX_DEPTH {
                 bail!(
                     "--max-depth {d} is over the largest supported depth, {} segments",
-                    crate::gpu::MAX_DEPTH
+                    crate::conventions::MAX_DEPTH
                 );
             }
             scene.integrator.max_depth = d;
@@ -150,7 +150,7 @@ mod tests {
         })
         .starts_with("--max-depth"));
         assert!(refused(Overrides {
-            max_depth: Some(crate::gpu::MAX_DEPTH + 1),
+            max_depth: Some(crate::conventions::MAX_DEPTH + 1),
             ..Overrides::default()
         })
         .starts_with("--max-depth"));

@@ -17,8 +17,7 @@ use std::collections::{BTreeMap, HashMap};
 use std::ops::Range;
 use std::path::Path;
 
-/// Largest accepted film width or height in pixels.
-pub const MAX_FILM_SIZE: u32 = 16384;
+use crate::conventions::{MAX_DEPTH, MAX_FILM_SIZE};
 
 /// A vector for a message, `[x, y, z]`, each number as [`fmt_num`] writes it.
 pub(super) fn fmt_vec(v: Vec3) -> String {
@@ -116,12 +115,8 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
     // The depth limit of the renderers (`--max-depth` is held to the same): the random-number
     // key of a deeper segment would reuse another depth's numbers.
     if let Some(d) = raw.integrator.as_ref().and_then(|i| i.max_depth.as_ref()) {
-        if d.value > crate::gpu::MAX_DEPTH {
-            let msg = format!(
-                "{} is out of range: must be in [1, {}]",
-                d.value,
-                crate::gpu::MAX_DEPTH
-            );
+        if d.value > MAX_DEPTH {
+            let msg = format!("{} is out of range: must be in [1, {MAX_DEPTH}]", d.value);
             return Err(cx.err(d.span(), "integrator.max_depth", msg));
         }
     }

@@ -18,7 +18,8 @@ use super::spanned::Cx;
 use super::Scene;
 use std::path::Path;
 
-pub use super::assemble::MAX_FILM_SIZE;
+/// Largest film width or height: [`crate::conventions::MAX_FILM_SIZE`].
+pub use crate::conventions::MAX_FILM_SIZE;
 
 /// Read and load a scene file: a Mitsuba 3 XML scene when its name ends in `.xml`
 /// ([`super::mitsuba`]), else TOML. Relative OBJ paths are resolved against the file's

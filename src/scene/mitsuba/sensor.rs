@@ -16,6 +16,7 @@
 use super::doc::El;
 use super::plugins::{sp, Props};
 use super::values::to_world;
+use crate::conventions::MAX_DEPTH;
 use crate::scene::error::SceneError;
 use crate::scene::schema::{Arr, RawCamera, RawFilm, RawIntegrator};
 use crate::scene::spanned::{Cx, Sp};
@@ -290,7 +291,7 @@ pub(super) fn integrator(cx: &mut Cx, el: &El, out: &mut RawIntegrator) -> Resul
 pub(super) fn default_depth(cx: &mut Cx, out: &mut RawIntegrator) {
     out.max_depth = Some(Sp {
         span: None,
-        value: crate::gpu::MAX_DEPTH,
+        value: MAX_DEPTH,
     });
     out.russian_roulette = Some(true);
     out.rr_start_depth = Some(Sp {
@@ -300,15 +301,15 @@ pub(super) fn default_depth(cx: &mut Cx, out: &mut RawIntegrator) {
     cx.warnings.push(format!(
         "warning: {}: no <integrator>: Mitsuba's default path tracer (max_depth -1, held to brdfwave's limit {}; Russian roulette from depth {MITSUBA_RR_DEPTH})",
         cx.file,
-        crate::gpu::MAX_DEPTH
+        MAX_DEPTH
     ));
 }
 
 fn unlimited(cx: &mut Cx, e: &El, out: &mut RawIntegrator) {
-    out.max_depth = Some(sp(e, crate::gpu::MAX_DEPTH));
+    out.max_depth = Some(sp(e, MAX_DEPTH));
     let msg = format!(
         "max_depth -1 (unlimited) is held to brdfwave's limit {}",
-        crate::gpu::MAX_DEPTH
+        MAX_DEPTH
     );
     cx.warn(Some(e.span.clone()), &e.path, msg);
 }
