@@ -9,7 +9,8 @@
 //! * `api` — the library entry point above, over `scene` and `render`;
 //! * `scene` — scene format and loader (`scenes/README.md` documents the TOML);
 //!   `overrides` — `render --set KEY=VALUE`, edits of the scene document before its checks;
-//! * `brdf` — one file per reflectance model (GLSL twins in `shaders/brdf/`);
+//! * `brdf` — one file per reflectance model, or one directory where the model has parts
+//!   (`he/`), with GLSL twins of the same names in `shaders/brdf/`;
 //! * `bvh` — host binned-SAH BVH, its GPU layout and the CPU traversal (`shaders/bvh.glsl`);
 //! * `robust` — robust f32 geometry: error-bounded hit points, ray-origin offsets
 //!   (`shaders/robust.glsl`);

@@ -471,7 +471,13 @@ fn model_parameter_tables_are_generated_from_the_declarations() {
         }
     }
     for m in MODELS.iter() {
-        let file = format!("src/brdf/{}.rs", m.name);
+        let file = [
+            format!("src/brdf/{}.rs", m.name),
+            format!("src/brdf/{}/mod.rs", m.name),
+        ]
+        .into_iter()
+        .find(|f| common::repo().join(f).is_file())
+        .unwrap_or_else(|| format!("src/brdf/{}.rs", m.name));
         let text = read(&file);
         let Some(want) = docs::update_model_file(&text, m) else {
             failures.push(format!(
