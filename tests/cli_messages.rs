@@ -233,6 +233,10 @@ fn gpu_options_are_refused_or_warned_about_consistently() {
         vec!["--device", "llvmpipe"],
         vec!["--validation"],
         vec!["--wave-paths", "4096"],
+        // Ignored whatever the value: a GPU range is not checked for the CPU.
+        vec!["--wave-paths", "0"],
+        vec!["--wave-paths", "4294967295"],
+        vec!["--integrator", "megakernel"],
     ] {
         let mut args = extra.clone();
         args.extend(["--out", s(&png)]);
