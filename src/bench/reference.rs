@@ -113,6 +113,8 @@ pub(super) fn reference(
         if let Some(dir) = p.parent() {
             let _ = std::fs::create_dir_all(dir);
         }
+        // The program's own cache entry, read above and found stale: it may be replaced.
+        crate::infile::forget(p);
         if let Err(e) = imageio::write(p, &img) {
             eprintln!(
                 "warning: could not cache the reference at {}: {e}",

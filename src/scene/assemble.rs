@@ -31,17 +31,7 @@ impl Cx<'_> {
         field: &str,
         x: f64,
     ) -> Result<f32, SceneError> {
-        if !x.is_finite() {
-            return Err(self.err(span, field, format!("{x} is not a finite number")));
-        }
-        if x.abs() > f32::MAX as f64 {
-            return Err(self.err(
-                span,
-                field,
-                format!("{x:e} is out of the single-precision range"),
-            ));
-        }
-        Ok(x as f32)
+        crate::numbers::f32_of(x).map_err(|msg| self.err(span, field, msg))
     }
 
     pub(super) fn vec3(
@@ -91,8 +81,8 @@ impl Cx<'_> {
 }
 
 pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, SceneError> {
-    let camera = camera(cx, &raw.camera)?;
-
+    // The film first: a Mitsuba camera's field of view is computed from the film's aspect, so
+    // a film of width 0 must be named as that, not as the field of view it made.
     let size = |v: &Sp<u32>, field: &str| {
         if v.value == 0 || v.value > MAX_FILM_SIZE {
             let msg = format!(
@@ -105,6 +95,7 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
     };
     let width = size(&raw.film.width, "film.width")?;
     let height = size(&raw.film.height, "film.height")?;
+    let camera = camera(cx, &raw.camera)?;
 
     let integrator = integrator(cx, raw.integrator.as_ref())?;
 
