@@ -16,7 +16,7 @@
 use super::doc::El;
 use super::plugins::{sp, Props};
 use super::values::to_world;
-use crate::conventions::MAX_DEPTH;
+use crate::conventions::{MAX_DEPTH, MAX_FILM_SIZE};
 use crate::scene::error::SceneError;
 use crate::scene::schema::{Arr, RawCamera, RawFilm, RawIntegrator};
 use crate::scene::spanned::{Cx, Sp};
@@ -40,7 +40,15 @@ pub(super) fn sensor(
     let mut p = Props::new(cx, el)?;
     let fov_el = p.take("fov");
     let fov = match fov_el {
-        Some(f) => cx.float(f)?,
+        Some(f) => {
+            let fov = cx.float(f)?;
+            // Checked as written, before it becomes the vertical field of view.
+            if !(fov > 0.0 && fov < 180.0) {
+                let msg = format!("fov {fov} is out of range: must be in (0, 180) degrees");
+                return Err(cx.el_err(f, msg));
+            }
+            fov
+        }
         None => {
             return Err(cx.el_err(
                 el,
@@ -162,7 +170,13 @@ fn film(cx: &mut Cx, f: &El) -> Result<RawFilm, SceneError> {
     let mut out = default_film(f);
     for (name, slot) in [("width", &mut out.width), ("height", &mut out.height)] {
         if let Some(e) = p.take(name) {
-            *slot = sp(e, size(cx, e)?);
+            let v = size(cx, e)?;
+            // Checked here, by its own name: the field of view is computed from the aspect.
+            if v == 0 || v > MAX_FILM_SIZE {
+                let msg = format!("{name} {v} is out of range: must be in [1, {MAX_FILM_SIZE}]");
+                return Err(cx.el_err(e, msg));
+            }
+            *slot = sp(e, v);
         }
     }
     for (tag, ok) in [("rfilter", "box")] {
