@@ -70,6 +70,16 @@ pub const FILM: Kind = Kind {
     what: "partial film",
     limit: 64 * GIB,
 };
+/// A Vulkan driver manifest (JSON), read to say what is wrong with one.
+pub const MANIFEST: Kind = Kind {
+    what: "driver manifest",
+    limit: MIB,
+};
+/// A list of failed cases to run again (`stress --replay`, JSON lines).
+pub const REPLAY: Kind = Kind {
+    what: "replay file",
+    limit: GIB,
+};
 /// A CSV table of directions (`brdf eval --dirs`).
 pub const CSV: Kind = Kind {
     what: "CSV table",

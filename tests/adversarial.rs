@@ -758,8 +758,8 @@ fn non_utf8_text_inputs_are_located() {
 /// (endless zeros), `/dev/urandom` (endless bytes), a FIFO with no writer (a read that never
 /// returns), a directory. Each reader, reached directly or through another file, refuses it at
 /// once for what it is: the scene file, an XML include, OBJ and PLY meshes, an MTL library, a
-/// measured table, a direction table, the images of `diff`, a part of `merge` and the table of
-/// `brdf fit`.
+/// measured table, a direction table, the images of `diff`, a part of `merge`, the table of
+/// `brdf fit` and the replay list of `stress`.
 #[cfg(unix)]
 #[test]
 fn every_reader_refuses_what_is_not_a_regular_file() {
@@ -834,6 +834,7 @@ fn every_reader_refuses_what_is_not_a_regular_file() {
         let material = format!("model = \"measured\", file = \"{bad}\"");
         let fit_out = d.join(format!("fit{k}"));
         let merged = d.join("merged.exr");
+        let failures = d.join("failures.jsonl");
         let runs: Vec<(Vec<&str>, &str)> = vec![
             (vec!["render", bad], "scene file"),
             (vec!["render", s(&include)], "included scene file"),
@@ -860,6 +861,10 @@ fn every_reader_refuses_what_is_not_a_regular_file() {
             (
                 vec!["brdf", "fit", "--measured", bad, "--out", s(&fit_out)],
                 "measured table",
+            ),
+            (
+                vec!["stress", "--replay", bad, "--failures", s(&failures)],
+                "replay file",
             ),
         ];
         for (args, kind) in runs {

@@ -55,7 +55,9 @@ pub(super) fn reference(
         return Ok((img, None));
     }
     let mut key = crate::hash::Fnv64::new();
-    key.bytes(&std::fs::read(&o.scene).with_context(|| format!("reading {}", o.scene.display()))?);
+    let scene = crate::infile::read(&o.scene, crate::infile::SCENE)
+        .with_context(|| format!("reading {}", crate::errors::shown_path(&o.scene)))?;
+    key.bytes(&scene);
     for v in [
         sc.width,
         sc.height,
