@@ -293,3 +293,87 @@ fn spp_and_samples_together_render_a_part_of_that_render() {
         );
     }
 }
+
+/// No two options of `render` refuse each other (as `--spp` and `--samples` did): every pair of
+/// the options in README.md's synopsis renders. The table below must give every option there a
+/// value (a new option fails this test until it is added, and so is checked too). GPU-only
+/// options are given on the CPU backend, where they are ignored with a warning.
+#[test]
+fn every_pair_of_render_options_is_accepted() {
+    let d = CLI.fresh_dir("pairs");
+    let (exr, var, part) = (d.join("a.exr"), d.join("v.exr"), d.join("p.bwfilm"));
+    let options: Vec<(&str, Vec<&str>)> = vec![
+        ("-D", vec!["-D", "unused=1"]),
+        ("--backend", vec!["--backend", "cpu"]),
+        ("--spp", vec!["--spp", "4"]),
+        ("--res", vec!["--res", "8x6"]),
+        ("--max-depth", vec!["--max-depth", "3"]),
+        ("--seed", vec!["--seed", "2"]),
+        ("--sampler", vec!["--sampler", "sobol"]),
+        ("--out", vec!["--out", s(&exr)]),
+        ("--variance-out", vec!["--variance-out", s(&var)]),
+        ("--device", vec!["--device", "llvmpipe"]),
+        ("--validation", vec!["--validation"]),
+        ("--wave-paths", vec!["--wave-paths", "128"]),
+        ("--integrator", vec!["--integrator", "megakernel"]),
+        ("--json", vec!["--json"]),
+        ("--samples", vec!["--samples", "0..2"]),
+        ("--tile", vec!["--tile", "0,0,4,4"]),
+        ("--set", vec!["--set", "integrator.seed=3"]),
+        ("--threads", vec!["--threads", "1"]),
+        ("--quiet", vec!["--quiet"]),
+        ("--out .bwfilm", vec!["--out", s(&part)]),
+    ];
+    let readme = std::fs::read_to_string(common::repo().join("README.md")).unwrap();
+    let synopsis: String = readme
+        .lines()
+        .skip_while(|l| !l.starts_with("brdfwave render SCENE"))
+        .take_while(|l| l.starts_with("brdfwave render") || l.starts_with("    "))
+        .collect::<Vec<_>>()
+        .join(" ");
+    let named: Vec<&str> = synopsis
+        .split(['[', ']', ' '])
+        .filter(|w| w.starts_with('-'))
+        .collect();
+    assert!(named.len() > 15, "{synopsis}");
+    for o in &named {
+        assert!(
+            options.iter().any(|(name, _)| name == o),
+            "{o} of the README's synopsis has no value in this test"
+        );
+    }
+    // -D applies to XML scenes: pairs with it render the XML twin.
+    for (i, (a, va)) in options.iter().enumerate() {
+        for (b, vb) in &options[i + 1..] {
+            let xml = *a == "-D" || *b == "-D";
+            let scene = match xml {
+                true => "scenes/xml/cornell-box.xml",
+                false => "scenes/cornell-box.toml",
+            };
+            if xml && (*a == "--set" || *b == "--set") {
+                continue; // --set edits TOML scenes and -D sets XML parameters: no scene takes both.
+            }
+            let mut args = vec!["render", scene];
+            args.extend(va);
+            args.extend(vb);
+            for (name, default) in [
+                ("--backend", ["--backend", "cpu"]),
+                ("--res", ["--res", "8x8"]),
+                ("--spp", ["--spp", "2"]),
+            ] {
+                if !args.contains(&name) {
+                    args.extend(default);
+                }
+            }
+            if !args.contains(&"--out") {
+                args.extend(["--out", s(&exr)]);
+            }
+            let o = CLI.run(&args);
+            assert!(
+                o.status.success(),
+                "{a} with {b} is refused: {args:?}\n{}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+        }
+    }
+}
