@@ -61,7 +61,7 @@ pub struct Options {
     pub spp: Option<u32>,
     /// Image size (width, height).
     pub res: Option<(u32, u32)>,
-    /// Maximum path segments (the camera segment is one), 1 ..= [`crate::gpu::MAX_DEPTH`].
+    /// Maximum path segments (the camera segment is one), 1 ..= [`crate::conventions::MAX_DEPTH`].
     pub max_depth: Option<u32>,
     pub seed: Option<u32>,
     pub sampler: Option<Sampler>,

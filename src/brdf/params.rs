@@ -473,19 +473,7 @@ impl<'a> ParamReader<'a> {
                 ))
             }
         };
-        if !x.is_finite() {
-            return Err(self.error(key, format!("{x} is not a finite number")));
-        }
-        if x.abs() > f32::MAX as f64 {
-            return Err(self.error(
-                key,
-                format!(
-                    "{} is out of the single-precision range (|x| <= 3.4e38)",
-                    fmt_num(x)
-                ),
-            ));
-        }
-        Ok(x as f32)
+        crate::numbers::f32_of(x).map_err(|msg| self.error(key, msg))
     }
 
     fn check_range(&self, key: &str, x: f32, min: f32, max: f32) -> Result<(), ParamError> {

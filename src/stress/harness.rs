@@ -257,8 +257,10 @@ pub fn run(opts: &Options) -> Result<Report> {
         .collect();
     let mut failures = Vec::new();
     if let Some(path) = &opts.replay {
-        let text = std::fs::read_to_string(path)
+        let text = crate::infile::read_text(path, crate::infile::REPLAY)
             .with_context(|| format!("cannot read the replay file {}", path.display()))?;
+        // The failures list of an earlier run, which this run rewrites (the default --failures).
+        crate::infile::forget(path);
         for (i, line) in text
             .lines()
             .enumerate()

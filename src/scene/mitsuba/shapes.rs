@@ -160,11 +160,19 @@ fn geometry(
             Ok(GENERATED)
         }
         other => {
-            let msg = format!("<shape type=\"{other}\"> is not supported (supported: obj, rectangle, cube, sphere, disk)");
+            let msg = format!(
+                "<shape type=\"{}\"> is not supported (supported: {})",
+                crate::errors::excerpt(other),
+                SHAPES.join(", ")
+            );
             Err(cx.el_err(el, msg))
         }
     }
 }
+
+/// The shape types [`geometry`] reads, in the order its message lists them (a test checks that
+/// each is read: `tests/mitsuba_xml.rs`).
+pub(super) const SHAPES: [&str; 6] = ["obj", "ply", "rectangle", "cube", "sphere", "disk"];
 
 /// The outward faces of [−1, 1]³: (normal, u, v) with u × v = normal.
 const CUBE_FACES: [([f64; 3], [f64; 3], [f64; 3]); 6] = [
