@@ -55,6 +55,11 @@ struct Hit {
 #define BVH_GAMMA2 uintBitsToFloat(0x34000001u)
 #define BVH_GAMMA3 uintBitsToFloat(0x34400002u)
 #define BVH_GAMMA5 uintBitsToFloat(0x34a00003u)
+// The same for double (Rust: gamma64), for the double-precision test of ambiguous hits; a device
+// without shaderFloat64 compiles with BVH_NO_F64 and misses those hits instead.
+#define BVH_GAMMA64_2 packDouble2x32(uvec2(0x1u, 0x3cb00000u))
+#define BVH_GAMMA64_3 packDouble2x32(uvec2(0x2u, 0x3cb80000u))
+#define BVH_GAMMA64_5 packDouble2x32(uvec2(0x3u, 0x3cc40000u))
 
 // Per-ray constants (Rust: struct Ray).
 struct BvhRay {
@@ -151,7 +156,57 @@ float bvh_triangle_t_error(vec3 ra, vec3 rb, vec3 rc, vec3 x, vec3 y, vec3 z, ve
     precise float bound = 3.0 * (BVH_GAMMA3 * max_e * max_z + delta_e * max_z + delta_z * max_e) * abs(rcp);
     return bound;
 }
-bool bvh_triangle(BvhRay r, vec3 v0, vec3 v1, vec3 v2, float tmax, out float t, out vec2 bary) {
+#ifndef BVH_NO_F64
+// Rust: Ray::triangle_f64. The watertight test in double, for a hit whose float t is within its
+// error bound of 0 (a ray leaving a surface near an edge, or the surface it leaves): the same
+// steps, the same bound for double's rounding; a t still within it is missed.
+bool bvh_triangle_f64(BvhRay r, vec3 d, vec3 v0, vec3 v1, vec3 v2, float tmax, out float t, out vec2 bary) {
+    t = 0.0;
+    bary = vec2(0.0);
+    dvec3 o = dvec3(r.o[r.kx], r.o[r.ky], r.o[r.kz]);
+    dvec3 dp = dvec3(d[r.kx], d[r.ky], d[r.kz]);
+    precise dvec3 a = dvec3(v0[r.kx], v0[r.ky], v0[r.kz]) - o;
+    precise dvec3 b = dvec3(v1[r.kx], v1[r.ky], v1[r.kz]) - o;
+    precise dvec3 c = dvec3(v2[r.kx], v2[r.ky], v2[r.kz]) - o;
+    precise double sx = dp.x / dp.z;
+    precise double sy = dp.y / dp.z;
+    precise double sz = 1.0lf / dp.z;
+    precise double ax = a.x - sx * a.z;
+    precise double ay = a.y - sy * a.z;
+    precise double bx = b.x - sx * b.z;
+    precise double by = b.y - sy * b.z;
+    precise double cx = c.x - sx * c.z;
+    precise double cy = c.y - sy * c.z;
+    precise double u = cx * by - cy * bx;
+    precise double v = ax * cy - ay * cx;
+    precise double w = bx * ay - by * ax;
+    if ((u < 0.0lf || v < 0.0lf || w < 0.0lf) && (u > 0.0lf || v > 0.0lf || w > 0.0lf)) return false;
+    precise double det = u + v + w;
+    if (det == 0.0lf) return false;
+    precise double az = sz * a.z;
+    precise double bz = sz * b.z;
+    precise double cz = sz * c.z;
+    precise double rcp = 1.0lf / det;
+    precise double th = (u * az + v * bz + w * cz) * rcp;
+    if (!(th <= double(tmax))) return false;
+    double max_x = max(max(abs(ax), abs(bx)), abs(cx));
+    double max_y = max(max(abs(ay), abs(by)), abs(cy));
+    double max_z = max(max(abs(az), abs(bz)), abs(cz));
+    double max_e = max(max(abs(u), abs(v)), abs(w));
+    dvec3 rel_max = max(max(abs(a), abs(b)), abs(c));
+    precise double delta_x = BVH_GAMMA64_5 * (rel_max.x + rel_max.z);
+    precise double delta_y = BVH_GAMMA64_5 * (rel_max.y + rel_max.z);
+    precise double delta_z = BVH_GAMMA64_3 * max_z;
+    precise double delta_e = 2.0lf * (BVH_GAMMA64_2 * max_x * max_y + delta_y * max_x + delta_x * max_y);
+    precise double bound = 3.0lf * (BVH_GAMMA64_3 * max_e * max_z + delta_e * max_z + delta_z * max_e) * abs(rcp);
+    if (th <= bound) return false;
+    t = max(float(th), uintBitsToFloat(1u));
+    bary = vec2(float(v * rcp), float(w * rcp));
+    return true;
+}
+#endif
+
+bool bvh_triangle(BvhRay r, vec3 d, vec3 v0, vec3 v1, vec3 v2, float tmax, out float t, out vec2 bary) {
     t = 0.0;
     bary = vec2(0.0);
     precise vec3 a = v0 - r.o;
@@ -173,17 +228,23 @@ bool bvh_triangle(BvhRay r, vec3 v0, vec3 v1, vec3 v2, float tmax, out float t, 
     precise float bz = r.s.z * b[r.kz];
     precise float cz = r.s.z * c[r.kz];
     precise float tt = u * az + v * bz + w * cz;
-    if ((det < 0.0 && tt >= 0.0) || (det > 0.0 && tt <= 0.0)) return false;
     precise float rcp = 1.0 / det;
     precise float th = tt * rcp;
-    if (!(th > 0.0 && th <= tmax)) return false;
-    if (th <= bvh_triangle_t_error(vec3(a[r.kx], a[r.ky], a[r.kz]), vec3(b[r.kx], b[r.ky], b[r.kz]),
-                                   vec3(c[r.kx], c[r.ky], c[r.kz]), vec3(ax, bx, cx), vec3(ay, by, cy),
-                                   vec3(az, bz, cz), vec3(u, v, w), rcp))
-        return false;
-    t = th;
-    bary = vec2(v * rcp, w * rcp);
-    return true;
+    if (!(th <= tmax)) return false;
+    float bound = bvh_triangle_t_error(vec3(a[r.kx], a[r.ky], a[r.kz]), vec3(b[r.kx], b[r.ky], b[r.kz]),
+                                       vec3(c[r.kx], c[r.ky], c[r.kz]), vec3(ax, bx, cx), vec3(ay, by, cy),
+                                       vec3(az, bz, cz), vec3(u, v, w), rcp);
+    if (th > bound) {
+        t = th;
+        bary = vec2(v * rcp, w * rcp);
+        return true;
+    }
+    if (th < -bound) return false;
+#ifndef BVH_NO_F64
+    return bvh_triangle_f64(r, d, v0, v1, v2, tmax, t, bary);
+#else
+    return false;
+#endif
 }
 
 // Rust: sphere_c. c = |o - center|^2 - radius^2 from the ten products o_i^2, -2 o_i center_i,
@@ -285,13 +346,13 @@ bool bvh_primitive(BvhRay r, vec3 o, vec3 d, uint ref, float tmax, out float t, 
         return bvh_sphere(o, d, cr.xyz, cr.w, tmax, t);
     }
     uint k = ref * 3u;
-    return bvh_triangle(r, tri_texel(k).xyz, tri_texel(k + 1u).xyz, tri_texel(k + 2u).xyz, tmax, t, bary);
+    return bvh_triangle(r, d, tri_texel(k).xyz, tri_texel(k + 1u).xyz, tri_texel(k + 2u).xyz, tmax, t, bary);
 #elif defined(BVH_SPHERES)
     vec4 cr = sphere_texel((ref & ~BVH_SPHERE_BIT) * 2u);
     return bvh_sphere(o, d, cr.xyz, cr.w, tmax, t);
 #else
     uint k = ref * 3u;
-    return bvh_triangle(r, tri_texel(k).xyz, tri_texel(k + 1u).xyz, tri_texel(k + 2u).xyz, tmax, t, bary);
+    return bvh_triangle(r, d, tri_texel(k).xyz, tri_texel(k + 1u).xyz, tri_texel(k + 2u).xyz, tmax, t, bary);
 #endif
 }
 

@@ -61,7 +61,7 @@ pub struct Options {
     pub spp: Option<u32>,
     /// Image size (width, height).
     pub res: Option<(u32, u32)>,
-    /// Maximum path segments (the camera segment is one), 1 ..= [`crate::gpu::MAX_DEPTH`].
+    /// Maximum path segments (the camera segment is one), 1 ..= [`crate::conventions::MAX_DEPTH`].
     pub max_depth: Option<u32>,
     pub seed: Option<u32>,
     pub sampler: Option<Sampler>,
@@ -115,6 +115,8 @@ pub struct Render {
     /// Extension (closest-hit) and shadow (any-hit) rays traced.
     pub extension_rays: u64,
     pub shadow_rays: u64,
+    /// Shadow rays that found an occluder.
+    pub shadow_rays_occluded: u64,
     /// `cpu` or `gpu`, and the device in words.
     pub backend: &'static str,
     pub device: String,
@@ -189,6 +191,7 @@ pub fn render(scene: &Scene, options: &Options) -> Result<Render> {
         nonfinite_by_stage: out.nonfinite_by_stage,
         extension_rays: out.extension_rays,
         shadow_rays: out.shadow_rays,
+        shadow_rays_occluded: out.shadow_rays_occluded,
         backend: description.backend,
         device: description.device,
     })

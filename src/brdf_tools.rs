@@ -11,8 +11,8 @@ use std::path::Path;
 
 /// Direction pairs from a CSV with header `wi_x,wi_y,wi_z,wo_x,wo_y,wo_z` (local frame).
 pub fn read_direction_csv(path: &Path) -> Result<Vec<(Vec3, Vec3)>> {
-    let text =
-        crate::errors::read_utf8(path).with_context(|| format!("reading {}", path.display()))?;
+    let text = crate::infile::read_text(path, crate::infile::CSV)
+        .with_context(|| format!("reading {}", crate::errors::shown_path(path)))?;
     let mut lines = text
         .lines()
         .enumerate()

@@ -9,7 +9,8 @@
 //! * `api` — the library entry point above, over `scene` and `render`;
 //! * `scene` — scene format and loader (`scenes/README.md` documents the TOML);
 //!   `overrides` — `render --set KEY=VALUE`, edits of the scene document before its checks;
-//! * `brdf` — one file per reflectance model (GLSL twins in `shaders/brdf/`);
+//! * `brdf` — one file per reflectance model, or one directory where the model has parts
+//!   (`he/`), with GLSL twins of the same names in `shaders/brdf/`;
 //! * `bvh` — host binned-SAH BVH, its GPU layout and the CPU traversal (`shaders/bvh.glsl`);
 //! * `robust` — robust f32 geometry: error-bounded hit points, ray-origin offsets
 //!   (`shaders/robust.glsl`);
@@ -33,8 +34,11 @@
 //!   material parameters (`shaders/texture.glsl`);
 //! * `memory` — the memory left for a large allocation, asked before making it;
 //! * `outfile` — the atomic writer of every file, and the up-front checks of output paths;
+//!   `infile` — the one reader of every file a user names: regular files only, bounded, and
+//!   remembered so that no output replaces an input; `paths` — which file a path names;
 //! * `hash` — the stable hash (FNV-1a) of cache keys and of the scene hash of partial films;
-//! * `errors` — how errors read on the command line;
+//! * `errors` — how errors read on the command line; `numbers` — user numbers to f32, with
+//!   the one check of range every reader shares;
 //! * `plot` — the figures (`plotters`, SVG or PNG with the embedded DejaVu Sans, each with its
 //!   data as CSV): line charts, polar plots, heat maps with colour bars, and `brdf plot`'s;
 //! * `bench` — `brdfwave bench`: run time against error, and its log-log chart
@@ -43,17 +47,24 @@
 
 /// `eprintln!` and `eprint!` that never panic: a message that cannot be written (stderr full or
 /// closed) is dropped and the work goes on. They shadow the std macros in every module below
-/// (std's panic on a failed write, which stopped a render when stderr was `/dev/full`).
+/// (std's panic on a failed write, which stopped a render when stderr was `/dev/full`). Control
+/// characters in what they print are escaped but the layout ([`errors::terminal_safe`]).
 macro_rules! eprintln {
+    () => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr());
+    }};
     ($($arg:tt)*) => {{
         use std::io::Write as _;
-        let _ = writeln!(std::io::stderr(), $($arg)*);
+        let text = format!($($arg)*);
+        let _ = writeln!(std::io::stderr(), "{}", $crate::errors::terminal_safe(&text));
     }};
 }
 macro_rules! eprint {
     ($($arg:tt)*) => {{
         use std::io::Write as _;
-        let _ = write!(std::io::stderr(), $($arg)*);
+        let text = format!($($arg)*);
+        let _ = write!(std::io::stderr(), "{}", $crate::errors::terminal_safe(&text));
     }};
 }
 
@@ -72,13 +83,16 @@ pub mod fit;
 pub mod gpu;
 pub mod hash;
 pub mod imageio;
+pub mod infile;
 pub mod lights;
 pub mod measured;
 pub mod memory;
 pub mod metrics;
+pub mod numbers;
 pub mod outfile;
 pub mod output;
 pub mod overrides;
+pub mod paths;
 pub mod plot;
 pub mod render;
 pub mod rng;

@@ -10,12 +10,19 @@ use clap::{Parser, Subcommand};
 /// `eprintln!` that never panics: a warning that cannot be written (stderr full or closed) is
 /// dropped and the work goes on (std's version panics). `out!` and `outln!` write the
 /// command's data to stdout and return an error naming it when that fails: a full disk is an
-/// error exit, never a panic, and never a silent success. Defined before `mod cmd` so that
-/// every command module has them.
+/// error exit, never a panic, and never a silent success. Both escape the control characters of
+/// what they print but its layout (`brdfwave::errors::terminal_safe`): a file name or a value
+/// with an escape sequence does not reach the terminal as one. Defined before `mod cmd` so
+/// that every command module has them.
 macro_rules! eprintln {
+    () => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr());
+    }};
     ($($arg:tt)*) => {{
         use std::io::Write as _;
-        let _ = writeln!(std::io::stderr(), $($arg)*);
+        let text = format!($($arg)*);
+        let _ = writeln!(std::io::stderr(), "{}", brdfwave::errors::terminal_safe(&text));
     }};
 }
 macro_rules! out {
@@ -33,8 +40,9 @@ mod cmd;
 
 fn write_stdout(args: std::fmt::Arguments<'_>) -> Result<()> {
     use std::io::Write as _;
+    let text = args.to_string();
     let mut o = std::io::stdout().lock();
-    o.write_fmt(args)
+    o.write_all(brdfwave::errors::terminal_safe(&text).as_bytes())
         .and_then(|_| o.flush())
         .context("cannot write to standard output")
 }
@@ -83,6 +91,8 @@ fn main() {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     brdfwave::outfile::remove_temporaries_on_signal();
+    // Every file a command reads is remembered, and no output may replace one.
+    brdfwave::infile::record_inputs();
     // A negative number is a value, never an option: `--spp -1` gave clap's tip to write
     // `-- -1`, which does not work; now it is refused as an invalid value of --spp.
     let cli = {

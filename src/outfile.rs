@@ -7,19 +7,23 @@
 //!   parallel tests) see the old file or the complete new one, never a partial write, and a
 //!   failed write leaves no temporary file behind. A new file gets the mode a plain
 //!   `File::create` gives, `0666 & !umask`; a file that is replaced keeps its mode. A symbolic
-//!   link at the destination is replaced, not followed. The directory must exist.
-//! * [`prepare`]: refuses two outputs that resolve to the same file, creates missing parent
-//!   directories, and proves each directory writable by creating and removing a temporary file.
+//!   link at the destination is followed ([`target`]): the file it points to is replaced, in
+//!   its own directory, and the link stays a link. The directory must exist. A file the
+//!   command has read as an input ([`crate::infile`]) is never replaced.
+//! * [`prepare`]: refuses two outputs that are the same file (through links too), and an
+//!   output that is a file the command has read (the scene, an include, a mesh, an MTL
+//!   library, a measured table, an image, a part), creates missing parent directories, and
+//!   proves each directory writable by creating and removing a temporary file.
 //! * [`write_each`]: writes every output it can and reports all that failed together.
 
 use std::fs::File;
 use std::io::Write as _;
-use std::path::{Component, Path, PathBuf};
+use std::path::{Path, PathBuf};
 
 /// A file-system step of an atomic write or an output check that failed. The message names the
 /// file, the step and the operating system's reason.
 #[derive(Debug, thiserror::Error)]
-#[error("{path}: {what}: {source}")]
+#[error("{}: {what}: {source}", crate::errors::shown_path(.path))]
 pub struct WriteError {
     pub path: PathBuf,
     pub what: &'static str,
@@ -88,10 +92,15 @@ pub fn write_with<E: From<WriteError>>(
             source,
         }
     };
-    let dir = parent_dir(path);
+    if let Some(what) = crate::infile::input_named(path) {
+        return Err(err("is not replaced")(input_error(what)).into());
+    }
+    // Through a link to the file it names, which is replaced in its own directory.
+    let dest = target(path);
+    let dir = parent_dir(&dest);
     let (mut tmp, _live) =
-        temp_file(path, dir).map_err(err("cannot create a temporary file in its directory"))?;
-    if let Ok(meta) = std::fs::metadata(path) {
+        temp_file(&dest, dir).map_err(err("cannot create a temporary file in its directory"))?;
+    if let Ok(meta) = std::fs::metadata(&dest) {
         if meta.is_file() {
             tmp.as_file()
                 .set_permissions(meta.permissions())
@@ -103,7 +112,7 @@ pub fn write_with<E: From<WriteError>>(
     tmp.as_file_mut()
         .sync_all()
         .map_err(err("cannot flush the temporary file"))?;
-    tmp.persist(path)
+    tmp.persist(&dest)
         .map_err(|e| err("cannot rename the temporary file over the destination")(e.error))?;
     Ok(())
 }
@@ -224,66 +233,30 @@ pub struct Output<'a> {
     pub path: &'a Path,
 }
 
-/// Removes `.` and resolves `..` lexically (for the part of a path that does not exist yet).
-fn normalize(p: &Path) -> PathBuf {
-    let mut out = PathBuf::new();
-    for c in p.components() {
-        match c {
-            Component::CurDir => {}
-            Component::ParentDir => {
-                if !out.pop() {
-                    out.push("..");
-                }
-            }
-            other => out.push(other),
-        }
-    }
-    out
-}
+pub use crate::paths::{resolve, target};
 
-/// The file `path` names, made absolute with symbolic links in its directories resolved (the
-/// longest existing ancestor is canonicalised, the rest normalised), so that `out/a.png`,
-/// `./out/a.png` and `out/../out/a.png` compare equal. The last component is kept as it is: a
-/// link there is replaced by the write, not followed.
-pub fn resolve(path: &Path) -> PathBuf {
-    let abs = if path.is_absolute() {
-        path.to_path_buf()
-    } else {
-        std::env::current_dir()
-            .unwrap_or_else(|_| PathBuf::from("."))
-            .join(path)
-    };
-    let abs = normalize(&abs);
-    let (Some(dir), Some(name)) = (abs.parent(), abs.file_name()) else {
-        return abs;
-    };
-    let mut existing = dir.to_path_buf();
-    let mut rest = Vec::new();
-    loop {
-        if let Ok(c) = existing.canonicalize() {
-            let mut r = c;
-            for part in rest.iter().rev() {
-                r.push(part);
-            }
-            return normalize(&r.join(name));
-        }
-        match (
-            existing.file_name().map(|n| n.to_os_string()),
-            existing.parent(),
-        ) {
-            (Some(n), Some(p)) => {
-                rest.push(n);
-                existing = p.to_path_buf();
-            }
-            _ => return abs,
-        }
-    }
+/// Why a file the command has read is not written over.
+fn input_error(what: &str) -> std::io::Error {
+    std::io::Error::other(format!(
+        "it is also an input of this command (read as the {what}): writing it would replace \
+         the input; give the output another path"
+    ))
 }
 
 /// Checks a command's outputs before it does any work (see the module documentation). Errors
 /// name the option and the path.
 pub fn prepare(outputs: &[Output]) -> anyhow::Result<()> {
-    let resolved: Vec<PathBuf> = outputs.iter().map(|o| resolve(o.path)).collect();
+    for o in outputs {
+        if let Some(what) = crate::infile::input_named(o.path) {
+            anyhow::bail!(
+                "{} {}: {}",
+                o.option,
+                crate::errors::shown_path(o.path),
+                input_error(what)
+            );
+        }
+    }
+    let resolved: Vec<PathBuf> = outputs.iter().map(|o| target(o.path)).collect();
     for i in 0..outputs.len() {
         for j in 0..i {
             if resolved[i] == resolved[j] {
@@ -292,10 +265,10 @@ pub fn prepare(outputs: &[Output]) -> anyhow::Result<()> {
                     "{} {} and {} {} are the same file ({}): one would overwrite the other; \
                      give each output its own path",
                     a.option,
-                    a.path.display(),
+                    crate::errors::shown_path(a.path),
                     b.option,
-                    b.path.display(),
-                    resolved[i].display()
+                    crate::errors::shown_path(b.path),
+                    crate::errors::shown_path(&resolved[i])
                 );
             }
         }
@@ -308,15 +281,17 @@ pub fn prepare(outputs: &[Output]) -> anyhow::Result<()> {
 
 /// Refuses an output that is one of the command's inputs (`(what, path)`, e.g. the scene
 /// file): the write would replace the input (`brdf eval --dirs x.csv --out x.csv`, a scene
-/// named `.exr` given as its own `--out`). Paths are compared as [`resolve`] sees them.
+/// named `.exr` given as its own `--out`). Paths are compared by their [`target`]s. (Every
+/// file read through [`crate::infile`] is refused by [`prepare`] as well; this names inputs
+/// before they are read.)
 pub fn refuse_inputs(outputs: &[Output], inputs: &[(&str, &Path)]) -> anyhow::Result<()> {
     for o in outputs {
         for (what, input) in inputs {
-            if resolve(o.path) == resolve(input) {
+            if target(o.path) == target(input) {
                 anyhow::bail!(
                     "{} {} is also the {what}: writing it would replace the input; give the output another path",
                     o.option,
-                    o.path.display()
+                    crate::errors::shown_path(o.path)
                 );
             }
         }
@@ -329,7 +304,7 @@ pub fn refuse_inputs(outputs: &[Output], inputs: &[(&str, &Path)]) -> anyhow::Re
 const MAX_NAME_BYTES: usize = 255;
 
 fn check_one(o: &Output) -> anyhow::Result<()> {
-    let shown = o.path.display();
+    let shown = crate::errors::shown_path(o.path);
     if o.path.file_name().is_none() {
         anyhow::bail!("{} {shown}: names a directory, not a file", o.option);
     }
@@ -345,24 +320,26 @@ fn check_one(o: &Output) -> anyhow::Result<()> {
             o.option
         );
     }
-    let dir = parent_dir(o.path);
+    // The file written is the link's target, in the target's directory.
+    let dest = target(o.path);
+    let dir = parent_dir(&dest);
     if !dir.is_dir() {
         std::fs::create_dir_all(dir).map_err(|e| {
             anyhow::anyhow!(
                 "{} {shown}: cannot create the directory {}: {e}",
                 o.option,
-                dir.display()
+                crate::errors::shown_path(dir)
             )
         })?;
     }
     // Creating a file is the only reliable test (permissions, read-only or special file
     // systems, ACLs, root on /sys): make the temporary file the real write would make, and drop
     // it, which removes it.
-    let _probe = temp_file(o.path, dir).map_err(|e| {
+    let _probe = temp_file(&dest, dir).map_err(|e| {
         anyhow::anyhow!(
             "{} {shown}: cannot write to the directory {}: {e}",
             o.option,
-            dir.display()
+            crate::errors::shown_path(dir)
         )
     })?;
     Ok(())
@@ -473,5 +450,40 @@ mod tests {
         assert!(err.starts_with("1 of 3 outputs"), "{err}");
         assert!(err.contains("b.txt: simulated failure"), "{err}");
         assert!(err.contains("written: ") && err.contains("c.txt"), "{err}");
+    }
+    /// A link at the destination is written through: the file it names gets the content, the
+    /// link stays; and a link to another output is the same output.
+    #[cfg(unix)]
+    #[test]
+    fn links_are_written_through_and_compared_by_target() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        std::fs::create_dir(d.join("elsewhere")).unwrap();
+        let file = d.join("elsewhere/t.pfm");
+        std::fs::write(&file, b"old").unwrap();
+        let link = d.join("link.pfm");
+        std::os::unix::fs::symlink("elsewhere/t.pfm", &link).unwrap();
+        write(&link, b"new").unwrap();
+        assert!(std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink());
+        assert_eq!(std::fs::read(&file).unwrap(), b"new");
+        // No temporary file is left in either directory.
+        assert_eq!(std::fs::read_dir(d).unwrap().count(), 2);
+        assert_eq!(std::fs::read_dir(d.join("elsewhere")).unwrap().count(), 1);
+        let out = |option, path| Output { option, path };
+        let e = prepare(&[out("--out", &file), out("--out", &link)])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("are the same file"), "{e}");
+        let dangling = d.join("dangling.pfm");
+        std::os::unix::fs::symlink("elsewhere/new.pfm", &dangling).unwrap();
+        write(&dangling, b"made").unwrap();
+        assert_eq!(std::fs::read(d.join("elsewhere/new.pfm")).unwrap(), b"made");
+        assert!(std::fs::symlink_metadata(&dangling)
+            .unwrap()
+            .file_type()
+            .is_symlink());
     }
 }

@@ -23,6 +23,9 @@ pub struct RenderOutput {
     pub extension_rays: u64,
     /// Shadow (any-hit) rays traced.
     pub shadow_rays: u64,
+    /// Of those, the ones that found an occluder (`stress --group self_shadow` counts false
+    /// occlusions with it, where none can be blocked).
+    pub shadow_rays_occluded: u64,
     /// (extension, shadow) rays by path segment from 1, up to the maximum depth or
     /// [`SEGMENTS_COUNTED`] (which then also holds the deeper ones): the queue sizes per segment.
     pub rays_by_segment: Vec<(u64, u64)>,

@@ -244,9 +244,11 @@ fn set_in_value(value: &mut Value, path: &[Key], v: &Value, prefix: &str) -> Res
 /// 'roughnes': unknown field …`); another error is the file's own, with its lines, when the
 /// file alone has it too.
 pub fn load_toml(path: &Path, sets: &[Set]) -> anyhow::Result<(Scene, Vec<u8>)> {
-    let source = crate::errors::read_utf8(path).map_err(|source| SceneError::Read {
-        file: path.display().to_string(),
-        source,
+    let source = crate::infile::read_text(path, crate::infile::SCENE).map_err(|source| {
+        SceneError::Read {
+            file: crate::errors::shown_path(path),
+            source,
+        }
     })?;
     let bytes = source.clone().into_bytes();
     if sets.is_empty() {

@@ -205,7 +205,8 @@ fn a_corrupt_bench_reference_is_refused_or_rebuilt() {
     );
 }
 
-/// Renders samples `samples` of the Cornell box at 8x8 on the CPU into a partial film.
+/// Renders samples `samples` of a 2-spp render of the Cornell box at 8x8 on the CPU into a
+/// partial film.
 fn part(name: &str, samples: &str) -> PathBuf {
     let p = CLI.tmp(name);
     let o = bin()
@@ -216,6 +217,8 @@ fn part(name: &str, samples: &str) -> PathBuf {
             "cpu",
             "--res",
             "8x8",
+            "--spp",
+            "2",
         ])
         .args(["--samples", samples, "--out", s(&p)])
         .output()
@@ -749,4 +752,172 @@ fn non_utf8_text_inputs_are_located() {
         &["render", s(&with_obj)],
         &["mesh.obj", "line 4, column 3", "0xc3"],
     );
+}
+
+/// What every reader of a file a user names is given instead of a regular file: `/dev/zero`
+/// (endless zeros), `/dev/urandom` (endless bytes), a FIFO with no writer (a read that never
+/// returns), a directory. Each reader, reached directly or through another file, refuses it at
+/// once for what it is: the scene file, an XML include, OBJ and PLY meshes, an MTL library, a
+/// measured table, a direction table, the images of `diff`, a part of `merge`, the table of
+/// `brdf fit` and the replay list of `stress`.
+#[cfg(unix)]
+#[test]
+fn every_reader_refuses_what_is_not_a_regular_file() {
+    let d = CLI.tmp("irregular");
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    let fifo = d.join("fifo");
+    let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
+    assert!(made.success());
+    let dir = d.join("a-directory");
+    std::fs::create_dir(&dir).unwrap();
+    let toml = |name: &str, shape: &str, material: &str| {
+        let p = d.join(name);
+        std::fs::write(
+            &p,
+            format!(
+                "[camera]\nposition = [0, 0, 5]\ntarget = [0, 0, 0]\nfov_y = 40\n[film]\nwidth = 8\n\
+                 height = 8\n[environment]\nradiance = 1\n[materials.m]\n{material}\n[[shapes]]\n\
+                 material = \"m\"\n{shape}\n"
+            ),
+        )
+        .unwrap();
+        p
+    };
+    let good_png = d.join("good.png");
+    let img = brdfwave::imageio::Image::filled(4, 4, [0.5; 3]);
+    brdfwave::imageio::write(&good_png, &img).unwrap();
+    let dirs = d.join("dirs.csv");
+    std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
+    for (k, bad) in ["/dev/zero", "/dev/urandom", s(&fifo), s(&dir)]
+        .into_iter()
+        .enumerate()
+    {
+        let what = match k {
+            0 | 1 => "a character device, not a regular file",
+            2 => "a FIFO (named pipe), not a regular file",
+            _ => "a directory, not a regular file",
+        };
+        let lambert = "model = \"lambert\"";
+        let obj = toml(
+            &format!("obj{k}.toml"),
+            &format!("obj = \"{bad}\""),
+            lambert,
+        );
+        let ply = toml(
+            &format!("ply{k}.toml"),
+            &format!("ply = \"{bad}\""),
+            lambert,
+        );
+        let mtl_obj = d.join(format!("m{k}.obj"));
+        std::fs::write(
+            &mtl_obj,
+            format!("mtllib {bad}\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
+        )
+        .unwrap();
+        let mtl = toml(
+            &format!("mtl{k}.toml"),
+            &format!("obj = \"m{k}.obj\"\nmtl = true"),
+            lambert,
+        );
+        let measured = toml(
+            &format!("merl{k}.toml"),
+            "sphere = { center = [0, 0, 0], radius = 1 }",
+            &format!("model = \"measured\"\nfile = \"{bad}\""),
+        );
+        let include = d.join(format!("inc{k}.xml"));
+        std::fs::write(
+            &include,
+            format!("<scene version=\"3.0.0\"><include filename=\"{bad}\"/></scene>\n"),
+        )
+        .unwrap();
+        let material = format!("model = \"measured\", file = \"{bad}\"");
+        let fit_out = d.join(format!("fit{k}"));
+        let merged = d.join("merged.exr");
+        let failures = d.join("failures.jsonl");
+        let runs: Vec<(Vec<&str>, &str)> = vec![
+            (vec!["render", bad], "scene file"),
+            (vec!["render", s(&include)], "included scene file"),
+            (vec!["render", s(&obj)], "OBJ mesh"),
+            (vec!["render", s(&ply)], "PLY mesh"),
+            (vec!["render", s(&mtl)], "MTL library"),
+            (vec!["render", s(&measured)], "measured table"),
+            (
+                vec!["brdf", "eval", "--material", &material, "--dirs", s(&dirs)],
+                "measured table",
+            ),
+            (
+                vec![
+                    "brdf",
+                    "eval",
+                    "--material",
+                    "model = \"lambert\"",
+                    "--dirs",
+                    bad,
+                ],
+                "CSV table",
+            ),
+            (vec!["merge", bad, "--out", s(&merged)], "partial film"),
+            (
+                vec!["brdf", "fit", "--measured", bad, "--out", s(&fit_out)],
+                "measured table",
+            ),
+            (
+                vec!["stress", "--replay", bad, "--failures", s(&failures)],
+                "replay file",
+            ),
+        ];
+        for (args, kind) in runs {
+            let out = check(bin().args(&args).output().unwrap(), &format!("{args:?}"));
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(1), "{args:?}:\n{err}");
+            assert!(
+                err.contains(what) && err.contains(kind),
+                "{args:?}: want '{what}' and '{kind}':\n{err}"
+            );
+        }
+        // Images have an extension: a link named .exr to the device.
+        let link = d.join(format!("img{k}.exr"));
+        let _ = std::fs::remove_file(&link);
+        std::os::unix::fs::symlink(bad, &link).unwrap();
+        fails_with(&["diff", s(&link), s(&good_png)], &[what, "image"]);
+        fails_with(&["diff", s(&good_png), s(&link)], &[what, "image"]);
+    }
+}
+
+/// Files over the size of their kind are refused before any of them is read (the files here
+/// are sparse: they take no disk space): a 300 MiB scene file, a 9 GiB OBJ mesh.
+#[test]
+fn oversized_files_are_refused_before_they_are_read() {
+    let d = CLI.tmp("oversized");
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    let sparse = |name: &str, len: u64| {
+        let p = d.join(name);
+        std::fs::File::create(&p).unwrap().set_len(len).unwrap();
+        p
+    };
+    let scene = sparse("big.toml", 300 << 20);
+    fails_with(
+        &["render", s(&scene)],
+        &["is 300 MiB, over the 256 MiB a scene file may have"],
+    );
+    let xml = sparse("big.xml", 300 << 20);
+    fails_with(
+        &["render", s(&xml)],
+        &["is 300 MiB, over the 256 MiB a scene file may have"],
+    );
+    sparse("big.obj", 9 << 30);
+    let toml = d.join("s.toml");
+    std::fs::write(
+        &toml,
+        "[camera]\nposition = [0, 0, 5]\ntarget = [0, 0, 0]\nfov_y = 40\n[film]\nwidth = 8\n\
+         height = 8\n[materials.m]\nmodel = \"lambert\"\n[[shapes]]\nmaterial = \"m\"\nobj = \"big.obj\"\n",
+    )
+    .unwrap();
+    fails_with(
+        &["render", s(&toml)],
+        &["big.obj", "is 9 GiB, over the 8 GiB an OBJ mesh may have"],
+    );
+    let _ = std::fs::remove_dir_all(&d);
 }

@@ -233,6 +233,10 @@ fn gpu_options_are_refused_or_warned_about_consistently() {
         vec!["--device", "llvmpipe"],
         vec!["--validation"],
         vec!["--wave-paths", "4096"],
+        // Ignored whatever the value: a GPU range is not checked for the CPU.
+        vec!["--wave-paths", "0"],
+        vec!["--wave-paths", "4294967295"],
+        vec!["--integrator", "megakernel"],
     ] {
         let mut args = extra.clone();
         args.extend(["--out", s(&png)]);
@@ -284,5 +288,197 @@ fn gpu_options_are_refused_or_warned_about_consistently() {
         assert_eq!(out.status.code(), Some(2), "{args:?}");
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(err.contains("empty"), "{err}");
+    }
+}
+
+/// A name or value a user gave cannot reach the terminal as control characters: an escape
+/// sequence or a newline in the scene's name, an output's name, a part's name and a value is
+/// shown escaped, on every path a message takes (an error, a warning, the summary).
+#[test]
+fn control_characters_in_names_are_shown_escaped() {
+    let d = CLI.fresh_dir("escapes");
+    let text = std::fs::read_to_string(common::repo().join("scenes/cornell-box.toml")).unwrap();
+    let evil = d.join("a\x1b[31mred\nscene.toml");
+    std::fs::write(&evil, text.replace("spp = 16", "spp = 0")).unwrap();
+    let out_name = d.join("o\x1b]0;title\x07.png");
+    let part = d.join("p\x1b[2J.bwfilm");
+    let runs: Vec<Vec<&str>> = vec![
+        vec!["render", s(&evil), "--backend", "cpu"],
+        vec![
+            "render",
+            "scenes/cornell-box.toml",
+            "--backend",
+            "cpu",
+            "--spp",
+            "1",
+            "--res",
+            "8x8",
+            "--out",
+            s(&out_name),
+        ],
+        vec!["merge", s(&part), "--out", s(&out_name)],
+        vec!["diff", s(&out_name), "nope\x1b[5m.exr"],
+        vec![
+            "render",
+            "scenes/xml/cornell-box.xml",
+            "-D",
+            "x=\x1b[1m",
+            "--backend",
+            "cpu",
+            "--res",
+            "8x8",
+            "--spp",
+            "1",
+            "--out",
+            s(&part),
+        ],
+    ];
+    for args in runs {
+        let o = CLI.run(&args);
+        for (stream, bytes) in [("stdout", &o.stdout), ("stderr", &o.stderr)] {
+            assert!(
+                !bytes.contains(&0x1b) && !bytes.contains(&0x07),
+                "{args:?}: a control character on {stream}: {:?}",
+                String::from_utf8_lossy(bytes)
+            );
+        }
+        let all = format!(
+            "{}{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(
+            all.contains("\\x1b"),
+            "{args:?}: the escape is shown: {all}"
+        );
+    }
+    // The newline in the scene's name does not split the error.
+    let e = CLI.fails(&["render", s(&evil), "--backend", "cpu"]);
+    assert_eq!(e.lines().count(), 1, "{e}");
+    assert!(
+        e.contains("red\\nscene.toml") && e.contains("integrator.spp"),
+        "{e}"
+    );
+}
+
+/// Messages that list what is accepted list all of it: `--error-map` takes figures (.svg,
+/// .png) and images (.exr, .pfm).
+#[test]
+fn lists_of_what_is_accepted_are_complete() {
+    let d = CLI.fresh_dir("lists");
+    let a = d.join("a.pfm");
+    brdfwave::imageio::write(&a, &brdfwave::imageio::Image::filled(4, 4, [0.5; 3])).unwrap();
+    let e = CLI.fails(&["diff", s(&a), s(&a), "--error-map", s(&d.join("map.jpg"))]);
+    for ext in [".svg", ".png", ".exr", ".pfm"] {
+        assert!(e.contains(ext), "{ext}: {e}");
+    }
+    for ext in ["svg", "png", "exr", "pfm"] {
+        CLI.ok(&[
+            "diff",
+            s(&a),
+            s(&a),
+            "--error-map",
+            s(&d.join(format!("map.{ext}"))),
+        ]);
+    }
+}
+
+/// `merge` without `--samples` needs all the samples of the render the parts record: a lone
+/// part of samples 8..16 of a 16-spp render is refused (it merged with exit 0 before), as are
+/// parts of renders of different sample counts; `--samples 8..16` merges it, and the whole set
+/// merges without it.
+#[test]
+fn merge_needs_every_sample_of_the_render() {
+    let d = CLI.fresh_dir("merge-all");
+    let part = |name: &str, spp: &str, samples: &str| {
+        let p = d.join(name);
+        CLI.ok(&[
+            "render",
+            "scenes/cornell-box.toml",
+            "--backend",
+            "cpu",
+            "--res",
+            "8x8",
+            "--spp",
+            spp,
+            "--samples",
+            samples,
+            "--quiet",
+            "--out",
+            s(&p),
+        ]);
+        p
+    };
+    let late = part("late.bwfilm", "16", "8..16");
+    let early = part("early.bwfilm", "16", "0..8");
+    let other = part("other.bwfilm", "32", "0..8");
+    let out = d.join("m.exr");
+    let e = CLI.fails(&["merge", s(&late), "--out", s(&out)]);
+    assert!(
+        e.contains(
+            "the parts hold samples 8..16, not the samples 0..16 of the whole 16-spp render"
+        ),
+        "{e}"
+    );
+    let e = CLI.fails(&["merge", s(&early), "--out", s(&out)]);
+    assert!(
+        e.contains("hold samples 0..8, not the samples 0..16"),
+        "{e}"
+    );
+    assert!(!out.exists());
+    let e = CLI.fails(&["merge", s(&late), s(&other), "--out", s(&out)]);
+    // (With the default sampler the pattern differs too, so the scene hash already differs.)
+    assert!(e.contains("come from different"), "{e}");
+    CLI.ok(&["merge", s(&late), "--samples", "8..16", "--out", s(&out)]);
+    CLI.fails_naming(
+        &["merge", s(&late), "--samples", "0..16", "--out", s(&out)],
+        "not the samples 0..16 asked for",
+    );
+    CLI.ok(&["merge", s(&late), s(&early), "--out", s(&out)]);
+}
+
+/// A measured table whose values overflow single precision once scaled is an error of every
+/// command that reads it (it printed NaN with exit 0 before).
+#[test]
+fn measured_tables_that_overflow_are_refused() {
+    let d = CLI.fresh_dir("merl-overflow");
+    let cells = 90 * 90 * 180;
+    let mut bytes: Vec<u8> = [90i32, 90, 180]
+        .iter()
+        .flat_map(|x| x.to_le_bytes())
+        .collect();
+    for i in 0..3 * cells {
+        let v: f64 = if i == cells + 1000 { 6e41 } else { 0.5 };
+        bytes.extend(v.to_le_bytes());
+    }
+    let table = d.join("big.binary");
+    std::fs::write(&table, bytes).unwrap();
+    let dirs = d.join("dirs.csv");
+    std::fs::write(&dirs, "wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0,0,1,0,0,1\n").unwrap();
+    let material = format!("model = \"measured\", file = \"{}\"", s(&table));
+    for args in [
+        eval_args(&material, s(&dirs), &["--backend", "cpu"]),
+        vec![
+            "brdf",
+            "plot",
+            "--material",
+            &material,
+            "--out",
+            s(&d.join("p.svg")),
+        ],
+        vec![
+            "brdf",
+            "fit",
+            "--measured",
+            s(&table),
+            "--out",
+            s(&d.join("fit")),
+        ],
+    ] {
+        let e = CLI.fails(&args);
+        assert!(
+            e.contains("6e41 scaled by MERL's 1.15/1500") && e.contains("green plane"),
+            "{args:?}: {e}"
+        );
     }
 }

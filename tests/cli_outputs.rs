@@ -212,3 +212,160 @@ fn written_files_follow_the_umask() {
         assert_eq!(mode(p), 0o640, "{}: 0666 & !027 expected", p.display());
     }
 }
+
+/// A small TOML scene of one OBJ mesh `mesh` (relative to the scene), lit by the environment.
+#[cfg(unix)]
+fn obj_scene(d: &Path, mesh: &str) -> std::path::PathBuf {
+    let p = d.join("conv.toml");
+    std::fs::write(
+        &p,
+        format!(
+            "[camera]\nposition = [0, 0, 5]\ntarget = [0, 0, 0]\nfov_y = 40\n[film]\nwidth = 8\n\
+             height = 8\n[environment]\nradiance = 1\n[materials.m]\nmodel = \"lambert\"\n\
+             [[shapes]]\nmaterial = \"m\"\nobj = \"{mesh}\"\n"
+        ),
+    )
+    .unwrap();
+    p
+}
+
+/// No output replaces a file the command read, whichever reader read it and however the
+/// output names it: `convert` over the scene's own OBJ mesh and over a file the scene includes,
+/// `brdf merl` over the table its material reads, `diff --error-map` through a link to its TEST
+/// image, `render --out` over the scene through a link. Each input is left as it was.
+#[cfg(unix)]
+#[test]
+fn no_output_replaces_a_file_the_command_read() {
+    let d = CLI.fresh_dir("inputs");
+    let tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    std::fs::create_dir(d.join("conv-meshes")).unwrap();
+    let mesh = d.join("conv-meshes/mesh-0.obj");
+    std::fs::write(&mesh, tri).unwrap();
+    let scene = obj_scene(&d, "conv-meshes/mesh-0.obj");
+    let xml = d.join("conv.xml");
+    CLI.fails_naming_all(
+        &["convert", s(&scene), "--to", "mitsuba", s(&xml)],
+        &[
+            "mesh-0.obj",
+            "is also an input of this command (read as the OBJ mesh)",
+        ],
+    );
+    assert_eq!(std::fs::read_to_string(&mesh).unwrap(), tri);
+    assert!(!xml.exists());
+
+    let inc = d.join("inc.xml");
+    let inc_text = "<scene version=\"3.0.0\"><bsdf type=\"diffuse\" id=\"w\"/></scene>\n";
+    std::fs::write(&inc, inc_text).unwrap();
+    let main = d.join("main.xml");
+    std::fs::write(
+        &main,
+        "<scene version=\"3.0.0\">\n<include filename=\"inc.xml\"/>\n<sensor type=\"perspective\">\
+         <float name=\"fov\" value=\"40\"/></sensor>\n<shape type=\"sphere\"><ref id=\"w\"/></shape>\n</scene>\n",
+    )
+    .unwrap();
+    CLI.fails_naming_all(
+        &["convert", s(&main), "--to", "mitsuba", s(&inc)],
+        &["inc.xml", "read as the included scene file"],
+    );
+    assert_eq!(std::fs::read_to_string(&inc).unwrap(), inc_text);
+
+    let table = d.join("t.binary");
+    CLI.ok(&[
+        "brdf",
+        "merl",
+        "--material",
+        r#"model = "lambert""#,
+        "--out",
+        s(&table),
+    ]);
+    let before = std::fs::read(&table).unwrap();
+    let material = format!("model = \"measured\", file = \"{}\"", s(&table));
+    CLI.fails_naming_all(
+        &["brdf", "merl", "--material", &material, "--out", s(&table)],
+        &["t.binary", "read as the measured table"],
+    );
+    assert_eq!(std::fs::read(&table).unwrap(), before);
+
+    let test = d.join("test.pfm");
+    let reference = d.join("ref.pfm");
+    for (p, seed) in [(&test, "1"), (&reference, "2")] {
+        CLI.ok(&[
+            "render",
+            s(&scene),
+            "--backend",
+            "cpu",
+            "--spp",
+            "1",
+            "--seed",
+            seed,
+            "--quiet",
+            "--out",
+            s(p),
+        ]);
+    }
+    let before = std::fs::read(&test).unwrap();
+    let link = d.join("map.pfm");
+    std::os::unix::fs::symlink(&test, &link).unwrap();
+    CLI.fails_naming_all(
+        &["diff", s(&test), s(&reference), "--error-map", s(&link)],
+        &["map.pfm"],
+    );
+    assert_eq!(
+        std::fs::read(&test).unwrap(),
+        before,
+        "the TEST image was replaced"
+    );
+
+    let scene_link = d.join("scene.pfm");
+    std::os::unix::fs::symlink(&scene, &scene_link).unwrap();
+    let scene_text = std::fs::read(&scene).unwrap();
+    CLI.fails_naming_all(
+        &[
+            "render",
+            s(&scene),
+            "--backend",
+            "cpu",
+            "--out",
+            s(&scene_link),
+        ],
+        &["scene.pfm"],
+    );
+    assert_eq!(std::fs::read(&scene).unwrap(), scene_text);
+}
+
+/// An output that is a symbolic link is written through it: the file it names gets the image
+/// and the link stays a link (before, the link was replaced and its target left stale); two
+/// outputs that name one file through a link are one output, refused.
+#[cfg(unix)]
+#[test]
+fn links_at_outputs_are_written_through() {
+    let d = CLI.fresh_dir("links");
+    std::fs::create_dir(d.join("store")).unwrap();
+    let target = d.join("store/t.pfm");
+    std::fs::write(&target, b"stale").unwrap();
+    let link = d.join("link.pfm");
+    std::os::unix::fs::symlink("store/t.pfm", &link).unwrap();
+    CLI.ok(&render_args(&["--out", s(&link)]));
+    assert!(std::fs::symlink_metadata(&link)
+        .unwrap()
+        .file_type()
+        .is_symlink());
+    let img = brdfwave::imageio::read(&target).unwrap();
+    assert!(img.width > 0);
+    // No temporary file was left beside the link or the target.
+    assert_eq!(std::fs::read_dir(&d).unwrap().count(), 2);
+    assert_eq!(std::fs::read_dir(d.join("store")).unwrap().count(), 1);
+    for (a, b) in [(&target, &link), (&link, &target)] {
+        CLI.fails_naming_all(
+            &render_args(&["--out", s(a), "--out", s(b)]),
+            &["same file", "t.pfm"],
+        );
+    }
+    // A chain of links, and a variance output through one.
+    let link2 = d.join("link2.exr");
+    std::os::unix::fs::symlink(&link, &link2).unwrap();
+    CLI.fails_naming(
+        &render_args(&["--out", s(&target), "--variance-out", s(&link2)]),
+        "same file",
+    );
+}

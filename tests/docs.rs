@@ -471,7 +471,13 @@ fn model_parameter_tables_are_generated_from_the_declarations() {
         }
     }
     for m in MODELS.iter() {
-        let file = format!("src/brdf/{}.rs", m.name);
+        let file = [
+            format!("src/brdf/{}.rs", m.name),
+            format!("src/brdf/{}/mod.rs", m.name),
+        ]
+        .into_iter()
+        .find(|f| common::repo().join(f).is_file())
+        .unwrap_or_else(|| format!("src/brdf/{}.rs", m.name));
         let text = read(&file);
         let Some(want) = docs::update_model_file(&text, m) else {
             failures.push(format!(
@@ -538,4 +544,63 @@ fn no_citations_of_files_outside_the_repository() {
         }
     }
     assert!(checked > 50, "{checked} files");
+}
+
+/// The layers import downwards only, so that no import circle crosses them: the scene loader
+/// knows nothing of the renderers and the image files nothing of scenes or films (limits that
+/// several layers share live in `src/conventions.rs`). Comments and test modules are not
+/// imports.
+#[test]
+fn layers_do_not_import_the_layers_above_them() {
+    let rules: [(&str, &[&str]); 3] = [
+        (
+            "src/scene",
+            &[
+                "crate::gpu",
+                "crate::vk",
+                "crate::render",
+                "crate::output",
+                "crate::cpu",
+            ],
+        ),
+        (
+            "src/imageio",
+            &[
+                "crate::scene",
+                "crate::film",
+                "crate::gpu",
+                "crate::output",
+                "crate::render",
+            ],
+        ),
+        ("src/conventions.rs", &["use crate::"]),
+    ];
+    let mut bad = Vec::new();
+    let mut checked = 0;
+    for (root, banned) in rules {
+        let mut stack = vec![common::repo().join(root)];
+        while let Some(p) = stack.pop() {
+            if p.is_dir() {
+                stack.extend(std::fs::read_dir(&p).unwrap().map(|e| e.unwrap().path()));
+                continue;
+            }
+            checked += 1;
+            let text = std::fs::read_to_string(&p).unwrap();
+            for (n, line) in text.lines().enumerate() {
+                if line.starts_with("#[cfg(test)]") {
+                    break;
+                }
+                let code = line.split("//").next().unwrap_or("");
+                for b in banned.iter().filter(|b| code.contains(*b)) {
+                    bad.push(format!("{}:{}: {b}: {}", p.display(), n + 1, line.trim()));
+                }
+            }
+        }
+    }
+    assert!(checked > 20, "{checked} files");
+    assert!(
+        bad.is_empty(),
+        "imports against the layering:\n{}",
+        bad.join("\n")
+    );
 }

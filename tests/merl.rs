@@ -234,3 +234,46 @@ fn bad_files_are_refused_with_what_is_wrong() {
     let e = read_err(d);
     assert!(e.contains("is a directory"), "{e}");
 }
+
+/// A value finite in the file but beyond single precision once scaled (each plane by its own
+/// scale) is refused naming the value, the plane and the cell, never loaded as inf (which
+/// evaluated to NaN, plotted as `inf` and dropped samples in a render); the largest value that
+/// fits loads. Devices and FIFOs are refused as what they are.
+#[test]
+fn values_that_overflow_once_scaled_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let limit = |plane: usize| f32::MAX as f64 / SCALE[plane];
+    for (plane, name) in [(0, "red"), (1, "green"), (2, "blue")] {
+        for (over, v) in [
+            (false, limit(plane) * 0.999),
+            (true, limit(plane) * 1.001),
+            (true, 1e300),
+        ] {
+            let mut values = vec![0.5f64; 3 * CELLS];
+            values[plane * CELLS + cell_index(7, 8, 9)] = v;
+            let p = raw_file(
+                d,
+                &format!("p{plane}-{over}.binary"),
+                [90, 90, 180],
+                &values,
+            );
+            if !over {
+                let t = MerlTable::read(&p).unwrap();
+                assert!(t.cell(7, 8, 9)[plane].unwrap().is_finite());
+                continue;
+            }
+            let e = read_err(&p);
+            assert!(
+                e.contains("is out of the single-precision range")
+                    && e.contains(&format!("{name} plane, cell θh 7, θd 8, φd 9"))
+                    && !e.contains("inf"),
+                "{name} {v}: {e}"
+            );
+        }
+    }
+    for dev in ["/dev/zero", "/dev/urandom"] {
+        let e = MerlTable::read(Path::new(dev)).unwrap_err().to_string();
+        assert!(e.contains("character device, not a regular file"), "{e}");
+    }
+}

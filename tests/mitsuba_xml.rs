@@ -44,14 +44,21 @@ fn xml_twins_are_what_convert_writes() {
     for name in shipped() {
         let s = load(&repo().join(format!("scenes/{name}.toml"))).unwrap();
         let mesh_dir = format!("{name}-meshes");
-        let c = match to_mitsuba(&s, &mesh_dir, Options::default()) {
+        // Written into scenes/xml/, as the command writes it: files the scene names are
+        // relative to there (the material preview's images and table).
+        let xml_dir = Some(repo().join("scenes/xml"));
+        let plain = Options {
+            xml_dir: xml_dir.clone(),
+            ..Options::default()
+        };
+        let c = match to_mitsuba(&s, &mesh_dir, plain) {
             Ok(c) => c,
             Err(_) => to_mitsuba(
                 &s,
                 &mesh_dir,
                 Options {
                     brdfwave_plugins: true,
-                    ..Options::default()
+                    xml_dir,
                 },
             )
             .unwrap(),
@@ -621,4 +628,381 @@ fn obj_shapes_resolve_against_their_file() {
     );
     let s = load(&main).unwrap();
     assert_eq!(s.triangles[0].v, [Vec3::ZERO, Vec3::X, Vec3::Y]);
+}
+
+/// What a user wrote is what an error names: a film of width or height 0 (not the field of view
+/// computed from it), a field of view out of range, `int_ior`/`ext_ior` (not the ior of their
+/// ratio), the step where a `to_world` overflows (not "projective"), and a Latin-1 byte in an
+/// `.xml` scene or include (its line and column, not "this looks like a Mitsuba scene").
+#[test]
+fn errors_name_what_the_file_says() {
+    let sensor = |fov: &str, axis: &str, w: &str, h: &str| {
+        format!(
+            "<scene version=\"3.0.0\">\n<sensor type=\"perspective\">\n<float name=\"fov\" value=\"{fov}\"/>\n\
+             <string name=\"fov_axis\" value=\"{axis}\"/>\n<film type=\"hdrfilm\">\n\
+             <integer name=\"width\" value=\"{w}\"/>\n<integer name=\"height\" value=\"{h}\"/>\n\
+             </film>\n</sensor>\n<shape type=\"sphere\"/>\n</scene>\n"
+        )
+    };
+    for (fov, axis, w, h, needle, what) in [
+        (
+            "40",
+            "x",
+            "0",
+            "8",
+            "\"width\"",
+            "width 0 is out of range: must be in [1, 16384]",
+        ),
+        (
+            "40",
+            "x",
+            "8",
+            "0",
+            "\"height\"",
+            "height 0 is out of range: must be in [1, 16384]",
+        ),
+        (
+            "40",
+            "diagonal",
+            "0",
+            "0",
+            "\"width\"",
+            "width 0 is out of range",
+        ),
+        (
+            "40",
+            "y",
+            "16385",
+            "8",
+            "\"width\"",
+            "width 16385 is out of range",
+        ),
+        (
+            "40",
+            "smaller",
+            "8",
+            "99999",
+            "\"height\"",
+            "height 99999 is out of range",
+        ),
+        (
+            "0",
+            "x",
+            "8",
+            "8",
+            "\"fov\"",
+            "fov 0 is out of range: must be in (0, 180) degrees",
+        ),
+        ("180", "y", "8", "8", "\"fov\"", "fov 180 is out of range"),
+        (
+            "-5",
+            "larger",
+            "8",
+            "8",
+            "\"fov\"",
+            "fov -5 is out of range",
+        ),
+    ] {
+        let text = sensor(fov, axis, w, h);
+        let e = load_str(&text, Path::new("f.xml")).unwrap_err().to_string();
+        common::assert_located(&e, ("f.xml", &text), needle, &[what]);
+        assert!(!e.contains("fov_y"), "{e}");
+    }
+    for (bsdf, needle, what) in [
+        (
+            r#"<float name="ext_ior" value="0"/>"#,
+            "ext_ior",
+            "ext_ior 0 is out of range: an index of refraction is > 0",
+        ),
+        (
+            r#"<float name="int_ior" value="0"/>"#,
+            "int_ior",
+            "int_ior 0 is out of range",
+        ),
+        (
+            r#"<float name="int_ior" value="-1.5"/>"#,
+            "int_ior",
+            "int_ior -1.5 is out of range",
+        ),
+        (
+            r#"<float name="int_ior" value="3e38"/><float name="ext_ior" value="1e-3"/>"#,
+            "ext_ior",
+            "int_ior / ext_ior = 3e38 / 0.001: 3e41 is out of the single-precision range",
+        ),
+    ] {
+        let body = format!(
+            "<bsdf type=\"roughplastic\" id=\"p\">{bsdf}</bsdf>\n<shape type=\"sphere\"><ref id=\"p\"/></shape>"
+        );
+        expect_error(&body, needle, what);
+        let e = load_xml(&body).unwrap_err();
+        assert!(!e.contains("field 'ior'") && !e.contains("inf"), "{e}");
+    }
+    for (steps, what) in [
+        (
+            r#"<scale value="1e38"/><scale value="1e38"/>"#,
+            "<scale>: the transform overflows here: an entry of the matrix so far is 1e76",
+        ),
+        (
+            r#"<scale value="1e30"/><scale value="1e30"/><scale value="1e30"/><scale value="1e30"/><scale value="1e30"/><scale value="1e30"/><scale value="1e30"/><scale value="1e30"/><scale value="1e30"/><scale value="1e30"/>"#,
+            "<scale>: the transform overflows here",
+        ),
+        (
+            r#"<matrix value="3e38 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1"/><scale x="10"/>"#,
+            "<scale>: the transform overflows here",
+        ),
+        (
+            r#"<translate x="3e38"/><translate x="3e38"/>"#,
+            "<translate>: the transform overflows here",
+        ),
+    ] {
+        let body = format!(
+            "<shape type=\"sphere\"><transform name=\"to_world\">{steps}</transform></shape>"
+        );
+        let e = load_xml(&body).unwrap_err();
+        assert!(
+            e.contains(what) && !e.contains("projective"),
+            "{steps}: {e}"
+        );
+    }
+    // A truly projective matrix is still called that.
+    let e = load_xml(r#"<shape type="sphere"><transform name="to_world"><matrix value="1 0 0 0 0 1 0 0 0 0 1 0 0 0 1 1"/></transform></shape>"#).unwrap_err();
+    assert!(e.contains("projective"), "{e}");
+
+    let d = tempfile::tempdir().unwrap();
+    let mut latin1 = xml("<shape type=\"sphere\"/>").into_bytes();
+    latin1.extend_from_slice(b"<!-- caf\xe9 -->\n");
+    let lines = 1 + latin1.iter().filter(|&&b| b == b'\n').count() - 1;
+    std::fs::write(d.path().join("l.xml"), &latin1).unwrap();
+    let e = load(&d.path().join("l.xml")).unwrap_err().to_string();
+    assert!(
+        e.contains(&format!("line {lines}, column 9")) && e.contains("0xe9"),
+        "{e}"
+    );
+    assert!(!e.contains("looks like"), "{e}");
+    let main = write(d.path(), "main.xml", &xml("<include filename=\"l.xml\"/>"));
+    let e = load(&main).unwrap_err().to_string();
+    assert!(
+        e.contains("cannot read the included file")
+            && e.contains(&format!("line {lines}, column 9")),
+        "{e}"
+    );
+}
+
+/// Nothing is silently dropped or replaced: a second `<integrator>`; two elements with one id
+/// (shapes, a shape and a BSDF, a nested BSDF, an emitter); `value` beside `x`, `y` or `z`
+/// (where one would win) on every element that takes both; an attribute an element does not
+/// take.
+#[test]
+fn conflicting_definitions_are_refused() {
+    expect_error(
+        "<integrator type=\"path\"/>\n<integrator type=\"path\"><integer name=\"max_depth\" value=\"3\"/></integrator>",
+        "max_depth",
+        "a second <integrator>: brdfwave renders with one (the first is at dir/s.xml:",
+    );
+    for (body, needle) in [
+        (
+            r#"<shape type="sphere" id="a"/><shape type="rectangle" id="a"/>"#,
+            "rectangle",
+        ),
+        (
+            r#"<bsdf type="diffuse" id="a"/><shape type="sphere" id="a"><ref id="a"/></shape>"#,
+            "sphere",
+        ),
+        (
+            r#"<shape type="sphere" id="b"><bsdf type="diffuse" id="b"/></shape>"#,
+            "diffuse",
+        ),
+        (
+            r#"<bsdf type="diffuse" id="c"/><shape type="sphere"><bsdf type="conductor" id="c"/></shape>"#,
+            "conductor",
+        ),
+        (
+            r#"<emitter type="point" id="e"/><shape type="sphere" id="e"/>"#,
+            "sphere",
+        ),
+    ] {
+        expect_error(body, needle, "is given twice: to ");
+        let e = load_xml(body).unwrap_err();
+        assert!(e.contains("an id names one object"), "{e}");
+    }
+    // A ref refers, it does not define: two refs to one BSDF are fine.
+    load_xml(r#"<bsdf type="diffuse" id="w"/><shape type="sphere"><ref id="w"/></shape><shape type="cube"><ref id="w"/></shape>"#).unwrap();
+    for (el, tag) in [
+        (r#"<point name="center" value="9 9 9" x="0"/>"#, "point"),
+        (r#"<point name="center" value="1" z="2" y="1"/>"#, "point"),
+        (
+            r#"<transform name="to_world"><scale value="2" x="3"/></transform>"#,
+            "scale",
+        ),
+        (
+            r#"<transform name="to_world"><translate value="1 2 3" y="1"/></transform>"#,
+            "translate",
+        ),
+        (
+            r#"<transform name="to_world"><rotate value="0 1 0" x="1" angle="30"/></transform>"#,
+            "rotate",
+        ),
+    ] {
+        let body = format!("<shape type=\"sphere\">{el}</shape>");
+        expect_error(
+            &body,
+            &format!("<{tag}"),
+            &format!("<{tag}> has both value and"),
+        );
+    }
+    let e = load_xml(r#"<emitter type="directional"><vector name="direction" value="0 0 1" x="1"/></emitter><shape type="sphere"/>"#).unwrap_err();
+    assert!(e.contains("<vector> has both value and x"), "{e}");
+    for (el, what) in [
+        (
+            r#"<float name="radius" value="1" foo="2"/>"#,
+            "<float> does not take the attribute 'foo' (it takes name, value)",
+        ),
+        (
+            r#"<point name="center" x="1" w="2"/>"#,
+            "<point> does not take the attribute 'w'",
+        ),
+        (
+            r#"<transform name="to_world"><lookat origin="0 0 0" target="0 0 1" dir="1"/></transform>"#,
+            "<lookat> does not take the attribute 'dir'",
+        ),
+        (
+            r#"<transform name="to_world"><scale vlaue="2"/></transform>"#,
+            "<scale> does not take the attribute 'vlaue'",
+        ),
+    ] {
+        let body = format!("<shape type=\"sphere\">{el}</shape>");
+        let e = load_xml(&body).unwrap_err();
+        assert!(e.contains(what), "{el}: {e}");
+    }
+    let e = load_xml(r#"<shape type="sphere" kind="x"/>"#).unwrap_err();
+    assert!(
+        e.contains("<shape> does not take the attribute 'kind'"),
+        "{e}"
+    );
+}
+
+/// The message of an unsupported shape lists every shape the reader reads, and each one listed
+/// is read (the list and the reader cannot drift apart).
+#[test]
+fn the_supported_shapes_are_the_ones_read() {
+    let e = load_xml(r#"<shape type="cylinder"/>"#).unwrap_err();
+    let list = e
+        .split("(supported: ")
+        .nth(1)
+        .and_then(|r| r.strip_suffix(')'))
+        .unwrap_or_else(|| panic!("{e}"));
+    let d = tempfile::tempdir().unwrap();
+    std::fs::write(
+        d.path().join("t.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.path().join("t.ply"),
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+    )
+    .unwrap();
+    let kinds: Vec<&str> = list.split(", ").collect();
+    assert!(kinds.contains(&"ply") && kinds.len() >= 6, "{list}");
+    for kind in kinds {
+        let file = match kind {
+            "obj" | "ply" => format!("<string name=\"filename\" value=\"t.{kind}\"/>"),
+            _ => String::new(),
+        };
+        let text = xml(&format!("<shape type=\"{kind}\">{file}</shape>"));
+        let p = write(d.path(), "s.xml", &text);
+        load(&p).unwrap_or_else(|e| panic!("{kind}: {e}"));
+    }
+}
+
+/// A small file cannot make the reader do unbounded work: `<default>`s that double each other
+/// (and `-D` values, and many substitutions of a long one) stop at the bounds with a short
+/// message; includes that fan out stop at 1024 files read, and included text at 256 MiB.
+#[test]
+fn reading_an_xml_scene_is_bounded() {
+    let mut doubling = String::from("<default name=\"a0\" value=\"xx\"/>\n");
+    for i in 1..34 {
+        doubling.push_str(&format!(
+            "<default name=\"a{i}\" value=\"$a{}$a{}\"/>\n",
+            i - 1,
+            i - 1
+        ));
+    }
+    let body =
+        format!("{doubling}<shape type=\"sphere\"><float name=\"radius\" value=\"$a33\"/></shape>");
+    let e = load_xml(&body).unwrap_err();
+    assert!(
+        e.contains("the value is longer than 65536 bytes") && e.len() < 1000,
+        "{e}"
+    );
+    // A command-line value used twice.
+    let big = "7".repeat(40_000);
+    let text = xml(r#"<shape type="sphere"><float name="radius" value="$r$r"/></shape>"#);
+    let e = load_str_with(&text, Path::new("s.xml"), &[("r".into(), big)])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("longer than 65536 bytes") && e.len() < 1000,
+        "{e}"
+    );
+    // Many substitutions of a long value: 60 KB each, 1200 times.
+    let long = "1".repeat(60_000);
+    let mut many = format!("<default name=\"v\" value=\"{long}\"/>\n<shape type=\"sphere\">");
+    for i in 0..1200 {
+        many.push_str(&format!("<string name=\"s{i}\" value=\"$v\"/>"));
+    }
+    many.push_str("</shape>");
+    let e = load_xml(&many).unwrap_err();
+    assert!(
+        e.contains("substitutions add up to more than 64 MiB") && e.len() < 1000,
+        "{e}"
+    );
+
+    let d = tempfile::tempdir().unwrap();
+    for i in 0..30 {
+        let next = format!("<include filename=\"d{}.xml\"/>", i + 1);
+        let body = if i < 29 {
+            next.repeat(2)
+        } else {
+            String::new()
+        };
+        write(
+            d.path(),
+            &format!("d{i}.xml"),
+            &format!("<scene version=\"3.0.0\">{body}</scene>\n"),
+        );
+    }
+    let main = write(d.path(), "main.xml", &xml("<include filename=\"d0.xml\"/>"));
+    let e = load(&main).unwrap_err().to_string();
+    assert!(e.contains("the scene reads more than 1024 files"), "{e}");
+    // Fewer files, each large: 300 reads of a 1 MB include pass 256 MiB.
+    let pad = format!(
+        "<scene version=\"3.0.0\"><!-- {} --></scene>\n",
+        "x".repeat(1 << 20)
+    );
+    write(d.path(), "big.xml", &pad);
+    let main = write(
+        d.path(),
+        "main2.xml",
+        &xml(&"<include filename=\"big.xml\"/>".repeat(300)),
+    );
+    let e = load(&main).unwrap_err().to_string();
+    assert!(
+        e.contains("the included files add up to more than 256 MiB"),
+        "{e}"
+    );
+    // A chain past 32 levels.
+    for i in 0..40 {
+        write(
+            d.path(),
+            &format!("c{i}.xml"),
+            &format!(
+                "<scene version=\"3.0.0\"><include filename=\"c{}.xml\"/></scene>\n",
+                i + 1
+            ),
+        );
+    }
+    write(d.path(), "c40.xml", "<scene version=\"3.0.0\"/>\n");
+    let e = load(&d.path().join("c0.xml")).unwrap_err().to_string();
+    assert!(e.contains("includes nest deeper than 32 files"), "{e}");
 }

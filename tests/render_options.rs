@@ -1,6 +1,7 @@
 //! `render --set`, `--threads` and `--quiet` as a user runs them: an override renders what the
 //! edited file renders and is refused naming its key when wrong; the thread count changes the
-//! pool, not the image; quiet prints nothing but errors.
+//! pool, not the image; quiet prints nothing but errors; `--spp` with `--samples` renders a
+//! part of that render.
 
 mod common;
 
@@ -200,6 +201,179 @@ fn quiet_prints_nothing_but_errors() {
     assert!(o.contains("wrote") && e.is_empty(), "{o}");
     let (o, e) = CLI.status(&["render", "scenes/none.toml", "--quiet"], 1);
     assert!(o.is_empty() && e.contains("scenes/none.toml"), "{e}");
-    let (_, e) = CLI.status(&["render", GLOSSY, "--quiet", "--json"], 2);
-    assert!(e.contains("cannot be used with"), "{e}");
+    // With --json: the JSON summary alone, no bar, nothing on stderr.
+    let (o, e) = CLI.status(
+        &[
+            &["render", GLOSSY, "--spp", "1", "--quiet", "--json"][..],
+            &["--out", s(&out)],
+            &SMALL,
+        ]
+        .concat(),
+        0,
+    );
+    let j: serde_json::Value = serde_json::from_str(o.trim()).unwrap();
+    assert_eq!((j["spp"].as_u64(), e.as_str()), (Some(1), ""), "{o}");
+}
+
+/// `--spp N --samples A..B` renders samples A..B of an N-spp render, as `--set
+/// integrator.spp=N` does: the parts merge into the whole render bit for bit (CPU), with every
+/// sampler (the multijitter pattern is sized by N); a range beyond N is refused naming both.
+#[test]
+fn spp_and_samples_together_render_a_part_of_that_render() {
+    for sampler in ["multijitter", "sobol", "independent"] {
+        let whole = CLI.tmp(&format!("whole-{sampler}.exr"));
+        let common = ["--spp", "6", "--sampler", sampler, "--seed", "3"];
+        render_json(GLOSSY, &whole, &common);
+        let parts: Vec<_> = ["0..2", "2..5", "5..6"]
+            .iter()
+            .enumerate()
+            .map(|(i, range)| {
+                let p = CLI.tmp(&format!("part{i}-{sampler}.bwfilm"));
+                let j = render_json(GLOSSY, &p, &[&common[..], &["--samples", range]].concat());
+                assert_eq!(
+                    j["samples"].to_string(),
+                    format!("[{}]", range.replace("..", ","))
+                );
+                p
+            })
+            .collect();
+        // The same part through --set, for the same render.
+        let via_set = CLI.tmp(&format!("set-{sampler}.bwfilm"));
+        render_json(
+            GLOSSY,
+            &via_set,
+            &[
+                "--set",
+                "integrator.spp=6",
+                "--sampler",
+                sampler,
+                "--seed",
+                "3",
+                "--samples",
+                "2..5",
+            ],
+        );
+        assert_eq!(
+            std::fs::read(&via_set).unwrap().len(),
+            std::fs::read(&parts[1]).unwrap().len()
+        );
+        let merged = CLI.tmp(&format!("merged-{sampler}.exr"));
+        CLI.status(
+            &[
+                "merge",
+                s(&parts[0]),
+                s(&parts[2]),
+                s(&via_set),
+                "--out",
+                s(&merged),
+            ],
+            0,
+        );
+        let (a, b) = (
+            imageio::read(&whole).unwrap(),
+            imageio::read(&merged).unwrap(),
+        );
+        assert!(
+            a.data == b.data,
+            "{sampler}: merged parts differ from the whole render"
+        );
+    }
+    for (spp, samples) in [("6", "4..7"), ("1", "1..2"), ("6", "6..7")] {
+        let e = CLI.fails(
+            &[
+                &["render", GLOSSY, "--spp", spp, "--samples", samples][..],
+                &["--out", s(&CLI.tmp("no.bwfilm"))],
+                &SMALL,
+            ]
+            .concat(),
+        );
+        assert!(
+            e.contains(&format!("--samples {samples}")) && e.contains(&format!("--spp {spp}")),
+            "{e}"
+        );
+    }
+}
+
+/// No two options of `render` refuse each other (as `--spp` and `--samples` did): every pair of
+/// the options in README.md's synopsis renders. The table below must give every option there a
+/// value (a new option fails this test until it is added, and so is checked too). GPU-only
+/// options are given on the CPU backend, where they are ignored with a warning.
+#[test]
+fn every_pair_of_render_options_is_accepted() {
+    let d = CLI.fresh_dir("pairs");
+    let (exr, var, part) = (d.join("a.exr"), d.join("v.exr"), d.join("p.bwfilm"));
+    let options: Vec<(&str, Vec<&str>)> = vec![
+        ("-D", vec!["-D", "unused=1"]),
+        ("--backend", vec!["--backend", "cpu"]),
+        ("--spp", vec!["--spp", "4"]),
+        ("--res", vec!["--res", "8x6"]),
+        ("--max-depth", vec!["--max-depth", "3"]),
+        ("--seed", vec!["--seed", "2"]),
+        ("--sampler", vec!["--sampler", "sobol"]),
+        ("--out", vec!["--out", s(&exr)]),
+        ("--variance-out", vec!["--variance-out", s(&var)]),
+        ("--device", vec!["--device", "llvmpipe"]),
+        ("--validation", vec!["--validation"]),
+        ("--wave-paths", vec!["--wave-paths", "128"]),
+        ("--integrator", vec!["--integrator", "megakernel"]),
+        ("--json", vec!["--json"]),
+        ("--samples", vec!["--samples", "0..2"]),
+        ("--tile", vec!["--tile", "0,0,4,4"]),
+        ("--set", vec!["--set", "integrator.seed=3"]),
+        ("--threads", vec!["--threads", "1"]),
+        ("--quiet", vec!["--quiet"]),
+        ("--out .bwfilm", vec!["--out", s(&part)]),
+    ];
+    let readme = std::fs::read_to_string(common::repo().join("README.md")).unwrap();
+    let synopsis: String = readme
+        .lines()
+        .skip_while(|l| !l.starts_with("brdfwave render SCENE"))
+        .take_while(|l| l.starts_with("brdfwave render") || l.starts_with("    "))
+        .collect::<Vec<_>>()
+        .join(" ");
+    let named: Vec<&str> = synopsis
+        .split(['[', ']', ' '])
+        .filter(|w| w.starts_with('-'))
+        .collect();
+    assert!(named.len() > 15, "{synopsis}");
+    for o in &named {
+        assert!(
+            options.iter().any(|(name, _)| name == o),
+            "{o} of the README's synopsis has no value in this test"
+        );
+    }
+    // -D applies to XML scenes: pairs with it render the XML twin.
+    for (i, (a, va)) in options.iter().enumerate() {
+        for (b, vb) in &options[i + 1..] {
+            let xml = *a == "-D" || *b == "-D";
+            let scene = match xml {
+                true => "scenes/xml/cornell-box.xml",
+                false => "scenes/cornell-box.toml",
+            };
+            if xml && (*a == "--set" || *b == "--set") {
+                continue; // --set edits TOML scenes and -D sets XML parameters: no scene takes both.
+            }
+            let mut args = vec!["render", scene];
+            args.extend(va);
+            args.extend(vb);
+            for (name, default) in [
+                ("--backend", ["--backend", "cpu"]),
+                ("--res", ["--res", "8x8"]),
+                ("--spp", ["--spp", "2"]),
+            ] {
+                if !args.contains(&name) {
+                    args.extend(default);
+                }
+            }
+            if !args.contains(&"--out") {
+                args.extend(["--out", s(&exr)]);
+            }
+            let o = CLI.run(&args);
+            assert!(
+                o.status.success(),
+                "{a} with {b} is refused: {args:?}\n{}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+        }
+    }
 }

@@ -247,6 +247,68 @@ fn obj_problems_name_the_obj_file_and_the_scene_line() {
     );
 }
 
+/// A number that is finite as written but beyond single precision is refused as written, with
+/// its place, in every reader: TOML fields, OBJ positions, normals and texture coordinates (in
+/// a plain file, which the parallel reader declines, and in a general one), XML values; never
+/// reported (or rendered) as `inf`.
+#[test]
+fn numbers_beyond_single_precision_are_named_as_written() {
+    for (obj, line, what) in [
+        (
+            "v 0 0 0\nv 1e39 0 0\nv 0 1 0\nf 1 2 3\n",
+            2,
+            "vertex position: '1e39' is out of the single-precision range",
+        ),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 -3.5e38 0\nf 1 2 3\n",
+            3,
+            "vertex position: '-3.5e38' is out of",
+        ),
+        (
+            "o a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1e40\nf 1//1 2//1 3//1\n",
+            5,
+            "normal: '1e40' is out of",
+        ),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 5e38 0\nf 1/1 2/1 3/1\n",
+            4,
+            "texture coordinate: '5e38' is out of",
+        ),
+    ] {
+        let (_d, path) = scene_with_obj(obj, "");
+        let msg = load(&path).err().unwrap().to_string();
+        assert!(
+            msg.contains("scene.toml:20: field 'shapes[1].obj'")
+                && msg.contains(&format!("mesh.obj', line {line}: {what}"))
+                && !msg.contains("inf"),
+            "{obj:?}: {msg}"
+        );
+    }
+    for (from, to, field) in [
+        ("radius = 1.0", "radius = 5e38", "shapes[0].sphere.radius"),
+        ("fov_y = 40.0", "fov_y = -1e300", "camera.fov_y"),
+        (
+            "emission = [1.0, 1.0, 1.0]",
+            "emission = [1.0, 4e38, 1.0]",
+            "shapes[0].emission",
+        ),
+    ] {
+        let e = error_of(&with(from, to));
+        assert!(
+            e.contains(&format!("field '{field}'"))
+                && e.contains("is out of the single-precision range")
+                && !e.contains("inf"),
+            "{to}: {e}"
+        );
+    }
+    let xml = "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"><float name=\"fov\" value=\"1e39\"/></sensor>\n</scene>\n";
+    let e = load_str(xml, Path::new("s.xml")).unwrap_err().to_string();
+    assert!(
+        e.contains("s.xml:2:") && e.contains("'1e39' is out of the single-precision range"),
+        "{e}"
+    );
+}
+
 #[test]
 fn degenerate_triangles_are_errors_naming_shape_and_index() {
     let quads = with(

@@ -1,10 +1,12 @@
 //! OBJ shapes with `mtl = true`: the MTL materials of the faces become Lambert or normalised
 //! Blinn–Phong materials (by `illum`) and emitters (`Ke`), equal to the same materials written
-//! in TOML; bad MTL content is an error naming the material; without `mtl` nothing changes.
+//! in TOML; bad MTL content is an error naming the MTL file, its line and the material;
+//! without `mtl` nothing changes.
 
 mod common;
 use brdfwave::metrics;
 use brdfwave::scene::{load, Scene};
+use common::scene_file::assert_warned;
 use common::*;
 use glam::Vec3;
 use std::path::Path;
@@ -109,26 +111,168 @@ fn without_mtl_the_faces_keep_the_shape_material() {
     );
 }
 
+/// Bad MTL content is an error naming the MTL file and its line (not the scene's line, not
+/// tobj's "material parse error"), numbers as written (never `inf`); a library that is not one,
+/// or not a regular file, is refused; a `usemtl` of a material no library defines, and an
+/// unknown statement, are warned about.
 #[test]
 fn bad_mtl_content_is_located() {
+    let lib_line =
+        |mtl: &str, needle: &str| 1 + mtl[..mtl.find(needle).unwrap()].matches('\n').count();
+    // The model's range check: at the MTL file and the line of its Kd.
     let bad = MTL.replace("Kd 0.7 0.6 0.5", "Kd 1.5 0.6 0.5");
     let e = scene_with(&[("a.obj", OBJ), ("lib.mtl", &bad)], "mtl = true").unwrap_err();
-    assert!(
-        e.contains("s.toml:15: material 'm/a.obj:matte', field 'albedo'")
-            && e.contains("out of range"),
-        "{e}"
+    let at = format!(
+        "lib.mtl:{}: material 'm/a.obj:matte', field 'albedo'",
+        lib_line(&bad, "Kd 1.5")
     );
-    let e = scene_with(&[("a.obj", OBJ)], "mtl = true").unwrap_err();
-    assert!(
-        e.contains("field 'shapes[0].obj'") && e.contains("cannot read its MTL library"),
-        "{e}"
+    assert!(e.contains(&at) && e.contains("out of range"), "{e}");
+    let bad = MTL.replace("Ks 0.3 0.3 0.3", "Ks 0.3 2 0.3");
+    let e = scene_with(&[("a.obj", OBJ), ("lib.mtl", &bad)], "mtl = true").unwrap_err();
+    let at = format!(
+        "lib.mtl:{}: material 'm/a.obj:shiny', field 'ks'",
+        lib_line(&bad, "Ks 0.3 2")
     );
+    assert!(e.contains(&at), "{e}");
+    // The line checks: file, line, the statement and the number as written.
+    for (from, to, what) in [
+        (
+            "Ke 5 4 3",
+            "Ke 1e39 4 3",
+            "Ke: '1e39' is out of the single-precision range",
+        ),
+        (
+            "Ke 5 4 3",
+            "Ke 5 -4e40 3",
+            "Ke: '-4e40' is out of the single-precision range",
+        ),
+        (
+            "Ns 40",
+            "Ns 1e300",
+            "Ns: '1e300' is out of the single-precision range",
+        ),
+        ("Ke 5 4 3", "Ke nan 4 3", "Ke: 'nan' is not a finite number"),
+        (
+            "Kd 0.7 0.6 0.5",
+            "Kd 0.7",
+            "Kd needs 3 numbers (r g b), found 1",
+        ),
+        (
+            "Kd 0.7 0.6 0.5",
+            "Kd 0.7 0.6 0.5 0.4",
+            "Kd needs 3 numbers (r g b), found 4",
+        ),
+        (
+            "Kd 0.7 0.6 0.5",
+            "Kd spectral wood.spd",
+            "Kd spectral: only RGB colours",
+        ),
+        ("Kd 0.7 0.6 0.5", "Kd 0.7 x 0.5", "Kd: 'x' is not a number"),
+        (
+            "illum 2",
+            "illum 99",
+            "illum needs a whole number from 0 to 10, found '99'",
+        ),
+        ("Ns 40", "Ns", "Ns needs 1 number, found 0"),
+    ] {
+        let bad = MTL.replace(from, to);
+        let e = scene_with(&[("a.obj", OBJ), ("lib.mtl", &bad)], "mtl = true").unwrap_err();
+        let at = "lib.mtl' (mtllib of OBJ file '";
+        let line = format!("line {}: {what}", lib_line(&bad, to));
+        assert!(
+            e.contains("field 'shapes[0].obj'") && e.contains(at) && e.contains(&line),
+            "{to}: {e}"
+        );
+        assert!(!e.contains("inf") || to.contains("nan"), "{to}: {e}");
+    }
     let neg = MTL.replace("Ke 5 4 3", "Ke 5 -4 3");
     let e = scene_with(&[("a.obj", OBJ), ("lib.mtl", &neg)], "mtl = true").unwrap_err();
+    let at = format!(
+        "lib.mtl', line {}: material 'm/a.obj:lamp': Ke [5, -4, 3] must be >= 0",
+        lib_line(&neg, "Ke 5 -4")
+    );
+    assert!(e.contains(&at), "{e}");
+    // A library that cannot be read, is not a regular file, is not text or is not MTL at all.
+    let e = scene_with(&[("a.obj", OBJ)], "mtl = true").unwrap_err();
     assert!(
-        e.contains("material 'm/a.obj:lamp': Ke") && e.contains(">= 0"),
+        e.contains("field 'shapes[0].obj'")
+            && e.contains("OBJ file")
+            && e.contains("line 1: cannot read the MTL library")
+            && e.contains("lib.mtl"),
         "{e}"
+    );
+    for (lib, what) in [
+        ("/dev/zero", "is a character device, not a regular file"),
+        ("/", "is a directory, not a regular file"),
+    ] {
+        let obj = OBJ.replace("mtllib lib.mtl", &format!("mtllib {lib}"));
+        let e = scene_with(&[("a.obj", &obj)], "mtl = true").unwrap_err();
+        assert!(
+            e.contains("line 1: cannot read the MTL library") && e.contains(what),
+            "{e}"
+        );
+    }
+    let passwd = "root:x:0:0:root:/root:/bin/bash\ndaemon:x:1:1::/usr/sbin:/usr/sbin/nologin\n";
+    let e = scene_with(&[("a.obj", OBJ), ("lib.mtl", passwd)], "mtl = true").unwrap_err();
+    assert!(
+        e.contains("line 1: no material (newmtl): this is not an MTL library")
+            && e.contains("'root:x:0:0"),
+        "{e}"
+    );
+    let e = scene_with(
+        &[("a.obj", OBJ), ("lib.mtl", "# only a comment\n")],
+        "mtl = true",
+    )
+    .unwrap_err();
+    assert!(e.contains("this is not an MTL library"), "{e}");
+    let latin1 = String::from_utf8_lossy(b"newmtl matte\nKd 0.7 0.6 0.5\n").into_owned();
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("m")).unwrap();
+    let mut bytes = latin1.into_bytes();
+    bytes.extend_from_slice(b"# caf\xe9\n");
+    std::fs::write(dir.path().join("m/lib.mtl"), bytes).unwrap();
+    let e = scene_with_files_in(&dir, &[("a.obj", OBJ)], "mtl = true").unwrap_err();
+    assert!(e.contains("line 3, column 6") && e.contains("0xe9"), "{e}");
+    // Warnings: a usemtl no library defines (its faces keep the shape's material), and an
+    // unknown statement, each with its line.
+    let obj = OBJ.replace("usemtl shiny", "usemtl glossy");
+    let s = scene_with(&[("a.obj", &obj), ("lib.mtl", MTL)], "mtl = true").unwrap();
+    let line = lib_line(&obj, "usemtl glossy");
+    assert_warned(
+        &s,
+        &format!("line {line}: usemtl 'glossy': no library defines it"),
+    );
+    assert!(s.triangles.iter().any(|t| t.material == 0));
+    let obj = OBJ.replace("mtllib lib.mtl\n", "");
+    let s = scene_with(&[("a.obj", &obj)], "mtl = true").unwrap();
+    assert_warned(&s, "usemtl 'matte': the file names no MTL library");
+    let odd = MTL.replace("illum 1\n", "illum 1\nfrobnicate 3\n");
+    let s = scene_with(&[("a.obj", OBJ), ("lib.mtl", &odd)], "mtl = true").unwrap();
+    assert_warned(
+        &s,
+        &format!(
+            "line {}: unknown statement 'frobnicate'",
+            lib_line(&odd, "frob")
+        ),
     );
     let e = scene_with(&[("a.obj", OBJ)], "mtl = 1").unwrap_err();
     assert!(e.contains("shapes[0].mtl"), "{e}");
+}
+
+/// [`scene_with`] in the folder `dir` (whose `m/` may hold files already).
+fn scene_with_files_in(
+    dir: &tempfile::TempDir,
+    files: &[(&str, &str)],
+    shape: &str,
+) -> Result<Scene, String> {
+    for (name, content) in files {
+        std::fs::write(dir.path().join("m").join(name), content).unwrap();
+    }
+    let src = format!(
+        "[camera]\nposition = [0, 3, 3]\ntarget = [0, 0, 0]\nfov_y = 50\n[film]\nwidth = 16\n\
+         height = 16\n[materials.m]\nmodel = \"lambert\"\n[[shapes]]\nmaterial = \"m\"\n\
+         obj = \"m/a.obj\"\n{shape}\n"
+    );
+    std::fs::write(dir.path().join("s.toml"), src).unwrap();
+    load(&dir.path().join("s.toml")).map_err(|e| e.to_string())
 }

@@ -382,3 +382,64 @@ fn ply_shape_errors_name_the_scene_line_and_the_file() {
         "{e}"
     );
 }
+
+/// Values that are finite as written but beyond single precision are refused where they are
+/// (the positions, normals and texture coordinates become f32s: not `inf` later), in text and
+/// in binary; and an
+/// element that declares items but no properties is named as that, not as a truncated file.
+#[test]
+fn numbers_beyond_single_precision_and_empty_elements_are_named() {
+    for (row, want) in [
+        ("1 1e39 0", "line 11: 1e39 is out of the single-precision range (|x| <= 3.4e38) (element 'vertex' 1, property 'y')"),
+        ("-4e38 0 0", "line 11: -4e38 is out of the single-precision range"),
+        ("1 0 3.5e38", "line 11: 3.5e38 is out of the single-precision range"),
+    ] {
+        let text = format!("{TRI_HEADER}0 0 0\n{row}\n0 1 0\n3 0 1 2\n");
+        let e = ply_error(text.as_bytes());
+        assert!(e.contains(want), "{row}: {e}");
+    }
+    let header = "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty double x\nproperty double y\nproperty double z\nend_header\n";
+    let mut b = header.as_bytes().to_vec();
+    for x in [0.0f64, 1e39, 0.0] {
+        b.extend(x.to_le_bytes());
+    }
+    let e = ply_error(&b);
+    assert!(
+        e.contains(&format!(
+            "byte offset {}: 1e39 is out of the single-precision range",
+            header.len() + 8
+        )) && e.contains("property 'y'"),
+        "{e}"
+    );
+    // A property the mesh does not keep may hold any double; one within single precision is
+    // read.
+    let extra = header.replace("end_header", "property double weight\nend_header");
+    let mut b = extra.as_bytes().to_vec();
+    for x in [0.0f64, 0.0, 0.0, 1e300] {
+        b.extend(x.to_le_bytes());
+    }
+    parse(&b).unwrap();
+    let mut ok = header.as_bytes().to_vec();
+    for x in [0.0f64, 3e38, 0.0] {
+        ok.extend(x.to_le_bytes());
+    }
+    assert_eq!(parse(&ok).unwrap().positions[0].y, 3e38);
+    for (decl, count) in [
+        ("element junk 5", 5u64),
+        ("element junk 18446744073709551615", u64::MAX),
+    ] {
+        let text = format!(
+            "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n{decl}\nend_header\n0 0 0\n1 0 0\n0 1 0\n"
+        );
+        let e = ply_error(text.as_bytes());
+        assert!(
+            e.contains(&format!(
+                "element 'junk' declares {count} elements but no properties"
+            )) && !e.contains("truncated"),
+            "{e}"
+        );
+    }
+    // An element of no items and no properties is empty, and fine.
+    let text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement junk 0\nend_header\n0 0 0\n1 0 0\n0 1 0\n";
+    parse(text.as_bytes()).unwrap();
+}

@@ -281,7 +281,8 @@ fn render_parts_script_in_two_processes_equals_one_render() {
 }
 
 /// The Slurm example (docs/distributed/slurm.sbatch) run as Slurm would run it: once per array
-/// task with SLURM_ARRAY_TASK_ID set, then once without for the merge job. Its image is the
+/// task with SLURM_ARRAY_TASK_ID (and SLURM_CPUS_PER_TASK, the render's threads) set, then once
+/// without for the merge job. Its image is the
 /// single CPU render, bit for bit; with a task's part missing, the merge job fails.
 #[test]
 fn slurm_example_renders_and_merges_like_one_render() {
@@ -300,19 +301,23 @@ fn slurm_example_renders_and_merges_like_one_render() {
             .env("RES", "20x16")
             .env("BACKEND", "cpu")
             .env("OUT", &out)
-            .env_remove("SLURM_ARRAY_TASK_ID");
+            .env_remove("SLURM_ARRAY_TASK_ID")
+            .env_remove("SLURM_CPUS_ON_NODE");
         if let Some(t) = task {
-            c.env("SLURM_ARRAY_TASK_ID", t.to_string());
+            // The allocation's CPUs are the render's threads.
+            c.env("SLURM_ARRAY_TASK_ID", t.to_string())
+                .env("SLURM_CPUS_PER_TASK", "3");
         }
         let o = c.output().unwrap();
+        // The render's summary goes to stdout, its errors to stderr.
         (
             o.status.success(),
-            String::from_utf8_lossy(&o.stderr).into_owned(),
+            String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr),
         )
     };
     for t in [2, 0] {
         let (ok, e) = job(Some(t));
-        assert!(ok, "{e}");
+        assert!(ok && e.contains("(3 threads)"), "{e}");
     }
     let (ok, e) = job(None);
     assert!(!ok && e.contains("part-1-of-3.bwfilm"), "{e}");

@@ -27,10 +27,12 @@ void run_kernel() {
     if (slot == NO_QUEUE) return;
     // Counted as the material queue's length, as extend would, for the ray totals.
     Scatter sc = shade_vertex(path, pc.depth, s, dd.xyz, b, counter_nonfinite_shade(slot));
-    if (sc.shadow && !trace_any(sc.shadow_o, sc.shadow_d, sc.shadow_tmax)) {
+    bool occluded = sc.shadow && trace_any(sc.shadow_o, sc.shadow_d, sc.shadow_tmax);
+    if (sc.shadow && !occluded) {
         radiance_set(path, radiance(path) + vec4(sc.shadow_l, 0.0));
     }
     count_rays(COUNTER_SHADOW_TOTAL, counter_segment_shadow(pc.depth), sc.shadow);
+    count_total(COUNTER_OCCLUDED_TOTAL, occluded);
     if (!sc.next) return;
     beta_set(path, vec4(sc.beta, 0.0));
     ray_o_set(path, vec4(sc.o, 0.0));

@@ -19,6 +19,7 @@ layout(local_size_x = LOCAL_SIZE) in;
 // workgroup.
 shared uint wg_extension;
 shared uint wg_shadow;
+shared uint wg_occluded;
 shared uint wg_segment_extension[SEGMENTS_COUNTED];
 shared uint wg_segment_shadow[SEGMENTS_COUNTED];
 
@@ -27,6 +28,7 @@ void main() {
     if (gl_LocalInvocationIndex == 0u) {
         wg_extension = 0u;
         wg_shadow = 0u;
+        wg_occluded = 0u;
     }
     if (gl_LocalInvocationIndex < SEGMENTS_COUNTED) {
         wg_segment_extension[gl_LocalInvocationIndex] = 0u;
@@ -92,6 +94,7 @@ void main() {
                 atomicAdd(wg_shadow, 1u);
                 atomicAdd(wg_segment_shadow[min(depth, SEGMENTS_COUNTED) - 1u], 1u);
                 if (lit) l += sc.shadow_l;
+                else atomicAdd(wg_occluded, 1u);
             }
             radiance_set(path, vec4(l, 0.0));
             if (!sc.next) {
@@ -115,6 +118,7 @@ void main() {
     if (gl_LocalInvocationIndex == 0u) {
         add_total64(COUNTER_EXT_TOTAL, wg_extension);
         add_total64(COUNTER_SHADOW_TOTAL, wg_shadow);
+        add_total64(COUNTER_OCCLUDED_TOTAL, wg_occluded);
     }
     if (gl_LocalInvocationIndex < SEGMENTS_COUNTED) {
         uint d = gl_LocalInvocationIndex + 1u;

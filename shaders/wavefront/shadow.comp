@@ -7,10 +7,15 @@ layout(local_size_x = LOCAL_SIZE) in;
 
 void run_kernel() {
     uint i = gl_GlobalInvocationID.x;
-    if (i >= counters[COUNTER_SHADOW]) return;
-    uint path = queue_entry(QUEUE_SHADOW * g.wave_paths + i);
-    vec4 o = shadow_o(path);
-    if (!trace_any(o.xyz, shadow_d(path).xyz, o.w)) radiance_set(path, radiance(path) + vec4(shadow_l(path).xyz, 0.0));
+    bool queued = i < counters[COUNTER_SHADOW];
+    bool occluded = false;
+    if (queued) {
+        uint path = queue_entry(QUEUE_SHADOW * g.wave_paths + i);
+        vec4 o = shadow_o(path);
+        occluded = trace_any(o.xyz, shadow_d(path).xyz, o.w);
+        if (!occluded) radiance_set(path, radiance(path) + vec4(shadow_l(path).xyz, 0.0));
+    }
+    count_total(COUNTER_OCCLUDED_TOTAL, occluded);
 }
 
 // The whole kernel, then the loop-budget check (state.glsl), which every return above reaches.

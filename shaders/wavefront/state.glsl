@@ -144,6 +144,17 @@ void count_rays(uint total, uint segment, bool traced) {
 #endif
 }
 
+// Counts one for every invocation with `yes` in the 64-bit count at `total`: one atomic per
+// subgroup where the device has ballots.
+void count_total(uint total, bool yes) {
+#ifdef SUBGROUP_QUEUES
+    uint n = subgroupBallotBitCount(subgroupBallot(yes));
+    if (subgroupElect()) add_total64(total, n);
+#else
+    if (yes) add_total64(total, 1u);
+#endif
+}
+
 // The path's random number for one (depth, dimension) key (dimension table: src/rng/mod.rs).
 float rand(uint path, uint depth, uint dim) {
 #if defined(SAMPLER_INDEPENDENT)

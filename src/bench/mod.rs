@@ -459,19 +459,35 @@ fn write_csv(o: &BenchOptions, records: &[PassRecord]) -> Result<()> {
     Ok(())
 }
 
-/// The machine, in words: the CPU's model name and its hardware threads.
-fn machine() -> String {
-    let model = std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("model name"))
-                .and_then(|l| l.split_once(':'))
-                .map(|(_, m)| m.trim().to_string())
-        })
-        .unwrap_or_else(|| std::env::consts::ARCH.to_string());
+/// The machine, in words: the CPU's model name, its family, model and stepping numbers and
+/// widest vector instructions (a name like "Intel(R) Xeon(R) Processor" alone does not tell
+/// one host from another, and lavapipe's speed depends on which it is), and its hardware
+/// threads.
+pub(super) fn machine() -> String {
+    let info = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
+    let field = |key: &str| {
+        info.lines()
+            .find(|l| l.split(':').next().is_some_and(|k| k.trim() == key))
+            .and_then(|l| l.split_once(':'))
+            .map(|(_, v)| v.trim().to_string())
+    };
+    let model = field("model name").unwrap_or_else(|| std::env::consts::ARCH.to_string());
+    let numbers = match (field("cpu family"), field("model"), field("stepping")) {
+        (Some(f), Some(m), Some(s)) => format!(" (family {f} model {m} stepping {s}"),
+        _ => String::new(),
+    };
+    let flags = field("flags").unwrap_or_default();
+    let has = |f: &str| flags.split_whitespace().any(|x| x == f);
+    let isa = if has("avx512f") {
+        ", AVX-512"
+    } else if has("avx2") {
+        ", AVX2"
+    } else {
+        ""
+    };
+    let close = if numbers.is_empty() { "" } else { ")" };
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    format!("{model}, {threads} threads")
+    format!("{model}{numbers}{isa}{close}, {threads} threads")
 }
 
 /// `bench.png`: relMSE against render time, log-log, one curve per configuration, titled with

@@ -55,7 +55,9 @@ pub(super) fn reference(
         return Ok((img, None));
     }
     let mut key = crate::hash::Fnv64::new();
-    key.bytes(&std::fs::read(&o.scene).with_context(|| format!("reading {}", o.scene.display()))?);
+    let scene = crate::infile::read(&o.scene, crate::infile::SCENE)
+        .with_context(|| format!("reading {}", crate::errors::shown_path(&o.scene)))?;
+    key.bytes(&scene);
     for v in [
         sc.width,
         sc.height,
@@ -113,6 +115,8 @@ pub(super) fn reference(
         if let Some(dir) = p.parent() {
             let _ = std::fs::create_dir_all(dir);
         }
+        // The program's own cache entry, read above and found stale: it may be replaced.
+        crate::infile::forget(p);
         if let Err(e) = imageio::write(p, &img) {
             eprintln!(
                 "warning: could not cache the reference at {}: {e}",

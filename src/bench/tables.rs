@@ -93,6 +93,9 @@ pub(super) fn summary(
     notes: &[String],
 ) -> String {
     let mut md = String::new();
+    // Every figure below was taken on this host, and lavapipe's with the LLVM its device name
+    // gives ("llvmpipe (LLVM 15.0.6, 256 bits)").
+    let _ = writeln!(md, "Host: {}.\n", super::machine());
     let _ = writeln!(
         md,
         "Scene `{}`, {}x{}, max depth {}, Russian roulette {}; budget {:.0} s shared by {} configurations, taking turns pass by pass; scene load {:.3} s and BVH build {:.3} s (ours, once for all our configurations; a Mitsuba configuration's set-up is its own scene load).\n",

@@ -201,7 +201,7 @@ declare_model! {
         ETA = rgb("eta", "RGB", [0.143_036, 0.375_307, 1.442_05], (0.0, 100.0), "real part η of the complex index η + iκ, `fresnel = \"conductor\"` (default gold-like)").range_text("(0, 100]").at(8).texels_in(f32::MIN_POSITIVE, 100.0);
         K = rgb("k", "RGB", [3.983, 2.385_56, 1.603_36], (0.0, 100.0), "imaginary part κ of the complex index, `fresnel = \"conductor\"`").at(12);
         F0 = rgb("f0", "RGB", [0.04; 3], (0.0, 1.0), "normal-incidence reflectance, `fresnel = \"schlick\"`").at(8);
-        NORMALIZATION = choice("normalization", Normalization::NAMES, Normalization::Survey.name(), "the specular denominator: `survey` (eq. 9) or `walter`, see below");
+        NORMALIZATION = choice("normalization", Normalization::NAMES, Normalization::Survey.name(), "the specular denominator: `survey` (eq. 9) or `walter`, see below").same_family("`walter` with ks is `survey` with ks/4: every `walter` lobe is a `survey` lobe");
     }
     representative: Representative::Listed(&[
         ("cook_torrance (survey)", r#"model = "cook_torrance", kd = 0.0, ks = 1.0, roughness = 0.2, fresnel = "schlick", f0 = 0.8, normalization = "survey""#),

@@ -1,5 +1,7 @@
 //! Reflectance models. One file per model, the same file name and function names as its GLSL
-//! twin in `shaders/brdf/`: `src/brdf/ward.rs` ↔ `shaders/brdf/ward.glsl`.
+//! twin in `shaders/brdf/`: `src/brdf/ward.rs` ↔ `shaders/brdf/ward.glsl`. A model with parts
+//! has a directory of them on both sides: `src/brdf/he/mod.rs` ↔ `shaders/brdf/he.glsl`, and
+//! `src/brdf/he/series.rs` ↔ `shaders/brdf/he/series.glsl` for each part.
 //!
 //! Every model exposes the same small interface ([`Brdf`]): `eval`, `sample` and `pdf` in the
 //! local shading frame, plus `pack` to write its parameters into the GPU material record. The

@@ -243,6 +243,13 @@ pub struct Param {
     /// The range a texture's values are clamped into, where the model accepts less than
     /// [`min`, `max`] (the ranges of `range_text`); `None`: [`min`, `max`].
     pub texel_range: Option<(f32, f32)>,
+    /// For a choice whose other options give no function that its default does not (they
+    /// rescale a fitted coefficient: Cook–Torrance's `walter` with ks is `survey` with ks/4),
+    /// why: `brdf fit` then fits the default option only, where it fits every option of the
+    /// other choices ([`ModelSpec::expand`]).
+    ///
+    /// [`ModelSpec::expand`]: crate::fit::space::ModelSpec::expand
+    pub same_family: Option<&'static str>,
 }
 
 impl Param {
@@ -263,6 +270,7 @@ impl Param {
             meaning,
             slot: None,
             texel_range: None,
+            same_family: None,
         }
     }
     /// An RGB parameter with every channel in [`min`, `max`].
@@ -349,6 +357,14 @@ impl Param {
     /// The range a texture's values are clamped into.
     pub fn texture_range(&self) -> (f32, f32) {
         self.texel_range.unwrap_or((self.min, self.max))
+    }
+    /// A choice whose other options give no function its default does not (the field
+    /// `same_family`), with the reason.
+    pub const fn same_family(self, why: &'static str) -> Param {
+        Param {
+            same_family: Some(why),
+            ..self
+        }
     }
 }
 
@@ -496,19 +512,7 @@ impl<'a> ParamReader<'a> {
                 ))
             }
         };
-        if !x.is_finite() {
-            return Err(self.error(key, format!("{x} is not a finite number")));
-        }
-        if x.abs() > f32::MAX as f64 {
-            return Err(self.error(
-                key,
-                format!(
-                    "{} is out of the single-precision range (|x| <= 3.4e38)",
-                    fmt_num(x)
-                ),
-            ));
-        }
-        Ok(x as f32)
+        crate::numbers::f32_of(x).map_err(|msg| self.error(key, msg))
     }
 
     fn check_range(&self, key: &str, x: f32, min: f32, max: f32) -> Result<(), ParamError> {

@@ -3,7 +3,7 @@
 //! methods and their numerics are those of the [`crate::bvh`] module documentation.
 
 use crate::robust::gamma;
-use glam::{Vec2, Vec3, Vec3A, Vec4};
+use glam::{DVec3, Vec2, Vec3, Vec3A, Vec4};
 
 /// Ize 2013: the far slab distance is multiplied by this (1 + 2^-20, exact in f32), more than
 /// the 1 + 2·γ₃ the three roundings of `(b - o) · inv` need, to absorb the rounding of the
@@ -35,6 +35,8 @@ pub(super) struct Ray {
     kz: usize,
     /// Shear constants (Sx, Sy, Sz).
     s: Vec3,
+    /// The direction on the permuted axes (the f64 test of ambiguous hits).
+    dp: Vec3,
 }
 
 impl Ray {
@@ -73,6 +75,7 @@ impl Ray {
             ky,
             kz,
             s,
+            dp: Vec3::new(d[kx], d[ky], d[kz]),
         })
     }
 
@@ -119,31 +122,98 @@ impl Ray {
         let bz = self.s.z * b.z;
         let cz = self.s.z * c.z;
         let tt = u * az + v_ * bz + w * cz;
-        // t > 0 needs T and det of the same sign (and T != 0).
-        if (det < 0.0 && tt >= 0.0) || (det > 0.0 && tt <= 0.0) {
-            return None;
-        }
         let rcp = 1.0 / det;
         let t = tt * rcp;
-        if !(t > 0.0 && t <= tmax) {
+        // (Also rejects NaN.)
+        if !(t <= tmax) {
             return None;
         }
         // A hit counts only where t exceeds the bound on its own rounding error, so that it
         // lies in front of the origin in exact arithmetic too (Pharr, Jakob & Humphreys 2016,
         // "Physically Based Rendering" 3rd ed., sec. 3.9.6; the `crate::robust` module
-        // documentation says why the ray offsets need it).
-        if t <= triangle_t_error(
+        // documentation says why the ray offsets need it). Within the bound, on either side of
+        // 0, single precision cannot tell: the test is redone in f64 ([`Ray::triangle_f64`]).
+        let bound = triangle_t_error(
             [a, b, c],
             [ax, bx, cx],
             [ay, by, cy],
             [az, bz, cz],
             [u, v_, w],
             rcp,
-        ) {
+        );
+        if t > bound {
+            Some((t, Vec2::new(v_ * rcp, w * rcp)))
+        } else if t < -bound {
+            None
+        } else {
+            self.triangle_f64(v, tmax)
+        }
+    }
+
+    /// The watertight test in f64, for a hit whose f32 `t` is within its error bound of 0: a
+    /// ray leaving a surface near an edge, whose real hit on the neighbouring face lies closer
+    /// than the f32 test can resolve (a ray from a room's floor, a few ulps from a wall, escaped
+    /// through the corner), or the face the ray leaves itself. The same steps on f64 values
+    /// (the f32 inputs are exact in f64), with the same bound for f64's rounding; a `t` still
+    /// within it is taken for the surface the ray leaves, and missed. Woop, Benthin & Wald 2013
+    /// fall back to double precision where an edge function is 0; here it is `t` that needs it.
+    #[cold]
+    #[inline(never)]
+    fn triangle_f64(&self, v: &[Vec3; 3], tmax: f32) -> Option<(f32, Vec2)> {
+        let (kx, ky, kz) = (self.kx, self.ky, self.kz);
+        let o = self.op.as_dvec3();
+        let d = self.dp.as_dvec3();
+        let rel = |p: &Vec3| {
+            let p: &[f32; 3] = p.as_ref();
+            DVec3::new(p[kx] as f64 - o.x, p[ky] as f64 - o.y, p[kz] as f64 - o.z)
+        };
+        let (a, b, c) = (rel(&v[0]), rel(&v[1]), rel(&v[2]));
+        let (sx, sy, sz) = (d.x / d.z, d.y / d.z, 1.0 / d.z);
+        let ax = a.x - sx * a.z;
+        let ay = a.y - sy * a.z;
+        let bx = b.x - sx * b.z;
+        let by = b.y - sy * b.z;
+        let cx = c.x - sx * c.z;
+        let cy = c.y - sy * c.z;
+        let u = cx * by - cy * bx;
+        let v_ = ax * cy - ay * cx;
+        let w = bx * ay - by * ax;
+        if (u < 0.0 || v_ < 0.0 || w < 0.0) && (u > 0.0 || v_ > 0.0 || w > 0.0) {
             return None;
         }
-        Some((t, Vec2::new(v_ * rcp, w * rcp)))
+        let det = u + v_ + w;
+        if det == 0.0 {
+            return None;
+        }
+        let (az, bz, cz) = (sz * a.z, sz * b.z, sz * c.z);
+        let rcp = 1.0 / det;
+        let t = (u * az + v_ * bz + w * cz) * rcp;
+        if !(t <= tmax as f64) {
+            return None;
+        }
+        let max3 = |p: f64, q: f64, r: f64| p.abs().max(q.abs()).max(r.abs());
+        let (max_x, max_y, max_z) = (max3(ax, bx, cx), max3(ay, by, cy), max3(az, bz, cz));
+        let max_e = max3(u, v_, w);
+        let rel_max = a.abs().max(b.abs()).max(c.abs());
+        let delta_x = gamma64(5) * (rel_max.x + rel_max.z);
+        let delta_y = gamma64(5) * (rel_max.y + rel_max.z);
+        let delta_z = gamma64(3) * max_z;
+        let delta_e = 2.0 * (gamma64(2) * max_x * max_y + delta_y * max_x + delta_x * max_y);
+        let bound =
+            3.0 * (gamma64(3) * max_e * max_z + delta_e * max_z + delta_z * max_e) * rcp.abs();
+        if t <= bound {
+            return None;
+        }
+        // A t below the smallest f32 is still a hit in front of the origin.
+        let t32 = (t as f32).max(f32::from_bits(1));
+        Some((t32, Vec2::new((v_ * rcp) as f32, (w * rcp) as f32)))
     }
+}
+
+/// [`gamma`] for f64: `n·u / (1 − n·u)` with `u = 2^-53`.
+pub(super) const fn gamma64(n: u32) -> f64 {
+    let nu = n as f64 * (f64::EPSILON * 0.5);
+    nu / (1.0 - nu)
 }
 
 /// The bound on the rounding error of the watertight test's `t` = (Σ eᵢ·zᵢ)/det, after Pharr,

@@ -178,7 +178,7 @@ pub struct Hit {
 
 #[cfg(test)]
 mod tests {
-    use super::intersect::{SPHERE_C_ERROR, ZERO_DIR, ZERO_INV, ZERO_PAD};
+    use super::intersect::{gamma64, SPHERE_C_ERROR, ZERO_DIR, ZERO_INV, ZERO_PAD};
     use super::node::LEAF_FLAG;
     use super::*;
 
@@ -218,6 +218,9 @@ mod tests {
             u64::from_str_radix(lo, 16).unwrap() | u64::from_str_radix(hi, 16).unwrap() << 32
         };
         assert_eq!(dbits("BVH_SPHERE_C_ERROR"), SPHERE_C_ERROR.to_bits());
+        for n in [2, 3, 5] {
+            assert_eq!(dbits(&format!("BVH_GAMMA64_{n}")), gamma64(n).to_bits());
+        }
         assert_eq!(bits("BVH_FLT_MAX"), f32::MAX.to_bits());
         for n in [2, 3, 5] {
             assert_eq!(bits(&format!("BVH_GAMMA{n}")), gamma(n).to_bits());

@@ -155,7 +155,19 @@ fn is_figure(option: &str, path: &Path) -> Result<bool> {
             }
             Ok(true)
         }
-        "--error-map" => Ok(matches!(ext.as_str(), "svg" | "png")),
+        "--error-map" => {
+            // The figure's extensions and the image formats' (whose own message lists only
+            // the latter).
+            if !matches!(ext.as_str(), "svg" | "png" | "exr" | "pfm") {
+                bail!(
+                    "--error-map {}: unknown extension '.{ext}': the error map is .svg or .png \
+                     (a figure with axes and a colour bar) or .exr or .pfm (the coloured pixels \
+                     alone)",
+                    brdfwave::errors::shown_path(path)
+                );
+            }
+            Ok(matches!(ext.as_str(), "svg" | "png"))
+        }
         _ => Ok(false),
     }
 }

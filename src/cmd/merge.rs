@@ -17,8 +17,9 @@ pub struct MergeArgs {
     /// Output images (.exr, .png or .pfm); may be given several times.
     #[arg(long = "out", required = true)]
     out: Vec<PathBuf>,
-    /// The samples the parts must hold together, START..END: a set that holds fewer (a
-    /// missing last part) is refused (default: any one range, without gaps or overlaps).
+    /// The samples the parts must hold together, START..END: a set that holds others (a
+    /// missing last part) is refused (default: 0..spp, all the samples of the render the parts
+    /// record).
     #[arg(long, value_parser = brdfwave::film::parse_samples)]
     samples: Option<std::ops::Range<u32>>,
     /// Also write the per-pixel variance of one sample (EXR).
@@ -116,16 +117,7 @@ pub fn run(a: MergeArgs) -> Result<()> {
         }
     }
     outfile::prepare(&planned)?;
-    let m = film::merge(parts)?;
-    if let Some(want) = samples.filter(|w| *w != m.samples) {
-        bail!(
-            "the parts hold samples {}..{}, not the {}..{} asked for (--samples): a part is missing or left over",
-            m.samples.start,
-            m.samples.end,
-            want.start,
-            want.end
-        );
-    }
+    let m = film::merge_samples(parts, samples)?;
     let provenance = provenance(parts, &m)?;
     let paths: Vec<&Path> = planned.iter().map(|o| o.path).collect();
     outfile::write_each(&paths, |i, p| {

@@ -71,7 +71,7 @@ pub fn parse_res(s: &str) -> std::result::Result<(u32, u32), String> {
         .trim()
         .parse()
         .map_err(|_| format!("bad height in '{s}'"))?;
-    let max = brdfwave::scene::load::MAX_FILM_SIZE;
+    let max = brdfwave::conventions::MAX_FILM_SIZE;
     if w == 0 || h == 0 || w > max || h > max {
         return Err(format!(
             "resolution '{s}' must be between 1x1 and {max}x{max}"

@@ -57,9 +57,9 @@ pub struct RenderArgs {
     #[arg(long = "out")]
     out: Vec<PathBuf>,
     /// Render only these sample indices, START..END (END exclusive), e.g. 0..256, for a
-    /// partial film: parts with consecutive ranges merge into the image of one render
-    /// (default: 0..spp).
-    #[arg(long, value_parser = brdfwave::film::parse_samples, conflicts_with = "spp")]
+    /// partial film: parts with consecutive ranges merge into the image of one render of spp
+    /// samples (`--spp`, else the scene's), which the range must lie in (default: 0..spp).
+    #[arg(long, value_parser = brdfwave::film::parse_samples)]
     samples: Option<std::ops::Range<u32>>,
     /// Render only the pixels of this tile, X,Y,W,H (from the top-left corner), for a
     /// partial film; images written are the tile's size (default: the whole image).
@@ -84,8 +84,8 @@ pub struct RenderArgs {
     /// kernel per wave, the benchmark's baseline) or `auto` (the default: the megakernel for
     /// waves of at most 2048 paths, where the wavefront's cost per segment dominates, else the
     /// wavefront). Same image; the summary names the one that ran.
-    #[arg(long, value_enum, default_value = "auto")]
-    integrator: IntegratorArg,
+    #[arg(long, value_enum)]
+    integrator: Option<IntegratorArg>,
     /// Print the summary as one JSON object on stdout.
     #[arg(long)]
     json: bool,
@@ -99,8 +99,9 @@ pub struct RenderArgs {
     /// lavapipe's (LP_NUM_THREADS, which other drivers ignore). Default: one per core.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
     threads: Option<u32>,
-    /// No progress bar and no summary; warnings and errors still go to stderr.
-    #[arg(long, conflicts_with = "json")]
+    /// No progress bar and no text summary (with --json, the JSON summary is still printed);
+    /// warnings and errors still go to stderr.
+    #[arg(long)]
     quiet: bool,
 }
 
@@ -183,6 +184,8 @@ struct RenderSummary {
     rays_per_second: f64,
     extension_rays: u64,
     shadow_rays: u64,
+    /// Shadow rays that found an occluder.
+    shadow_rays_occluded: u64,
     rays_by_segment: Vec<SegmentRays>,
     nonfinite_samples: u64,
     nonfinite_by_stage: Vec<StageCount>,
@@ -475,7 +478,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
             compiler,
             options: brdfwave::gpu::GpuOptions {
                 wave_paths: a.wave_paths.unwrap_or(brdfwave::gpu::MAX_WAVE_PATHS),
-                integrator: a.integrator.gpu(),
+                integrator: a.integrator.unwrap_or(IntegratorArg::Auto).gpu(),
                 tile: None,
             },
         },
@@ -550,17 +553,22 @@ pub fn run(a: RenderArgs) -> Result<()> {
 
 /// The GPU-only options: checked for the GPU backend (the wave size's range, the validation
 /// layer present), and warned about as ignored on the CPU backend.
+/// On the CPU backend every GPU-only option is ignored with the same warning, whatever its
+/// value (its range is the GPU's to check).
 fn check_backend_options(a: &RenderArgs) -> Result<()> {
-    if let Some(w) = a.wave_paths {
-        brdfwave::gpu::check_wave_paths(w).context("--wave-paths")?;
-    }
     if a.backend == Backend::Cpu {
         warn_gpu_only(&[
             ("--device", a.device.is_some()),
             ("--validation", a.validation),
             ("--wave-paths", a.wave_paths.is_some()),
+            ("--integrator", a.integrator.is_some()),
         ]);
-    } else if a.validation {
+        return Ok(());
+    }
+    if let Some(w) = a.wave_paths {
+        brdfwave::gpu::check_wave_paths(w).context("--wave-paths")?;
+    }
+    if a.validation {
         vk::require_validation().context("--validation")?;
     }
     Ok(())
@@ -726,6 +734,7 @@ fn summary(
         rays_per_second: rays / times.render.max(1e-9),
         extension_rays: output.extension_rays,
         shadow_rays: output.shadow_rays,
+        shadow_rays_occluded: output.shadow_rays_occluded,
         rays_by_segment: output
             .rays_by_segment
             .iter()

@@ -34,6 +34,7 @@ use std::sync::Arc;
 struct PathStats {
     extension_rays: u64,
     shadow_rays: u64,
+    shadow_rays_occluded: u64,
     /// By path segment (index d - 1; the last also counts deeper segments).
     segment_extension: [u64; SEGMENTS_COUNTED as usize],
     segment_shadow: [u64; SEGMENTS_COUNTED as usize],
@@ -48,6 +49,7 @@ impl PathStats {
     fn add(&mut self, o: &PathStats) {
         self.extension_rays += o.extension_rays;
         self.shadow_rays += o.shadow_rays;
+        self.shadow_rays_occluded += o.shadow_rays_occluded;
         for d in 0..SEGMENTS_COUNTED as usize {
             self.segment_extension[d] += o.segment_extension[d];
             self.segment_shadow[d] += o.segment_shadow[d];
@@ -226,6 +228,7 @@ impl<'a> CpuRenderer<'a> {
             nonfinite_by_stage,
             extension_rays: stats.extension_rays,
             shadow_rays: stats.shadow_rays,
+            shadow_rays_occluded: stats.shadow_rays_occluded,
             rays_by_segment: (0..s.integrator.max_depth.min(SEGMENTS_COUNTED) as usize)
                 .map(|d| (stats.segment_extension[d], stats.segment_shadow[d]))
                 .collect(),
@@ -262,6 +265,8 @@ impl<'a> CpuRenderer<'a> {
                 stats.segment_shadow[seg] += 1;
                 if !self.bvh.occluded(s, sh.o, sh.d, sh.tmax) {
                     l += sh.l;
+                } else {
+                    stats.shadow_rays_occluded += 1;
                 }
             }
             let Some(next) = sc.next else {

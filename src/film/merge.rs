@@ -30,7 +30,17 @@ pub struct Merged {
 /// in sample order, and joined into the films of the cells the tiles cut the image into, so
 /// memory holds one part and a few blocks per cell (parts of aligned power-of-two ranges join
 /// as they arrive), not every part.
+///
+/// The parts must hold all the samples of the render they are parts of, 0..spp (each part
+/// records spp): a set with the last part missing is refused. [`merge_samples`] takes
+/// another range.
 pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
+    merge_samples(paths, None)
+}
+
+/// [`merge`], the parts holding the samples `want` together (`merge --samples`), or, when
+/// `want` is None, all of the render's 0..spp.
+pub fn merge_samples(paths: &[PathBuf], want: Option<Range<u32>>) -> Result<Merged> {
     if paths.is_empty() {
         bail!("no partial films to merge");
     }
@@ -40,6 +50,28 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
         .collect::<Result<Vec<_>>>()?;
     check_one_render(paths, &headers)?;
     let (mut cells, samples) = cells(paths, &headers)?;
+    if let Some(have) = &samples {
+        let spp = headers[0].spp;
+        let (want, asked) = match want {
+            Some(w) => (w, "asked for (--samples)".to_string()),
+            None => (
+                0..spp,
+                format!("of the whole {spp}-spp render the parts record"),
+            ),
+        };
+        if *have != want {
+            bail!(
+                "the parts hold samples {}..{}, not the samples {}..{} {asked}: a part is \
+                 missing or left over (merge --samples {}..{} merges these alone)",
+                have.start,
+                have.end,
+                want.start,
+                want.end,
+                have.start,
+                have.end
+            );
+        }
+    }
     join_sums(paths, &headers, &mut cells)?;
     let (mean, variance) = images(headers[0].width, headers[0].height, &cells);
     totals(&headers, mean, variance, samples)
@@ -77,6 +109,13 @@ fn check_one_render(paths: &[PathBuf], headers: &[PartHeader]) -> Result<()> {
                 "program versions",
                 &first.code_version,
                 &h.code_version,
+            ));
+        }
+        if h.spp != first.spp {
+            return Err(differs(
+                "renders",
+                &format!("{} spp", first.spp),
+                &format!("{} spp", h.spp),
             ));
         }
         if (h.width, h.height) != (first.width, first.height) {

@@ -28,9 +28,10 @@
 //! `brdfwave merge` reads them back ([`write_part`], [`read_part`] in `part.rs`, [`merge`] in
 //! `merge.rs`).
 //! The format, all integers little-endian:
-//! * 8 bytes `BWFILM\0\n`, then a `u32` format version (2) and a `u32` header length `n`;
+//! * 8 bytes `BWFILM\0\n`, then a `u32` format version (3) and a `u32` header length `n`;
 //! * `n` bytes of JSON, the [`PartHeader`]: scene and code identity, image size, tile, sample
-//!   range, the blocks in order, the render's counts, and a checksum (FNV-1a 64) of each
+//!   range, the whole render's samples per pixel (`spp`: [`merge`] needs a set of parts to hold
+//!   all of 0..spp, unless it is given another range), the blocks in order, the render's counts, and a checksum (FNV-1a 64) of each
 //!   block's data, checked on reading;
 //! * zero bytes up to a multiple of 8 from the file start;
 //! * for each block in order, for each pixel of the tile in rows from the top, six `f64`: the
@@ -44,7 +45,7 @@ mod merge;
 mod part;
 mod sums;
 
-pub use merge::{merge, Merged};
+pub use merge::{merge, merge_samples, Merged};
 pub use part::{code_version, read_header, read_part, scene_hash, write_part, Part, PartHeader};
 pub use sums::{
     check_continues, dyadic_blocks, mean_and_variance, sample_sums, Block, Film, PairwiseSum, Sums,

@@ -7,8 +7,8 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 const MAGIC: &[u8; 8] = b"BWFILM\0\n";
-/// Version 2 added `block_checksums`.
-const VERSION: u32 = 2;
+/// Version 2 added `block_checksums`, version 3 `spp`.
+const VERSION: u32 = 3;
 
 /// The JSON header of a partial film (see the module documentation).
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
@@ -28,6 +28,9 @@ pub struct PartHeader {
     pub height: u32,
     pub tile: Tile,
     pub samples: [u32; 2],
+    /// The samples per pixel of the whole render this part is a range of (`--spp`, else the
+    /// scene's): the parts of a render hold 0..spp together.
+    pub spp: u32,
     /// The sample range of each data block, in order.
     pub blocks: Vec<[u32; 2]>,
     pub extension_rays: u64,
@@ -155,6 +158,7 @@ impl Part {
                 height: scene.height,
                 tile: film.tile,
                 samples: [samples.start, samples.end],
+                spp: scene.integrator.pattern_spp(),
                 blocks: film
                     .blocks
                     .iter()
@@ -212,20 +216,19 @@ fn checksum(bytes: &[u8]) -> String {
 
 /// Reads a partial film, checking that it is one and that its parts agree with each other.
 pub fn read_part(path: &Path) -> Result<Part> {
-    let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
-    parse_part(&bytes).with_context(|| format!("{}", path.display()))
+    let shown = || crate::errors::shown_path(path);
+    let bytes = crate::infile::read(path, crate::infile::FILM)
+        .with_context(|| format!("{}: cannot read", shown()))?;
+    parse_part(&bytes).with_context(shown)
 }
 
 /// Reads only the header of a partial film (checked as [`read_part`] checks it, the length of
 /// the data included), not its sums.
 pub fn read_header(path: &Path) -> Result<PartHeader> {
     use std::io::Read as _;
-    let at = || format!("{}", path.display());
-    let mut f = std::fs::File::open(path).with_context(|| format!("{}: cannot read", at()))?;
-    let len = f
-        .metadata()
-        .with_context(|| format!("{}: cannot read", at()))?
-        .len();
+    let at = || crate::errors::shown_path(path);
+    let (mut f, len) = crate::infile::open(path, crate::infile::FILM)
+        .with_context(|| format!("{}: cannot read", at()))?;
     let mut head = vec![0u8; 16.min(len as usize)];
     f.read_exact(&mut head).with_context(at)?;
     if head.len() == 16 && &head[..8] == MAGIC {
@@ -268,7 +271,7 @@ fn parse_header(bytes: &[u8], file_len: u64) -> Result<(PartHeader, usize)> {
             bail!("header field '{field}': {text:?} holds control characters");
         }
     }
-    let max = crate::scene::load::MAX_FILM_SIZE;
+    let max = crate::conventions::MAX_FILM_SIZE;
     if h.width == 0 || h.height == 0 || h.width > max || h.height > max {
         bail!(
             "header fields 'width' and 'height': {}x{} is not an image size (1 to {max} per side)",
@@ -441,6 +444,7 @@ mod tests {
                 height: 2,
             },
             samples: [2, 5],
+            spp: 8,
             blocks: vec![[2, 4], [4, 5]],
             extension_rays: 7,
             shadow_rays: 3,

@@ -25,6 +25,13 @@
 //! **Parameters and bounds** from the registry ([`space`]): the model file's `PARAMS`, their
 //! declared ranges and defaults; nothing is listed per model here.
 //!
+//! **Variants.** A model's name stands for each of its variants, one option of each of its
+//! choice parameters ([`space::ModelSpec::expand`]: Ward's three normalisations, Cook–Torrance's
+//! distribution × geometry × Fresnel term, …), and each variant is a fit of its own, ranked
+//! with the others by its error. Variants can be nested (a conductor's Fresnel term with κ = 0
+//! is the dielectric one): on data of the smaller one the larger fits as well, and may rank
+//! first, as that smaller one.
+//!
 //! **Optimiser.** Nelder–Mead on the unit cube of the parameters' coordinates
 //! ([`nelder_mead`]), in three stages, because the colour coefficients make the space large
 //! (He has four RGB parameters) while the lobe's shape is shared by the channels:
@@ -33,7 +40,10 @@
 //!    (several starts, because these fits have local minima: a narrow lobe on the peak against a
 //!    wide one under the diffuse floor);
 //! 2. *colour*: the scalars held, each channel's coefficients fitted to that channel alone
-//!    (every model's channel c depends only on its RGB parameters' channel c);
+//!    (every model's channel c depends only on its RGB parameters' channel c), from the best of
+//!    the shape's values and `screen` Halton points of the channel's coefficients (where a
+//!    coefficient changes the lobe's shape per channel, a conductor's η and κ, the grey values
+//!    of stage 1 can sit in a region where the channel's error does not change, F = 1);
 //! 3. *polish*: the scalars again with the colours held, then the colours once more.
 //!
 //! Candidates are built through the model's own parser, so every bound and constraint of the
@@ -171,6 +181,24 @@ impl Stage<'_> {
             })
             .collect()
     }
+    /// The `starts` best of `first` and `opt.screen` Halton points, and the evaluations spent
+    /// screening them.
+    fn screened(&self, first: Vec<f64>, starts: usize, opt: &FitOptions) -> (Vec<Vec<f64>>, usize) {
+        let mut candidates = vec![first];
+        candidates.extend((0..opt.screen).map(|i| halton(i, self.coords.len())));
+        let evals = candidates.len();
+        let mut screened: Vec<(f64, Vec<f64>)> = candidates
+            .into_par_iter()
+            .map(|u| (self.loss(&u), u))
+            .collect();
+        screened.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let starts = screened
+            .into_iter()
+            .take(starts.max(1))
+            .map(|(_, u)| u)
+            .collect();
+        (starts, evals)
+    }
     /// Runs Nelder–Mead from each start; the best values, loss and evaluations.
     fn run(&self, starts: &[Vec<f64>], opt: &FitOptions) -> (Vec<Vec3>, f64, usize) {
         let nm = nelder_mead::Options {
@@ -214,22 +242,11 @@ pub fn fit_model(spec: ModelSpec, all: &[Sample], opt: &FitOptions) -> Result<Mo
         (0..n).map(|p| (p, None)).collect(),
         space.defaults(),
     );
-    let mut candidates = vec![shape.unit_of(&space.defaults())];
-    candidates.extend((0..opt.screen).map(|i| halton(i, n)));
-    let mut screened: Vec<(f64, Vec<f64>)> = candidates
-        .into_par_iter()
-        .map(|u| (shape.loss(&u), u))
-        .collect();
-    screened.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let starts: Vec<Vec<f64>> = screened
-        .into_iter()
-        .take(opt.starts.max(1))
-        .map(|(_, u)| u)
-        .collect();
+    let (starts, screen_evals) = shape.screened(shape.unit_of(&space.defaults()), opt.starts, opt);
     let (mut values, _, mut evals) = shape.run(&starts, opt);
-    evals += opt.screen + 1;
+    evals += screen_evals;
     // 2. Colour per channel, 3. polish the scalars, then the colours again.
-    let colour = |values: &mut Vec<Vec3>, evals: &mut usize| {
+    let colour = |values: &mut Vec<Vec3>, evals: &mut usize, screen: bool| {
         let fits: Vec<(Vec<Vec3>, usize)> = (0..3)
             .into_par_iter()
             .map(|c| {
@@ -238,8 +255,13 @@ pub fn fit_model(spec: ModelSpec, all: &[Sample], opt: &FitOptions) -> Result<Mo
                     rgb.iter().map(|&p| (p, Some(c))).collect(),
                     values.clone(),
                 );
-                let (v, _, e) = s.run(&[s.unit_of(values)], opt);
-                (v, e)
+                let here = s.unit_of(values);
+                let (starts, screen_evals) = match screen {
+                    true => s.screened(here, 1, opt),
+                    false => (vec![here], 0),
+                };
+                let (v, _, e) = s.run(&starts, opt);
+                (v, e + screen_evals)
             })
             .collect();
         for (c, (v, e)) in fits.into_iter().enumerate() {
@@ -250,7 +272,7 @@ pub fn fit_model(spec: ModelSpec, all: &[Sample], opt: &FitOptions) -> Result<Mo
         }
     };
     if !rgb.is_empty() {
-        colour(&mut values, &mut evals);
+        colour(&mut values, &mut evals, true);
         if !scalars.is_empty() {
             let s = stage(
                 Channels::All,
@@ -260,7 +282,7 @@ pub fn fit_model(spec: ModelSpec, all: &[Sample], opt: &FitOptions) -> Result<Mo
             let (v, _, e) = s.run(&[s.unit_of(&values)], opt);
             values = v;
             evals += e;
-            colour(&mut values, &mut evals);
+            colour(&mut values, &mut evals, false);
         }
     }
     let brdf = space.material(&values)?;

@@ -10,11 +10,12 @@ pub fn ranking(fits: &[ModelFit]) -> Vec<usize> {
     order
 }
 
-/// Scene-file material names, `fit_<model>` (with `_2`, `_3`, … for a model fitted twice).
+/// Scene-file material names, `fit_<model>_<options>` from the variant
+/// ([`super::space::ModelSpec::slug`]), with `_2`, `_3`, … for a variant fitted twice.
 pub fn material_names(fits: &[ModelFit]) -> Vec<String> {
     let mut names: Vec<String> = Vec::new();
     for f in fits {
-        let base = format!("fit_{}", f.space.spec.model.name);
+        let base = format!("fit_{}", f.space.spec.slug());
         let mut name = base.clone();
         let mut k = 2;
         while names.contains(&name) {
@@ -24,6 +25,20 @@ pub fn material_names(fits: &[ModelFit]) -> Vec<String> {
         names.push(name);
     }
     names
+}
+
+/// The best fit of each model (the lowest error among its variants), in rank order.
+pub fn best_per_model(fits: &[ModelFit]) -> Vec<usize> {
+    let mut seen: Vec<&str> = Vec::new();
+    ranking(fits)
+        .into_iter()
+        .filter(|&i| {
+            let name = fits[i].space.spec.model.name;
+            let first = !seen.contains(&name);
+            seen.push(name);
+            first
+        })
+        .collect()
 }
 
 /// What the run compared, for the heads of the files.
@@ -60,6 +75,19 @@ pub fn markdown(fits: &[ModelFit], ctx: &Context) -> String {
          error relative to the best fit. Times are wall-clock, the models fitted in parallel.\n",
         ctx.samples, ctx.options.max_theta_deg, ctx.missing
     );
+    let bests: Vec<String> = best_per_model(fits)
+        .iter()
+        .map(|&i| {
+            let rank = order.iter().position(|&j| j == i).unwrap_or(0) + 1;
+            format!("`{}` ({rank})", fits[i].space.spec.label())
+        })
+        .collect();
+    let _ = writeln!(
+        s,
+        "Each variant (`model:option…`, one option of each choice parameter) is a fit of its own. \
+         The best variant of each model, with its rank: {}.\n",
+        bests.join(", ")
+    );
     s.push_str("| rank | model | error | × best | evaluations | time (s) |\n");
     s.push_str("|---|---|---|---|---|---|\n");
     for (rank, &i) in order.iter().enumerate() {
@@ -80,11 +108,13 @@ pub fn markdown(fits: &[ModelFit], ctx: &Context) -> String {
         let _ = writeln!(s, "\n## {}\n", f.space.spec.label());
         s.push_str("| parameter | value | searched in |\n|---|---|---|\n");
         for ((name, value), b) in f.space.fields(&f.values).iter().zip(&f.space.bounds) {
-            let scale = if b.log { ", log scale" } else { "" };
+            let scale = b.scale_text();
             let _ = writeln!(s, "| `{name}` | `{value}` | [{}, {}]{scale} |", b.lo, b.hi);
         }
-        if !f.space.spec.fixed.is_empty() {
-            let _ = writeln!(s, "\nFixed: `{}`.", f.space.spec.fixed);
+        let fixed = f.space.spec.fixed_fields();
+        if !fixed.is_empty() {
+            let list: Vec<String> = fixed.iter().map(|(k, v)| format!("`{k} = {v}`")).collect();
+            let _ = writeln!(s, "\nFixed: {}.", list.join(", "));
         }
     }
     s
@@ -121,23 +151,17 @@ pub fn csv(fits: &[ModelFit]) -> String {
     s
 }
 
-/// One `[materials.NAME]` table per fit.
-fn material_tables(fits: &[ModelFit], names: &[String]) -> String {
+/// One `[materials.NAME]` table per fit of `which`, in that order.
+fn material_tables(fits: &[ModelFit], names: &[String], which: &[usize]) -> String {
     let mut s = String::new();
-    for &i in &ranking(fits) {
+    for &i in which {
         let f = &fits[i];
         let _ = writeln!(s, "# {}: error {:.4e}", f.space.spec.label(), f.error);
         let _ = writeln!(s, "[materials.{}]", names[i]);
         let _ = writeln!(s, "model = \"{}\"", f.space.spec.model.name);
-        if !f.space.spec.fixed.is_empty() {
-            // The fixed fields as the user gave them, one per line.
-            let table: toml::Table =
-                toml::from_str(&format!("m = {{ {} }}", f.space.spec.fixed)).unwrap_or_default();
-            if let Some(t) = table.get("m").and_then(|m| m.as_table()) {
-                for (k, v) in t {
-                    let _ = writeln!(s, "{k} = {v}");
-                }
-            }
+        // The variant's choices and the fixed fields, one per line.
+        for (k, v) in f.space.spec.fixed_fields() {
+            let _ = writeln!(s, "{k} = {v}");
         }
         for (name, value) in f.space.fields(&f.values) {
             let _ = writeln!(s, "{name} = {value}");
@@ -153,21 +177,23 @@ pub fn materials_toml(fits: &[ModelFit], ctx: &Context) -> String {
         "# The survey's models fitted to {} by `brdfwave brdf fit`, best first.\n# Paste a \
          table into a scene file and name it in a shape's `material`.\n\n{}",
         ctx.measured,
-        material_tables(fits, &material_names(fits))
+        material_tables(fits, &material_names(fits), &ranking(fits))
     )
 }
 
-/// `lineup.toml`: the measured material itself on the left, then one sphere per fitted model in
-/// rank order, best first, under the light and environment of `scenes/lineup.toml`.
+/// `lineup.toml`: the measured material itself on the left, then one sphere per fitted model
+/// (its best variant) in rank order, best first, under the light and environment of
+/// `scenes/lineup.toml`.
 pub fn lineup_scene(fits: &[ModelFit], ctx: &Context) -> String {
     let names = material_names(fits);
-    let order = ranking(fits);
+    let order = best_per_model(fits);
     let n = order.len() + 1;
     let mut s = String::new();
     let _ = writeln!(
         s,
         "# The survey's models fitted to {} by `brdfwave brdf fit`, one sphere each: the measured \
-         material\n# itself (model \"measured\") on the left, then the fits, best first:\n# {}.\n",
+         material\n# itself (model \"measured\") on the left, then each model's best variant, \
+         best first:\n# {}.\n",
         ctx.measured,
         order
             .iter()
@@ -190,7 +216,7 @@ pub fn lineup_scene(fits: &[ModelFit], ctx: &Context) -> String {
         "[materials.measured]\nmodel = \"measured\"\nfile = {}\n",
         toml::Value::String(ctx.measured_file.to_string())
     );
-    s.push_str(&material_tables(fits, &names));
+    s.push_str(&material_tables(fits, &names, &order));
     s.push_str(
         "[[shapes]]\nname = \"floor\"\nmaterial = \"floor\"\nquads = [[[-20.0, 0.0, -20.0], \
          [-20.0, 0.0, 20.0], [20.0, 0.0, 20.0], [20.0, 0.0, -20.0]]]\n\n[[shapes]]\n\

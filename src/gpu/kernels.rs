@@ -300,6 +300,11 @@ pub(super) fn common_defines(ctx: &Context, scene: &Scene, bvh: &Bvh, tiled: boo
     if tiled {
         common.push(("TILED".into(), "1".into()));
     }
+    // Without doubles, the triangle test misses the hits it cannot resolve in single
+    // precision instead of redoing them in double (shaders/bvh.glsl, bvh_triangle_f64).
+    if !ctx.features.shader_float64 {
+        common.push(("BVH_NO_F64".into(), "1".into()));
+    }
     common.extend(
         scene_features(scene)
             .into_iter()

@@ -291,6 +291,9 @@ slots! {
     ExtensionRaysHi => "COUNTER_EXT_TOTAL_HI",
     ShadowRaysLo => "COUNTER_SHADOW_TOTAL",
     ShadowRaysHi => "COUNTER_SHADOW_TOTAL_HI",
+    /// 64-bit running total (low word, high word) of shadow rays that found an occluder.
+    OccludedLo => "COUNTER_OCCLUDED_TOTAL",
+    OccludedHi => "COUNTER_OCCLUDED_TOTAL_HI",
     /// Invocations whose loops the driver cut short (state.glsl `check_loops`): an error.
     CutShort => "COUNTER_CUT_SHORT",
     /// Running count of the paths the megakernel stopped before their end, to be resumed by

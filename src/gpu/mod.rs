@@ -428,6 +428,7 @@ impl<'a> GpuRenderer<'a> {
             // counts its rays itself).
             extension_rays: c.total(&counters, Counter::ExtensionRaysLo),
             shadow_rays: c.total(&counters, Counter::ShadowRaysLo),
+            shadow_rays_occluded: c.total(&counters, Counter::OccludedLo),
             rays_by_segment: (1..=scene
                 .integrator
                 .max_depth
@@ -480,9 +481,8 @@ impl<'a> GpuRenderer<'a> {
     }
 }
 
-/// Largest `max_depth` accepted (segments per path): the random-number key holds depth × 64 +
-/// dimension in 32 bits, and a deeper path would reuse another depth's numbers long before.
-pub const MAX_DEPTH: u32 = 1 << 20;
+/// Largest `max_depth` accepted (segments per path): [`crate::conventions::MAX_DEPTH`].
+pub use crate::conventions::MAX_DEPTH;
 
 /// A `max_depth` the GPU renderer accepts: 1 ..= [`MAX_DEPTH`].
 pub fn check_max_depth(max_depth: u32) -> Result<()> {

@@ -42,11 +42,11 @@ use std::path::{Path, PathBuf};
 /// Errors of image construction, reading and writing. Each names the file involved.
 #[derive(Debug, thiserror::Error)]
 pub enum ImageError {
-    #[error("{path}: unsupported image file extension (expected .exr, .png or .pfm)")]
+    #[error("{}: unsupported image file extension (expected .exr, .png or .pfm)", crate::errors::shown_path(.path))]
     UnknownExtension { path: PathBuf },
-    #[error("{path}: cannot write, the directory {dir} does not exist")]
+    #[error("{}: cannot write, the directory {} does not exist", crate::errors::shown_path(.path), crate::errors::shown_path(.dir))]
     MissingDirectory { path: PathBuf, dir: PathBuf },
-    #[error("{path}: {what}: {source}")]
+    #[error("{}: {what}: {source}", crate::errors::shown_path(.path))]
     Io {
         path: PathBuf,
         what: &'static str,
@@ -54,7 +54,8 @@ pub enum ImageError {
         source: std::io::Error,
     },
     #[error(
-        "{path}: OpenEXR error: {source} (brdfwave reads the first layer with R, G and B channels)"
+        "{}: OpenEXR error: {source} (brdfwave reads the first layer with R, G and B channels)",
+        crate::errors::shown_path(.path)
     )]
     Exr {
         path: PathBuf,
@@ -62,21 +63,21 @@ pub enum ImageError {
         source: exr::error::Error,
     },
     /// Writing: the reading hint of [`ImageError::Exr`] does not apply.
-    #[error("{path}: cannot write the OpenEXR file: {source}")]
+    #[error("{}: cannot write the OpenEXR file: {source}", crate::errors::shown_path(.path))]
     ExrWrite {
         path: PathBuf,
         #[source]
         source: exr::error::Error,
     },
-    #[error("{path}: PNG error: {source}")]
+    #[error("{}: PNG error: {source}", crate::errors::shown_path(.path))]
     Png {
         path: PathBuf,
         #[source]
         source: image::ImageError,
     },
-    #[error("{path}: malformed PFM file: {reason}")]
+    #[error("{}: malformed PFM file: {reason}", crate::errors::shown_path(.path))]
     Pfm { path: PathBuf, reason: String },
-    #[error("{path}: invalid image: {reason}")]
+    #[error("{}: invalid image: {reason}", crate::errors::shown_path(.path))]
     InvalidImage { path: PathBuf, reason: String },
     #[error("invalid image: {0}")]
     Invalid(String),
@@ -490,18 +491,21 @@ pub fn read_layered(path: &Path) -> Result<Layered, ImageError> {
 }
 
 pub(crate) fn open(path: &Path) -> Result<File, ImageError> {
-    File::open(path).map_err(|source| ImageError::Io {
-        path: path.to_path_buf(),
-        what: "cannot open",
-        source,
-    })
+    // A regular file within the limit of an image ([`crate::infile`]).
+    crate::infile::open(path, crate::infile::IMAGE)
+        .map(|(f, _)| f)
+        .map_err(|source| ImageError::Io {
+            path: path.to_path_buf(),
+            what: "cannot open",
+            source,
+        })
 }
 
 /// Refuses an image of `width` × `height` read from `path` when either side is over the film
-/// limit ([`crate::scene::load::MAX_FILM_SIZE`]), before anything of that size is allocated: a
+/// limit ([`crate::conventions::MAX_FILM_SIZE`]), before anything of that size is allocated: a
 /// file of a few bytes can declare 10^10 pixels.
 pub(crate) fn check_size(path: &Path, width: u64, height: u64) -> Result<(), ImageError> {
-    let max = crate::scene::load::MAX_FILM_SIZE as u64;
+    let max = crate::conventions::MAX_FILM_SIZE as u64;
     if width > max || height > max {
         return Err(ImageError::InvalidImage {
             path: path.to_path_buf(),

@@ -169,12 +169,9 @@ impl MerlTable {
     /// Reads and validates a MERL `.binary` file (see the module documentation).
     pub fn read(path: &Path) -> Result<MerlTable, MerlError> {
         let io = |what: &str, e: std::io::Error| err(path, format!("{what}: {e}"));
-        let mut file = std::fs::File::open(path).map_err(|e| io("cannot open", e))?;
-        let meta = file.metadata().map_err(|e| io("cannot read its size", e))?;
-        if meta.is_dir() {
-            return Err(err(path, "is a directory, not a MERL .binary file"));
-        }
-        let len = meta.len();
+        // A regular file of at most the limit (a device or a FIFO is refused, not read).
+        let (mut file, len) =
+            crate::infile::open(path, crate::infile::MEASURED).map_err(|e| io("cannot open", e))?;
         if len < HEADER_BYTES {
             return Err(err(
                 path,
@@ -265,7 +262,24 @@ impl MerlTable {
                 missing += 1;
                 values.push(-1.0);
             } else {
-                values.push((v * SCALE[channel]) as f32);
+                // Finite in the file but beyond single precision once scaled: refused here, not
+                // loaded as inf (which evaluated to NaN and rendered as dropped samples).
+                let scaled = crate::numbers::f32_of(v * SCALE[channel]).map_err(|e| {
+                    let (ih, rest) = (cell / (THETA_D * PHI_D), cell % (THETA_D * PHI_D));
+                    err(
+                        path,
+                        format!(
+                            "value {} scaled by MERL's {}: {e} ({} plane, cell θh {ih}, θd {}, \
+                             φd {})",
+                            crate::brdf::params::fmt_num(v),
+                            ["1/1500", "1.15/1500", "1.66/1500"][channel],
+                            ["red", "green", "blue"][channel],
+                            rest / PHI_D,
+                            rest % PHI_D
+                        ),
+                    )
+                })?;
+                values.push(scaled);
             }
         }
         Ok(MerlTable { values, missing })

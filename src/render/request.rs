@@ -15,7 +15,7 @@ pub struct Overrides {
     pub spp: Option<u32>,
     /// Image size (width, height), checked by the parser of `--res`.
     pub res: Option<(u32, u32)>,
-    /// Maximum path segments, 1 ..= [`crate::gpu::MAX_DEPTH`].
+    /// Maximum path segments, 1 ..= [`crate::conventions::MAX_DEPTH`].
     pub max_depth: Option<u32>,
     pub seed: Option<u32>,
     pub sampler: Option<Sampler>,
@@ -51,10 +51,10 @@ impl Overrides {
             if d == 0 {
                 bail!("--max-depth must be at least 1 (the camera segment)");
             }
-            if d > crate::gpu::MAX_DEPTH {
+            if d > crate::conventions::MAX_DEPTH {
                 bail!(
                     "--max-depth {d} is over the largest supported depth, {} segments",
-                    crate::gpu::MAX_DEPTH
+                    crate::conventions::MAX_DEPTH
                 );
             }
             scene.integrator.max_depth = d;
@@ -65,10 +65,28 @@ impl Overrides {
         if let Some(s) = self.sampler {
             scene.integrator.sampler = s;
         }
-        let samples = self.samples.clone().unwrap_or(0..scene.integrator.spp);
+        // A part (`--samples`) is a range of the whole render's samples, 0..spp: the spp given
+        // beside it (`--spp`), else the scene's. It sizes the sampler's patterns, which every
+        // part keeps, and merge checks that the parts cover it.
+        let whole = scene.integrator.pattern_spp();
+        if let Some(s) = &self.samples {
+            if s.end > whole {
+                let spp = match self.spp {
+                    Some(_) => format!("--spp {whole}"),
+                    None => format!("the scene's integrator.spp = {whole}"),
+                };
+                bail!(
+                    "--samples {}..{} goes beyond the whole render's samples 0..{whole} ({spp}): \
+                     a part renders a range of them (give the whole render's spp with --spp)",
+                    s.start,
+                    s.end
+                );
+            }
+        }
+        let samples = self.samples.clone().unwrap_or(0..whole);
         // The parts of a split render keep the whole render's sampler patterns.
         if self.samples.is_some() {
-            scene.integrator.pattern_spp = Some(scene.integrator.pattern_spp());
+            scene.integrator.pattern_spp = Some(whole);
         }
         scene.integrator.spp = samples.end - samples.start;
         let tile = self.tile.unwrap_or(Tile::full(scene.width, scene.height));
@@ -130,13 +148,43 @@ mod tests {
             (9, Sampler::Independent)
         );
 
-        // A sample range sets the scene's spp to its length.
+        // A sample range sets the scene's spp to its length; the whole render's spp (given
+        // beside it, or the scene's) sizes the patterns and bounds the range.
         let part = Overrides {
             samples: Some(4..10),
             ..Overrides::default()
         };
+        let mut s = cornell();
         assert_eq!(part.apply(&mut s).unwrap().samples, 4..10);
         assert_eq!(s.integrator.spp, 6);
+        assert_eq!(s.integrator.pattern_spp(), 16);
+        for (spp, samples) in [(32, 16..32), (32, 0..32), (1, 0..1), (100, 99..100)] {
+            let mut s = cornell();
+            let part = Overrides {
+                spp: Some(spp),
+                samples: Some(samples.clone()),
+                ..Overrides::default()
+            };
+            assert_eq!(part.apply(&mut s).unwrap().samples, samples);
+            assert_eq!(s.integrator.spp, samples.end - samples.start);
+            assert_eq!(s.integrator.pattern_spp(), spp);
+        }
+        for (spp, samples) in [(Some(8), 4..9), (None, 8..17), (Some(1), 1..2)] {
+            let e = format!(
+                "{:#}",
+                Overrides {
+                    spp,
+                    samples: Some(samples),
+                    ..Overrides::default()
+                }
+                .apply(&mut cornell())
+                .unwrap_err()
+            );
+            assert!(
+                e.starts_with("--samples") && e.contains("goes beyond"),
+                "{e}"
+            );
+        }
 
         let refused = |o: Overrides| format!("{:#}", o.apply(&mut cornell()).unwrap_err());
         assert!(refused(Overrides {
@@ -150,7 +198,7 @@ mod tests {
         })
         .starts_with("--max-depth"));
         assert!(refused(Overrides {
-            max_depth: Some(crate::gpu::MAX_DEPTH + 1),
+            max_depth: Some(crate::conventions::MAX_DEPTH + 1),
             ..Overrides::default()
         })
         .starts_with("--max-depth"));

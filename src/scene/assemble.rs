@@ -17,8 +17,7 @@ use std::collections::{BTreeMap, HashMap};
 use std::ops::Range;
 use std::path::Path;
 
-/// Largest accepted film width or height in pixels.
-pub const MAX_FILM_SIZE: u32 = 16384;
+use crate::conventions::{MAX_DEPTH, MAX_FILM_SIZE};
 
 /// A vector for a message, `[x, y, z]`, each number as [`fmt_num`] writes it.
 pub(super) fn fmt_vec(v: Vec3) -> String {
@@ -32,17 +31,7 @@ impl Cx<'_> {
         field: &str,
         x: f64,
     ) -> Result<f32, SceneError> {
-        if !x.is_finite() {
-            return Err(self.err(span, field, format!("{x} is not a finite number")));
-        }
-        if x.abs() > f32::MAX as f64 {
-            return Err(self.err(
-                span,
-                field,
-                format!("{x:e} is out of the single-precision range"),
-            ));
-        }
-        Ok(x as f32)
+        crate::numbers::f32_of(x).map_err(|msg| self.err(span, field, msg))
     }
 
     pub(super) fn vec3(
@@ -92,8 +81,8 @@ impl Cx<'_> {
 }
 
 pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, SceneError> {
-    let camera = camera(cx, &raw.camera)?;
-
+    // The film first: a Mitsuba camera's field of view is computed from the film's aspect, so
+    // a film of width 0 must be named as that, not as the field of view it made.
     let size = |v: &Sp<u32>, field: &str| {
         if v.value == 0 || v.value > MAX_FILM_SIZE {
             let msg = format!(
@@ -106,6 +95,7 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
     };
     let width = size(&raw.film.width, "film.width")?;
     let height = size(&raw.film.height, "film.height")?;
+    let camera = camera(cx, &raw.camera)?;
 
     let integrator = integrator(cx, raw.integrator.as_ref())?;
 
@@ -114,12 +104,8 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
     // The depth limit of the renderers (`--max-depth` is held to the same): the random-number
     // key of a deeper segment would reuse another depth's numbers.
     if let Some(d) = raw.integrator.as_ref().and_then(|i| i.max_depth.as_ref()) {
-        if d.value > crate::gpu::MAX_DEPTH {
-            let msg = format!(
-                "{} is out of range: must be in [1, {}]",
-                d.value,
-                crate::gpu::MAX_DEPTH
-            );
+        if d.value > MAX_DEPTH {
+            let msg = format!("{} is out of range: must be in [1, {MAX_DEPTH}]", d.value);
             return Err(cx.err(d.span(), "integrator.max_depth", msg));
         }
     }
@@ -585,6 +571,21 @@ pub(super) fn shape_primitives(
         for a in out.attributes.iter_mut().skip(first_mesh_triangle) {
             a.n = None;
         }
+    } else if s.smooth_if_no_normals
+        && out.triangles.len() > first_mesh_triangle
+        && out
+            .attributes
+            .iter()
+            .skip(first_mesh_triangle)
+            .all(|a| a.n.is_none())
+    {
+        // (The attributes are kept up to the last triangle that has any: fill them out.)
+        out.attributes
+            .resize(out.triangles.len(), crate::scene::VertexAttributes::NONE);
+        super::geometry::smooth_vertex_normals(
+            &out.triangles[first_mesh_triangle..],
+            &mut out.attributes[first_mesh_triangle..],
+        );
     }
     Ok(())
 }

@@ -18,7 +18,8 @@ use super::spanned::Cx;
 use super::Scene;
 use std::path::Path;
 
-pub use super::assemble::MAX_FILM_SIZE;
+/// Largest film width or height: [`crate::conventions::MAX_FILM_SIZE`].
+pub use crate::conventions::MAX_FILM_SIZE;
 
 /// Read and load a scene file: a Mitsuba 3 XML scene when its name ends in `.xml`
 /// ([`super::mitsuba`]), else TOML. Relative OBJ paths are resolved against the file's
@@ -42,10 +43,10 @@ pub fn load_read(
     defines: &[(String, String)],
 ) -> Result<(Scene, Vec<u8>), SceneError> {
     let read_error = |source| SceneError::Read {
-        file: path.display().to_string(),
+        file: crate::errors::shown_path(path),
         source,
     };
-    let bytes = std::fs::read(path).map_err(read_error)?;
+    let bytes = crate::infile::read(path, crate::infile::SCENE).map_err(read_error)?;
     // Binary content (a binary PLY mesh, say) fails as UTF-8 before it can fail as TOML.
     let source = crate::errors::utf8_of(&bytes)
         .map_err(|e| wrong_format(&bytes, path).unwrap_or_else(|| read_error(e)))?;
@@ -70,7 +71,7 @@ pub fn load_str_with(
     }
     if let Some((name, _)) = defines.first() {
         return Err(SceneError::Invalid {
-            file: path.display().to_string(),
+            file: crate::errors::shown_path(path),
             line: None,
             field: None,
             message: format!(
@@ -81,16 +82,21 @@ pub fn load_str_with(
     load_str(source, path)
 }
 
-/// The error for a file that looks like another format, if it does.
+/// The error for a file that looks like another format, if it does: not for XML in a file
+/// named `.xml`, which is the format its name says (the XML reader's own message, located,
+/// is the one to give).
 fn wrong_format(bytes: &[u8], path: &Path) -> Option<SceneError> {
     let kind = super::sniff::describe(bytes)?;
+    if is_xml(path) && super::sniff::is_xml_kind(kind) {
+        return None;
+    }
     let mesh = if kind.ends_with("mesh") {
         " (a mesh goes into a scene as a shape: `obj = \"mesh.obj\"` in a [[shapes]] table)"
     } else {
         ""
     };
     Some(SceneError::Invalid {
-        file: path.display().to_string(),
+        file: crate::errors::shown_path(path),
         line: None,
         field: None,
         message: format!(
@@ -109,13 +115,8 @@ pub fn load_str(source: &str, path: &Path) -> Result<Scene, SceneError> {
     if is_xml(path) {
         return super::mitsuba::load_str(source, path, &[]);
     }
-    let mut cx = Cx {
-        file: path.display().to_string(),
-        source,
-        dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
-        warnings: Vec::new(),
-        parts: Vec::new(),
-    };
+    let mut cx = Cx::new(crate::errors::shown_path(path), source);
+    cx.dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let raw: RawScene = toml::from_str(source)
         .map_err(|e| wrong_format(source.as_bytes(), path).unwrap_or_else(|| cx.toml_error(&e)))?;
     build(&mut cx, raw, path)

@@ -4,19 +4,37 @@
 
 use super::error::SceneError;
 use super::geometry::{edge_overflow, mesh_path, FaceRules, Transform, TriangleSink};
-use super::mtl::{mtl_material, MtlOut};
+use super::mtl::{mtl_material, scan_mtl, MtlLibrary, MtlOut};
 use super::spanned::{Cx, Sp};
 use super::{Triangle, VertexAttributes};
 use glam::{Vec2, Vec3};
 use std::ops::Range;
 use std::path::Path;
 
+/// What [`scan_obj`] found besides the geometry: the MTL libraries and materials the file names,
+/// with their lines.
+#[derive(Debug, Default, PartialEq)]
+pub(super) struct ObjScan {
+    /// `mtllib NAME` lines: (line, NAME as tobj reads it: the rest of the line, trimmed).
+    pub(super) mtllibs: Vec<(usize, String)>,
+    /// `usemtl NAME` lines.
+    pub(super) usemtls: Vec<(usize, String)>,
+}
+
+impl ObjScan {
+    /// Whether the file refers to MTL materials.
+    pub(super) fn uses_mtl(&self) -> bool {
+        !self.mtllibs.is_empty() || !self.usemtls.is_empty()
+    }
+}
+
 /// Checks the face indices of an OBJ text line by line (tobj reports no line numbers, and
-/// some malformed relative indices make its index arithmetic overflow). Returns whether the
-/// file refers to MTL materials.
-pub(super) fn scan_obj(text: &str) -> Result<bool, (usize, String)> {
+/// some malformed relative indices make its index arithmetic overflow), and the numbers (one
+/// beyond single precision is refused as written, [`crate::numbers`]). Returns the MTL
+/// libraries and materials the file names.
+pub(super) fn scan_obj(text: &str) -> Result<ObjScan, (usize, String)> {
     let (mut nv, mut nt, mut nn) = (0i64, 0i64, 0i64);
-    let mut uses_mtl = false;
+    let mut found = ObjScan::default();
     for (l, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
         let kw = words.next();
@@ -40,19 +58,40 @@ pub(super) fn scan_obj(text: &str) -> Result<bool, (usize, String)> {
                 ));
             }
             if let Some(bad) = nums.iter().find(|x| x.parse::<f32>().is_err()) {
+                let bad = crate::errors::excerpt(bad);
                 return Err((l + 1, format!("{what}: '{bad}' is not a number")));
+            }
+            // Finite as written but not in single precision: named as written, not as inf.
+            for x in &nums {
+                if x.parse::<f32>().is_ok_and(f32::is_infinite) {
+                    if let Err(msg) = crate::numbers::parse_f32(x) {
+                        return Err((l + 1, format!("{what}: {msg}")));
+                    }
+                }
             }
         }
         match kw {
             Some("v") => nv += 1,
             Some("vt") => nt += 1,
             Some("vn") => nn += 1,
-            Some("mtllib") | Some("usemtl") => uses_mtl = true,
+            Some(kw @ ("mtllib" | "usemtl")) => {
+                let name = line
+                    .trim()
+                    .split_once(char::is_whitespace)
+                    .unwrap_or_default()
+                    .1;
+                let entry = (l + 1, name.trim().to_string());
+                match kw {
+                    "mtllib" => found.mtllibs.push(entry),
+                    _ => found.usemtls.push(entry),
+                }
+            }
             Some(kw @ ("f" | "l")) => {
                 let mut count = 0;
-                for w in words {
+                for word in words {
                     count += 1;
-                    let parts: Vec<&str> = w.split('/').collect();
+                    let w = crate::errors::excerpt(word);
+                    let parts: Vec<&str> = word.split('/').collect();
                     if parts.len() > 3 {
                         return Err((l + 1, format!("'{w}' has more than three indices")));
                     }
@@ -61,9 +100,10 @@ pub(super) fn scan_obj(text: &str) -> Result<bool, (usize, String)> {
                         if p.is_empty() && kind != "vertex" {
                             continue;
                         }
-                        let i: i64 = p
-                            .parse()
-                            .map_err(|_| (l + 1, format!("'{w}': '{p}' is not an index")))?;
+                        let i: i64 = p.parse().map_err(|_| {
+                            let p = crate::errors::excerpt(p);
+                            (l + 1, format!("'{w}': '{p}' is not an index"))
+                        })?;
                         let ok = if i > 0 { i <= n } else { i < 0 && n + i >= 0 };
                         if !ok {
                             let msg = format!(
@@ -84,7 +124,7 @@ pub(super) fn scan_obj(text: &str) -> Result<bool, (usize, String)> {
             _ => {}
         }
     }
-    Ok(uses_mtl)
+    Ok(found)
 }
 
 /// What an OBJ shape's triangles get, and how its messages name it.
@@ -123,22 +163,24 @@ pub(super) fn obj_triangles(
     mut mtl: Option<&mut MtlOut>,
 ) -> Result<(), SceneError> {
     let full = mesh_path(cx, &obj.value);
-    let shown = full.display().to_string();
+    let shown = crate::errors::shown_path(&full);
     let at = At {
         span: obj.span(),
         field: shape.field.as_str(),
         shown: &shown,
     };
-    let text = crate::errors::read_utf8(&full)
+    let text = cx
+        .read_referenced_text(&full, crate::infile::OBJ)
         .map_err(|e| at.err(cx, format!("cannot read OBJ file '{shown}': {e}")))?;
     // A plain file (positions and faces only) is read in parallel, else line-checked, then
     // read by tobj.
     let plain = super::obj_plain::read_plain(&text);
-    let uses_mtl = match plain {
-        Some(_) => false,
+    let scan = match plain {
+        Some(_) => ObjScan::default(),
         None => scan_obj(&text)
             .map_err(|(line, msg)| at.err(cx, format!("OBJ file '{shown}', line {line}: {msg}")))?,
     };
+    let uses_mtl = scan.uses_mtl();
     if uses_mtl && mtl.is_none() {
         at.warn(cx, format!("OBJ file '{shown}' refers to MTL materials; they are ignored: every face uses this shape's material (mtl = true uses them)"));
     }
@@ -146,9 +188,13 @@ pub(super) fn obj_triangles(
         at.warn(cx, format!("OBJ file '{shown}' has no MTL materials (mtllib, usemtl): every face uses this shape's material"));
     }
     let read_mtl = mtl.is_some() && uses_mtl;
+    let libraries = match read_mtl {
+        true => mtl_libraries(cx, &at, &full, &scan)?,
+        false => Vec::new(),
+    };
     let (models, library) = match plain {
         Some(model) => (vec![model], Vec::new()),
-        None => parse_obj(cx, &at, &full, &text, read_mtl)?,
+        None => parse_obj(cx, &at, &text, read_mtl, &libraries)?,
     };
     drop(text);
     // Scene materials and emitters of the library's materials, made when a face uses them.
@@ -160,8 +206,18 @@ pub(super) fn obj_triangles(
             (Some(id), Some(mo)) if id < library.len() => match made[id] {
                 Some(me) => me,
                 None => {
-                    let me =
-                        mtl_material(cx, at.span.clone(), at.field, &obj.value, &library[id], mo)?;
+                    let m = &library[id];
+                    let lib = libraries
+                        .iter()
+                        .rev()
+                        .map(|(_, l)| l)
+                        .find(|l| l.lines_of(&m.name).is_some());
+                    let Some(lib) = lib else {
+                        let msg =
+                            format!("OBJ file '{shown}': material '{}' of no library", m.name);
+                        return Err(at.err(cx, msg));
+                    };
+                    let me = mtl_material(cx, at.span.clone(), at.field, &obj.value, (m, lib), mo)?;
                     made[id] = Some(me);
                     me
                 }
@@ -313,15 +369,80 @@ fn without_points_and_lines(text: &str) -> (String, usize, usize) {
     (text, points, polylines)
 }
 
-/// tobj's triangulated models of the OBJ text, and its MTL library when `read_mtl` (libraries
-/// are read relative to the OBJ file; without `read_mtl` the loader refuses every library: the
-/// scene file assigns the material).
-fn parse_obj(
+/// The MTL libraries the OBJ file `full` names (`mtllib`, relative to the OBJ file), each read
+/// bounded and checked line by line ([`scan_mtl`]), errors naming the OBJ line, the MTL file and
+/// its line; with warnings for a library's unknown statements and for each `usemtl` of a
+/// material no library defines (its faces get the shape's material).
+fn mtl_libraries(
     cx: &mut Cx,
     at: &At,
     full: &Path,
+    scan: &ObjScan,
+) -> Result<Vec<(String, MtlLibrary)>, SceneError> {
+    let shown = at.shown;
+    let obj_dir = full.parent().map(Path::to_path_buf).unwrap_or_default();
+    let mut libraries: Vec<(String, MtlLibrary)> = Vec::new();
+    for (line, name) in &scan.mtllibs {
+        if libraries.iter().any(|(n, _)| n == name) {
+            continue;
+        }
+        let path = obj_dir.join(name);
+        let file = crate::errors::shown_path(&path);
+        let text = cx
+            .read_referenced_text(&path, crate::infile::MTL)
+            .map_err(|e| {
+                let msg = format!(
+                    "OBJ file '{shown}', line {line}: cannot read the MTL library '{file}' \
+                     (mtllib, relative to the OBJ file): {e}"
+                );
+                at.err(cx, msg)
+            })?;
+        let mut lib = scan_mtl(&text).map_err(|(l, msg)| {
+            let msg = format!("MTL file '{file}' (mtllib of OBJ file '{shown}'), line {l}: {msg}");
+            at.err(cx, msg)
+        })?;
+        if let Some((l, kw)) = lib.unknown.first() {
+            let more = match lib.unknown.len() {
+                1 => String::new(),
+                n => format!(" and {} more", n - 1),
+            };
+            let msg =
+                format!("MTL file '{file}', line {l}: unknown statement '{kw}'{more}, ignored");
+            at.warn(cx, msg);
+        }
+        lib.file = file;
+        lib.text = text;
+        libraries.push((name.clone(), lib));
+    }
+    for (line, name) in &scan.usemtls {
+        if !libraries.iter().any(|(_, l)| l.lines_of(name).is_some()) {
+            let known = match libraries.len() {
+                0 => "the file names no MTL library (mtllib)".to_string(),
+                _ => {
+                    let files: Vec<&str> = libraries.iter().map(|(_, l)| l.file.as_str()).collect();
+                    format!("no library defines it ({})", files.join(", "))
+                }
+            };
+            let msg = format!(
+                "OBJ file '{shown}', line {line}: usemtl '{}': {known}; its faces get the \
+                 shape's material",
+                crate::errors::excerpt(name)
+            );
+            at.warn(cx, msg);
+        }
+    }
+    Ok(libraries)
+}
+
+/// tobj's triangulated models of the OBJ text, and its MTL library when `read_mtl` (the
+/// `libraries` read by [`mtl_libraries`]; without `read_mtl` the loader refuses every library:
+/// the scene file assigns the material).
+fn parse_obj(
+    cx: &mut Cx,
+    at: &At,
     text: &str,
     read_mtl: bool,
+    libraries: &[(String, MtlLibrary)],
 ) -> Result<(Vec<tobj::Model>, Vec<tobj::Material>), SceneError> {
     let shown = at.shown;
     let (text, points, polylines) = without_points_and_lines(text);
@@ -336,14 +457,18 @@ fn parse_obj(
         ignore_points: true,
         ignore_lines: true,
     };
-    let obj_dir = full.parent().map(Path::to_path_buf).unwrap_or_default();
     let loaded = std::panic::catch_unwind(|| {
-        tobj::load_obj_buf(&mut text.as_bytes(), &opts, |p| match read_mtl {
-            true => tobj::load_mtl(obj_dir.join(p)),
-            false => Err(tobj::LoadError::OpenFileFailed),
+        tobj::load_obj_buf(&mut text.as_bytes(), &opts, |p| {
+            let lib = libraries
+                .iter()
+                .find(|(name, _)| read_mtl && Path::new(name) == p);
+            match lib {
+                Some((_, lib)) => tobj::load_mtl_buf(&mut lib.text.as_bytes()),
+                None => Err(tobj::LoadError::OpenFileFailed),
+            }
         })
     });
-    let (models, libraries) = match loaded {
+    let (models, libraries_read) = match loaded {
         Ok(Ok(m)) => m,
         Ok(Err(e)) => return Err(at.err(cx, format!("cannot parse OBJ file '{shown}': {e}"))),
         Err(_) => {
@@ -354,9 +479,9 @@ fn parse_obj(
     if !read_mtl {
         return Ok((models, Vec::new()));
     }
-    let library = libraries.map_err(|e| {
-        at.err(cx, format!("OBJ file '{shown}': cannot read its MTL library (mtllib, relative to the OBJ file): {e}"))
-    })?;
+    // Every library was read and checked before; tobj reads them again from their text.
+    let library = libraries_read
+        .map_err(|e| at.err(cx, format!("OBJ file '{shown}': its MTL libraries: {e}")))?;
     Ok((models, library))
 }
 
@@ -418,7 +543,7 @@ mod tests {
     fn obj_scan_checks_indices() {
         assert_eq!(
             scan_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf -3 -2 -1\n"),
-            Ok(false)
+            Ok(ObjScan::default())
         );
         assert_eq!(scan_obj("v 0 0 0\nf 1 2 3\n").unwrap_err().0, 2);
         assert_eq!(
@@ -440,6 +565,16 @@ mod tests {
             4
         );
         assert_eq!(scan_obj("v 0 0 0\nv 1 0 0\nf 1 2\n").unwrap_err().0, 3);
-        assert_eq!(scan_obj("mtllib a.mtl\n"), Ok(true));
+        let found = scan_obj("mtllib a b.mtl\nv 0 0 0\nusemtl  red \n").unwrap();
+        assert_eq!(found.mtllibs, vec![(1, "a b.mtl".to_string())]);
+        assert_eq!(found.usemtls, vec![(3, "red".to_string())]);
+        assert!(found.uses_mtl());
+        // A number beyond single precision is named as written, with its line.
+        let (line, msg) = scan_obj("v 0 0 0\nv 1e39 0 0\n").unwrap_err();
+        assert_eq!(line, 2);
+        assert!(
+            msg.contains("'1e39'") && msg.contains("single-precision"),
+            "{msg}"
+        );
     }
 }

@@ -7,8 +7,8 @@
 //! tobj's keeps the order of first use; the triangles do not differ.
 //!
 //! Anything else (texture coordinates, normals, materials, points, lines, a name after a face, a
-//! negative index, a malformed number or index, an index to a later vertex, text that is not
-//! ASCII) makes it decline, and the general reader (the line checks of
+//! negative index, a malformed number or index, a number that is not finite in single
+//! precision, an index to a later vertex, text that is not ASCII) makes it decline, and the general reader (the line checks of
 //! [`super::obj::scan_obj`], then tobj) reads the file, with its messages naming the line.
 
 use rayon::prelude::*;
@@ -60,7 +60,13 @@ fn read_piece(text: &[u8]) -> Option<Piece> {
             Some(b"v") => {
                 for _ in 0..3 {
                     let x = std::str::from_utf8(w.next()?).ok()?;
-                    p.positions.push(x.parse::<f32>().ok()?);
+                    let x = x.parse::<f32>().ok()?;
+                    // Not finite (or beyond single precision as written): the general reader
+                    // names the line.
+                    if !x.is_finite() {
+                        return None;
+                    }
+                    p.positions.push(x);
                 }
                 if w.next().is_some() {
                     return None;

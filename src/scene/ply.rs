@@ -432,6 +432,14 @@ pub fn parse(bytes: &[u8]) -> Result<PlyMesh, String> {
     // An ASCII file's last value may lack its separator.
     let mut left = (bytes.len() - h.data) as u64 + u64::from(h.format == Format::Ascii);
     for e in &h.elements {
+        if e.props.is_empty() && e.count > 0 {
+            return Err(format!(
+                "element '{}' declares {} elements but no properties: an element without \
+                 properties holds nothing (a property line missing from the header?)",
+                crate::errors::excerpt(&e.name),
+                e.count
+            ));
+        }
         let min = e.min_bytes(h.format).max(1);
         if e.count.saturating_mul(min) > left {
             return Err(format!(
@@ -474,6 +482,14 @@ pub fn parse(bytes: &[u8]) -> Result<PlyMesh, String> {
         faces: Vec::new(),
     };
     let mut src = Source::new(bytes, &h)?;
+    // The vertex properties the mesh keeps.
+    let used: Vec<usize> = layout
+        .xyz
+        .iter()
+        .chain(layout.normal.iter().flatten())
+        .chain(layout.uv.iter().flatten())
+        .copied()
+        .collect();
     let mut values: Vec<f64> = Vec::new();
     for (ei, e) in h.elements.iter().enumerate() {
         if Some(ei) == face {
@@ -491,7 +507,13 @@ pub fn parse(bytes: &[u8]) -> Result<PlyMesh, String> {
                 };
                 let Some(ct) = p.list else {
                     let loc = src.here();
-                    values.push(src.value(p.ty).map_err(|m| at(loc, m))?);
+                    let x = src.value(p.ty).map_err(|m| at(loc.clone(), m))?;
+                    // A value the mesh keeps becomes single precision: one beyond it is
+                    // refused here, where it is, not found as `inf` later.
+                    if ei == vertex && used.contains(&pi) && x.is_finite() {
+                        crate::numbers::f32_of(x).map_err(|m| at(loc, m))?;
+                    }
+                    values.push(x);
                     continue;
                 };
                 values.push(f64::NAN);

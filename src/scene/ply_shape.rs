@@ -19,8 +19,8 @@ pub(super) fn ply_triangles(
     let fp = shape.field.as_str();
     let span = ply.span();
     let full = mesh_path(cx, &ply.value);
-    let shown = full.display().to_string();
-    let bytes = std::fs::read(&full).map_err(|e| {
+    let shown = crate::errors::shown_path(&full);
+    let bytes = cx.read_referenced(&full, crate::infile::PLY).map_err(|e| {
         let msg = format!("cannot read PLY file '{shown}': {e}");
         cx.err(span.clone(), fp, msg)
     })?;

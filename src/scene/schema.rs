@@ -107,6 +107,11 @@ pub(super) struct RawShape {
     /// as written, taken bit for bit ([`super::geometry::Transform::AsWritten`]).
     #[serde(skip)]
     pub(super) as_written: bool,
+    /// Set by the Mitsuba reader for `obj` and `ply` shapes: a mesh without vertex normals
+    /// (and without `face_normals`) is shaded with smooth ones, as Mitsuba does
+    /// ([`super::geometry::smooth_vertex_normals`]).
+    #[serde(skip)]
+    pub(super) smooth_if_no_normals: bool,
 }
 
 #[derive(Deserialize)]

@@ -72,6 +72,11 @@ pub fn describe(bytes: &[u8]) -> Option<&'static str> {
     None
 }
 
+/// Whether a [`describe`] answer is XML (a Mitsuba scene or another XML file).
+pub(super) fn is_xml_kind(kind: &str) -> bool {
+    kind.contains("XML")
+}
+
 /// The statements of an OBJ file.
 const OBJ_KEYWORDS: &[&str] = &[
     "v", "vt", "vn", "vp", "f", "l", "p", "o", "g", "s", "mtllib", "usemtl",

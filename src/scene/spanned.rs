@@ -145,6 +145,73 @@ pub(super) struct Cx<'a> {
     /// A scene read from several files (Mitsuba XML with `include`s) has their texts
     /// concatenated in `source`: `(start offset, file name)` of each after the first, ascending.
     pub(super) parts: Vec<(usize, String)>,
+    /// Bytes of the files the scene refers to read so far (a file counts each time it is
+    /// referred to), held to [`SCENE_READ_LIMIT`].
+    pub(super) read_bytes: u64,
+}
+
+/// The most bytes the files one scene refers to (includes, meshes, MTL libraries) may add up
+/// to, counting a file once per reference: a small scene that names one large mesh a thousand
+/// times must not read it a thousand times.
+pub(super) const SCENE_READ_LIMIT: u64 = 16 << 30;
+
+/// Why a referenced file of `len` bytes may not be read after `read` bytes of others
+/// ([`SCENE_READ_LIMIT`]), if it may not.
+fn over_scene_limit(read: u64, len: u64) -> Option<String> {
+    (read.saturating_add(len) > SCENE_READ_LIMIT).then(|| {
+        format!(
+            "{} more would take the files this scene refers to past {} (a file counts each \
+             time it is referred to; {} read before it)",
+            crate::infile::fmt_bytes(len),
+            crate::infile::fmt_bytes(SCENE_READ_LIMIT),
+            crate::infile::fmt_bytes(read)
+        )
+    })
+}
+
+impl<'a> Cx<'a> {
+    /// The context of the scene file `file` (as messages show it) with text `source`.
+    pub(super) fn new(file: String, source: &'a str) -> Cx<'a> {
+        Cx {
+            file,
+            source,
+            dir: PathBuf::new(),
+            warnings: Vec::new(),
+            parts: Vec::new(),
+            read_bytes: 0,
+        }
+    }
+
+    /// Reads `path`, a `kind` file the scene refers to ([`crate::infile::read`]: a regular file
+    /// within the kind's limit), and adds its size to the scene's reads
+    /// ([`SCENE_READ_LIMIT`]).
+    pub(super) fn read_referenced(
+        &mut self,
+        path: &std::path::Path,
+        kind: crate::infile::Kind,
+    ) -> std::io::Result<Vec<u8>> {
+        let (file, len) = crate::infile::open(path, kind)?;
+        if let Some(msg) = over_scene_limit(self.read_bytes, len) {
+            return Err(std::io::Error::new(std::io::ErrorKind::InvalidInput, msg));
+        }
+        let bytes = crate::infile::read_opened(file, len, kind)?;
+        self.read_bytes += bytes.len() as u64;
+        Ok(bytes)
+    }
+
+    /// [`Cx::read_referenced`] as UTF-8 text (invalid UTF-8 located).
+    pub(super) fn read_referenced_text(
+        &mut self,
+        path: &std::path::Path,
+        kind: crate::infile::Kind,
+    ) -> std::io::Result<String> {
+        let bytes = self.read_referenced(path, kind)?;
+        String::from_utf8(bytes).map_err(|e| {
+            crate::errors::utf8_of(e.as_bytes())
+                .err()
+                .unwrap_or_else(|| std::io::Error::other("not UTF-8 text"))
+        })
+    }
 }
 
 impl Cx<'_> {
@@ -383,5 +450,18 @@ mod tests {
             doc.d.value["x"].span.clone().map(|s| line_of(src, s.start)),
             Some(2)
         );
+    }
+
+    /// The files a scene refers to add up to at most the limit, repeats counted.
+    #[test]
+    fn referenced_files_add_up_to_the_scene_limit() {
+        assert_eq!(over_scene_limit(0, SCENE_READ_LIMIT), None);
+        assert_eq!(over_scene_limit(SCENE_READ_LIMIT - 5, 5), None);
+        let e = over_scene_limit(SCENE_READ_LIMIT - 5, 6).unwrap();
+        assert!(
+            e.contains("past 16 GiB") && e.contains("each time it is referred to"),
+            "{e}"
+        );
+        assert!(over_scene_limit(u64::MAX, 1).is_some());
     }
 }

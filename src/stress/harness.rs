@@ -10,6 +10,7 @@ use super::models::case_models;
 use super::radiance::case_radiance;
 use super::rng::case_seed;
 use super::scene_numbers::case_scene_numbers;
+use super::self_shadow::case_self_shadow;
 use crate::scene::Scene;
 use crate::vk::{Context, ContextOptions, ShaderCompiler};
 use anyhow::{bail, Context as _, Result};
@@ -111,6 +112,11 @@ pub static GROUPS: &[Group] = &[
         name: "scene_numbers",
         measure: "-",
         run: case_scene_numbers,
+    },
+    Group {
+        name: "self_shadow",
+        measure: "false occl. + leaks",
+        run: case_self_shadow,
     },
     Group {
         name: "degenerate",
@@ -251,8 +257,10 @@ pub fn run(opts: &Options) -> Result<Report> {
         .collect();
     let mut failures = Vec::new();
     if let Some(path) = &opts.replay {
-        let text = std::fs::read_to_string(path)
+        let text = crate::infile::read_text(path, crate::infile::REPLAY)
             .with_context(|| format!("cannot read the replay file {}", path.display()))?;
+        // The failures list of an earlier run, which this run rewrites (the default --failures).
+        crate::infile::forget(path);
         for (i, line) in text
             .lines()
             .enumerate()

@@ -32,12 +32,17 @@
 //! * `scene_numbers` — scene files with coordinates, radii and radiance near the f32 limit
 //!   load or are refused with a message, never panic; what loads renders without non-finite
 //!   values.
+//! * `self_shadow` — a lone flat or convex shape (quad, disk, cube, icosphere, sphere up to
+//!   radius 1e7) built through each reader (TOML, OBJ, PLY, Mitsuba XML) at scales 1e-4..1e4,
+//!   offsets to 1e5 and random rotations, under a sky, a point, a directional or an area
+//!   light: no sample may lose its light (false occlusion); a closed room with every light
+//!   outside: no pixel may be lit (a leak). Both backends.
 //! * `degenerate` — zero-area and sliver triangles, duplicate vertices and faces, coplanar
 //!   overlapping faces, huge and tiny spheres (any of them emitting) added to the Cornell box:
 //!   no non-finite value and no panic on either backend; as an OBJ file through the loader too.
 //!
 //! One file per group (`models.rs`, `limits.rs`, `gpu_math.rs`, `geometry.rs`, `radiance.rs`,
-//! `scene_numbers.rs`, `degenerate.rs`), the harness (`harness.rs`: the group table, what the
+//! `scene_numbers.rs`, `self_shadow.rs`, `degenerate.rs`), the harness (`harness.rs`: the group table, what the
 //! groups share, the driver and the report) and the random numbers (`rng.rs`).
 
 mod degenerate;
@@ -49,6 +54,7 @@ mod models;
 mod radiance;
 mod rng;
 mod scene_numbers;
+mod self_shadow;
 
 pub use geometry::{block_z_max, transform_scene, two_sided_z};
 pub use harness::{cli, run, CaseResult, Env, Failure, Group, GroupStats, Options, Report, GROUPS};

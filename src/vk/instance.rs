@@ -261,12 +261,8 @@ pub(super) fn driver_override_hint() -> Option<String> {
 /// What is wrong with an existing driver manifest, as far as can be told without loading it: a
 /// manifest is a JSON object whose `ICD.library_path` names the driver's shared library.
 fn manifest_state(path: &std::path::Path) -> String {
-    const MAX_MANIFEST: u64 = 1 << 20;
-    let len = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
-    if len > MAX_MANIFEST {
-        return format!("exists, but is {len} bytes: not a driver manifest");
-    }
-    let text = match std::fs::read(path) {
+    // A regular file of at most 1 MiB (a device or a FIFO is named, not read).
+    let text = match crate::infile::read(path, crate::infile::MANIFEST) {
         Ok(b) => b,
         Err(e) => return format!("exists, but cannot be read: {e}"),
     };

@@ -4,6 +4,14 @@
 //! concatenation of all the files read, so that [`super::super::spanned::Cx`] names the right
 //! file and line for it later; errors found here (malformed XML, a bad `$name`, a missing or
 //! cyclic include) are located directly.
+//!
+//! **Bounded.** A small file must not make the reader do unbounded work: besides the depth of
+//! includes and of elements, the files read are counted with repeats ([`MAX_INCLUDED_FILES`],
+//! and their text together at most [`crate::infile::INCLUDE`]'s limit), so that includes that
+//! fan out (each file including the next twice) stop long before 2^30 reads; a substituted
+//! value is at most [`MAX_VALUE_BYTES`] and all substitutions together at most
+//! [`MAX_EXPANDED_BYTES`], so that `<default>`s that double each other stop at once; and
+//! messages quote a value by its first characters ([`crate::errors::excerpt`]).
 
 use crate::brdf::params::line_of;
 use crate::scene::error::SceneError;
@@ -17,6 +25,13 @@ const MAX_INCLUDE_DEPTH: usize = 32;
 /// parser and the copy here recurse per level, so a deeper file is refused by [`too_deep`]
 /// before either can exhaust the stack.
 const MAX_ELEMENT_DEPTH: usize = 64;
+/// Most files read for one scene, the scene file and every include counted each time it is
+/// read.
+const MAX_INCLUDED_FILES: usize = 1024;
+/// Longest attribute value after its `$name`s are substituted.
+const MAX_VALUE_BYTES: usize = 64 * 1024;
+/// Most bytes that substitutions may produce in one scene, all attributes together.
+const MAX_EXPANDED_BYTES: usize = 64 << 20;
 
 /// One XML element, owned, with `$name`s substituted.
 #[derive(Debug)]
@@ -57,6 +72,8 @@ pub(super) struct Files {
     pub(super) source: String,
     pub(super) parts: Vec<(usize, String)>,
     pub(super) elements: Vec<El>,
+    /// Bytes of the included files read (the scene file itself not counted).
+    pub(super) bytes_read: u64,
 }
 
 struct Reader {
@@ -66,6 +83,12 @@ struct Reader {
     params: HashMap<String, String>,
     /// The files being read, outermost first (a cycle is an include of one of them).
     stack: Vec<PathBuf>,
+    /// Files read so far, with repeats ([`MAX_INCLUDED_FILES`]).
+    files: usize,
+    /// Bytes of included files read so far, with repeats.
+    bytes_read: u64,
+    /// Bytes produced by substitutions so far ([`MAX_EXPANDED_BYTES`]).
+    expanded: usize,
 }
 
 fn invalid(file: &str, line: Option<usize>, field: Option<&str>, msg: String) -> SceneError {
@@ -88,19 +111,24 @@ pub(super) fn read(
         parts: Vec::new(),
         params: defines.iter().cloned().collect(),
         stack: Vec::new(),
+        files: 0,
+        bytes_read: 0,
+        expanded: 0,
     };
     let elements = r.file(path, text)?;
     Ok(Files {
         source: r.source,
         parts: r.parts,
         elements,
+        bytes_read: r.bytes_read,
     })
 }
 
 impl Reader {
     /// One file: its `<scene>`'s children, includes spliced in.
     fn file(&mut self, path: &Path, text: &str) -> Result<Vec<El>, SceneError> {
-        let file = path.display().to_string();
+        let file = crate::errors::shown_path(path);
+        self.files += 1;
         let offset = self.source.len();
         if offset > 0 {
             self.parts.push((offset, file.clone()));
@@ -189,11 +217,44 @@ impl Reader {
             let msg = format!("includes nest deeper than {MAX_INCLUDE_DEPTH} files");
             return Err(invalid(cx.file, line, Some(&el.path), msg));
         }
-        let text = crate::errors::read_utf8(&full).map_err(|e| {
-            let msg = format!("cannot read the included file '{}': {e}", full.display());
+        let shown = crate::errors::shown_path(&full);
+        if self.files >= MAX_INCLUDED_FILES {
+            let msg = format!(
+                "'{shown}': the scene reads more than {MAX_INCLUDED_FILES} files (an include counts \
+                 each time it is read: includes that include each other more than once multiply)"
+            );
+            return Err(invalid(cx.file, line, Some(&el.path), msg));
+        }
+        let text = self.read_include(&full).map_err(|e| {
+            let msg = format!("cannot read the included file '{shown}': {e}");
             invalid(cx.file, line, Some(&el.path), msg)
         })?;
         self.file(&full, &text)
+    }
+
+    /// The text of an included file, its bytes added to the scene's: all included text together
+    /// is held to [`crate::infile::INCLUDE`]'s limit.
+    fn read_include(&mut self, full: &Path) -> std::io::Result<String> {
+        let kind = crate::infile::INCLUDE;
+        let (f, len) = crate::infile::open(full, kind)?;
+        if self.bytes_read.saturating_add(len) > kind.limit {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                format!(
+                    "the included files add up to more than {} (an include counts each time it \
+                     is read; {} before this one)",
+                    crate::infile::fmt_bytes(kind.limit),
+                    crate::infile::fmt_bytes(self.bytes_read)
+                ),
+            ));
+        }
+        let bytes = crate::infile::read_opened(f, len, kind)?;
+        self.bytes_read += bytes.len() as u64;
+        String::from_utf8(bytes).map_err(|e| {
+            crate::errors::utf8_of(e.as_bytes())
+                .err()
+                .unwrap_or_else(|| std::io::Error::other("not UTF-8 text"))
+        })
     }
 
     /// One node: `None` for comments, processing instructions and white space; text is an error.
@@ -229,6 +290,9 @@ impl Reader {
                 .substitute(a.value())
                 .map_err(|msg| invalid(cx.file, line(), Some(&path), msg))?;
             attrs.push((a.name().to_string(), v));
+        }
+        if let Some(msg) = attribute_error(&tag, &attrs) {
+            return Err(invalid(cx.file, line(), Some(&path), msg));
         }
         let span = cx.offset + node.range().start..cx.offset + node.range().end;
         let mut el = El {
@@ -267,11 +331,13 @@ impl Reader {
     }
 
     /// Replace every `$name` by its parameter's value (Mitsuba's rule: a name is letters,
-    /// digits and underscores).
-    fn substitute(&self, v: &str) -> Result<String, String> {
+    /// digits and underscores). The result is held to [`MAX_VALUE_BYTES`], and all results
+    /// together to [`MAX_EXPANDED_BYTES`], checked before each value is copied in.
+    fn substitute(&mut self, v: &str) -> Result<String, String> {
         if !v.contains('$') {
             return Ok(v.to_string());
         }
+        let shown = crate::errors::excerpt(v);
         let mut out = String::new();
         let mut rest = v;
         while let Some(i) = rest.find('$') {
@@ -282,10 +348,28 @@ impl Reader {
                 .unwrap_or(after.len());
             let name = &after[..len];
             if name.is_empty() {
-                return Err(format!("'{v}': a '$' must be followed by a parameter name"));
+                return Err(format!(
+                    "'{shown}': a '$' must be followed by a parameter name"
+                ));
             }
             match self.params.get(name) {
-                Some(value) => out.push_str(value),
+                Some(value) => {
+                    if out.len() + value.len() > MAX_VALUE_BYTES {
+                        return Err(format!(
+                            "'{shown}': with ${name} substituted the value is longer than \
+                             {MAX_VALUE_BYTES} bytes (do parameters repeat each other?)"
+                        ));
+                    }
+                    if self.expanded + value.len() > MAX_EXPANDED_BYTES {
+                        return Err(format!(
+                            "'{shown}': the scene's parameter substitutions add up to more than \
+                             {} (do parameters repeat each other?)",
+                            crate::infile::fmt_bytes(MAX_EXPANDED_BYTES as u64)
+                        ));
+                    }
+                    self.expanded += value.len();
+                    out.push_str(value)
+                }
                 None => {
                     let mut known: Vec<&str> = self.params.keys().map(String::as_str).collect();
                     known.sort_unstable();
@@ -295,7 +379,7 @@ impl Reader {
                         format!("defined: {}", known.join(", "))
                     };
                     return Err(format!(
-                        "'{v}': unknown parameter ${name} ({known}); define it with <default name=\"{name}\" value=\"…\"/> or on the command line with -D {name}=…"
+                        "'{shown}': unknown parameter ${name} ({known}); define it with <default name=\"{name}\" value=\"…\"/> or on the command line with -D {name}=…"
                     ));
                 }
             }
@@ -304,6 +388,50 @@ impl Reader {
         out.push_str(rest);
         Ok(out)
     }
+}
+
+/// The attributes an element of `tag` takes (Mitsuba 3's), for the elements brdfwave reads;
+/// `None` for other tags, which the plugin mapping refuses by name.
+fn attributes_of(tag: &str) -> Option<&'static [&'static str]> {
+    Some(match tag {
+        "scene" => &["version"],
+        "float" | "integer" | "boolean" | "string" | "rgb" => &["name", "value"],
+        "spectrum" => &["name", "value", "filename"],
+        "point" | "vector" => &["name", "value", "x", "y", "z"],
+        "translate" | "scale" => &["value", "x", "y", "z"],
+        "rotate" => &["value", "x", "y", "z", "angle"],
+        "matrix" => &["value"],
+        "lookat" => &["origin", "target", "up"],
+        "transform" => &["name"],
+        "ref" => &["id", "name"],
+        "include" => &["filename"],
+        "default" => &["name", "value"],
+        "bsdf" | "shape" | "emitter" | "sensor" | "film" | "sampler" | "integrator" | "rfilter"
+        | "texture" | "medium" | "phase" | "volume" => &["type", "id", "name"],
+        _ => return None,
+    })
+}
+
+/// Why the attributes of an element of `tag` are wrong: one it does not take (which would be
+/// ignored), or `value` beside `x`, `y` or `z` (where one would silently win).
+fn attribute_error(tag: &str, attrs: &[(String, String)]) -> Option<String> {
+    let allowed = attributes_of(tag)?;
+    if let Some((name, _)) = attrs.iter().find(|(a, _)| !allowed.contains(&a.as_str())) {
+        return Some(format!(
+            "<{tag}> does not take the attribute '{}' (it takes {})",
+            crate::errors::excerpt(name),
+            allowed.join(", ")
+        ));
+    }
+    let has = |a: &str| attrs.iter().any(|(k, _)| k == a);
+    let xyz: Vec<&str> = ["x", "y", "z"].into_iter().filter(|a| has(a)).collect();
+    if has("value") && !xyz.is_empty() {
+        return Some(format!(
+            "<{tag}> has both value and {}: give either value or x, y, z",
+            xyz.join(", ")
+        ));
+    }
+    None
 }
 
 struct FileCx<'a> {

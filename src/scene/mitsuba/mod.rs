@@ -39,14 +39,10 @@ pub(super) fn load_str(
     defines: &[(String, String)],
 ) -> Result<Scene, SceneError> {
     let files = doc::read(path, source, defines)?;
-    let mut cx = Cx {
-        file: path.display().to_string(),
-        source: &files.source,
-        // Relative file names are resolved against each element's own file's directory.
-        dir: Default::default(),
-        warnings: Vec::new(),
-        parts: files.parts.clone(),
-    };
+    // Relative file names are resolved against each element's own file's directory.
+    let mut cx = Cx::new(crate::errors::shown_path(path), &files.source);
+    cx.parts = files.parts.clone();
+    cx.read_bytes = files.bytes_read;
     let raw = plugins::scene(&mut cx, &files.elements)?;
     super::assemble::build(&mut cx, raw, path)
 }

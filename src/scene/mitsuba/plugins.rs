@@ -170,7 +170,8 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
     let mut materials: BTreeMap<String, Sp<MaterialTable>> = BTreeMap::new();
     let mut shapes = Vec::new();
     let mut lights = Vec::new();
-    let mut saw_integrator = false;
+    let mut saw_integrator: Option<&El> = None;
+    unique_ids(cx, top)?;
     for el in top {
         match (el.tag.as_str(), el.attr("type")) {
             ("sensor", _) => {
@@ -182,7 +183,14 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
                 film = Some(f);
             }
             ("integrator", _) => {
-                saw_integrator = true;
+                if let Some(first) = saw_integrator {
+                    let msg = format!(
+                        "a second <integrator>: brdfwave renders with one (the first is at {})",
+                        cx.where_is(first)
+                    );
+                    return Err(cx.el_err(el, msg));
+                }
+                saw_integrator = Some(el);
                 super::sensor::integrator(cx, el, &mut integrator)?;
             }
             ("bsdf", _) => {
@@ -247,7 +255,7 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
             "the scene has no <sensor type=\"perspective\">",
         ));
     };
-    if !saw_integrator {
+    if saw_integrator.is_none() {
         super::sensor::default_depth(cx, &mut integrator);
     }
     Ok(RawScene {
@@ -283,6 +291,36 @@ fn envmap(cx: &Cx, el: &El) -> Result<RawEnvironment, SceneError> {
         scale,
         transform,
     })
+}
+
+/// Every `id` in the scene names one object (Mitsuba's rule): a second element with the same id
+/// (two shapes, a shape and a BSDF, ...) is refused, naming both; a `<ref id>` refers, it does
+/// not define.
+fn unique_ids(cx: &Cx, top: &[El]) -> Result<(), SceneError> {
+    fn walk<'e>(
+        cx: &Cx,
+        els: &'e [El],
+        seen: &mut std::collections::HashMap<&'e str, &'e El>,
+    ) -> Result<(), SceneError> {
+        for el in els {
+            if let (Some(id), false) = (el.attr("id"), el.tag == "ref") {
+                if let Some(first) = seen.insert(id, el) {
+                    let msg = format!(
+                        "id '{}' is given twice: to {} here and to {} at {} (an id names one \
+                         object)",
+                        crate::errors::excerpt(id),
+                        el.describe(),
+                        first.describe(),
+                        cx.where_is(first)
+                    );
+                    return Err(cx.el_err(el, msg));
+                }
+            }
+            walk(cx, &el.children, seen)?;
+        }
+        Ok(())
+    }
+    walk(cx, top, &mut std::collections::HashMap::new())
 }
 
 /// A top-level `point` or `directional` emitter → a `[[lights]]` table. A point light's
@@ -632,13 +670,21 @@ fn plastic(cx: &Cx, el: &El, p: &mut Props, t: &mut MaterialTable) -> Result<(),
         Ok((v, Some(e)))
     }
     let (int, int_el) = ior(cx, "int_ior", 1.49, p)?;
-    let (ext, _) = ior(cx, "ext_ior", 1.000277, p)?;
-    put(
-        t,
-        int_el.unwrap_or(el),
-        "ior",
-        Value::Float((int / ext) as f32 as f64),
-    );
+    let (ext, ext_el) = ior(cx, "ext_ior", 1.000277, p)?;
+    // Each index is checked by its own name before their ratio (the model's `ior`) is formed:
+    // ext_ior = 0 made an ior of inf, reported as a field the file does not have.
+    for (name, v, e) in [("int_ior", int, int_el), ("ext_ior", ext, ext_el)] {
+        if v <= 0.0 {
+            let msg = format!("{name} {v} is out of range: an index of refraction is > 0");
+            return Err(cx.el_err(e.unwrap_or(el), msg));
+        }
+    }
+    let ratio = crate::numbers::f32_of(int / ext).map_err(|m| {
+        let fmt = |x: f64| crate::brdf::params::fmt_num(x as f32);
+        let msg = format!("int_ior / ext_ior = {} / {}: {m}", fmt(int), fmt(ext));
+        cx.el_err(ext_el.or(int_el).unwrap_or(el), msg)
+    })?;
+    put(t, int_el.unwrap_or(el), "ior", Value::Float(ratio as f64));
     if let Some(n) = p.take("nonlinear") {
         if cx.bool_of(n)? {
             return Err(cx.el_err(
@@ -684,6 +730,7 @@ pub(super) fn raw_shape(el: &El, material: Sp<String>) -> RawShape {
         face_normals: None,
         transform: None,
         as_written: false,
+        smooth_if_no_normals: false,
     }
 }
 

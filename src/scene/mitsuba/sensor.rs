@@ -16,6 +16,7 @@
 use super::doc::El;
 use super::plugins::{sp, Props};
 use super::values::to_world;
+use crate::conventions::{MAX_DEPTH, MAX_FILM_SIZE};
 use crate::scene::error::SceneError;
 use crate::scene::schema::{Arr, RawCamera, RawFilm, RawIntegrator};
 use crate::scene::spanned::{Cx, Sp};
@@ -56,7 +57,15 @@ pub(super) fn sensor(
     };
     let fov_el = p.take("fov");
     let fov = match fov_el {
-        Some(f) => cx.float(f)?,
+        Some(f) => {
+            let fov = cx.float(f)?;
+            // Checked as written, before it becomes the vertical field of view.
+            if !(fov > 0.0 && fov < 180.0) {
+                let msg = format!("fov {fov} is out of range: must be in (0, 180) degrees");
+                return Err(cx.el_err(f, msg));
+            }
+            fov
+        }
         None => {
             return Err(cx.el_err(
                 el,
@@ -197,7 +206,13 @@ fn film(cx: &mut Cx, f: &El) -> Result<RawFilm, SceneError> {
     let mut out = default_film(f);
     for (name, slot) in [("width", &mut out.width), ("height", &mut out.height)] {
         if let Some(e) = p.take(name) {
-            *slot = sp(e, size(cx, e)?);
+            let v = size(cx, e)?;
+            // Checked here, by its own name: the field of view is computed from the aspect.
+            if v == 0 || v > MAX_FILM_SIZE {
+                let msg = format!("{name} {v} is out of range: must be in [1, {MAX_FILM_SIZE}]");
+                return Err(cx.el_err(e, msg));
+            }
+            *slot = sp(e, v);
         }
     }
     for (tag, ok) in [("rfilter", "box")] {
@@ -326,7 +341,7 @@ pub(super) fn integrator(cx: &mut Cx, el: &El, out: &mut RawIntegrator) -> Resul
 pub(super) fn default_depth(cx: &mut Cx, out: &mut RawIntegrator) {
     out.max_depth = Some(Sp {
         span: None,
-        value: crate::gpu::MAX_DEPTH,
+        value: MAX_DEPTH,
     });
     out.russian_roulette = Some(true);
     out.rr_start_depth = Some(Sp {
@@ -336,15 +351,15 @@ pub(super) fn default_depth(cx: &mut Cx, out: &mut RawIntegrator) {
     cx.warnings.push(format!(
         "warning: {}: no <integrator>: Mitsuba's default path tracer (max_depth -1, held to brdfwave's limit {}; Russian roulette from depth {MITSUBA_RR_DEPTH})",
         cx.file,
-        crate::gpu::MAX_DEPTH
+        MAX_DEPTH
     ));
 }
 
 fn unlimited(cx: &mut Cx, e: &El, out: &mut RawIntegrator) {
-    out.max_depth = Some(sp(e, crate::gpu::MAX_DEPTH));
+    out.max_depth = Some(sp(e, MAX_DEPTH));
     let msg = format!(
         "max_depth -1 (unlimited) is held to brdfwave's limit {}",
-        crate::gpu::MAX_DEPTH
+        MAX_DEPTH
     );
     cx.warn(Some(e.span.clone()), &e.path, msg);
 }

@@ -21,6 +21,9 @@ pub(super) const DISK_SEGMENTS: usize = 256;
 
 /// The name of the material of shapes without a BSDF (Mitsuba's default diffuse, 0.5).
 const DEFAULT_MATERIAL: &str = "(default diffuse)";
+/// The same for emitting shapes, to which Mitsuba gives a black diffuse BSDF (reflectance 0):
+/// a light without a BSDF emits and reflects nothing.
+const DEFAULT_EMITTER_MATERIAL: &str = "(default diffuse of an emitter, black)";
 
 pub(super) fn shape(
     cx: &mut Cx,
@@ -34,9 +37,10 @@ pub(super) fn shape(
         Some(id) => format!("shape '{id}'"),
         None => format!("shape {index}"),
     };
-    let material = material(cx, el, &label, &mut p, materials)?;
+    let emitters = p.take_tag("emitter");
+    let material = material(cx, el, &label, &mut p, materials, !emitters.is_empty())?;
     let mut raw = raw_shape(el, material);
-    raw.emission = area_emitter(cx, &p.take_tag("emitter"))?;
+    raw.emission = area_emitter(cx, &emitters)?;
     let to_world = p.take("to_world");
     let flip = match p.take("flip_normals") {
         Some(f) => cx.bool_of(f)?,
@@ -97,6 +101,8 @@ fn geometry(
             if let Some(n) = p.take("face_normals") {
                 raw.face_normals = Some(sp(n, cx.bool_of(n)?));
             }
+            // Mitsuba gives a mesh without normals smooth ones (unless face_normals).
+            raw.smooth_if_no_normals = true;
             if flip {
                 let a = if kind == "obj" { "an" } else { "a" };
                 return Err(cx.el_err(el, format!("flip_normals on {a} {kind} mesh is not supported (reverse the faces' winding in the file)")));
@@ -154,11 +160,19 @@ fn geometry(
             Ok(GENERATED)
         }
         other => {
-            let msg = format!("<shape type=\"{other}\"> is not supported (supported: obj, rectangle, cube, sphere, disk)");
+            let msg = format!(
+                "<shape type=\"{}\"> is not supported (supported: {})",
+                crate::errors::excerpt(other),
+                SHAPES.join(", ")
+            );
             Err(cx.el_err(el, msg))
         }
     }
 }
+
+/// The shape types [`geometry`] reads, in the order its message lists them (a test checks that
+/// each is read: `tests/mitsuba_xml.rs`).
+pub(super) const SHAPES: [&str; 6] = ["obj", "ply", "rectangle", "cube", "sphere", "disk"];
 
 /// The outward faces of [−1, 1]³: (normal, u, v) with u × v = normal.
 const CUBE_FACES: [([f64; 3], [f64; 3], [f64; 3]); 6] = [
@@ -177,27 +191,37 @@ fn face(c: [f64; 3], u: [f64; 3], v: [f64; 3]) -> [[f64; 3]; 4] {
 }
 
 /// The shape's material name: a `<ref>` to a top-level BSDF, an inline `<bsdf>` (added under
-/// the name `LABEL bsdf`), or Mitsuba's default diffuse.
+/// the name `LABEL bsdf`), or Mitsuba's default diffuse: reflectance 0.5, or 0 for a shape
+/// that `emits`, as Mitsuba gives them.
 fn material(
     cx: &Cx,
     el: &El,
     label: &str,
     p: &mut Props,
     materials: &mut BTreeMap<String, Sp<MaterialTable>>,
+    emits: bool,
 ) -> Result<Sp<String>, SceneError> {
     let refs = p.take_tag("ref");
     let inline = p.take_tag("bsdf");
     match (refs.as_slice(), inline.as_slice()) {
         ([], []) => {
-            if !materials.contains_key(DEFAULT_MATERIAL) {
+            let name = if emits {
+                DEFAULT_EMITTER_MATERIAL
+            } else {
+                DEFAULT_MATERIAL
+            };
+            if !materials.contains_key(name) {
                 let mut t = MaterialTable::new();
                 t.insert(
                     "model".into(),
                     sp(el, toml::Value::String("lambert".into())),
                 );
-                materials.insert(DEFAULT_MATERIAL.into(), sp(el, t));
+                if emits {
+                    t.insert("albedo".into(), sp(el, toml::Value::Float(0.0)));
+                }
+                materials.insert(name.into(), sp(el, t));
             }
-            Ok(sp(el, DEFAULT_MATERIAL.to_string()))
+            Ok(sp(el, name.to_string()))
         }
         ([r], []) => {
             let id = cx.attr(r, "id")?;
@@ -205,7 +229,7 @@ fn material(
                 let mut known: Vec<&str> = materials
                     .keys()
                     .map(String::as_str)
-                    .filter(|k| *k != DEFAULT_MATERIAL)
+                    .filter(|k| *k != DEFAULT_MATERIAL && *k != DEFAULT_EMITTER_MATERIAL)
                     .collect();
                 known.sort_unstable();
                 let msg = format!(

@@ -17,26 +17,25 @@ impl Cx<'_> {
         self.err(Some(el.span.clone()), &el.path, msg)
     }
 
+    /// Where an element is, for a message about another: `scene.xml:12`.
+    pub(super) fn where_is(&self, el: &El) -> String {
+        let (file, text, start) = self.part_of(el.span.start);
+        let line = crate::brdf::params::line_of(text, el.span.start - start);
+        format!("{file}:{line}")
+    }
+
     /// A required attribute.
     pub(super) fn attr<'e>(&self, el: &'e El, name: &str) -> Result<&'e str, SceneError> {
         el.attr(name)
             .ok_or_else(|| self.el_err(el, format!("{} needs a {name} attribute", el.describe())))
     }
 
-    /// One number of an attribute, checked finite and within single precision.
+    /// One number of an attribute, checked finite and within single precision
+    /// ([`crate::numbers::parse_f32`]).
     pub(super) fn number(&self, el: &El, text: &str) -> Result<f64, SceneError> {
-        let t = text.trim();
-        let x: f64 = t
-            .parse()
-            .map_err(|_| self.el_err(el, format!("{}: '{t}' is not a number", el.describe())))?;
-        if !x.is_finite() || x.abs() > f32::MAX as f64 {
-            let msg = format!(
-                "{}: {t} is not a finite single-precision number (|x| <= 3.4e38)",
-                el.describe()
-            );
-            return Err(self.el_err(el, msg));
-        }
-        Ok(t.parse::<f32>().map_or(x, |f| f as f64))
+        crate::numbers::parse_f32(text)
+            .map(f64::from)
+            .map_err(|msg| self.el_err(el, format!("{}: {msg}", el.describe())))
     }
 
     /// A list of numbers separated by commas and/or white space.
@@ -153,6 +152,25 @@ pub(super) fn to_world(cx: &Cx, t: &El) -> Result<ToWorld, SceneError> {
             }
         };
         m = step * m;
+        // An entry beyond single precision (or inf, NaN) here is an overflow of this step, not
+        // a projective transform: named at the step where it happens.
+        let worst = m.to_cols_array().iter().fold(0.0f64, |w, x| {
+            if x.is_nan() {
+                f64::INFINITY
+            } else {
+                w.max(x.abs())
+            }
+        });
+        if worst > f32::MAX as f64 {
+            let msg = format!(
+                "{}: the transform overflows here: an entry of the matrix so far is {}, beyond \
+                 single precision ({})",
+                c.describe(),
+                crate::brdf::params::fmt_num(worst),
+                crate::numbers::F32_RANGE
+            );
+            return Err(cx.el_err(c, msg));
+        }
     }
     if m.row(3) != DVec4::new(0.0, 0.0, 0.0, 1.0) {
         return Err(cx.el_err(t, "the transform is projective (last row not [0, 0, 0, 1]): only affine transforms are supported"));
@@ -204,13 +222,7 @@ mod tests {
             "<scene version=\"3.0.0\"><transform name=\"to_world\">{xml}</transform></scene>"
         );
         let files = doc::read(Path::new("t.xml"), &text, &[]).map_err(|e| e.to_string())?;
-        let cx = Cx {
-            file: "t.xml".into(),
-            source: &files.source,
-            dir: Default::default(),
-            warnings: Vec::new(),
-            parts: Vec::new(),
-        };
+        let cx = Cx::new("t.xml".into(), &files.source);
         to_world(&cx, &files.elements[0]).map_err(|e| e.to_string())
     }
 
