@@ -249,7 +249,7 @@ impl EnvMap {
     pub fn pdf(&self, d: Vec3) -> f32 {
         let l = self.to_local(d);
         let sin_theta = (l.x * l.x + l.z * l.z).sqrt();
-        if !(sin_theta > 0.0) {
+        if sin_theta.is_nan() || sin_theta <= 0.0 {
             return 0.0;
         }
         let (x, y) = env_cell_of(env_uv(l), self.width, self.height);
@@ -270,12 +270,12 @@ impl EnvMap {
         let v = (y as f32 + dv) / (h - 1) as f32;
         let (sin_t, cos_t) = sincos_turns(0.5 * v);
         let (sin_p, cos_p) = sincos_turns(u);
-        if !(sin_t > 0.0) {
+        if sin_t.is_nan() || sin_t <= 0.0 {
             return None;
         }
         let local = Vec3::new(sin_p * sin_t, cos_t, -cos_p * sin_t);
         let pdf = self.cell_pdf[y * w + x] / (2.0 * PI * PI * sin_t);
-        if !(pdf > 0.0) {
+        if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
         Some(EnvSample {
@@ -312,7 +312,7 @@ pub fn atan2_f32(y: f32, x: f32) -> f32 {
     const FRAC_PI_2: f32 = std::f32::consts::FRAC_PI_2;
     let (ax, ay) = (x.abs(), y.abs());
     let (hi, lo) = (ax.max(ay), ax.min(ay));
-    if !(hi > 0.0) {
+    if hi.is_nan() || hi <= 0.0 {
         return 0.0;
     }
     let a = lo / hi;
@@ -442,7 +442,7 @@ pub fn sample_cdf(cdf: &[f32], u: f32) -> (usize, f32) {
     // The last i in [0, n) with cdf[i] <= u.
     let (mut lo, mut hi) = (0usize, n - 1);
     while lo < hi {
-        let mid = (lo + hi + 1) / 2;
+        let mid = (lo + hi).div_ceil(2);
         if cdf[mid] <= u {
             lo = mid;
         } else {

@@ -197,8 +197,7 @@ impl Texture {
                         true => p.map(crate::imageio::srgb_to_linear),
                         false => *p,
                     };
-                    let c = decoded.map(&mut clamp);
-                    c
+                    decoded.map(&mut clamp)
                 } else {
                     let l = crate::lights::luminance(Vec3::from_array(*p));
                     [clamp(l); 3]

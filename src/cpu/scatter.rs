@@ -93,7 +93,7 @@ impl CpuRenderer<'_> {
         }
         let pdf_l = self.lights.env_select * es.pdf;
         let f = brdf.eval(wi_local, wo);
-        if !(pdf_l > 0.0) || f == Vec3::ZERO {
+        if pdf_l.is_nan() || pdf_l <= 0.0 || f == Vec3::ZERO {
             return None;
         }
         let w = power_heuristic(pdf_l, brdf.pdf(wo, wi_local));

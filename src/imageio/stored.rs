@@ -114,7 +114,7 @@ pub fn write_hdr(path: &Path, img: &Image) -> Result<(), ImageError> {
     .into_bytes();
     for p in &img.data {
         let m = p.iter().fold(0.0f32, |a, &c| a.max(c.max(0.0)));
-        if !(m >= 1e-32) || !m.is_finite() {
+        if !m.is_finite() || m < 1e-32 {
             bytes.extend([0, 0, 0, 0]);
             continue;
         }

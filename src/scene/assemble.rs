@@ -396,7 +396,7 @@ fn lens(cx: &Cx, c: &RawCamera, diff: Vec3) -> Result<(f32, f32), SceneError> {
     let aperture = match &c.aperture_radius {
         Some(a) => {
             let v = cx.finite(a.span(), "camera.aperture_radius", a.value)?;
-            if !(v >= 0.0) {
+            if v < 0.0 {
                 let msg = format!(
                     "{} is out of range: the aperture radius must be >= 0 (0: a pinhole)",
                     fmt_num(v)
@@ -410,7 +410,7 @@ fn lens(cx: &Cx, c: &RawCamera, diff: Vec3) -> Result<(f32, f32), SceneError> {
     let focus = match &c.focus_distance {
         Some(f) => {
             let v = cx.finite(f.span(), "camera.focus_distance", f.value)?;
-            if !(v > 0.0) {
+            if v <= 0.0 {
                 let msg = format!(
                     "{} is out of range: the focus distance must be > 0",
                     fmt_num(v)

@@ -42,7 +42,7 @@ pub(super) fn environment(
     let scale = match &raw.scale {
         Some(s) => {
             let v = cx.finite(s.span(), "environment.scale", s.value)?;
-            if !(v >= 0.0) {
+            if v < 0.0 {
                 let msg = format!("{v} is out of range: the scale must be >= 0");
                 return Err(cx.err(s.span(), "environment.scale", msg));
             }
