@@ -603,3 +603,25 @@ fn obj_text(tris: &[(&Triangle, VertexAttributes)]) -> String {
     o.push_str(&faces);
     o
 }
+
+#[cfg(test)]
+mod tests {
+    use super::file_for_xml;
+    use std::path::Path;
+
+    /// A file beside or above the XML's folder is named through `..`; one that shares nothing
+    /// with it below the root, absolutely.
+    #[test]
+    fn files_are_named_from_the_xml_folder() {
+        let name = |file: &str, dir: &str| file_for_xml(Path::new(""), file, Some(Path::new(dir)));
+        assert_eq!(name("/nowhere-a/b/c.png", "/nowhere-a/b"), "c.png");
+        assert_eq!(
+            name("/nowhere-a/m/c.png", "/nowhere-a/b/xml"),
+            "../../m/c.png"
+        );
+        assert_eq!(
+            name("/nowhere-a/c.png", "/nowhere-z/xml"),
+            "/nowhere-a/c.png"
+        );
+    }
+}
