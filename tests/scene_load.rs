@@ -301,8 +301,9 @@ fn vertex_attributes_stay_with_their_triangles() {
     let s = load(&path).unwrap();
     assert_eq!(s.triangles.len(), 3 + 2 + 3 + 2);
     let uv = |i: usize| s.attributes_of(i).uv;
-    let first = [glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::ONE];
-    let second = [glam::Vec2::ZERO, glam::Vec2::ONE, glam::Vec2::Y];
+    // The file's vt, v flipped (a texture's v runs down the image).
+    let first = [glam::Vec2::Y, glam::Vec2::ONE, glam::Vec2::X];
+    let second = [glam::Vec2::Y, glam::Vec2::X, glam::Vec2::ZERO];
     for mesh in [0, 5] {
         assert_eq!(uv(mesh), Some(first), "mesh at {mesh}");
         assert_eq!(uv(mesh + 1), Some(second), "mesh at {mesh}");
@@ -335,13 +336,14 @@ fn obj_texture_coordinates_are_kept() {
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
     let quad = &s.triangles[..];
     assert_eq!(quad.len(), 2);
+    // The file's vt (0 0, 1 0, 1 1, 0 1), v flipped: a texture's v runs down the image.
     assert_eq!(
         s.attributes_of(0).uv,
-        Some([glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::ONE])
+        Some([glam::Vec2::Y, glam::Vec2::ONE, glam::Vec2::X])
     );
     assert_eq!(
         s.attributes_of(1).uv,
-        Some([glam::Vec2::ZERO, glam::Vec2::ONE, glam::Vec2::Y])
+        Some([glam::Vec2::Y, glam::Vec2::X, glam::Vec2::ZERO])
     );
     assert_eq!(s.attributes_of(0).n, None);
     // Counter-clockwise seen from +z: the front side is +z.
