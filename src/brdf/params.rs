@@ -505,6 +505,12 @@ impl<'a> ParamReader<'a> {
         let x = match v {
             Value::Float(f) => *f,
             Value::Integer(i) => *i as f64,
+            Value::Table(_) => {
+                return Err(self.error(
+                    key,
+                    "expected a number, found a table: a texture (`{ texture = \"FILE\" }`) is read only in a scene file, where the material belongs to a surface",
+                ))
+            }
             other => {
                 return Err(self.error(
                     key,
