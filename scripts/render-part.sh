@@ -27,4 +27,4 @@ if [ -s "$part" ]; then
 fi
 mkdir -p "$dir"
 start=$((index * spp / parts)) end=$(((index + 1) * spp / parts))
-exec "$bin" render "$scene" --set "integrator.spp=$spp" --samples "$start..$end" --out "$part" "$@"
+exec "$bin" render "$scene" --spp "$spp" --samples "$start..$end" --out "$part" "$@"
