@@ -124,8 +124,7 @@ impl Ray {
         let tt = u * az + v_ * bz + w * cz;
         let rcp = 1.0 / det;
         let t = tt * rcp;
-        // (Also rejects NaN.)
-        if !(t <= tmax) {
+        if t.is_nan() || t > tmax {
             return None;
         }
         // A hit counts only where t exceeds the bound on its own rounding error, so that it
@@ -188,7 +187,7 @@ impl Ray {
         let (az, bz, cz) = (sz * a.z, sz * b.z, sz * c.z);
         let rcp = 1.0 / det;
         let t = (u * az + v_ * bz + w * cz) * rcp;
-        if !(t <= tmax as f64) {
+        if t.is_nan() || t > tmax as f64 {
             return None;
         }
         let max3 = |p: f64, q: f64, r: f64| p.abs().max(q.abs()).max(r.abs());

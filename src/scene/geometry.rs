@@ -289,6 +289,61 @@ impl FaceRules {
     }
 }
 
+/// Smooth vertex normals for a mesh that has none, as Mitsuba 3 gives every mesh without
+/// normals (unless `face_normals`): at each vertex the average of the faces' unit normals
+/// weighted by the face's angle at that vertex (Thürmer & Wüthrich 1998, "Computing Vertex
+/// Normals from Polygonal Facets", JGT 3(1)), from the world-space triangles (after the
+/// shape's transform, as Mitsuba computes them). A vertex is its position and its texture
+/// coordinates, so a UV seam keeps its normals apart, as Mitsuba's OBJ reader keys vertices
+/// (a PLY file's distinct vertices at one position are merged here, which Mitsuba keeps apart).
+/// Zero-area triangles add nothing; a vertex whose faces cancel keeps the face normal.
+pub(super) fn smooth_vertex_normals(triangles: &[Triangle], attributes: &mut [VertexAttributes]) {
+    use std::collections::HashMap;
+    type Key = ([u32; 3], [u32; 2]);
+    let key = |p: Vec3, uv: Option<Vec2>| -> Key {
+        let uv = uv.unwrap_or(Vec2::ZERO);
+        // +0 and -0 are one position.
+        let b = |x: f32| (x + 0.0).to_bits();
+        ([b(p.x), b(p.y), b(p.z)], [b(uv.x), b(uv.y)])
+    };
+    let mut sums: HashMap<Key, DVec3> = HashMap::new();
+    for (t, a) in triangles.iter().zip(attributes.iter()) {
+        let v = t.v.map(|p| p.as_dvec3());
+        let n = (v[1] - v[0]).cross(v[2] - v[0]);
+        let len = n.length();
+        if !(len > 0.0 && len.is_finite()) {
+            continue;
+        }
+        let n = n / len;
+        for j in 0..3 {
+            let (d0, d1) = (v[(j + 1) % 3] - v[j], v[(j + 2) % 3] - v[j]);
+            let c = d0.dot(d1) / (d0.length() * d1.length());
+            let angle = c.clamp(-1.0, 1.0).acos();
+            if angle.is_finite() {
+                *sums
+                    .entry(key(t.v[j], a.uv.map(|uv| uv[j])))
+                    .or_insert(DVec3::ZERO) += n * angle;
+            }
+        }
+    }
+    for (t, a) in triangles.iter().zip(attributes.iter_mut()) {
+        let face = crate::robust::triangle_normal(&t.v);
+        let n = [0, 1, 2].map(|j| {
+            let s = sums
+                .get(&key(t.v[j], a.uv.map(|uv| uv[j])))
+                .copied()
+                .unwrap_or(DVec3::ZERO);
+            let len = s.length();
+            if len > 0.0 && len.is_finite() {
+                (s / len).as_vec3()
+            } else {
+                face
+            }
+        });
+        a.n = Some(n);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -356,60 +411,5 @@ mod tests {
         assert!(degenerate(&[Vec3::ZERO, Vec3::ZERO, Vec3::Y]));
         assert!(!degenerate(&[Vec3::ZERO, Vec3::X, Vec3::Y]));
         assert!(degenerate(&[Vec3::ZERO, Vec3::X, Vec3::splat(f32::NAN)]));
-    }
-}
-
-/// Smooth vertex normals for a mesh that has none, as Mitsuba 3 gives every mesh without
-/// normals (unless `face_normals`): at each vertex the average of the faces' unit normals
-/// weighted by the face's angle at that vertex (Thürmer & Wüthrich 1998, "Computing Vertex
-/// Normals from Polygonal Facets", JGT 3(1)), from the world-space triangles (after the
-/// shape's transform, as Mitsuba computes them). A vertex is its position and its texture
-/// coordinates, so a UV seam keeps its normals apart, as Mitsuba's OBJ reader keys vertices
-/// (a PLY file's distinct vertices at one position are merged here, which Mitsuba keeps apart).
-/// Zero-area triangles add nothing; a vertex whose faces cancel keeps the face normal.
-pub(super) fn smooth_vertex_normals(triangles: &[Triangle], attributes: &mut [VertexAttributes]) {
-    use std::collections::HashMap;
-    type Key = ([u32; 3], [u32; 2]);
-    let key = |p: Vec3, uv: Option<Vec2>| -> Key {
-        let uv = uv.unwrap_or(Vec2::ZERO);
-        // +0 and -0 are one position.
-        let b = |x: f32| (x + 0.0).to_bits();
-        ([b(p.x), b(p.y), b(p.z)], [b(uv.x), b(uv.y)])
-    };
-    let mut sums: HashMap<Key, DVec3> = HashMap::new();
-    for (t, a) in triangles.iter().zip(attributes.iter()) {
-        let v = t.v.map(|p| p.as_dvec3());
-        let n = (v[1] - v[0]).cross(v[2] - v[0]);
-        let len = n.length();
-        if !(len > 0.0 && len.is_finite()) {
-            continue;
-        }
-        let n = n / len;
-        for j in 0..3 {
-            let (d0, d1) = (v[(j + 1) % 3] - v[j], v[(j + 2) % 3] - v[j]);
-            let c = d0.dot(d1) / (d0.length() * d1.length());
-            let angle = c.clamp(-1.0, 1.0).acos();
-            if angle.is_finite() {
-                *sums
-                    .entry(key(t.v[j], a.uv.map(|uv| uv[j])))
-                    .or_insert(DVec3::ZERO) += n * angle;
-            }
-        }
-    }
-    for (t, a) in triangles.iter().zip(attributes.iter_mut()) {
-        let face = crate::robust::triangle_normal(&t.v);
-        let n = [0, 1, 2].map(|j| {
-            let s = sums
-                .get(&key(t.v[j], a.uv.map(|uv| uv[j])))
-                .copied()
-                .unwrap_or(DVec3::ZERO);
-            let len = s.length();
-            if len > 0.0 && len.is_finite() {
-                (s / len).as_vec3()
-            } else {
-                face
-            }
-        });
-        a.n = Some(n);
     }
 }
