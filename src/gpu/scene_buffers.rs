@@ -236,7 +236,7 @@ pub fn globals(
         tile_x: tile.x,
         tile_y: tile.y,
         tile_width: tile.width,
-        pattern_bits: crate::rng::multijitter_bits(it.pattern_spp()),
+        pattern_bits: it.pattern_bits(),
     }
 }
 

@@ -21,21 +21,26 @@
 //!   rounding on the GPU (its film sums each batch in f32);
 //! * `multijitter`: the points of one pattern are stratified together, so batches cut from one
 //!   pattern of N points are negatively correlated, and their spread would measure the variance
-//!   of unstratified sampling. A batched render therefore sizes the pattern by the batch
-//!   ([`Integrator::pattern_spp`](crate::scene::Integrator) = P, a power of two): the sampler
+//!   of unstratified sampling (a partition of the pattern's strata at random: s² / K then
+//!   estimates the one-sample variance over N, which is what the test had without batches). A
+//!   batched render therefore sizes the pattern by the batch
+//!   ([`Integrator::batch_spp`](crate::scene::Integrator) = P, a power of two): the sampler
 //!   keys each block of P sample indices on its own pattern, so each batch is an independent
 //!   P-point pattern. The image is NOT the unbatched render's (that one draws one N-point
 //!   pattern): it is the render of N samples in patterns of P points, which is also what any
-//!   split of the batched render into parts (`--samples`) merges into. Stratification then
-//!   works within P samples, not N: the price of a valid variance.
-//! * `sobol`: the aligned blocks of one Owen-scrambled sequence share its scramble, so they are
-//!   not independent, and the sampler has no per-batch scramble: refused, with the reason.
+//!   split of the batched render into parts (`--samples`, whole batches) merges into.
+//!   Stratification then works within P samples, not N: the price of a valid variance.
+//! * `sobol`: the aligned blocks of one Owen-scrambled sequence are nets, but they share its
+//!   scramble and so are not independent. In batches, each block of P samples gets its own
+//!   index shuffle and scrambles ([`crate::rng::sobol_batch_key`]): independently randomized
+//!   (0,m,2)-nets. The first batch draws the unbatched render's numbers, the later ones not: the
+//!   image is not the unbatched one, for the same reason as `multijitter`'s.
 
 use super::{Progress, RenderRequest, Rendered, Renderer};
 use crate::film::{Film, Tile};
 use crate::imageio::{BatchVariance, Image};
 use crate::output::RenderOutput;
-use crate::rng::Sampler;
+use crate::rng::{Sampler, MULTIJITTER_MAX_BITS};
 use crate::scene::Scene;
 use anyhow::{bail, Result};
 use std::ops::Range;
@@ -53,9 +58,9 @@ impl Batches {
     /// The batches of `count` for a render of the scene's samples `samples` (a range of the
     /// whole render of `whole_spp` samples: `0..whole_spp` unless it is a part), or why not: K
     /// must divide `whole_spp`, the batch size P = whole_spp / K must be a power of two for
-    /// `multijitter` (its patterns are keyed by blocks of a power of two), `samples` must hold
-    /// whole batches, at least two, and the sampler must give independent batches. Messages
-    /// name `--batches`.
+    /// `multijitter` and `sobol` (their patterns and scrambles are keyed by aligned blocks of a
+    /// power of two), and `samples` must hold whole batches, at least two. Messages name
+    /// `--batches`.
     pub fn plan(
         count: u32,
         whole_spp: u32,
@@ -65,13 +70,6 @@ impl Batches {
         if count < 2 {
             bail!("--batches {count}: a variance from batch means takes at least 2 batches");
         }
-        if sampler == Sampler::Sobol {
-            bail!(
-                "--batches with --sampler sobol: the batches of one Owen-scrambled Sobol' sequence \
-                 share its scramble, so they are not independent and their spread is not the \
-                 variance of the mean; use --sampler multijitter (the default) or independent"
-            );
-        }
         if whole_spp % count != 0 {
             bail!(
                 "--batches {count}: the render's {whole_spp} samples per pixel do not divide into \
@@ -79,14 +77,20 @@ impl Batches {
             );
         }
         let size = whole_spp / count;
-        if sampler == Sampler::Multijitter && !size.is_power_of_two() {
+        if sampler != Sampler::Independent && !size.is_power_of_two() {
             // The largest power of two under the batch size that divides the spp.
             let fit = prev_power_of_two(size).min(1 << whole_spp.trailing_zeros());
             bail!(
-                "--batches {count}: batches of {size} samples; with the multijitter sampler a \
+                "--batches {count}: batches of {size} samples; with the {sampler} sampler a \
                  batch is one pattern, whose size is a power of two (e.g. --batches {} for \
                  batches of {fit})",
                 whole_spp / fit,
+            );
+        }
+        if sampler != Sampler::Independent && size > 1 << MULTIJITTER_MAX_BITS {
+            bail!(
+                "--batches {count}: batches of {size} samples; a {sampler} pattern holds at most \
+                 2^{MULTIJITTER_MAX_BITS}: use more batches"
             );
         }
         if samples.start % size != 0 || samples.end % size != 0 || samples.len() < 2 * size as usize
@@ -101,10 +105,11 @@ impl Batches {
         Ok(Batches { count, size })
     }
 
-    /// Sizes the sampler's patterns by the batch (module docs): every batch its own pattern.
+    /// Sizes the sampler's patterns by the batch (module docs): every batch its own pattern
+    /// or scramble. The independent sampler has none.
     pub fn apply(&self, scene: &mut Scene) {
-        if scene.integrator.sampler == Sampler::Multijitter {
-            scene.integrator.pattern_spp = Some(self.size);
+        if scene.integrator.sampler != Sampler::Independent {
+            scene.integrator.batch_spp = Some(self.size);
         }
     }
 }
@@ -284,14 +289,21 @@ mod tests {
             Batches::plan(3, 12, &(0..12), Sampler::Independent).unwrap(),
             Batches { count: 3, size: 4 }
         );
-        // A part of whole batches of the whole render.
+        // A part of whole batches of the whole render; sobol in batches of a power of two.
         assert!(Batches::plan(8, 64, &(16..48), m).is_ok());
+        assert!(Batches::plan(4, 64, &(0..64), Sampler::Sobol).is_ok());
         for (k, spp, samples, sampler, needle) in [
             (1, 64, 0..64, m, "at least 2"),
             (5, 64, 0..64, m, "do not divide"),
             (3, 18, 0..18, m, "--batches 9 for batches of 2"),
             (4, 48, 0..48, m, "--batches 6 for batches of 8"),
-            (4, 64, 0..64, Sampler::Sobol, "not independent"),
+            (
+                4,
+                48,
+                0..48,
+                Sampler::Sobol,
+                "with the sobol sampler a batch is one pattern",
+            ),
             (8, 64, 4..64, m, "whole batches"),
             (8, 64, 0..8, m, "at least two"),
         ] {
@@ -346,29 +358,33 @@ mod tests {
         }
     }
 
-    /// With multijitter, the batched render is the render whose pattern is the batch: the same
-    /// image as its parts merged, and not the unbatched image (whose pattern is 16 points).
+    /// With multijitter and sobol, the batched render is the render whose patterns (or
+    /// scrambles) are the batch's: the same image as that render's, and not the unbatched image
+    /// (one pattern or scramble of 16 samples).
     #[test]
-    fn multijitter_batches_are_patterns_of_the_batch_size() {
-        let mut s = cornell(5, 16, Sampler::Multijitter);
-        let bvh = Arc::new(crate::bvh::build(&s));
-        let tile = Tile::full(5, 5);
-        let unbatched = super::super::render_all(Backend::Cpu, &s, bvh.clone()).unwrap();
-        let plan = Batches::plan(4, 16, &(0..16), s.integrator.sampler).unwrap();
-        plan.apply(&mut s);
-        assert_eq!(s.integrator.pattern_spp, Some(4));
-        let mut r = open(Backend::Cpu, &s, bvh.clone(), tile).unwrap();
-        let (b, v) = render_batches(r.as_mut(), 0..16, plan.size, tile, false, &|_| {}).unwrap();
-        let same_pattern = super::super::render_all(Backend::Cpu, &s, bvh.clone()).unwrap();
-        assert_eq!(b.output.mean, same_pattern.mean);
-        assert_ne!(b.output.mean, unbatched.mean);
-        assert!(v
-            .variance
-            .data
-            .iter()
-            .flatten()
-            .all(|x| x.is_finite() && *x >= 0.0));
-        assert!(v.variance.data.iter().flatten().any(|&x| x > 0.0));
+    fn stratified_batches_are_patterns_of_the_batch_size() {
+        for sampler in [Sampler::Multijitter, Sampler::Sobol] {
+            let mut s = cornell(5, 16, sampler);
+            let bvh = Arc::new(crate::bvh::build(&s));
+            let tile = Tile::full(5, 5);
+            let unbatched = super::super::render_all(Backend::Cpu, &s, bvh.clone()).unwrap();
+            let plan = Batches::plan(4, 16, &(0..16), s.integrator.sampler).unwrap();
+            plan.apply(&mut s);
+            assert_eq!(s.integrator.batch_spp, Some(4));
+            let mut r = open(Backend::Cpu, &s, bvh.clone(), tile).unwrap();
+            let (b, v) =
+                render_batches(r.as_mut(), 0..16, plan.size, tile, false, &|_| {}).unwrap();
+            let same_pattern = super::super::render_all(Backend::Cpu, &s, bvh.clone()).unwrap();
+            assert_eq!(b.output.mean, same_pattern.mean, "{sampler}");
+            assert_ne!(b.output.mean, unbatched.mean, "{sampler}");
+            assert!(v
+                .variance
+                .data
+                .iter()
+                .flatten()
+                .all(|x| x.is_finite() && *x >= 0.0));
+            assert!(v.variance.data.iter().flatten().any(|&x| x > 0.0));
+        }
     }
 
     /// The progress of the batches reads as one call's: rows (CPU) up to the tile's height.
