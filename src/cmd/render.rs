@@ -68,12 +68,13 @@ pub struct RenderArgs {
     /// Also write the per-pixel variance of one sample (EXR), for statistical tests.
     #[arg(long)]
     variance_out: Option<PathBuf>,
-    /// Render in K independent batches of spp/K samples, 2 to 65536, and write beside the
+    /// Render in K independent batches of spp/K samples, 2 to 65536 (8 or more for the z-test
+    /// of `diff`, whose approximations want K − 1 >= 7 degrees of freedom), and write beside the
     /// image (EXR layer `meanVariance`) the variance of each pixel's mean from the K batch
     /// means: right for every sampler, where the variance of one sample over the spp is right
-    /// only for `independent`; `diff --z-test` uses it. With `multijitter` each batch is its
-    /// own pattern of spp/K points (a power of two), so the image is not the unbatched one;
-    /// with `independent` it is. Not with `sobol`.
+    /// only for `independent`; the z-test of `diff` uses it. With `multijitter` each batch is its
+    /// own pattern of spp/K points, with `sobol` its own scramble (spp/K a power of two), so
+    /// the image is not the unbatched one; with `independent` it is.
     #[arg(long, value_name = "K", value_parser = clap::value_parser!(u32).range(2..=65536))]
     batches: Option<u32>,
     /// Vulkan device: a case-insensitive part of its name (default: lavapipe if present;

@@ -26,7 +26,8 @@
 //!   the pattern's points (each cell at most once), and every number is uniform, so any N is
 //!   unbiased. The pattern depends on N, so the parts of a split render keep the whole
 //!   render's N (`Integrator::pattern_spp`), and the bench measures each sample count as a
-//!   fresh render. Measured on the two Cornell boxes (BENCHMARKS.md): at 16, 64 and 256 spp
+//!   fresh render. A render in K batches (`render --batches`, `Integrator::batch_spp`) sizes
+//!   the pattern by the batch, N/K, so that each batch is an independent pattern. Measured on the two Cornell boxes (BENCHMARKS.md): at 16, 64 and 256 spp
 //!   these points have 3–7 % less error than the padded Sobol' nets below, because for the
 //!   discontinuous and the smooth 2-D integrands a path tracer meets, a jittered grid with
 //!   n-rooks strata has less variance than a scrambled (0,2)-net at these counts.
@@ -44,7 +45,9 @@
 //!   passes and sample ranges of power-of-two sizes are stratified as one render. Every single
 //!   number is uniform on [0, 1) (the scramble is random), so any sample count, power of two or
 //!   not, is unbiased. Pixels, depths and pairs get independent scrambles: errors of pixels are
-//!   independent (white noise) and pairs do not correlate.
+//!   independent (white noise) and pairs do not correlate. A render in batches of 2^m samples
+//!   (`render --batches`) keys each batch's shuffle and scrambles on the batch too
+//!   ([`sobol_batch_key`]): each batch an independently randomized net.
 //! * `independent`: each number is its own hash of the key (PCG, Jarzynski & Olano 2020) — the
 //!   first sampler, kept for comparison and for the tests whose statistics need independent
 //!   samples (the per-sample variance of a stratified render overstates the variance of its
