@@ -628,8 +628,10 @@ mod tests {
                 .iter()
                 .map(|n| AnyChannel::new(*n, FlatSamples::F32(vec![0.5; 12])))
                 .collect();
-            let mut a = LayerAttributes::default();
-            a.other = attributes;
+            let a = LayerAttributes {
+                other: attributes,
+                ..LayerAttributes::default()
+            };
             let f = dir.path().join("hand.exr");
             exr::prelude::Image::from_layer(Layer::new(
                 (4, 3),

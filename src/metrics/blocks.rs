@@ -232,9 +232,9 @@ pub(crate) fn block_tests(
                     let test = block_test(rect, c, s, floor);
                     let n = s.n;
                     all.push((test.p, 1.0 / tests as f64, si));
-                    if worst
-                        .is_none_or(|w| test.p < w.p || (test.p == w.p && test.t.abs() > w.t.abs()))
-                    {
+                    if worst.map_or(true, |w| {
+                        test.p < w.p || (test.p == w.p && test.t.abs() > w.t.abs())
+                    }) {
                         worst = Some(test);
                     }
                     if s.bad == 0 && s.v > 0.0 && test.mean_b != 0.0 && test.mean_b.is_finite() {
@@ -390,7 +390,7 @@ pub(crate) fn detectable(mut candidates: Vec<Candidate>, level: f64) -> Option<D
             break;
         }
         let c = t_critical(level, dof);
-        if best.is_none_or(|b| c * ratio < b.bias) {
+        if best.map_or(true, |b| c * ratio < b.bias) {
             best = Some(Detectable {
                 bias: c * ratio,
                 bias_95: (c + z95) * ratio,

@@ -29,7 +29,7 @@ pub fn t_two_sided(t: f64, dof: f64) -> f64 {
     if t.is_infinite() {
         return 0.0;
     }
-    if !(dof < NORMAL_DOF) {
+    if dof.is_nan() || dof >= NORMAL_DOF {
         return normal_two_sided(t);
     }
     let dof = dof.max(1e-3);

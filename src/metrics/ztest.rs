@@ -509,7 +509,7 @@ pub fn z_test(a: &ZSide, b: &ZSide, opts: &ZTestOptions) -> Result<ZTestReport, 
         let floor = |ma: f64, mb: f64| model.floor(ma, mb);
         blocks::block_tests(w, h, &terms, alpha, members, &floor)
     });
-    let blocks_pass = blocks.as_ref().is_none_or(|b| b.pass);
+    let blocks_pass = blocks.as_ref().map_or(true, |b| b.pass);
     let image = |data| Image {
         width: w,
         height: h,
