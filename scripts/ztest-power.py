@@ -2,8 +2,8 @@
 """The false-alarm rate and the power of `brdfwave diff --z-test`, measured over many seeds.
 
 The Cornell box (scenes/cornell-box.toml) at 128x128 and 64 spp, rendered on the CPU reference
-with many seeds, as it is and with its white material (floor, ceiling, back wall, blocks) 2 %
-and 5 % darker. For each configuration (sampler, and where the z-test's variance comes from:
+with many seeds, as it is and with its white material (floor, ceiling, back wall, blocks) 1 %,
+2 % and 5 % darker. For each configuration (sampler, and where the z-test's variance comes from:
 `one-sample`, the variance of one sample over the spp, or `batches`, the variance of the mean
 from `render --batches K`):
 
@@ -23,11 +23,16 @@ batches (the default render) and the batches configuration with them.
 
     python3 scripts/ztest-power.py [OUTDIR]        # default out/ztest-power
 
+Then, where numpy and Mitsuba (for its EXR reader) are installed, how right each variance
+is: the standard deviation of a pixel's, a 16x16 block's and the whole image's mean across
+the seeds against the one each variance predicts.
+
 Environment: SEEDS (renders of each scene per configuration, default 100), SAMPLERS (default
 "multijitter independent"), BATCHES (K, default 8), ALPHAS (default "0.01 0.05 0.1 0.2"),
-RES (default 128x128), SPP (default 64), BACKEND (default cpu). About 4 renders of 2-4 s per
-seed and configuration set on 2 cores: with the defaults, 3 sets x 100 x 4 renders, 1 to 1.5
-hours. Renders are kept in OUTDIR and reused when the script runs again.
+DARKER (per cent, default "1 2 5"), RES (default 128x128), SPP (default 64), BACKEND (default
+cpu). 2 + 3 renders per seed and set of renders, of 2-8 s each on 2 cores: with the defaults,
+3 sets x 100 x 5 renders, 1.5 to 3 hours, and 15 minutes of diffs. Renders are kept in OUTDIR
+and reused when the script runs again.
 """
 
 import json
@@ -92,9 +97,10 @@ def main():
     subprocess.run(["cargo", "build", "--release", "--quiet"], cwd=ROOT, check=True)
     binary = ROOT / "target" / "release" / "brdfwave"
     albedo = tomllib.loads(SCENE.read_text())["materials"]["white"]["albedo"]
+    levels = env("DARKER", "1 2 5").split()
     darker = {
-        f"{d}%": "materials.white.albedo=[" + ", ".join(f"{c * (1 - d / 100):.6g}" for c in albedo) + "]"
-        for d in (2, 5)
+        d: "materials.white.albedo=[" + ", ".join(f"{c * (1 - float(d) / 100):.6g}" for c in albedo) + "]"
+        for d in levels
     }
 
     def render(path, seed, sampler, batched, override=None):
@@ -125,8 +131,8 @@ def main():
           f"batches: K = {batches}; darker white: {', '.join(darker.values())}")
     print()
     header = ("| sampler | variance | " + " | ".join(f"false alarms, alpha {a:g}" for a in alphas)
-              + " | 2 % darker detected | 5 % darker detected | detectable bias, whole image"
-              " | detectable bias, 32x32 |")
+              + "".join(f" | {d} % darker detected" for d in levels)
+              + " | detectable bias, whole image | detectable bias, 32x32 |")
     print(header)
     print("|" + "---|" * (header.count("|") - 1))
     for sampler, source, batched in configs:
@@ -141,8 +147,8 @@ def main():
         for name, override in darker.items():
             dark[name] = []
             for i in range(seeds):
-                p = d / f"dark{name[:-1]}-{i}.exr"
-                render(p, 5000 + 1000 * int(name[:-1]) + i, sampler, batched, override)
+                p = d / f"dark{name}-{i}.exr"
+                render(p, 5000 + round(1000 * float(name)) + i, sampler, batched, override)
                 dark[name].append(p)
         alarms = {a: 0 for a in alphas}
         whole, b32 = [], []
@@ -156,16 +162,87 @@ def main():
                     whole.append(scales[-1]["detectable"]["bias"])
                     b32 += [s["detectable"]["typical_bias"] for s in scales if s["side"] == 32]
         detected = {}
-        for name, renders in dark.items():
-            refs = true[0::2] if name == "2%" else true[1::2]
+        for li, (name, renders) in enumerate(dark.items()):
+            refs = true[li % 2::2]
             detected[name] = sum(not diff(t, r, 0.01, source)["pass"] for t, r in zip(renders, refs))
         median = lambda v: sorted(v)[len(v) // 2] if v else float("nan")
         print(f"| {sampler} | {source} | "
               + " | ".join(rate(alarms[a], len(pairs)) for a in alphas)
-              + f" | {rate(detected['2%'], seeds)} | {rate(detected['5%'], seeds)}"
+              + "".join(f" | {rate(detected[d], seeds)}" for d in levels)
               + f" | {100 * median(whole):.3f} % | {100 * median(b32):.3f} % (typical block) |",
               flush=True)
 
 
+def variance_check(out, samplers, seeds, spp):
+    """How right each variance is: over the renders of the true scene, the standard deviation of
+    a pixel's, a 16x16 block's and the whole image's mean across seeds, against the one each
+    variance predicts (the mean over seeds of the estimate; a ratio of 1 is right, above 1
+    overstates). Needs numpy and Mitsuba's EXR reader; skipped with a message without them."""
+    try:
+        import numpy as np
+        import mitsuba as mi
+        mi.set_variant("scalar_rgb")
+    except Exception as e:  # noqa: BLE001 - any import failure means: skip
+        print(f"\n(variance check skipped: numpy and mitsuba are needed to read the EXRs: {e})")
+        return
+    print()
+    print("Estimated / actual standard deviation of the mean (actual: across the seeds; estimated:"
+          " the root of the mean estimated variance):")
+    print()
+    print("| sampler | renders | variance | pixel (median) | 16x16 block (median) | whole image |")
+    print("|---|---|---|---|---|---|")
+
+    def layer(b, names):
+        fields = [b.struct_()[i].name for i in range(b.channel_count())]
+        a = np.array(b, copy=False)
+        return np.stack([a[..., fields.index(n)] for n in names], axis=-1).astype(np.float64)
+
+    def blocks(x, k):
+        h, w = x.shape[-3], x.shape[-2]
+        return x[..., : h // k * k, : w // k * k, :].reshape(
+            x.shape[:-3] + (h // k, k, w // k, k, 3)).mean(axis=(-4, -2))
+
+    for sampler in samplers:
+        for batched in ([False, True] if sampler == "multijitter" else [True]):
+            d = out / f"{sampler}-{'batched' if batched else 'plain'}"
+            paths = [d / f"true-{i}.exr" for i in range(2 * seeds)]
+            if not all(p.exists() for p in paths):
+                continue
+            means, one, of_mean = [], [], []
+            for p in paths:
+                b = mi.Bitmap(str(p))
+                means.append(layer(b, ["R", "G", "B"]))
+                one.append(layer(b, ["variance.R", "variance.G", "variance.B"]) / float(spp))
+                if batched:
+                    of_mean.append(layer(b, ["meanVariance.R", "meanVariance.G", "meanVariance.B"]))
+            means = np.array(means)
+            sources = [("one-sample", np.array(one))]
+            if batched:
+                sources.append(("batches", np.array(of_mean)))
+            for name, var in sources:
+                row = []
+                for k in (1, 16, None):
+                    if k is None:
+                        m = means.mean(axis=(1, 2))
+                        v = var.sum(axis=(1, 2)) / (means.shape[1] * means.shape[2]) ** 2
+                    elif k == 1:
+                        m, v = means, var
+                    else:
+                        m = blocks(means, k)
+                        v = blocks(var, k) / (k * k)
+                    actual = m.std(axis=0, ddof=1)
+                    estimated = np.sqrt(v.mean(axis=0))
+                    keep = actual > 0
+                    row.append(np.median(estimated[keep] / actual[keep]))
+                print(f"| {sampler} | {'batched' if batched else 'plain'} | {name} | "
+                      + " | ".join(f"{r:.2f}" for r in row) + " |", flush=True)
+
+
 if __name__ == "__main__":
     main()
+    variance_check(
+        Path(sys.argv[1] if len(sys.argv) > 1 else "out/ztest-power"),
+        env("SAMPLERS", "multijitter independent").split(),
+        int(env("SEEDS", "100")),
+        int(env("SPP", "64")),
+    )
