@@ -70,19 +70,24 @@ uint sobol_component(uint index, uint pair_key, uint c) {
     return bitfieldReverse(lk_permute(reversed, pcg_hash(pair_key ^ (1u + c))));
 }
 
+// The key of one batch of 2^bits samples of a pair (bits = g.pattern_bits; 32: no batches).
+uint sobol_batch_key(uint pair_key, uint sample_index, uint bits) {
+    return bits >= 32u ? pair_key : pair_key ^ ((sample_index >> bits) * 0x9e3779b9u);
+}
+
 // The `sobol` sampler: component (dim & 1) of pair (dim >> 1), padded by an index shuffle.
-uint sobol_u32(uint seed, uint pixel, uint sample_index, uint depth, uint dim) {
-    uint key = sobol_pair_key(sobol_pixel_key(seed, pixel), depth, dim >> 1u);
+uint sobol_u32(uint seed, uint bits, uint pixel, uint sample_index, uint depth, uint dim) {
+    uint key = sobol_batch_key(sobol_pair_key(sobol_pixel_key(seed, pixel), depth, dim >> 1u), sample_index, bits);
     return sobol_component(sobol_shuffled_index(sample_index, key), key, dim & 1u);
 }
 
-float sobol_f32(uint seed, uint pixel, uint sample_index, uint depth, uint dim) {
-    return to_unit_f32(sobol_u32(seed, pixel, sample_index, depth, dim));
+float sobol_f32(uint seed, uint bits, uint pixel, uint sample_index, uint depth, uint dim) {
+    return to_unit_f32(sobol_u32(seed, bits, pixel, sample_index, depth, dim));
 }
 
 // Both numbers of the pair that starts at dimension dim (even): one key, one shuffled index.
-vec2 sobol_pair_f32(uint seed, uint pixel, uint sample_index, uint depth, uint dim) {
-    uint key = sobol_pair_key(sobol_pixel_key(seed, pixel), depth, dim >> 1u);
+vec2 sobol_pair_f32(uint seed, uint bits, uint pixel, uint sample_index, uint depth, uint dim) {
+    uint key = sobol_batch_key(sobol_pair_key(sobol_pixel_key(seed, pixel), depth, dim >> 1u), sample_index, bits);
     uint index = sobol_shuffled_index(sample_index, key);
     return vec2(to_unit_f32(sobol_component(index, key, 0u)), to_unit_f32(sobol_component(index, key, 1u)));
 }

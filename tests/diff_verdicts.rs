@@ -292,3 +292,182 @@ fn render_and_merge_outputs_carry_what_produced_them() {
     assert!(mp.render_seconds.is_some() && m.variance.is_some());
     assert_eq!(m.image, image);
 }
+
+/// The aggregate test sees what the pixels cannot: the Cornell box's white material (floor,
+/// ceiling, back wall, blocks) 2 % darker, at 32x32 and 256 spp, is well within one pixel's
+/// noise (both pixel rules pass) but not within a block's. Two seeds of the true scene pass.
+/// For the default stratified sampler with the variance of its batch means (`--batches`), for
+/// the same sampler with the variance of one sample (valid there, but an overstatement), and
+/// for the independent sampler; the JSON says which variance each side had.
+#[test]
+fn blocks_see_a_darker_material_that_pixels_cannot_for_every_sampler() {
+    let scene = common::repo().join("scenes/cornell-box.toml");
+    let darker = "materials.white.albedo=[0.7105, 0.6958, 0.6664]"; // 0.98 x [0.725, 0.71, 0.68]
+    for (name, sampler, batches, source) in [
+        ("mj-batches", "multijitter", Some("8"), "batches"),
+        ("mj", "multijitter", None, "one-sample"),
+        ("indep", "independent", None, "one-sample"),
+    ] {
+        let render = |tag: &str, seed: &str, set: Option<&str>| {
+            let out = CLI.tmp(&format!("{name}-{tag}.exr"));
+            let mut args = vec![
+                "render",
+                s(&scene),
+                "--backend",
+                "cpu",
+                "--res",
+                "32x32",
+                "--spp",
+                "256",
+                "--sampler",
+                sampler,
+                "--seed",
+                seed,
+                "--quiet",
+                "--out",
+                s(&out),
+            ];
+            if let Some(k) = batches {
+                args.extend(["--batches", k]);
+            }
+            if let Some(set) = set {
+                args.extend(["--set", set]);
+            }
+            CLI.status(&args, 0);
+            out
+        };
+        let (a, b, dark) = (
+            render("a", "11", None),
+            render("b", "12", None),
+            render("dark", "13", Some(darker)),
+        );
+        let verdict = |t: &PathBuf, r: &PathBuf, code| {
+            let (o, _) = CLI.status(&["diff", s(t), s(r), "--z-test", "--json"], code);
+            let j: serde_json::Value = serde_json::from_str(o.trim()).unwrap();
+            println!("{name}: {}", j["z_test"]["blocks"]);
+            j["z_test"].clone()
+        };
+        let z = verdict(&a, &b, 0);
+        assert_eq!(z["variance"]["test"]["source"], source, "{name}");
+        assert_eq!(z["variance"]["reference"]["source"], source, "{name}");
+        assert_eq!(z["blocks"]["rejected"], 0, "{name}");
+        // 1 + excess + 4 scales (4, 8, 16, whole) share alpha.
+        assert_eq!(z["members"], 6, "{name}");
+        let z = verdict(&dark, &a, 1);
+        assert_eq!(
+            (
+                z["outlier_rule_pass"].clone(),
+                z["excess_rule_pass"].clone()
+            ),
+            (true.into(), true.into()),
+            "{name}: the pixels alone do not see 2 %"
+        );
+        assert_eq!(z["blocks"]["pass"], false, "{name}");
+        let scales = z["blocks"]["scales"].as_array().unwrap();
+        // The 16x16 blocks see it, darker (t < 0), and were able to: their detectable bias is
+        // under the 2 % that is there.
+        let s16 = &scales[2];
+        assert_eq!(s16["side"], 16);
+        assert!(s16["rejected"].as_u64().unwrap() > 0, "{name}: {s16}");
+        assert!(s16["worst"]["t"].as_f64().unwrap() < 0.0, "{name}: {s16}");
+        assert!(
+            s16["detectable"]["bias"].as_f64().unwrap() < 0.02,
+            "{name}: {s16}"
+        );
+    }
+}
+
+/// `render --batches K` writes the variance of the means from K batches beside the one-sample
+/// variance, and refuses batches that cannot be cut; `diff --variance-source`
+/// picks one or the other and names it in its text.
+#[test]
+fn batches_in_the_exr_and_the_variance_source_of_diff() {
+    let scene = common::repo().join("scenes/cornell-box.toml");
+    let base = [
+        "render",
+        s(&scene),
+        "--backend",
+        "cpu",
+        "--res",
+        "8x8",
+        "--spp",
+        "16",
+        "--max-depth",
+        "3",
+        "--quiet",
+    ];
+    let out = CLI.tmp("batched.exr");
+    CLI.status(
+        &[&base[..], &["--batches", "4", "--out", s(&out)]].concat(),
+        0,
+    );
+    let l = imageio::read_layered(&out).unwrap();
+    let b = l.batch_variance.expect("a batch variance layer");
+    assert_eq!(b.batches, 4);
+    assert!(l.variance.is_some());
+    assert!(b
+        .variance
+        .data
+        .iter()
+        .flatten()
+        .all(|v| v.is_finite() && *v >= 0.0));
+    // Refused by the render (status 1) or by the option's parser (status 2).
+    for (extra, code, needle) in [
+        (&["--batches", "3"][..], 1, "do not divide"),
+        (&["--batches", "1"][..], 2, "--batches"),
+    ] {
+        let (_, e) = CLI.status(&[&base[..], extra, &["--out", s(&out)]].concat(), code);
+        assert!(e.contains(needle), "{extra:?}: {e}");
+    }
+    // Sobol in batches: each its own scramble.
+    let sobol = CLI.tmp("sobol.exr");
+    let args = ["--batches", "4", "--sampler", "sobol", "--out", s(&sobol)];
+    CLI.status(&[&base[..], &args].concat(), 0);
+    let l = imageio::read_layered(&sobol).unwrap();
+    assert_eq!(l.batch_variance.unwrap().batches, 4);
+    // A part must hold whole batches of the whole render's.
+    let mut part = base.to_vec();
+    part.splice(6..8, ["--set", "integrator.spp=16", "--samples", "2..10"]);
+    let (_, e) = CLI.status(
+        &[&part[..], &["--batches", "4", "--out", s(&out)]].concat(),
+        1,
+    );
+    assert!(e.contains("not at least two whole batches of 4"), "{e}");
+    let plain = CLI.tmp("plain.exr");
+    CLI.status(&[&base[..], &["--out", s(&plain)]].concat(), 0);
+    let (o, _) = CLI.status(&["diff", s(&out), s(&out), "--z-test"], 0);
+    assert!(o.contains("variance of the mean from 4 batch means"), "{o}");
+    let (o, _) = CLI.status(
+        &[
+            "diff",
+            s(&out),
+            s(&out),
+            "--z-test",
+            "--variance-source",
+            "one-sample",
+        ],
+        0,
+    );
+    assert!(o.contains("variance of one sample / 16 spp"), "{o}");
+    // One side batched, the other not: each its own, and Welch.
+    let (o, _) = CLI.status(&["diff", s(&out), s(&plain), "--z-test", "--json"], 0);
+    let j: serde_json::Value = serde_json::from_str(o.trim()).unwrap();
+    assert_eq!(j["z_test"]["variance"]["test"]["batches"], 4);
+    assert_eq!(j["z_test"]["variance"]["reference"]["spp"], 16);
+    assert_eq!(j["z_test"]["variance_model"], "welch");
+    let (_, e) = CLI.status(
+        &[
+            "diff",
+            s(&out),
+            s(&plain),
+            "--z-test",
+            "--variance-source",
+            "batches",
+        ],
+        1,
+    );
+    assert!(
+        e.contains("has no meanVariance layer") && e.contains("--batches"),
+        "{e}"
+    );
+}

@@ -625,3 +625,147 @@ fn binomial_tail_matches_direct_sum() {
     }
     assert!(metrics::binomial_upper_tail(100_000, 0.01, 2_000) < 1e-100);
 }
+
+/// A synthetic stratified render: each pixel's value is the mean of `k` batches, each a
+/// jittered pattern of `p` samples of f(u) = mu · (1 + bias) · 2u (mean mu · (1 + bias)), so
+/// that, as with a path tracer's stratified sampler, the variance of one sample (mu² / 3)
+/// vastly overstates the variance of the pixel's estimate (mu² / (3 p³ k)). Returns the mean,
+/// the one-sample variance of all k·p samples, and the variance of the mean from the k batch
+/// means.
+fn stratified_render(
+    seed: u64,
+    w: u32,
+    h: u32,
+    (k, p): (u32, u32),
+    mu: impl Fn(u32, u32) -> f64,
+    bias: f64,
+) -> (Image, Image, Image) {
+    let mut rng = Rng::new(seed);
+    let (mut mean, mut one, mut of_mean) = (Image::new(w, h), Image::new(w, h), Image::new(w, h));
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            for c in 0..3 {
+                let m = mu(x, y) * (1.0 + 0.3 * c as f64) * (1.0 + bias);
+                let mut sums = [0.0f64; 6];
+                let mut batch_means = Vec::with_capacity(k as usize);
+                for _ in 0..k {
+                    let mut s = 0.0;
+                    for j in 0..p {
+                        let u = (j as f64 + rng.uniform()) / p as f64;
+                        let v = m * 2.0 * u;
+                        s += v;
+                        let add = film::sample_sums([v as f32, 0.0, 0.0]);
+                        sums[0] += add[0];
+                        sums[3] += add[3];
+                    }
+                    batch_means.push(s / p as f64);
+                }
+                let n = k * p;
+                let (mm, vv) = film::mean_and_variance([sums[0], 0.0, 0.0], [sums[3], 0.0, 0.0], n);
+                mean.data[i][c] = mm[0];
+                one.data[i][c] = vv[0];
+                let bm = batch_means.iter().sum::<f64>() / k as f64;
+                let s2 = batch_means.iter().map(|b| (b - bm).powi(2)).sum::<f64>() / (k - 1) as f64;
+                of_mean.data[i][c] = (s2 / k as f64) as f32;
+            }
+        }
+    }
+    (mean, one, of_mean)
+}
+
+/// Over many seeds of unbiased pairs the whole verdict (pixel rules and blocks) fails at most
+/// about alpha of the time, with independent samples and the one-sample variance (exponential
+/// samples: skewed, as radiance is) and with stratified samples and the batch-means variance;
+/// and the stratified estimator's one-sample variance is so much larger than its real error
+/// that the test hardly ever fails (valid, but blind).
+#[test]
+fn z_test_false_alarms_stay_under_alpha_over_many_seeds() {
+    let (w, h, alpha, pairs) = (24u32, 24u32, 0.05, 120u64);
+    let mu = |x: u32, y: u32| 0.2 + 0.05 * x as f64 + 0.02 * y as f64;
+    let none = |_: u32, _: u32| 0.0;
+    let opts = ZTestOptions {
+        variance: VarianceModel::Pooled,
+        ..ZTestOptions::at_alpha(alpha)
+    };
+    let (mut independent, mut batches, mut batch_min_adjusted) = (0, 0, Vec::new());
+    for seed in 0..pairs {
+        let (ma, va) = exponential_render(1000 + 2 * seed, w, h, 64, mu, none);
+        let (mb, vb) = exponential_render(1001 + 2 * seed, w, h, 64, mu, none);
+        let r = metrics::z_test_with(&ma, &va, 64, &mb, &vb, 64, &opts).unwrap();
+        independent += !r.pass as usize;
+        let (ma, _, wa) = stratified_render(5000 + 2 * seed, w, h, (8, 8), mu, 0.0);
+        let (mb, _, wb) = stratified_render(5001 + 2 * seed, w, h, (8, 8), mu, 0.0);
+        let side = |mean, variance| metrics::ZSide {
+            mean,
+            variance: metrics::SideVariance::BatchMeans {
+                variance,
+                batches: 8,
+            },
+        };
+        let r = metrics::z_test(&side(&ma, &wa), &side(&mb, &wb), &opts).unwrap();
+        batches += !r.pass as usize;
+        batch_min_adjusted.push(r.blocks.unwrap().min_adjusted_p);
+    }
+    // P(Binomial(120, 0.05) >= 13) = 2.1 %: a calibrated test passes this nearly always; one
+    // that alarms at twice alpha fails it nearly always.
+    println!("false alarms in {pairs} pairs: independent {independent}, stratified with batches {batches}");
+    assert!(independent <= 12, "{independent} of {pairs}");
+    assert!(batches <= 12, "{batches} of {pairs}");
+    // The block family's smallest adjusted p is a p-value of its own: about uniform, not
+    // piled up near 0 (fewer than 10 % of pairs below 0.1, with slack).
+    let low = batch_min_adjusted.iter().filter(|&&p| p < 0.1).count();
+    assert!(low <= 20, "{low} of {pairs} below 0.1");
+}
+
+/// A 1 % bias of every pixel of a stratified render is far under one pixel's noise; the blocks
+/// see it when each side gives the variance of its batch means, and do not when the variance
+/// of one sample stands in (it overstates the error of a stratified mean by p²: here 64×).
+#[test]
+fn z_test_blocks_see_a_small_bias_of_a_stratified_render_with_batch_variances() {
+    let (w, h) = (24u32, 24u32);
+    let mu = |x: u32, y: u32| 0.2 + 0.05 * x as f64 + 0.02 * y as f64;
+    let (ma, oa, wa) = stratified_render(77, w, h, (8, 8), mu, 0.01);
+    let (mb, ob, wb) = stratified_render(78, w, h, (8, 8), mu, 0.0);
+    let batches = |mean, variance| metrics::ZSide {
+        mean,
+        variance: metrics::SideVariance::BatchMeans {
+            variance,
+            batches: 8,
+        },
+    };
+    let r = metrics::z_test(
+        &batches(&ma, &wa),
+        &batches(&mb, &wb),
+        &ZTestOptions::at_alpha(0.01),
+    )
+    .unwrap();
+    println!("{r}");
+    let b = r.blocks.as_ref().unwrap();
+    assert!(!r.pass && !b.pass, "{r}");
+    assert!(
+        r.outlier_rule_pass && r.excess_rule_pass,
+        "the pixels alone: {r}"
+    );
+    // The whole image: detected, darker-or-brighter right, and the report says it could.
+    let whole = b.scales.last().unwrap();
+    assert!(whole.whole_image && whole.rejected > 0, "{r}");
+    assert!(whole.worst.unwrap().t > 0.0);
+    assert!(whole.detectable.unwrap().bias < 0.01, "{r}");
+    let r =
+        metrics::z_test_with(&ma, &oa, 64, &mb, &ob, 64, &ZTestOptions::at_alpha(0.01)).unwrap();
+    println!("{r}");
+    assert!(r.pass, "one-sample variances: {r}");
+    assert!(
+        r.blocks
+            .unwrap()
+            .scales
+            .last()
+            .unwrap()
+            .detectable
+            .unwrap()
+            .bias
+            > 0.01,
+        "the one-sample variance cannot see 1 %"
+    );
+}

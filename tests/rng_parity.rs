@@ -12,7 +12,7 @@ const KERNEL: &str = r#"#version 460
 #extension GL_GOOGLE_include_directive : require
 #include "rng.glsl"
 layout(local_size_x = 64) in;
-layout(std430, set = 0, binding = 0) readonly buffer Keys { uvec4 keys[]; };   // seed, pixel, sample, (pattern bits << 16) | (bounce << 8) | dim
+layout(std430, set = 0, binding = 0) readonly buffer Keys { uvec4 keys[]; };   // seed, pixel, sample, (sobol unbatched << 24) | (pattern bits << 16) | (bounce << 8) | dim
 layout(std430, set = 0, binding = 1) writeonly buffer Out { uint outs[]; };
 layout(push_constant) uniform Push { uint count; } pc;
 void main() {
@@ -21,12 +21,13 @@ void main() {
     uvec4 k = keys[i];
     uint bounce = (k.w >> 8u) & 255u;
     uint dim = k.w & 255u;
-    uint bits = k.w >> 16u;
+    uint bits = (k.w >> 16u) & 255u;
+    uint sobol_bits = (k.w >> 24u) != 0u ? 32u : bits;
     outs[8u * i] = random_u32(k.x, k.y, k.z, bounce, dim);
     outs[8u * i + 1u] = floatBitsToUint(random_f32(k.x, k.y, k.z, bounce, dim));
-    outs[8u * i + 2u] = sobol_u32(k.x, k.y, k.z, bounce, dim);
-    outs[8u * i + 3u] = floatBitsToUint(sobol_f32(k.x, k.y, k.z, bounce, dim));
-    vec2 pair = sobol_pair_f32(k.x, k.y, k.z, bounce, dim & ~1u);
+    outs[8u * i + 2u] = sobol_u32(k.x, sobol_bits, k.y, k.z, bounce, dim);
+    outs[8u * i + 3u] = floatBitsToUint(sobol_f32(k.x, sobol_bits, k.y, k.z, bounce, dim));
+    vec2 pair = sobol_pair_f32(k.x, sobol_bits, k.y, k.z, bounce, dim & ~1u);
     outs[8u * i + 4u] = floatBitsToUint(pair.x);
     outs[8u * i + 5u] = floatBitsToUint(pair.y);
     outs[8u * i + 6u] = multijitter_u32(k.x, bits, k.y, k.z, bounce, dim);
@@ -55,13 +56,15 @@ fn random_numbers_are_bit_identical_on_gpu_and_cpu() {
             } else {
                 i % 1031
             };
-            // Pattern sizes 2^0 .. 2^24 (a sample past the pattern draws from a later one).
+            // Pattern sizes 2^0 .. 2^24 (a sample past the pattern draws from a later one); the
+            // same as sobol batches, and every third key sobol without batches.
             let bits = i % (rng::MULTIJITTER_MAX_BITS + 1);
+            let unbatched = u32::from(i % 3 == 0);
             [
                 h % 7,
                 h.rotate_left(7),
                 sample,
-                (bits << 16) | ((i % 17) << 8) | (i % 7),
+                (unbatched << 24) | (bits << 16) | ((i % 17) << 8) | (i % 7),
             ]
         })
         .collect();
@@ -83,7 +86,12 @@ fn random_numbers_are_bit_identical_on_gpu_and_cpu() {
     ctx.submit_and_wait(rec).unwrap();
     let outs: Vec<[u32; 8]> = ctx.download(&ob).unwrap();
     for (k, o) in keys.iter().zip(&outs) {
-        let (b, d, bits) = ((k[3] >> 8) & 255, k[3] & 255, k[3] >> 16);
+        let (b, d, bits) = ((k[3] >> 8) & 255, k[3] & 255, (k[3] >> 16) & 255);
+        let sobol_bits = if k[3] >> 24 != 0 {
+            rng::SOBOL_UNBATCHED
+        } else {
+            bits
+        };
         assert_eq!(o[0], rng::random_u32(k[0], k[1], k[2], b, d), "key {k:?}");
         assert_eq!(
             o[1],
@@ -92,16 +100,17 @@ fn random_numbers_are_bit_identical_on_gpu_and_cpu() {
         );
         assert_eq!(
             o[2],
-            rng::sobol_u32(k[0], k[1], k[2], b, d),
+            rng::sobol_u32(k[0], sobol_bits, k[1], k[2], b, d),
             "sobol, key {k:?}"
         );
         assert_eq!(
             o[3],
-            rng::sobol_f32(k[0], k[1], k[2], b, d).to_bits(),
+            rng::sobol_f32(k[0], sobol_bits, k[1], k[2], b, d).to_bits(),
             "sobol, key {k:?}"
         );
         // A pair drawn together (rand2 / PathRng::get2) is the same two numbers.
-        let pair = rng::PathRng::new(rng::Sampler::Sobol, k[0], 1, k[1], k[2]).get2(b, d & !1);
+        let pair = rng::PathRng::with_bits(rng::Sampler::Sobol, k[0], sobol_bits, k[1], k[2])
+            .get2(b, d & !1);
         assert_eq!(
             [o[4], o[5]],
             [pair.x.to_bits(), pair.y.to_bits()],

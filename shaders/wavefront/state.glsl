@@ -160,7 +160,7 @@ float rand(uint path, uint depth, uint dim) {
 #if defined(SAMPLER_INDEPENDENT)
     return random_f32(g.seed, path_pixel(path), path_sample(path), depth, dim);
 #elif defined(SAMPLER_SOBOL)
-    return sobol_f32(g.seed, path_pixel(path), path_sample(path), depth, dim);
+    return sobol_f32(g.seed, g.pattern_bits, path_pixel(path), path_sample(path), depth, dim);
 #elif defined(SAMPLER_MULTIJITTER)
     return multijitter_f32(g.seed, g.pattern_bits, path_pixel(path), path_sample(path), depth, dim);
 #else
@@ -174,7 +174,7 @@ vec2 rand2(uint path, uint depth, uint dim) {
     uint pixel = path_pixel(path), s = path_sample(path);
     return vec2(random_f32(g.seed, pixel, s, depth, dim), random_f32(g.seed, pixel, s, depth, dim + 1u));
 #elif defined(SAMPLER_SOBOL)
-    return sobol_pair_f32(g.seed, path_pixel(path), path_sample(path), depth, dim);
+    return sobol_pair_f32(g.seed, g.pattern_bits, path_pixel(path), path_sample(path), depth, dim);
 #else
     return multijitter_pair_f32(g.seed, g.pattern_bits, path_pixel(path), path_sample(path), depth, dim);
 #endif

@@ -1,11 +1,16 @@
 //! `brdfwave diff`: RMSE, relMSE and FLIP of a test image against a reference
 //! (`brdfwave::metrics`), and a verdict for CI: thresholds on the metrics (`--max`) and the
-//! per-pixel statistical test of means (`--z-test`). A failed check exits with status 1.
+//! statistical test of means per pixel and per block (`--z-test`), each side's variance from
+//! its batch means when its EXR carries them, else from one sample's. A failed check exits
+//! with status 1.
 
 use anyhow::{bail, Context as _, Result};
 use brdfwave::{
     imageio::{self, Image, Layered, Provenance},
-    metrics::{self, Metric, Threshold, VarianceModel, ZTestOptions, ZTestReport},
+    metrics::{
+        self, Detectable, Metric, SideVariance, Threshold, VarianceModel, VarianceSource, ZSide,
+        ZTestOptions, ZTestReport,
+    },
     outfile::{self, Output},
     plot,
 };
@@ -42,11 +47,26 @@ pub struct DiffArgs {
     /// `--max over=…`: the relative part REL of the tolerance (default 0).
     #[arg(long, value_name = "REL", value_parser = parse_tolerance)]
     rel_tolerance: Option<f64>,
-    /// The per-pixel two-sample test of means (Mitsuba 3 style): the two images are
-    /// independent renders, each with its per-pixel variance of one sample and its sample
-    /// count; fails when they differ by more than their noise explains.
+    /// The two-sample test of means of two independent renders, per pixel (Mitsuba 3 style)
+    /// and per block of 4x4 pixels up to the whole image, at the family-wise false-alarm rate
+    /// --alpha; fails when they differ by more than their noise explains, and reports the
+    /// smallest bias each scale would have seen. Each image's variance: see
+    /// --variance-source.
     #[arg(long)]
     z_test: bool,
+    /// --z-test: where each image's variance of its pixel means comes from: `auto` (the
+    /// default) takes the variance from batch means where the EXR carries it (a render in
+    /// batches: right for every sampler), else the variance of one sample over the spp (right
+    /// for the independent sampler only: a stratified render's overstates its error, which
+    /// makes the test weak); `batches` requires the former, `one-sample` takes the latter.
+    #[arg(
+        long,
+        requires = "z_test",
+        value_name = "SOURCE",
+        value_enum,
+        default_value = "auto"
+    )]
+    variance_source: SourceArg,
     /// --z-test: the test image's variance of one sample (default: its EXR's variance layer,
     /// which `render` and `merge` write).
     #[arg(long, requires = "z_test", value_name = "FILE")]
@@ -78,6 +98,13 @@ pub struct DiffArgs {
     /// --z-test: write the per-pixel-channel p-values as an image (.exr keeps them exact).
     #[arg(long, requires = "z_test", value_name = "FILE")]
     p_map: Option<PathBuf>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum SourceArg {
+    Auto,
+    Batches,
+    OneSample,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -359,26 +386,71 @@ pub fn run(a: DiffArgs) -> Result<()> {
     Ok(())
 }
 
-/// One side of the z-test: its variance image and sample count.
+/// The fewest batches whose variance of the means the z-test's approximations (Student's t
+/// with Welch–Satterthwaite degrees of freedom, normal batch means) are trusted with: with 2
+/// batches (1 degree of freedom per pixel) and 4 spp, a 1024x1024 pair of one scene failed.
+const MIN_BATCHES: u32 = 8;
+
+/// One side of the z-test: its variance image, and its sample count or batches.
 struct Side {
     variance: Image,
-    spp: u64,
+    source: VarianceSource,
 }
 
-/// The variance and spp of one image: the options, else what its EXR file carries.
+impl Side {
+    fn variance(&self) -> SideVariance<'_> {
+        match self.source {
+            VarianceSource::OneSample { spp } => SideVariance::OneSample {
+                variance: &self.variance,
+                spp,
+            },
+            VarianceSource::BatchMeans { batches } => SideVariance::BatchMeans {
+                variance: &self.variance,
+                batches,
+            },
+        }
+    }
+}
+
+/// The variance of one image's pixel means: its batch means' (when `source` allows and the EXR
+/// has them, and no variance file is given), else one sample's from the option or its EXR,
+/// with the spp from the option or its EXR.
 fn side(
     name: &str,
     path: &Path,
     layers: &Layered,
+    source: SourceArg,
     variance: Option<&Path>,
     spp: Option<u64>,
 ) -> Result<Side> {
+    if source != SourceArg::OneSample && variance.is_none() {
+        if let Some(b) = &layers.batch_variance {
+            return Ok(Side {
+                variance: b.variance.clone(),
+                source: VarianceSource::BatchMeans { batches: b.batches },
+            });
+        }
+    }
+    if source == SourceArg::Batches {
+        bail!(
+            "--variance-source batches: the {name} image {} {}: render it with --batches K",
+            path.display(),
+            if variance.is_some() {
+                format!("is given a variance of one sample (--{name}-variance)")
+            } else {
+                format!(
+                    "has no {} layer (the variance of its means from batches)",
+                    imageio::MEAN_VARIANCE_LAYER
+                )
+            }
+        );
+    }
     let variance = match (variance, &layers.variance) {
         (Some(v), _) => imageio::read(v).with_context(|| format!("--{name}-variance"))?,
         (None, Some(v)) => v.clone(),
         (None, None) => bail!(
             "--z-test needs the variance of the {name} image {}, which has no {} layer: give \
-             --{name}-variance FILE",
+             --{name}-variance FILE, or render it with --batches K",
             path.display(),
             imageio::VARIANCE_LAYER
         ),
@@ -392,7 +464,10 @@ fn side(
             path.display()
         ),
     };
-    Ok(Side { variance, spp })
+    Ok(Side {
+        variance,
+        source: VarianceSource::OneSample { spp },
+    })
 }
 
 fn z_test(a: &DiffArgs, test: &Layered, reference: &Layered) -> Result<ZTestReport> {
@@ -407,8 +482,29 @@ fn z_test(a: &DiffArgs, test: &Layered, reference: &Layered) -> Result<ZTestRepo
             a.reference_spp,
         ),
     ]
-    .map(|(name, path, layers, variance, spp)| side(name, path, layers, variance.as_deref(), spp));
+    .map(|(name, path, layers, variance, spp)| {
+        side(
+            name,
+            path,
+            layers,
+            a.variance_source,
+            variance.as_deref(),
+            spp,
+        )
+    });
     let (t, r) = (t?, r?);
+    for (name, side) in [("test", &t), ("reference", &r)] {
+        if let VarianceSource::BatchMeans { batches } = side.source {
+            if batches < MIN_BATCHES {
+                eprintln!(
+                    "warning: the {name} image has {batches} batches: the variance of each pixel's \
+                     mean has {} degrees of freedom, too few for the test's approximations \
+                     (false alarms can exceed --alpha); render with --batches {MIN_BATCHES} or more",
+                    batches - 1
+                );
+            }
+        }
+    }
     let all_zero = |v: &Image| v.data.iter().all(|p| p.iter().all(|&c| c == 0.0));
     let variance = match a.variance_model {
         VarianceArg::Pooled => VarianceModel::Pooled,
@@ -421,16 +517,33 @@ fn z_test(a: &DiffArgs, test: &Layered, reference: &Layered) -> Result<ZTestRepo
         variance,
         ..ZTestOptions::default()
     };
-    metrics::z_test_with(
-        &test.image,
-        &t.variance,
-        t.spp,
-        &reference.image,
-        &r.variance,
-        r.spp,
+    metrics::z_test(
+        &ZSide {
+            mean: &test.image,
+            variance: t.variance(),
+        },
+        &ZSide {
+            mean: &reference.image,
+            variance: r.variance(),
+        },
         &opts,
     )
     .context("--z-test")
+}
+
+fn source_json(s: VarianceSource) -> serde_json::Value {
+    match s {
+        VarianceSource::OneSample { spp } => json!({"source": s.name(), "spp": spp}),
+        VarianceSource::BatchMeans { batches } => json!({"source": s.name(), "batches": batches}),
+    }
+}
+
+fn detectable_json(d: &Option<Detectable>) -> serde_json::Value {
+    match d {
+        Some(d) => json!({"bias": d.bias, "bias_95": d.bias_95, "block": d.block,
+                          "channel": d.channel, "typical_bias": d.typical_bias}),
+        None => serde_json::Value::Null,
+    }
 }
 
 fn z_json(z: &ZTestReport) -> serde_json::Value {
@@ -442,10 +555,16 @@ fn z_json(z: &ZTestReport) -> serde_json::Value {
                    "reference": o.mean_b, "z": o.z, "p": o.p})
         })
         .collect();
-    json!({
+    let mut j = json!({
         "pass": z.pass,
         "alpha": z.alpha,
+        "members": z.members,
+        "alpha_member": z.alpha_member,
         "alpha_sidak": z.alpha_sidak,
+        "variance": {
+            "test": source_json(z.variance_sources[0]),
+            "reference": source_json(z.variance_sources[1]),
+        },
         "variance_model": match z.variance {
             VarianceModel::Welch => "welch",
             VarianceModel::Pooled => "pooled",
@@ -458,9 +577,50 @@ fn z_json(z: &ZTestReport) -> serde_json::Value {
         "expected_rejected_pixels": z.expected_rejected_pixels,
         "excess_p": z.excess_p,
         "excess_rule_pass": z.excess_rule_pass,
+        "pixel_detectable": detectable_json(&z.pixel_detectable),
         "nonfinite": z.nonfinite,
         "min_p": z.min_p,
         "mean_z": z.mean_z,
         "worst": worst,
-    })
+    });
+    if let Some(b) = &z.blocks {
+        let scales: Vec<_> = b
+            .scales
+            .iter()
+            .map(|s| {
+                json!({
+                    "side": s.side,
+                    "whole_image": s.whole_image,
+                    "blocks": s.blocks,
+                    "tests": s.tests,
+                    "level": s.level,
+                    "rejected": s.rejected,
+                    "worst": s.worst.map(|w| json!({
+                        "block": w.block, "channel": w.channel, "test": w.mean_a,
+                        "reference": w.mean_b, "t": finite_or_null(w.t),
+                        "dof": finite_or_null(w.dof), "p": w.p,
+                    })),
+                    "detectable": detectable_json(&s.detectable),
+                })
+            })
+            .collect();
+        j["blocks"] = json!({
+            "pass": b.pass,
+            "tests": b.tests,
+            "rejected": b.rejected,
+            "min_adjusted_p": b.min_adjusted_p,
+            "scales": scales,
+        });
+    }
+    j
+}
+
+/// JSON has no infinity or NaN: an infinite number of degrees of freedom (a normal test) or a
+/// statistic that could not be computed is null.
+fn finite_or_null(x: f64) -> serde_json::Value {
+    if x.is_finite() {
+        json!(x)
+    } else {
+        serde_json::Value::Null
+    }
 }

@@ -129,6 +129,7 @@ pub fn run(a: MergeArgs) -> Result<()> {
         let extras = imageio::Extras {
             variance,
             provenance: Some(&provenance),
+            ..imageio::Extras::default()
         };
         imageio::write_layered(p, img, &extras)?;
         Ok(())

@@ -68,6 +68,15 @@ pub struct RenderArgs {
     /// Also write the per-pixel variance of one sample (EXR), for statistical tests.
     #[arg(long)]
     variance_out: Option<PathBuf>,
+    /// Render in K independent batches of spp/K samples, 2 to 65536 (8 or more for the z-test
+    /// of `diff`, whose approximations want K − 1 >= 7 degrees of freedom), and write beside the
+    /// image (EXR layer `meanVariance`) the variance of each pixel's mean from the K batch
+    /// means: right for every sampler, where the variance of one sample over the spp is right
+    /// only for `independent`; the z-test of `diff` uses it. With `multijitter` each batch is its
+    /// own pattern of spp/K points, with `sobol` its own scramble (spp/K a power of two), so
+    /// the image is not the unbatched one; with `independent` it is.
+    #[arg(long, value_name = "K", value_parser = clap::value_parser!(u32).range(2..=65536))]
+    batches: Option<u32>,
     /// Vulkan device: a case-insensitive part of its name (default: lavapipe if present;
     /// `brdfwave devices` lists them). GPU backend only.
     #[arg(long, value_parser = parse_device)]
@@ -166,6 +175,8 @@ struct RenderSummary {
     /// The sample indices rendered, START..END.
     samples: [u32; 2],
     spp: u32,
+    /// `--batches K`: the render in K independent batches (null without).
+    batches: Option<u32>,
     max_depth: u32,
     seed: u32,
     sampler: &'static str,
@@ -258,9 +269,13 @@ impl std::fmt::Display for RenderSummary {
                 tile.map(|t| format!(", tile {t}")).unwrap_or_default()
             ),
         };
+        let batches = self
+            .batches
+            .map(|k| format!(" in {k} batches"))
+            .unwrap_or_default();
         writeln!(
             f,
-            "image          {}x{}, {} spp{part}, max depth {}, sampler {}",
+            "image          {}x{}, {} spp{batches}{part}, max depth {}, sampler {}",
             self.width, self.height, self.spp, self.max_depth, self.sampler
         )?;
         if let Some(g) = &self.gpu {
@@ -409,6 +424,7 @@ impl Outputs {
     fn write(
         &self,
         r: &Rendered,
+        batch_variance: Option<&imageio::BatchVariance>,
         part: Option<&film::Part>,
         provenance: &imageio::Provenance,
     ) -> Result<()> {
@@ -418,13 +434,14 @@ impl Outputs {
             if i < self.outs.len() && is_partial_film(p) {
                 film::write_part(p, part.expect("a film is kept for .bwfilm outputs"))?;
             } else {
-                let (img, variance) = if i < self.outs.len() {
-                    (&r.output.mean, Some(&r.output.variance))
+                let (img, variance, batch_variance) = if i < self.outs.len() {
+                    (&r.output.mean, Some(&r.output.variance), batch_variance)
                 } else {
-                    (&r.output.variance, None)
+                    (&r.output.variance, None, None)
                 };
                 let extras = imageio::Extras {
                     variance,
+                    batch_variance,
                     provenance: Some(provenance),
                 };
                 imageio::write_layered(p, img, &extras)?;
@@ -443,6 +460,17 @@ pub fn run(a: RenderArgs) -> Result<()> {
         eprintln!("{w}");
     }
     let part = a.overrides().apply(&mut sc)?;
+    // Batches are cut from the whole render's samples (a part keeps its spp as the pattern's).
+    let batches = a
+        .batches
+        .map(|k| {
+            let it = &sc.integrator;
+            render::Batches::plan(k, it.pattern_spp(), &part.samples, it.sampler)
+        })
+        .transpose()?;
+    if let Some(b) = &batches {
+        b.apply(&mut sc);
+    }
     check_backend_options(&a)?;
     let outputs = Outputs::of(&a);
     outputs.prepare(&a.scene)?;
@@ -490,8 +518,8 @@ pub fn run(a: RenderArgs) -> Result<()> {
     };
     // The only reference: the GPU path frees the host's tree once it is uploaded.
     let r = render::open(backend, &sc, std::sync::Arc::new(bvh), part.tile)?;
-    let (mut rendered, description, seconds_setup, seconds_render) =
-        render_with_progress(r, &request, part.tile, t0, a.quiet)?;
+    let (mut rendered, batch_variance, description, seconds_setup, seconds_render) =
+        render_with_progress(r, &request, batches, part.tile, t0, a.quiet)?;
     if a.backend == Backend::Gpu && a.threads.is_some() && !description.device.contains("llvmpipe")
     {
         eprintln!(
@@ -521,7 +549,12 @@ pub fn run(a: RenderArgs) -> Result<()> {
         seconds_render,
         &scene_bytes,
     );
-    outputs.write(&rendered, part_film.as_ref(), &provenance)?;
+    outputs.write(
+        &rendered,
+        batch_variance.as_ref(),
+        part_film.as_ref(),
+        &provenance,
+    )?;
     let times = Times {
         bvh: seconds_bvh,
         setup: seconds_setup,
@@ -658,24 +691,52 @@ fn load_scene(path: &Path, sets: &[Set], defines: &[(String, String)]) -> Result
     overrides::load_toml(path, sets)
 }
 
-/// Renders the request with a progress bar; returns what was rendered, the renderer's
-/// description, and the seconds of set-up (since `t0`) and of the render.
+/// Renders the request with a progress bar, in batches when asked (with the variance of the
+/// means they give); returns what was rendered, the renderer's description, and the seconds of
+/// set-up (since `t0`) and of the render.
+#[allow(clippy::type_complexity)]
 fn render_with_progress(
     mut r: Box<dyn Renderer + '_>,
     request: &RenderRequest,
+    batches: Option<render::Batches>,
     tile: Tile,
     t0: Instant,
     quiet: bool,
-) -> Result<(Rendered, Description, f64, f64)> {
+) -> Result<(
+    Rendered,
+    Option<imageio::BatchVariance>,
+    Description,
+    f64,
+    f64,
+)> {
     let seconds_setup = t0.elapsed().as_secs_f64();
     let description = r.describe();
     let unit = description.progress;
     let pb = progress_bar(unit, unit.total(tile, &request.samples), quiet);
     let t = Instant::now();
-    let rendered = r.render(request, &|p| show(&pb, p))?;
+    let (rendered, batch_variance) = match batches {
+        None => (r.render(request, &|p| show(&pb, p))?, None),
+        Some(b) => {
+            let (rendered, v) = render::render_batches(
+                r.as_mut(),
+                request.samples.clone(),
+                b.size,
+                tile,
+                request.take_film,
+                &|p| show(&pb, p),
+            )?;
+            (rendered, Some(v))
+        }
+    };
     let seconds_render = t.elapsed().as_secs_f64();
     pb.finish_and_clear();
-    Ok((rendered, description, seconds_setup, seconds_render))
+    Ok((
+        rendered,
+        batch_variance,
+        description,
+        seconds_setup,
+        seconds_render,
+    ))
 }
 
 /// The seconds of a render's phases.
@@ -710,6 +771,7 @@ fn summary(
         tile: (tile != Tile::full(sc.width, sc.height)).then_some(tile),
         samples: [part.samples.start, part.samples.end],
         spp: output.spp,
+        batches: a.batches,
         max_depth: sc.integrator.max_depth,
         seed: sc.integrator.seed,
         sampler: sc.integrator.sampler.name(),

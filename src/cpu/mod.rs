@@ -166,10 +166,10 @@ impl<'a> CpuRenderer<'a> {
                     for (b, range) in blocks.iter().enumerate() {
                         let mut acc = PairwiseSum::default();
                         for sample in range.clone() {
-                            let rng = PathRng::new(
+                            let rng = PathRng::with_bits(
                                 s.integrator.sampler,
                                 s.integrator.seed,
-                                s.integrator.pattern_spp(),
+                                s.integrator.pattern_bits(),
                                 pixel,
                                 sample,
                             );

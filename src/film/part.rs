@@ -60,7 +60,8 @@ pub fn code_version() -> String {
 /// settings but the sample count, materials, emitters, geometry and environment; not the file's
 /// path or names, so the same scene loaded on two machines hashes the same. With the
 /// `multijitter` sampler the size of its pattern counts too (the whole render's sample count,
-/// [`crate::rng::multijitter_bits`]): parts drawn from different patterns are not one render.
+/// or a batch's, [`crate::rng::pattern_bits`]), and so do a `sobol` render's batches: parts
+/// drawn from different patterns are not one render.
 pub fn scene_hash(s: &crate::scene::Scene) -> String {
     use std::fmt::Write as _;
     let mut h = crate::hash::Fnv64::new();
@@ -86,12 +87,9 @@ pub fn scene_hash(s: &crate::scene::Scene) -> String {
         let _ = write!(h, "{m:?}|");
     }
     hash_triangles(&mut h, s);
-    if it.sampler == crate::rng::Sampler::Multijitter {
-        let _ = write!(
-            h,
-            "|pattern {}",
-            crate::rng::multijitter_bits(it.pattern_spp())
-        );
+    // The patterns (multijitter) and batches (sobol in batches) the numbers depend on.
+    if it.sampler == crate::rng::Sampler::Multijitter || it.batch_spp.is_some() {
+        let _ = write!(h, "|pattern {}", it.pattern_bits());
     }
     format!("{:016x}", h.finish())
 }

@@ -112,7 +112,8 @@ glsl_block! {
         pub tile_x: u32,
         pub tile_y: u32,
         pub tile_width: u32,
-        /// multijitter: the pattern has 2^pattern_bits points (rng::multijitter_bits)
+        /// multijitter: the pattern has 2^pattern_bits points; sobol: each batch of
+        /// 2^pattern_bits samples has its own scramble, 32 without batches (rng::pattern_bits)
         pub pattern_bits: u32,
         /// SCENE_ENV_MAP: the rows of the world-to-map rotation (src/envmap.rs)
         pub env_x: [f32; 3],

@@ -308,7 +308,7 @@ pub fn globals(
         tile_x: tile.x,
         tile_y: tile.y,
         tile_width: tile.width,
-        pattern_bits: crate::rng::multijitter_bits(it.pattern_spp()),
+        pattern_bits: it.pattern_bits(),
         env_x: env_x.to_array(),
         env_y: env_y.to_array(),
         env_z: env_z.to_array(),

@@ -31,7 +31,9 @@
 mod openexr;
 mod stored;
 
-pub use openexr::{Extras, Layered, Provenance, VARIANCE_LAYER};
+pub use openexr::{
+    BatchVariance, Extras, Layered, Provenance, MEAN_VARIANCE_LAYER, VARIANCE_LAYER,
+};
 pub use stored::{read_stored, write_hdr, Stored, STORED_EXTENSIONS};
 
 use std::fmt;
@@ -477,11 +479,13 @@ pub fn read_layered(path: &Path) -> Result<Layered, ImageError> {
         return Ok(Layered {
             image: read(path)?,
             variance: None,
+            batch_variance: None,
             provenance: Provenance::default(),
         });
     }
     let l = openexr::read_exr_layers(path)?;
-    for img in std::iter::once(&l.image).chain(&l.variance) {
+    let batch = l.batch_variance.as_ref().map(|b| &b.variance);
+    for img in std::iter::once(&l.image).chain(&l.variance).chain(batch) {
         img.validate().map_err(|e| ImageError::InvalidImage {
             path: path.to_path_buf(),
             reason: e.to_string(),

@@ -4,7 +4,10 @@
 //! A file written with [`Extras`] is still a plain RGB image to every reader: one part whose
 //! channels `R`, `G`, `B` are the image, beside the channels `variance.R`, `variance.G`,
 //! `variance.B` (the per-pixel variance of one sample; OpenEXR's layer naming, which viewers
-//! show as a layer `variance`). The attributes are in the part's header: the standard
+//! show as a layer `variance`) and, for a render in K independent batches (`render
+//! --batches K`), `meanVariance.R/G/B` (the variance of each pixel's mean estimated from the K
+//! batch means, [`BatchVariance`]) with the attribute `brdfwave.batches` = K (an `int`). The
+//! attributes are in the part's header: the standard
 //! `comments` (one readable line) and `capDate` (UTC), and the custom `brdfwave.*` attributes
 //! of [`Provenance`] (`exrheader` lists them): numbers as `int` (or `double` above 2^31 − 1 and
 //! for seconds), the rest as `string`.
@@ -44,17 +47,30 @@ pub struct Provenance {
     pub device: Option<String>,
 }
 
+/// The variance of each pixel's mean estimated from `batches` independent batch means: s² / K,
+/// s² the sample variance of the K batch means (`render --batches K`). Unlike the variance of
+/// one sample divided by the spp, it is the variance of the pixel's estimate for every sampler,
+/// stratified or not, as long as the batches are independent.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BatchVariance {
+    pub variance: Image,
+    /// K >= 2.
+    pub batches: u32,
+}
+
 /// What an EXR file holds besides the image.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Extras<'a> {
     /// Written as the channels `variance.R/G/B`; the same size as the image.
     pub variance: Option<&'a Image>,
+    /// Written as the channels `meanVariance.R/G/B` and the attribute `brdfwave.batches`.
+    pub batch_variance: Option<&'a BatchVariance>,
     pub provenance: Option<&'a Provenance>,
 }
 
 impl Extras<'_> {
     fn is_empty(&self) -> bool {
-        self.variance.is_none() && self.provenance.is_none()
+        self.variance.is_none() && self.batch_variance.is_none() && self.provenance.is_none()
     }
 }
 
@@ -63,11 +79,18 @@ impl Extras<'_> {
 pub struct Layered {
     pub image: Image,
     pub variance: Option<Image>,
+    pub batch_variance: Option<BatchVariance>,
     pub provenance: Provenance,
 }
 
 /// The channel-name prefix of the variance layer.
 pub const VARIANCE_LAYER: &str = "variance";
+
+/// The channel-name prefix of the layer of the variance of the means from batches.
+pub const MEAN_VARIANCE_LAYER: &str = "meanVariance";
+
+/// The attribute that gives the number of batches of [`MEAN_VARIANCE_LAYER`].
+const BATCHES_ATTRIBUTE: &str = "batches";
 
 const PREFIX: &str = "brdfwave.";
 
@@ -98,12 +121,30 @@ pub(super) fn write_exr(
         .to_buffered(BufWriter::new(file))
         .map_err(exr_error);
     }
-    if let Some(v) = extras.variance.filter(|v| !v.same_size(img)) {
+    let layers = [
+        ("variance", extras.variance),
+        (
+            "variance of the means",
+            extras.batch_variance.map(|b| &b.variance),
+        ),
+    ];
+    for (what, v) in layers {
+        if let Some(v) = v.filter(|v| !v.same_size(img)) {
+            return Err(ImageError::InvalidImage {
+                path: path.to_path_buf(),
+                reason: format!(
+                    "the {what} is {}x{}, the image {}x{}",
+                    v.width, v.height, img.width, img.height
+                ),
+            });
+        }
+    }
+    if let Some(b) = extras.batch_variance.filter(|b| b.batches < 2) {
         return Err(ImageError::InvalidImage {
             path: path.to_path_buf(),
             reason: format!(
-                "the variance is {}x{}, the image {}x{}",
-                v.width, v.height, img.width, img.height
+                "a variance of the means from {} batch(es): it takes at least 2",
+                b.batches
             ),
         });
     }
@@ -133,12 +174,25 @@ fn layered_image(
         if let Some(v) = extras.variance {
             list.push(channel(&format!("{VARIANCE_LAYER}.{name}"), v, c));
         }
+        if let Some(b) = extras.batch_variance {
+            list.push(channel(
+                &format!("{MEAN_VARIANCE_LAYER}.{name}"),
+                &b.variance,
+                c,
+            ));
+        }
     }
     let mut attributes = LayerAttributes::default();
     if let Some(p) = extras.provenance {
         attributes.comments = Some(text(&p.summary()));
         attributes.capture_date = Some(text(&capture_date(std::time::SystemTime::now())));
         attributes.other = p.attributes();
+    }
+    if let Some(b) = extras.batch_variance {
+        attributes.other.insert(
+            text(&format!("{PREFIX}{BATCHES_ATTRIBUTE}")),
+            AttributeValue::I32(i32::try_from(b.batches).unwrap_or(i32::MAX)),
+        );
     }
     let size = (img.width as usize, img.height as usize);
     exr::prelude::Image::from_layer(Layer::new(
@@ -400,9 +454,35 @@ pub(super) fn read_exr_layers(path: &Path) -> Result<Layered, ImageError> {
     let image = gather("")?.ok_or_else(|| invalid("it has no R, G, B channels".into()))?;
     let variance = gather(&format!("{VARIANCE_LAYER}."))?;
     let provenance = Provenance::from_attributes(&layer.attributes.other).map_err(invalid)?;
+    let batches_name = format!("{PREFIX}{BATCHES_ATTRIBUTE}");
+    let batches = match layer.attributes.other.get(&text(&batches_name)) {
+        None => None,
+        Some(AttributeValue::I32(k)) if *k >= 2 => Some(*k as u32),
+        Some(AttributeValue::I32(k)) => {
+            return Err(invalid(format!(
+                "attribute {batches_name} = {k}: a variance of the means takes at least 2 batches"
+            )))
+        }
+        Some(_) => return Err(invalid(format!("attribute {batches_name} is not an int"))),
+    };
+    let batch_variance = match (gather(&format!("{MEAN_VARIANCE_LAYER}."))?, batches) {
+        (Some(variance), Some(batches)) => Some(BatchVariance { variance, batches }),
+        (None, None) => None,
+        (Some(_), None) => {
+            return Err(invalid(format!(
+                "it has a {MEAN_VARIANCE_LAYER} layer but no attribute {batches_name}"
+            )))
+        }
+        (None, Some(_)) => {
+            return Err(invalid(format!(
+                "it has the attribute {batches_name} but no {MEAN_VARIANCE_LAYER} layer"
+            )))
+        }
+    };
     Ok(Layered {
         image,
         variance,
+        batch_variance,
         provenance,
     })
 }
@@ -439,6 +519,7 @@ mod tests {
         let extras = Extras {
             variance: Some(&var),
             provenance: Some(&p),
+            ..Extras::default()
         };
         super::super::write_layered(&path, &img, &extras).unwrap();
         let back = super::super::read_layered(&path).unwrap();
@@ -470,11 +551,117 @@ mod tests {
             &img,
             &Extras {
                 variance: Some(&small),
-                provenance: None,
+                ..Extras::default()
             },
         )
         .unwrap_err();
         assert!(e.to_string().contains("the variance is 2x2"), "{e}");
+    }
+
+    /// The variance of the means from batches travels as its own layer with the number of
+    /// batches; a file with one and not the other, or fewer than 2 batches, is refused.
+    #[test]
+    fn the_batch_variance_layer_round_trips_with_its_count() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("batches.exr");
+        let img = Image::from_fn(4, 3, |x, y| [x as f32, y as f32, 1.0]);
+        let var = Image::from_fn(4, 3, |x, _| [x as f32; 3]);
+        let mean_var = BatchVariance {
+            variance: Image::from_fn(4, 3, |_, y| [0.5 * y as f32, 1e-9, 0.0]),
+            batches: 8,
+        };
+        let p = provenance();
+        let extras = Extras {
+            variance: Some(&var),
+            batch_variance: Some(&mean_var),
+            provenance: Some(&p),
+        };
+        super::super::write_layered(&path, &img, &extras).unwrap();
+        let back = super::super::read_layered(&path).unwrap();
+        assert_eq!(
+            (
+                &back.image,
+                back.variance.as_ref(),
+                back.batch_variance.as_ref()
+            ),
+            (&img, Some(&var), Some(&mean_var))
+        );
+        assert_eq!(back.provenance, p);
+        assert_eq!(super::super::read(&path).unwrap(), img);
+        // Refused on writing: one batch, or the wrong size.
+        for (bad, needle) in [
+            (
+                BatchVariance {
+                    batches: 1,
+                    ..mean_var.clone()
+                },
+                "at least 2",
+            ),
+            (
+                BatchVariance {
+                    variance: Image::new(2, 2),
+                    batches: 4,
+                },
+                "variance of the means is 2x2",
+            ),
+        ] {
+            let e = super::super::write_layered(
+                &path,
+                &img,
+                &Extras {
+                    batch_variance: Some(&bad),
+                    ..Extras::default()
+                },
+            )
+            .unwrap_err();
+            assert!(e.to_string().contains(needle), "{e}");
+        }
+        // Refused on reading: the layer without its count, the count without the layer.
+        let mut attributes = p.attributes();
+        attributes.insert(text("brdfwave.batches"), AttributeValue::I32(4));
+        let layer = |channels: &[&str], attributes: HashMap<Text, AttributeValue>| {
+            use exr::prelude::{
+                AnyChannel, AnyChannels, Encoding, FlatSamples, Layer, LayerAttributes, SmallVec,
+                WritableImage,
+            };
+            let list: SmallVec<[AnyChannel<FlatSamples>; 4]> = channels
+                .iter()
+                .map(|n| AnyChannel::new(*n, FlatSamples::F32(vec![0.5; 12])))
+                .collect();
+            let a = LayerAttributes {
+                other: attributes,
+                ..LayerAttributes::default()
+            };
+            let f = dir.path().join("hand.exr");
+            exr::prelude::Image::from_layer(Layer::new(
+                (4, 3),
+                a,
+                Encoding::SMALL_LOSSLESS,
+                AnyChannels::sort(list),
+            ))
+            .write()
+            .to_file(&f)
+            .unwrap();
+            super::super::read_layered(&f)
+        };
+        let rgb = ["R", "G", "B"];
+        let e = layer(&rgb, attributes.clone()).unwrap_err().to_string();
+        assert!(e.contains("no meanVariance layer"), "{e}");
+        let with_layer = [
+            &rgb[..],
+            &["meanVariance.R", "meanVariance.G", "meanVariance.B"],
+        ]
+        .concat();
+        let e = layer(&with_layer, p.attributes()).unwrap_err().to_string();
+        assert!(e.contains("no attribute brdfwave.batches"), "{e}");
+        attributes.insert(text("brdfwave.batches"), AttributeValue::I32(1));
+        let e = layer(&with_layer, attributes.clone())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("at least 2 batches"), "{e}");
+        attributes.insert(text("brdfwave.batches"), AttributeValue::I32(5));
+        let l = layer(&with_layer, attributes).unwrap();
+        assert_eq!(l.batch_variance.unwrap().batches, 5);
     }
 
     #[test]

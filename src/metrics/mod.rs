@@ -1,5 +1,5 @@
-//! Image comparison: MSE/RMSE, relMSE, FLIP, per-pixel agreement and a per-pixel two-sample
-//! statistical test of means.
+//! Image comparison: MSE/RMSE, relMSE, FLIP, per-pixel agreement and a two-sample statistical
+//! test of means, per pixel and per block.
 //!
 //! Conventions: images are linear RGB [`Image`]s; "test" is the image under scrutiny and
 //! "reference" the one it is compared with. Every function checks that the two images are valid
@@ -16,20 +16,26 @@
 //!   degree. Radiance above 1 is therefore invisible to it; use relMSE/RMSE for HDR content.
 //! * [`fraction_within`] is the same-seed agreement check (GPU vs CPU with shared random
 //!   numbers).
-//! * [`z_test_with`] is the independent-seed statistical test of per-pixel means
-//!   (Mitsuba 3 `test_renders.py` style, made two-sample); its verdict rule is documented on
-//!   [`ZTestOptions`].
+//! * [`z_test`] (and [`z_test_with`] for one-sample variances) is the independent-seed
+//!   statistical test of means, per pixel (Mitsuba 3 `test_renders.py` style, made two-sample)
+//!   and per block at several scales (`blocks.rs`), under one family-wise α; its verdict rule
+//!   is documented on [`ZTestOptions`], the distributions it needs are in `dist.rs`.
 
 use std::fmt;
 
 use crate::imageio::{srgb_to_linear, Image};
 
+mod blocks;
+mod dist;
 mod verdict;
 mod ztest;
 
+pub use blocks::{scales as block_scales, BlockReport, BlockTest, Detectable, Rect, ScaleReport};
+pub use dist::{normal_quantile, normal_two_sided, t_critical, t_two_sided};
 pub use verdict::{Metric, Threshold, ThresholdError, Verdict};
 pub use ztest::{
-    binomial_upper_tail, z_test_with, VarianceModel, ZOutlier, ZTestOptions, ZTestReport,
+    binomial_upper_tail, z_test, z_test_with, SideVariance, VarianceModel, VarianceSource,
+    ZOutlier, ZSide, ZTestOptions, ZTestReport,
 };
 
 /// The ε of relMSE, (t − r)² / (r + ε)², as in pbrt-v4 `Image::MRSE`.

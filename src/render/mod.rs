@@ -9,15 +9,20 @@
 //! [`RenderRequest`]'s samples to the renderer's film and returns the image so far. A render
 //! split into calls, processes or machines gives the same sums, bit for bit (`crate::film`).
 //!
+//! A render in independent batches, for the variance of each pixel's mean, is a sequence of
+//! such calls (`batches.rs`).
+//!
 //! The adapters (`cpu.rs`, `gpu.rs`) hold the backends' own renderers and reconcile what
 //! differed: the film (passed in by the CPU, held by the GPU), the tile (of the film on the
 //! CPU, of the renderer on the GPU) and the progress (rows on the CPU, samples on the GPU; here
 //! one [`Progress`] that says its unit).
 
+mod batches;
 mod cpu;
 mod gpu;
 mod request;
 
+pub use batches::{render_batches, Batches};
 pub use cpu::CpuBackend;
 pub use gpu::GpuBackend;
 pub use request::{Overrides, RenderRequest, Resolved};

@@ -26,7 +26,8 @@
 //!   the pattern's points (each cell at most once), and every number is uniform, so any N is
 //!   unbiased. The pattern depends on N, so the parts of a split render keep the whole
 //!   render's N (`Integrator::pattern_spp`), and the bench measures each sample count as a
-//!   fresh render. Measured on the two Cornell boxes (BENCHMARKS.md): at 16, 64 and 256 spp
+//!   fresh render. A render in K batches (`render --batches`, `Integrator::batch_spp`) sizes
+//!   the pattern by the batch, N/K, so that each batch is an independent pattern. Measured on the two Cornell boxes (BENCHMARKS.md): at 16, 64 and 256 spp
 //!   these points have 3–7 % less error than the padded Sobol' nets below, because for the
 //!   discontinuous and the smooth 2-D integrands a path tracer meets, a jittered grid with
 //!   n-rooks strata has less variance than a scrambled (0,2)-net at these counts.
@@ -44,7 +45,9 @@
 //!   passes and sample ranges of power-of-two sizes are stratified as one render. Every single
 //!   number is uniform on [0, 1) (the scramble is random), so any sample count, power of two or
 //!   not, is unbiased. Pixels, depths and pairs get independent scrambles: errors of pixels are
-//!   independent (white noise) and pairs do not correlate.
+//!   independent (white noise) and pairs do not correlate. A render in batches of 2^m samples
+//!   (`render --batches`) keys each batch's shuffle and scrambles on the batch too
+//!   ([`sobol_batch_key`]): each batch an independently randomized net.
 //! * `independent`: each number is its own hash of the key (PCG, Jarzynski & Olano 2020) — the
 //!   first sampler, kept for comparison and for the tests whose statistics need independent
 //!   samples (the per-sample variance of a stratified render overstates the variance of its
@@ -62,7 +65,8 @@ pub use multijitter::{
     remix, MULTIJITTER_MAX_BITS,
 };
 pub use sobol::{
-    lk_permute, sobol1_reversed, sobol_component, sobol_f32, sobol_shuffled_index, sobol_u32,
+    lk_permute, sobol1_reversed, sobol_batch_key, sobol_component, sobol_f32, sobol_shuffled_index,
+    sobol_u32, SOBOL_UNBATCHED,
 };
 
 /// PCG output permutation used as a 32-bit integer hash (Jarzynski & Olano 2020, "Hash
@@ -118,7 +122,8 @@ impl Sampler {
     }
 
     /// The uniform number in [0, 1) for one key of a render of `spp` samples per pixel (the
-    /// `multijitter` pattern's size; the other samplers do not depend on it).
+    /// `multijitter` pattern's size; the other samplers do not depend on it), not in batches
+    /// ([`PathRng`] takes a render's batches).
     #[inline]
     pub fn get(self, seed: u32, spp: u32, pixel: u32, sample: u32, depth: u32, dim: u32) -> f32 {
         match self {
@@ -130,7 +135,7 @@ impl Sampler {
                 depth,
                 dim,
             )),
-            Sampler::Sobol => sobol_f32(seed, pixel, sample, depth, dim),
+            Sampler::Sobol => sobol_f32(seed, SOBOL_UNBATCHED, pixel, sample, depth, dim),
             Sampler::Independent => random_f32(seed, pixel, sample, depth, dim),
         }
     }
@@ -249,21 +254,52 @@ pub struct PathRng {
     sample: u32,
     /// [`sobol_pixel_key`] of (seed, pixel).
     pixel_key: u32,
-    /// [`multijitter_bits`] of the render's sample count.
+    /// [`pattern_bits`] of the render.
     pattern_bits: u32,
 }
 
+/// The bits of a render's patterns, as both backends take them (the GPU's `pattern_bits`): for
+/// `multijitter` its pattern has 2^bits points, sized by `batch_spp` when the render is in
+/// batches (`render --batches`, each batch its own pattern), else by `pattern_spp` (the whole
+/// render's sample count); for `sobol`, each batch of 2^bits samples has its own scramble
+/// ([`sobol_batch_key`]), [`SOBOL_UNBATCHED`] without batches; `independent` has none (0).
+pub fn pattern_bits(sampler: Sampler, pattern_spp: u32, batch_spp: Option<u32>) -> u32 {
+    match sampler {
+        Sampler::Multijitter => multijitter_bits(batch_spp.unwrap_or(pattern_spp)),
+        Sampler::Sobol => batch_spp.map_or(SOBOL_UNBATCHED, multijitter_bits),
+        Sampler::Independent => 0,
+    }
+}
+
 impl PathRng {
-    /// The numbers of one path of a render of `spp` samples per pixel.
+    /// The numbers of one path of a render of `spp` samples per pixel, not in batches.
     pub fn new(sampler: Sampler, seed: u32, spp: u32, pixel: u32, sample: u32) -> PathRng {
+        PathRng::with_bits(
+            sampler,
+            seed,
+            pattern_bits(sampler, spp, None),
+            pixel,
+            sample,
+        )
+    }
+
+    /// The numbers of one path of a render whose patterns have `bits` ([`pattern_bits`]).
+    pub fn with_bits(sampler: Sampler, seed: u32, bits: u32, pixel: u32, sample: u32) -> PathRng {
         PathRng {
             sampler,
             seed,
             pixel,
             sample,
             pixel_key: sobol_pixel_key(seed, pixel),
-            pattern_bits: multijitter_bits(spp),
+            pattern_bits: bits,
         }
+    }
+
+    /// The key of a `sobol` pair, of the path's batch.
+    #[inline]
+    fn sobol_key(&self, depth: u32, dim: u32) -> u32 {
+        let pair = sobol_pair_key(self.pixel_key, depth, dim >> 1);
+        sobol_batch_key(pair, self.sample, self.pattern_bits)
     }
 
     /// The `multijitter` pair (as 32-bit values) of dimensions `dim & !1` and `dim | 1`.
@@ -287,7 +323,7 @@ impl PathRng {
                 to_unit_f32(if dim & 1 == 0 { x } else { y })
             }
             Sampler::Sobol => {
-                let key = sobol_pair_key(self.pixel_key, depth, dim >> 1);
+                let key = self.sobol_key(depth, dim);
                 to_unit_f32(sobol_component(
                     sobol_shuffled_index(self.sample, key),
                     key,
@@ -308,7 +344,7 @@ impl PathRng {
                 glam::Vec2::new(to_unit_f32(x), to_unit_f32(y))
             }
             Sampler::Sobol => {
-                let key = sobol_pair_key(self.pixel_key, depth, dim >> 1);
+                let key = self.sobol_key(depth, dim);
                 let index = sobol_shuffled_index(self.sample, key);
                 glam::Vec2::new(
                     to_unit_f32(sobol_component(index, key, 0)),
@@ -362,7 +398,10 @@ mod tests {
     fn every_key_component_changes_the_stream() {
         let mj =
             |seed, pixel, sample, depth, dim| multijitter_u32(seed, 6, pixel, sample, depth, dim);
-        let fs: [KeyedU32; 3] = [random_u32, sobol_u32, mj];
+        let sobol = |seed, pixel, sample, depth, dim| {
+            sobol_u32(seed, SOBOL_UNBATCHED, pixel, sample, depth, dim)
+        };
+        let fs: [KeyedU32; 3] = [random_u32, sobol, mj];
         for f in fs {
             let base = f(1, 2, 3, 4, 5);
             assert_ne!(base, f(9, 2, 3, 4, 5));

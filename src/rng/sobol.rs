@@ -53,18 +53,36 @@ pub fn sobol_component(index: u32, pair_key: u32, c: u32) -> u32 {
     lk_permute(reversed, pcg_hash(pair_key ^ (1 + c))).reverse_bits()
 }
 
-/// The `sobol` sampler's 32-bit value for one key: dimension `dim` is component `dim & 1` of
-/// pair `dim >> 1` (see [`dim`](super::dim)).
+/// The `sobol` batches' bits of a render that has none: every sample draws from one sequence.
+pub const SOBOL_UNBATCHED: u32 = 32;
+
+/// The key of one batch of a pair (a render in batches of 2^bits samples, `render --batches`):
+/// the pair key, and which batch the sample is in, so that every batch has its own index
+/// shuffle and scrambles (independent randomizations of one aligned block of the sequence, a
+/// (0,m,2)-net). Without batches (`bits` = [`SOBOL_UNBATCHED`]) and in the first batch, the pair
+/// key itself.
 #[inline]
-pub fn sobol_u32(seed: u32, pixel: u32, sample: u32, depth: u32, dim: u32) -> u32 {
-    let key = sobol_pair_key(sobol_pixel_key(seed, pixel), depth, dim >> 1);
+pub fn sobol_batch_key(pair_key: u32, sample: u32, bits: u32) -> u32 {
+    match sample.checked_shr(bits) {
+        Some(batch) if bits < 32 => pair_key ^ batch.wrapping_mul(0x9e37_79b9),
+        _ => pair_key,
+    }
+}
+
+/// The `sobol` sampler's 32-bit value for one key of a render in batches of 2^bits samples
+/// ([`SOBOL_UNBATCHED`] for none): dimension `dim` is component `dim & 1` of pair `dim >> 1`
+/// (see [`dim`](super::dim)).
+#[inline]
+pub fn sobol_u32(seed: u32, bits: u32, pixel: u32, sample: u32, depth: u32, dim: u32) -> u32 {
+    let pair = sobol_pair_key(sobol_pixel_key(seed, pixel), depth, dim >> 1);
+    let key = sobol_batch_key(pair, sample, bits);
     sobol_component(sobol_shuffled_index(sample, key), key, dim & 1)
 }
 
 /// The `sobol` sampler's float in [0, 1), with 24 bits.
 #[inline]
-pub fn sobol_f32(seed: u32, pixel: u32, sample: u32, depth: u32, dim: u32) -> f32 {
-    to_unit_f32(sobol_u32(seed, pixel, sample, depth, dim))
+pub fn sobol_f32(seed: u32, bits: u32, pixel: u32, sample: u32, depth: u32, dim: u32) -> f32 {
+    to_unit_f32(sobol_u32(seed, bits, pixel, sample, depth, dim))
 }
 
 #[cfg(test)]
@@ -110,40 +128,67 @@ mod tests {
     }
 
     /// Each pair's first 2^m samples, and any aligned block of 2^m, are a (0,m,2)-net: every
-    /// elementary interval of area 2^-m (2^a by 2^(m-a) cells) holds one point.
+    /// elementary interval of area 2^-m (2^a by 2^(m-a) cells) holds one point; so is every
+    /// batch of a render in batches of 2^m, each with its own scramble.
     #[test]
     fn sobol_pairs_are_0m2_nets_in_every_aligned_block() {
         for (pixel, depth, pair) in [(0u32, 0u32, 0u32), (17, 1, 1), (40_000, 3, 2), (5, 7, 3)] {
             for m in 0..=8u32 {
-                for block in [0u32, 1, 5] {
-                    let n = 1u32 << m;
-                    let pts: Vec<(u32, u32)> = (block * n..(block + 1) * n)
-                        .map(|i| {
-                            (
-                                sobol_u32(9, pixel, i, depth, 2 * pair),
-                                sobol_u32(9, pixel, i, depth, 2 * pair + 1),
-                            )
-                        })
-                        .collect();
-                    for a in 0..=m {
-                        let mut seen = vec![false; n as usize];
-                        for &(x, y) in &pts {
-                            let (cx, cy) = (
-                                x.checked_shr(32 - a).unwrap_or(0),
-                                y.checked_shr(32 - (m - a)).unwrap_or(0),
-                            );
-                            let cell = ((cx << (m - a)) | cy) as usize;
-                            assert!(
-                                !seen[cell],
-                                "pixel {pixel} depth {depth} pair {pair} m {m} block {block} \
-                                 {a}x{}: two points in one cell",
-                                m - a
-                            );
-                            seen[cell] = true;
+                for bits in [SOBOL_UNBATCHED, m] {
+                    for block in [0u32, 1, 5] {
+                        let n = 1u32 << m;
+                        let pts: Vec<(u32, u32)> = (block * n..(block + 1) * n)
+                            .map(|i| {
+                                (
+                                    sobol_u32(9, bits, pixel, i, depth, 2 * pair),
+                                    sobol_u32(9, bits, pixel, i, depth, 2 * pair + 1),
+                                )
+                            })
+                            .collect();
+                        for a in 0..=m {
+                            let mut seen = vec![false; n as usize];
+                            for &(x, y) in &pts {
+                                let (cx, cy) = (
+                                    x.checked_shr(32 - a).unwrap_or(0),
+                                    y.checked_shr(32 - (m - a)).unwrap_or(0),
+                                );
+                                let cell = ((cx << (m - a)) | cy) as usize;
+                                assert!(
+                                    !seen[cell],
+                                    "pixel {pixel} depth {depth} pair {pair} m {m} bits {bits} \
+                                     block {block} {a}x{}: two points in one cell",
+                                    m - a
+                                );
+                                seen[cell] = true;
+                            }
                         }
                     }
                 }
             }
         }
+    }
+
+    /// A render in batches draws batch 0 as the unbatched render does, and every later batch
+    /// from its own scramble: not the unbatched sequence's points.
+    #[test]
+    fn sobol_batches_are_scrambled_apart() {
+        let bits = 3;
+        for i in 0..8u32 {
+            assert_eq!(
+                sobol_u32(4, bits, 11, i, 1, 2),
+                sobol_u32(4, SOBOL_UNBATCHED, 11, i, 1, 2)
+            );
+        }
+        let same = (8..64u32)
+            .filter(|&i| {
+                sobol_u32(4, bits, 11, i, 1, 2) == sobol_u32(4, SOBOL_UNBATCHED, 11, i, 1, 2)
+            })
+            .count();
+        assert!(
+            same <= 1,
+            "{same} of 56 numbers of later batches are the sequence's"
+        );
+        assert_eq!(sobol_batch_key(7, 1 << 31, SOBOL_UNBATCHED), 7);
+        assert_ne!(sobol_batch_key(7, 8, 3), 7);
     }
 }

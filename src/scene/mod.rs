@@ -67,12 +67,22 @@ pub struct Integrator {
     /// render), the samples per pixel of the whole render: it sizes the `multijitter` pattern,
     /// so that the parts draw the points of the whole and merge into it exactly. None: `spp`.
     pub pattern_spp: Option<u32>,
+    /// When the render is in independent batches (`render --batches K`), the samples per pixel
+    /// of one batch (a power of two): each batch is its own `multijitter` pattern or `sobol`
+    /// scramble ([`crate::rng::pattern_bits`]). None: no batches.
+    pub batch_spp: Option<u32>,
 }
 
 impl Integrator {
     /// The samples per pixel that size the sampler's patterns ([`crate::rng::multijitter_bits`]).
     pub fn pattern_spp(&self) -> u32 {
         self.pattern_spp.unwrap_or(self.spp)
+    }
+
+    /// The bits of the sampler's patterns, as both backends take them
+    /// ([`crate::rng::pattern_bits`]).
+    pub fn pattern_bits(&self) -> u32 {
+        crate::rng::pattern_bits(self.sampler, self.pattern_spp(), self.batch_spp)
     }
 }
 
@@ -86,6 +96,7 @@ impl Default for Integrator {
             rr_start_depth: 3,
             sampler: crate::rng::Sampler::default(),
             pattern_spp: None,
+            batch_spp: None,
         }
     }
 }
