@@ -321,6 +321,7 @@ fn every_pair_of_render_options_is_accepted() {
         ("--tile", vec!["--tile", "0,0,4,4"]),
         ("--set", vec!["--set", "integrator.seed=3"]),
         ("--threads", vec!["--threads", "1"]),
+        ("--batches", vec!["--batches", "2"]),
         ("--quiet", vec!["--quiet"]),
         ("--out .bwfilm", vec!["--out", s(&part)]),
     ];
