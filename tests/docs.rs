@@ -829,3 +829,71 @@ fn layers_do_not_import_the_layers_above_them() {
         bad.join("\n")
     );
 }
+
+/// GitHub's anchor of a heading: lower case, punctuation dropped (but `-` and `_`), spaces to `-`.
+fn anchor(heading: &str) -> String {
+    heading
+        .trim()
+        .to_lowercase()
+        .chars()
+        .filter(|c| c.is_alphanumeric() || matches!(c, ' ' | '-' | '_'))
+        .map(|c| if c == ' ' { '-' } else { c })
+        .collect()
+}
+
+/// Every relative link of every page (README.md, BENCHMARKS.md, scenes/README.md, docs/ with
+/// its history) names a file or directory that exists, and a `#part` of a Markdown file one of
+/// its headings: the pages link to each other and must not break when one moves.
+#[test]
+fn links_between_pages_resolve() {
+    let mut all = pages();
+    all.extend(["BENCHMARKS.md".to_string(), "docs/bench-log.md".to_string()]);
+    let mut bad = Vec::new();
+    let mut checked = 0;
+    for page in &all {
+        let md = read(page);
+        let dir = Path::new(page).parent().unwrap().to_path_buf();
+        let mut in_block = false;
+        for line in md.lines() {
+            if line.trim_start().starts_with("```") {
+                in_block = !in_block;
+            }
+            if in_block {
+                continue;
+            }
+            for part in line.split("](").skip(1) {
+                let Some(target) = part.split(')').next() else {
+                    continue;
+                };
+                if target.contains("://") || target.starts_with("mailto:") || target.is_empty() {
+                    continue;
+                }
+                let (file, frag) = target.split_once('#').unwrap_or((target, ""));
+                let path = if file.is_empty() {
+                    PathBuf::from(page)
+                } else {
+                    dir.join(file)
+                };
+                checked += 1;
+                let full = common::repo().join(&path);
+                if !full.exists() {
+                    bad.push(format!("{page}: ({target}): no {}", path.display()));
+                    continue;
+                }
+                if !frag.is_empty() && full.extension().is_some_and(|e| e == "md") {
+                    let text = std::fs::read_to_string(&full).unwrap();
+                    let found = text
+                        .lines()
+                        .filter_map(|l| l.strip_prefix('#'))
+                        .map(|h| h.trim_start_matches('#'))
+                        .any(|h| anchor(h) == frag);
+                    if !found {
+                        bad.push(format!("{page}: ({target}): no heading #{frag}"));
+                    }
+                }
+            }
+        }
+    }
+    assert!(checked > 60, "{checked} links");
+    assert!(bad.is_empty(), "broken links:\n{}", bad.join("\n"));
+}
