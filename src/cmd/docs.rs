@@ -22,7 +22,7 @@ pub struct DocsArgs {
     #[arg(long)]
     write: bool,
     /// The repository's root directory (the pages are under ROOT/docs/cli/).
-    #[arg(long, default_value = ".")]
+    #[arg(value_name = "DIR", long, default_value = ".")]
     root: PathBuf,
 }
 
