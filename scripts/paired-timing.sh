@@ -3,7 +3,7 @@
 # one thread each (on a 2-core machine, one core each), their positions swapped every round,
 # and each round gives the ratio of their CPU seconds (user + system). Both see the same spell
 # of a busy host, so the ratio is steadier than sequential timings: on the 2-core VM of
-# BENCHMARKS.md sequential runs swing by ±10 %, while 12–16 pairs resolve 2 %.
+# docs/bench-log.md sequential runs swing by ±10 %, while 12–16 pairs resolve 2 %.
 #
 #   bash scripts/paired-timing.sh ROUNDS SCENE "A ARGS" "B ARGS"
 #

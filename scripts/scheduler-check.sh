@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The batch-scheduler examples of README.md ("Splitting a render over processes and machines"),
+# The batch-scheduler examples of docs/splitting.md,
 # tested for real. Opt-in, not part of `cargo test` (it installs packages and starts daemons):
 #
 #   bash scripts/scheduler-check.sh
@@ -7,13 +7,13 @@
 # Slurm: installs slurm-wlm and munge where missing (Debian, as root), starts a private munged
 # and a one-node Slurm cluster on localhost from a slurm.conf it writes (ports, state and logs
 # under target/scheduler-check/), and there
-#   1. submits docs/distributed/slurm.sbatch with README.md's two sbatch lines, read from
-#      README.md and run as they are, as a job array of PARTS=4 parts plus the merge job
+#   1. submits docs/distributed/slurm.sbatch with docs/splitting.md's two sbatch lines, read from
+#      docs/splitting.md and run as they are, as a job array of PARTS=4 parts plus the merge job
 #      (SPP=16 RES=64x64 BACKEND=cpu), and checks that the merged EXR equals a one-process CPU
 #      render of the same samples bit for bit (`brdfwave diff --max max_abs=0`);
 #   2. submits them again with more samples per part (SPP=256), cancels one array task while
 #      it renders (its part is then absent: parts are written atomically), requeues it, submits
-#      the merge job again as README.md says, and checks that the task rendered its part again,
+#      the merge job again as docs/splitting.md says, and checks that the task rendered its part again,
 #      that every part is there once, and that the merge is again exact.
 # Kubernetes: validates docs/distributed/k8s-*.yaml against the Kubernetes API schema with
 # kubernetes-validate (PyPI; installed into target/scheduler-check/venv where missing), strict
@@ -165,12 +165,12 @@ EOF
     log "one-node cluster up: $(sinfo -h -o '%P %D nodes, %c CPUs, time limit %l')"
 }
 
-# README.md's Slurm lines, as they are: submit (2 lines: the parts, the merge) or requeue (the
+# docs/splitting.md's Slurm lines, as they are: submit (2 lines: the parts, the merge) or requeue (the
 # requeue of a task and the replacement of the merge job).
 readme_lines() {
     case $1 in
-    submit) grep -E '^(jid=\$\(sbatch |mjid=\$\(sbatch --parsable --dependency=afterok)' README.md ;;
-    requeue) grep -E '^(scontrol requeue |scancel \$mjid )' README.md ;;
+    submit) grep -E '^(jid=\$\(sbatch |mjid=\$\(sbatch --parsable --dependency=afterok)' docs/splitting.md ;;
+    requeue) grep -E '^(scontrol requeue |scancel \$mjid )' docs/splitting.md ;;
     esac
 }
 
@@ -193,21 +193,21 @@ wait_job() {
     job_state "$id"
 }
 
-# Runs README's lines of $1 (readme_lines) from the repository root; checks that there are $2.
+# Runs docs/splitting.md's lines of $1 (readme_lines) from the repository root; checks that there are $2.
 run_readme() {
     local lines
     lines=$(readme_lines "$1")
-    [ "$(grep -c . <<<"$lines")" = "$2" ] || { fail "Slurm: README.md's $1 lines not found"; return 1; }
+    [ "$(grep -c . <<<"$lines")" = "$2" ] || { fail "Slurm: docs/splitting.md's $1 lines not found"; return 1; }
     echo "$lines" | sed 's/^/    $ /'
     # In this shell (not a subshell): the lines set jid and mjid.
     eval "$lines" >"$work/$1.out" 2>&1 || { fail "Slurm: $(cat "$work/$1.out")"; return 1; }
     sed 's/^/    /' "$work/$1.out"
 }
 
-# Submits with the settings in the environment; README's lines set jid and mjid.
+# Submits with the settings in the environment; docs/splitting.md's lines set jid and mjid.
 submit() {
     run_readme submit 2 || return 1
-    [ -n "${jid:-}" ] && [ -n "${mjid:-}" ] || { fail "Slurm: README's lines gave no job ids"; return 1; }
+    [ -n "${jid:-}" ] && [ -n "${mjid:-}" ] || { fail "Slurm: docs/splitting.md's lines gave no job ids"; return 1; }
     log "array job $jid (tasks 0-$((PARTS - 1))), merge job $mjid"
 }
 
@@ -226,7 +226,7 @@ slurm_check() {
     slurm_install || return
     slurm_start || return
     export BRDFWAVE=$bin SCENE=scenes/cornell-box.toml
-    # 1. README's commands, 4 parts and the merge.
+    # 1. docs/splitting.md's commands, 4 parts and the merge.
     export SPP=16 PARTS=4 RES=64x64 BACKEND=cpu OUT=$work/out/exact.exr
     log "1. SPP=$SPP PARTS=$PARTS RES=$RES BACKEND=$BACKEND OUT=$OUT"
     submit || return
@@ -237,9 +237,9 @@ slurm_check() {
     log "merge job $mjid: $state"
     log "task 0 rendered on: $(grep -h -m1 '^backend' "$repo/slurm-$jid-0.log" 2>/dev/null | tr -s ' ')"
     if [ "$state" = COMPLETED ] && exact 1; then
-        pass "Slurm: README's commands, 4 parts and the merge on a one-node cluster: the image equals the one-process CPU render bit for bit"
+        pass "Slurm: docs/splitting.md's commands, 4 parts and the merge on a one-node cluster: the image equals the one-process CPU render bit for bit"
     else
-        fail "Slurm: README's commands: merge job $state; logs: $(ls "$repo"/slurm-"$jid"-*.log "$repo"/slurm-"$mjid"-*.log 2>/dev/null | tr '\n' ' ')"
+        fail "Slurm: docs/splitting.md's commands: merge job $state; logs: $(ls "$repo"/slurm-"$jid"-*.log "$repo"/slurm-"$mjid"-*.log 2>/dev/null | tr '\n' ' ')"
     fi
     mv "$repo"/slurm-"$jid"-*.log "$repo"/slurm-"$mjid"-*.log "$work/" 2>/dev/null
     # 2. A task cancelled while it renders, then requeued.
@@ -268,7 +268,7 @@ slurm_check() {
     leftovers=$(ls -A "$dir" 2>/dev/null | grep -v -E '^part-[0-9]+-of-[0-9]+\.bwfilm$' || true)
     log "task ${jid}_$victim: $state; its part file: $([ -e "$dir/part-$victim-of-$PARTS.bwfilm" ] && echo present || echo absent); other files in the parts folder: ${leftovers:-none}; merge job $mjid: $(squeue -h -j "$mjid" -o '%T (%r)')"
     [ "$state" = CANCELLED ] || { fail "Slurm: scancel ${jid}_$victim left it $state"; return; }
-    # README.md's lines: requeue the task, and replace the merge job (Slurm marked its afterok
+    # docs/splitting.md's lines: requeue the task, and replace the merge job (Slurm marked its afterok
     # never satisfied when the task was cancelled, and a requeue does not undo that).
     local task=$victim old_mjid=$mjid
     run_readme requeue 2 || return

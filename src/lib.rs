@@ -2,8 +2,8 @@
 //! for comparing the surface models of the survey "Physically correct surface models".
 //!
 //! For callers, [`api`] is the entry point: `Scene::load(path)`, then
-//! `api::render(&scene, &Options)` gives the image and its statistics (README.md, "Using
-//! brdfwave as a library"; `examples/render_scene.rs`).
+//! `api::render(&scene, &Options)` gives the image and its statistics (`docs/library.md`;
+//! `examples/render_scene.rs`).
 //!
 //! Where to find things:
 //! * `api` — the library entry point above, over `scene` and `render`;

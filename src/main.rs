@@ -81,6 +81,9 @@ enum Command {
     },
     /// Randomized numerical-stability checks within a time budget (see src/stress/).
     Stress(cmd::stress::StressArgs),
+    /// Check (or with --write, rewrite) the generated option reference in docs/cli/*.md.
+    #[command(hide = true)]
+    Docs(cmd::docs::DocsArgs),
 }
 
 fn main() {
@@ -112,6 +115,10 @@ fn main() {
         Command::Devices => cmd::devices::run(),
         Command::Brdf { command } => cmd::brdf::run(command),
         Command::Stress(args) => cmd::stress::run(args),
+        Command::Docs(args) => cmd::docs::run(args, {
+            use clap::CommandFactory;
+            Cli::command()
+        }),
     };
     if let Err(e) = result {
         eprintln!("error: {}", brdfwave::errors::chain(&e));

@@ -68,7 +68,7 @@ pub fn check(bytes: u64, what: &str, advice: &str) -> anyhow::Result<()> {
 /// glibc keeps what a program frees for reuse (in per-thread arenas), and after a large free it
 /// raises the size from which it maps big blocks apart, so temporaries of tens of MB can stay
 /// in the heap once freed: after the 1M-triangle scene's load and BVH build, 35 MB of
-/// lavapipe's peak (BENCHMARKS.md, the scene's memory). Call it once the set-up's temporaries
+/// lavapipe's peak (docs/bench-log.md, the scene's memory). Call it once the set-up's temporaries
 /// are gone, before the renderer's own memory is made.
 pub fn release_free_heap() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
@@ -86,7 +86,7 @@ pub fn release_free_heap() {
 /// it without growing it (`extend_from_slice`, rayon's `par_extend`), so that its pages are
 /// first touched where the advice holds. Advised before the first write, a page is made huge
 /// when it is faulted in; advising a filled array instead needs `MADV_COLLAPSE`, which copies
-/// every page (about 3 ms per MB here, 0.4 s for the 1M-triangle scene; BENCHMARKS.md). A hint
+/// every page (about 3 ms per MB here, 0.4 s for the 1M-triangle scene; docs/bench-log.md). A hint
 /// only: where the system refuses it (huge pages off, another OS) nothing changes, and the
 /// contents never depend on it.
 pub fn huge_page_vec<T>(capacity: usize) -> Vec<T> {

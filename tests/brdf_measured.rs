@@ -1,7 +1,7 @@
 //! The `measured` model (a MERL table, `src/brdf/measured.rs`) on synthetic files written by our
 //! own MERL writer: evaluation against the model the table was made from, GPU = CPU for `brdf
 //! eval` and for renders at the same seed, the sampling mixture's χ² test, the sharing of
-//! tables, located errors, and README's workflow from a MERL file to the lineup image.
+//! tables, located errors, and docs/measured.md's workflow from a MERL file to the lineup image.
 
 mod common;
 use brdfwave::brdf::validate::dir_from_theta_deg as dir;
@@ -296,17 +296,17 @@ fn bad_files_give_located_errors() {
     );
 }
 
-/// README's "Measured materials" workflow as written, in a temporary directory: a synthetic
+/// docs/measured.md's workflow as written, in a temporary directory: a synthetic
 /// MERL file, `brdf fit` of every model, and the render of the fit's lineup, which shows the
 /// measured material beside the fits (rendered small here). The lineup also renders with
 /// GPU = CPU at the same seed, through every shade pipeline it has.
 #[test]
 fn the_readme_workflow_renders_the_measured_material_beside_its_fits() {
-    let readme = std::fs::read_to_string(common::repo().join("README.md")).unwrap();
-    let section = readme
-        .split("## Measured materials")
+    let page = std::fs::read_to_string(common::repo().join("docs/measured.md")).unwrap();
+    let section = page
+        .split("# Measured materials")
         .nth(1)
-        .expect("README.md has a Measured materials section");
+        .expect("docs/measured.md has a Measured materials section");
     let block = section
         .split("```text\n")
         .nth(1)

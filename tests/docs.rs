@@ -1,9 +1,10 @@
-//! The documentation, run: every command shown in README.md and scenes/README.md is parsed from
-//! the Markdown and run (renders with a tiny --res and --spp, outputs under a temporary
-//! directory), the command-line synopsis is compared with the binary's --help, the scene and
-//! model tables with the files and models that exist, and the example materials and scenes are
-//! loaded and must give no warning. A command the docs gain that this file does not know how to
-//! run fails the test, so the docs cannot drift from the program again.
+//! The documentation, run: every command shown in README.md, scenes/README.md and the pages under
+//! docs/ is parsed from the Markdown and run (large renders made small, outputs in a temporary
+//! directory), the option reference of docs/cli/ is compared with what the program generates
+//! from its clap definitions, the scene and model tables with the files and models that exist,
+//! and the example materials and scenes are loaded and must give no warning. A command the docs
+//! gain that this file does not know how to run fails the test, so the docs cannot drift from
+//! the program again.
 
 mod common;
 
@@ -114,94 +115,349 @@ fn run(args: &[String], dir: &Path) -> Output {
     out
 }
 
-/// Runs `brdfwave ARGS` as the docs show it, made small: `--res` becomes 16x16, `--spp` 2, and
-/// every `--out`/`--variance-out`/`--error-map` path is moved under `tmp` (keeping its
-/// relative directories, which do not exist there yet). Returns the output paths.
-fn run_small(args: &[String], tmp: &Path) -> Vec<PathBuf> {
-    let mut a = args.to_vec();
-    let mut outs = Vec::new();
-    for i in 0..a.len().saturating_sub(1) {
-        match a[i].as_str() {
-            "--res" => a[i + 1] = "16x16".into(),
-            "--spp" => a[i + 1] = "2".into(),
-            "--out" | "--variance-out" | "--error-map" => {
-                let p = tmp.join(&a[i + 1]);
-                a[i + 1] = p.display().to_string();
-                outs.push(p);
+/// Every page whose commands this file runs: README.md, scenes/README.md and every Markdown
+/// page under docs/, in that order (docs/ sorted by path), but the benchmarks' history
+/// (docs/bench-log.md): a record of what was run at past commits, not examples.
+fn pages() -> Vec<String> {
+    let mut docs = Vec::new();
+    let mut stack = vec![common::repo().join("docs")];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|x| x == "md") && !p.ends_with("bench-log.md") {
+                let rel = p.strip_prefix(common::repo()).unwrap();
+                docs.push(rel.to_string_lossy().into_owned());
             }
-            _ => {}
         }
     }
-    run(&a, &common::repo());
-    for p in &outs {
-        assert!(
-            p.is_file(),
-            "brdfwave {args:?} did not write {}",
-            p.display()
-        );
-    }
-    outs
-}
-
-/// The shell commands of README.md's `sh` blocks, one per line (`&&` chains kept whole).
-fn readme_command_lines() -> Vec<String> {
-    code_blocks(&read("README.md"))
+    docs.sort();
+    assert!(docs.len() >= 15, "docs/ has {} pages", docs.len());
+    ["README.md".to_string(), "scenes/README.md".to_string()]
         .into_iter()
-        .filter(|(info, _)| info == "sh")
-        .flat_map(|(_, body)| {
-            body.replace("\\\n", " ")
-                .lines()
-                .map(str::trim)
-                .filter(|l| !l.is_empty() && !l.starts_with('#'))
-                .map(String::from)
-                .collect::<Vec<_>>()
-        })
+        .chain(docs)
         .collect()
 }
 
+/// The page without its generated option blocks (`brdfwave docs`): the commands in their help
+/// texts are not examples.
+fn without_generated(md: &str) -> String {
+    let mut out = String::new();
+    let mut skipping = false;
+    for line in md.lines() {
+        if line.starts_with("<!-- begin options: ") {
+            skipping = true;
+        } else if line.starts_with("<!-- end options: ") {
+            skipping = false;
+        } else if !skipping {
+            out.push_str(line);
+            out.push('\n');
+        }
+    }
+    out
+}
+
+/// The directory the docs' commands run in: the repository's inputs (scenes, docs, tests,
+/// scripts, assets) linked in, and a fresh `out/` for what the commands write.
+struct Sandbox {
+    dir: tempfile::TempDir,
+}
+
+impl Sandbox {
+    const LINKED: [&'static str; 5] = ["scenes", "docs", "tests", "scripts", "assets"];
+
+    fn new() -> Sandbox {
+        let dir = tempfile::tempdir().unwrap();
+        for name in Self::LINKED {
+            std::os::unix::fs::symlink(common::repo().join(name), dir.path().join(name)).unwrap();
+        }
+        Sandbox { dir }
+    }
+
+    fn path(&self) -> &Path {
+        self.dir.path()
+    }
+}
+
+/// The options whose value is a file or directory a command writes.
+const OUTPUT_OPTIONS: [&str; 6] = [
+    "--out",
+    "--variance-out",
+    "--error-map",
+    "--triptych",
+    "--p-map",
+    "--failures",
+];
+
+/// The samples of a render above which a docs example is made smaller here (about a second on
+/// lavapipe): `--res` becomes 32x32 and then `--spp` 256.
+const MAX_SAMPLES: u64 = 1 << 20;
+
+/// Runs `brdfwave ARGS` as the docs show it in the sandbox, made small where it is large: a
+/// render of more than [`MAX_SAMPLES`] samples gets `--res 32x32` (and `--spp 256` if that is not
+/// enough), a render without `--res` or `--spp` gets 32x32 and 4 (its scene's size may be
+/// large), `--budget` is at most 2 s, and `brdf fit` compares 1000 cells. Everything it writes
+/// must be a relative path outside the repository's linked directories, and must exist after.
+/// `> FILE` sends stdout to FILE.
+fn run_small(args: &[String], sandbox: &Path, page: &str) {
+    let (args, stdout_to) = match args.iter().position(|a| a == ">") {
+        Some(i) => (&args[..i], args.get(i + 1).cloned()),
+        None => (args, None),
+    };
+    let mut a = args.to_vec();
+    let value = |a: &[String], name: &str| {
+        a.iter()
+            .position(|x| x == name)
+            .and_then(|i| a.get(i + 1).cloned())
+    };
+    let render = a.first().map(String::as_str) == Some("render");
+    if render {
+        let spp: u64 = value(&a, "--spp").map_or(64, |s| s.parse().unwrap());
+        let res = value(&a, "--res").map(|r| {
+            let (w, h) = r.split_once('x').unwrap();
+            w.parse::<u64>().unwrap() * h.parse::<u64>().unwrap()
+        });
+        let partial = value(&a, "--samples").is_some();
+        for i in 0..a.len().saturating_sub(1) {
+            match a[i].as_str() {
+                "--res" if res.unwrap() * spp > MAX_SAMPLES => a[i + 1] = "32x32".into(),
+                "--spp" if !partial && 1024 * spp > MAX_SAMPLES => a[i + 1] = "256".into(),
+                _ => {}
+            }
+        }
+        if res.is_none() {
+            a.extend(["--res".into(), "32x32".into()]);
+        }
+        if value(&a, "--spp").is_none() && !partial {
+            a.extend(["--spp".into(), "4".into()]);
+        }
+    }
+    for i in 0..a.len().saturating_sub(1) {
+        if a[i] == "--budget" {
+            let b: f64 = a[i + 1].parse().unwrap();
+            a[i + 1] = b.min(2.0).to_string();
+        }
+    }
+    if a.starts_with(&["brdf".into(), "fit".into()]) && value(&a, "--samples").is_none() {
+        a.extend(["--samples".into(), "1000".into()]);
+    }
+    let mut outs: Vec<PathBuf> = Vec::new();
+    for i in 0..a.len().saturating_sub(1) {
+        if OUTPUT_OPTIONS.contains(&a[i].as_str()) {
+            outs.push(PathBuf::from(&a[i + 1]));
+        }
+    }
+    outs.extend(stdout_to.iter().map(PathBuf::from));
+    for o in &outs {
+        let first = o.components().next().unwrap().as_os_str().to_string_lossy();
+        assert!(
+            o.is_relative() && !Sandbox::LINKED.contains(&first.as_ref()),
+            "{page}: `brdfwave {}` writes {}: examples write under out/, not into the repository",
+            args.join(" "),
+            o.display()
+        );
+    }
+    let t = std::time::Instant::now();
+    let out = run(&a, sandbox);
+    println!(
+        "{page}: {:.1} s: brdfwave {}",
+        t.elapsed().as_secs_f64(),
+        a.join(" ")
+    );
+    if let Some(f) = &stdout_to {
+        std::fs::write(sandbox.join(f), &out.stdout).unwrap();
+    }
+    for o in &outs {
+        assert!(
+            sandbox.join(o).exists(),
+            "{page}: `brdfwave {}` did not write {}",
+            args.join(" "),
+            o.display()
+        );
+    }
+}
+
+/// A fenced block's lines, continuation lines (`\` at the end) joined, comments and blank lines
+/// left out.
+fn block_lines(body: &str) -> Vec<String> {
+    body.replace("\\\n", " ")
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with('#'))
+        .map(String::from)
+        .collect()
+}
+
+/// The first words of a line in a `text` block that make it a command to run.
+const COMMAND_WORDS: [&str; 6] = [
+    "brdfwave",
+    "target/release/brdfwave",
+    "nice",
+    "bash",
+    "cargo",
+    "sudo",
+];
+
+/// `brdfwave ARGS`, `target/release/brdfwave ARGS` and either after `nice -n N`: the ARGS.
+fn brdfwave_args(words: &[&str]) -> Option<Vec<String>> {
+    let w = match words {
+        ["nice", "-n", _, rest @ ..] => rest,
+        w => w,
+    };
+    match w {
+        ["brdfwave" | "target/release/brdfwave", args @ ..] => {
+            Some(args.iter().map(|s| s.to_string()).collect())
+        }
+        _ => None,
+    }
+}
+
+/// What the pages show, run: the README's two commands (which must be `.ci/run`'s, verbatim),
+/// and every command of every page's `sh` and `text` blocks, of the CI example's `run:` steps and
+/// of its inline code, in the page's order and in one sandbox (a command may read what an
+/// earlier one wrote; a command shown twice runs once). A line this test does not know how to
+/// run fails it. Not run, but checked: `bash` blocks (the Slurm and Kubernetes lines, which
+/// `scripts/scheduler-check.sh` runs, opt-in) and the opt-in `cargo test … -- --ignored` lines,
+/// whose tests must exist and be marked `#[ignore]`.
 #[test]
-fn readme_commands_run_and_are_what_ci_runs() {
+fn every_command_of_every_page_runs() {
     let ci = read(".ci/run");
     let setup = read("scripts/setup.sh");
-    let tmp = tempfile::tempdir().unwrap();
-    let lines = readme_command_lines();
-    let mut rendered = false;
-    let mut tested = false;
-    for line in &lines {
-        for cmd in line.split("&&").map(str::trim) {
-            let w = shell_words(cmd);
-            let w: Vec<&str> = w.iter().map(String::as_str).collect();
-            match w.as_slice() {
-                ["bash", "scripts/setup.sh"] => {
-                    assert!(common::repo().join("scripts/setup.sh").is_file())
+    let sandbox = Sandbox::new();
+    let sb = sandbox.path();
+    let mut done: BTreeSet<String> = BTreeSet::new();
+    let (mut rendered, mut tested, mut ran) = (false, false, 0);
+    for page in pages() {
+        let md = without_generated(&read(&page));
+        let readme = page == "README.md";
+        let mut lines: Vec<(String, bool)> = Vec::new(); // (line, from the CI example)
+        for (info, body) in code_blocks(&md) {
+            match info.as_str() {
+                "sh" => lines.extend(block_lines(&body).into_iter().map(|l| (l, false))),
+                // Text blocks also hold file fragments and output: their lines that start
+                // like a command are commands.
+                "text" => lines.extend(
+                    block_lines(&body)
+                        .into_iter()
+                        .filter(|l| {
+                            let first = l.split_whitespace().next().unwrap_or_default();
+                            COMMAND_WORDS.contains(&first)
+                        })
+                        .map(|l| (l, false)),
+                ),
+                "yaml" => lines.extend(
+                    body.lines()
+                        .filter_map(|l| l.trim().strip_prefix("$B "))
+                        .map(|l| (format!("brdfwave {l}"), true)),
+                ),
+                "bash" => assert!(
+                    block_lines(&body).iter().all(|l| [
+                        "sbatch",
+                        "scontrol",
+                        "scancel",
+                        "kubectl",
+                        "export ",
+                        "task=",
+                        "bash scripts/scheduler-check.sh"
+                    ]
+                    .iter()
+                    .any(|k| l.contains(k))),
+                    "{page}: a `bash` block is for cluster commands that only the opt-in \
+                     scripts/scheduler-check.sh runs; show other commands in `sh` blocks:\n{body}"
+                ),
+                "rust" | "toml" | "json" | "xml" | "" => {}
+                other => panic!(
+                    "{page}: a code block of kind `{other}`, which tests/docs.rs does not know"
+                ),
+            }
+        }
+        // Headings name commands (`# \`brdfwave render\``); the text shows them.
+        let text: String = md
+            .lines()
+            .filter(|l| !l.starts_with('#'))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        for span in inline_spans(&text) {
+            if span.starts_with("brdfwave ") {
+                assert!(!span.contains('|'), "{page}: cannot run `{span}`");
+                lines.push((span, false));
+            }
+        }
+        for (line, _) in &lines {
+            for cmd in line.split("&&").map(str::trim) {
+                let words = shell_words(cmd);
+                let w: Vec<&str> = words.iter().map(String::as_str).collect();
+                if let Some(args) = brdfwave_args(&w) {
+                    if done.insert(args.join("\u{1f}")) {
+                        run_small(&args, sb, &page);
+                        ran += 1;
+                    }
+                    continue;
                 }
-                ["sudo", "apt-get", "install", pkgs @ ..] => {
-                    for p in pkgs {
+                match w.as_slice() {
+                    ["bash", "scripts/setup.sh"] => {
+                        assert!(common::repo().join("scripts/setup.sh").is_file())
+                    }
+                    ["sudo", "apt-get", "install", pkgs @ ..] => {
+                        for p in pkgs {
+                            assert!(
+                                setup
+                                    .split(|c: char| !(c.is_ascii_alphanumeric() || c == '-'))
+                                    .any(|x| x == *p),
+                                "{page} installs {p}, scripts/setup.sh does not"
+                            );
+                        }
+                    }
+                    ["cargo", "test", "--release"] if readme => {
                         assert!(
-                            setup
-                                .split(|c: char| !(c.is_ascii_alphanumeric() || c == '-'))
-                                .any(|x| x == *p),
-                            "README installs {p}, scripts/setup.sh does not"
+                            ci.lines().any(|l| l.trim() == line),
+                            ".ci/run does not run the README's command verbatim: {line}"
+                        );
+                        tested = true;
+                    }
+                    ["cargo", "run", "--release", "--", args @ ..] if readme => {
+                        assert!(
+                            ci.lines().any(|l| l.trim() == line),
+                            ".ci/run does not run the README's command verbatim: {line}"
+                        );
+                        let args: Vec<String> = args.iter().map(|s| s.to_string()).collect();
+                        run_small(&args, sb, &page);
+                        rendered |= args.first().map(String::as_str) == Some("render");
+                    }
+                    ["cargo", "test", "--release", "--test", name, "--", "--ignored", "--nocapture"] =>
+                    {
+                        let t = read(&format!("tests/{name}.rs"));
+                        assert!(
+                            t.contains("#[ignore"),
+                            "{page}: tests/{name}.rs is shown as opt-in but has no #[ignore]d test"
                         );
                     }
+                    ["bash", "scripts/material-preview.sh"] => common::material_preview_table(),
+                    ["bash", "scripts/render-parts.sh", args @ ..] => {
+                        let mut a: Vec<String> = args.iter().map(|s| s.to_string()).collect();
+                        // SCENE SPP PARTS JOBS OUT [render options]: the render made small.
+                        for i in 5..a.len().saturating_sub(1) {
+                            if a[i] == "--res" {
+                                a[i + 1] = "32x32".into();
+                            }
+                        }
+                        let o = Command::new("bash")
+                            .arg("scripts/render-parts.sh")
+                            .args(&a)
+                            .env("BRDFWAVE", env!("CARGO_BIN_EXE_brdfwave"))
+                            .current_dir(sb)
+                            .output()
+                            .unwrap();
+                        assert!(
+                            o.status.success() && sb.join(&a[4]).is_file(),
+                            "{page}: {cmd}:\n{}",
+                            String::from_utf8_lossy(&o.stderr)
+                        );
+                        ran += 1;
+                    }
+                    other => panic!("{page} shows a command tests/docs.rs cannot run: {other:?}"),
                 }
-                ["cargo", "test", "--release"] => {
-                    assert!(
-                        ci.lines().any(|l| l.trim() == line),
-                        ".ci/run does not run the README's command verbatim: {line}"
-                    );
-                    tested = true;
-                }
-                ["cargo", "run", "--release", "--", args @ ..] => {
-                    assert!(
-                        ci.lines().any(|l| l.trim() == line),
-                        ".ci/run does not run the README's command verbatim: {line}"
-                    );
-                    let args: Vec<String> = args.iter().map(|s| s.to_string()).collect();
-                    run_small(&args, tmp.path());
-                    rendered |= args.first().map(String::as_str) == Some("render");
-                }
-                other => panic!("README.md shows a command tests/docs.rs cannot run: {other:?}"),
             }
         }
     }
@@ -209,131 +465,94 @@ fn readme_commands_run_and_are_what_ci_runs() {
         rendered && tested,
         "README.md lost its render or test command"
     );
+    assert!(ran >= 30, "only {ran} commands ran");
 }
 
-/// `brdfwave …` commands in inline code (e.g. `brdfwave devices`) of both READMEs run.
+/// The option reference in docs/cli/*.md is what `brdfwave docs` generates from the clap
+/// definitions now (`BRDFWAVE_WRITE_DOCS=1` rewrites it instead of failing).
 #[test]
-fn inline_commands_run() {
-    let tmp = tempfile::tempdir().unwrap();
-    let mut n = 0;
-    for doc in ["README.md", "scenes/README.md"] {
-        for span in inline_spans(&read(doc)) {
-            let Some(rest) = span.strip_prefix("brdfwave ") else {
-                continue;
-            };
-            let words = shell_words(rest);
-            // Skip `brdfwave diff a b | head`-style pipelines; there are none today.
-            assert!(!rest.contains('|'), "{doc}: cannot run `{span}`");
-            run_small(&words, tmp.path());
-            n += 1;
-        }
+fn generated_option_reference_is_current() {
+    let mut args = vec!["docs".to_string(), "--root".to_string()];
+    args.push(common::repo().display().to_string());
+    if std::env::var_os("BRDFWAVE_WRITE_DOCS").is_some() {
+        args.push("--write".into());
     }
-    assert!(n >= 1, "no inline brdfwave command found");
+    let out = bin().args(&args).output().expect("run brdfwave docs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
-/// The synopsis in README.md ("Command line") names exactly the options each subcommand's
-/// --help lists, and every option and argument has help text.
+/// Every visible command and subcommand (from the binary's own --help) has a page under
+/// docs/cli/ that shows it, and every option and argument of its --help has help text.
 #[test]
-fn synopsis_matches_help_and_every_option_is_explained() {
-    let text = code_blocks(&read("README.md"))
-        .into_iter()
-        .find(|(info, b)| info == "text" && b.contains("brdfwave render"))
-        .expect("README.md has a text block with the command-line synopsis")
-        .1;
-    // Join continuation lines (indented) to their command.
-    let mut commands: Vec<String> = Vec::new();
-    for line in text.lines() {
-        if line.starts_with("brdfwave ") {
-            commands.push(line.to_string());
-        } else if !line.trim().is_empty() {
-            commands.last_mut().expect("continuation").push_str(line);
-        }
-    }
-    assert!(commands.len() >= 6, "{commands:?}");
-    let options = |s: &str| -> BTreeSet<String> {
-        s.split(|c: char| !(c.is_ascii_alphanumeric() || c == '-'))
-            .filter(|w| w.starts_with("--") && w.len() > 2)
-            .filter(|w| *w != "--help" && *w != "--version")
+fn every_command_has_a_page_and_every_option_is_explained() {
+    let help = |args: &[&str]| -> String {
+        let mut a: Vec<String> = args.iter().map(|s| s.to_string()).collect();
+        a.push("--help".into());
+        String::from_utf8(run(&a, &common::repo()).stdout).unwrap()
+    };
+    let commands_of = |text: &str| -> Vec<String> {
+        text.lines()
+            .skip_while(|l| *l != "Commands:")
+            .skip(1)
+            .take_while(|l| l.starts_with("  "))
+            .filter_map(|l| l.split_whitespace().next())
+            .filter(|n| *n != "help")
             .map(String::from)
             .collect()
     };
-    let mut seen = BTreeSet::new();
-    for c in &commands {
-        let words: Vec<&str> = c.split_whitespace().skip(1).collect();
-        let sub: Vec<&str> = words
-            .iter()
-            .take_while(|w| w.chars().all(|ch| ch.is_ascii_lowercase()))
-            .copied()
-            .collect();
-        assert!(!sub.is_empty(), "{c}");
-        seen.insert(sub.join(" "));
-        let mut args: Vec<&str> = sub.clone();
-        args.push("--help");
-        let help = String::from_utf8(
-            run(
-                &args.iter().map(|s| s.to_string()).collect::<Vec<_>>(),
-                &common::repo(),
-            )
-            .stdout,
-        )
-        .unwrap();
-        assert_eq!(
-            options(c),
-            options(&help),
-            "README synopsis vs `brdfwave {} --help`",
-            sub.join(" ")
-        );
-        // Every option and positional argument has a description on its line.
-        let mut section = "";
-        for line in help.lines() {
-            if line.ends_with(':') && !line.starts_with(' ') {
-                section = line;
-                continue;
-            }
-            if (section == "Options:" || section == "Arguments:") && !line.trim().is_empty() {
-                let t = line.trim_start();
-                if t.starts_with('-') || t.starts_with('<') || t.starts_with('[') {
-                    // The text after the option (clap's own "[default: …]" does not count).
-                    let described = t
-                        .split("  ")
-                        .skip(1)
-                        .map(str::trim)
-                        .any(|part| !part.is_empty() && !part.starts_with('['));
-                    assert!(
-                        described,
-                        "`brdfwave {} --help`: no help text for: {t}",
-                        sub.join(" ")
-                    );
+    let top = commands_of(&help(&[]));
+    assert!(top.len() >= 8, "{top:?}");
+    let mut checked = 0;
+    for c in &top {
+        let page = read(&format!("docs/cli/{c}.md"));
+        let subs = commands_of(&help(&[c]));
+        let paths: Vec<Vec<&str>> = if subs.is_empty() {
+            vec![vec![c.as_str()]]
+        } else {
+            subs.iter().map(|s| vec![c.as_str(), s.as_str()]).collect()
+        };
+        for path in paths {
+            assert!(
+                page.contains(&format!("<!-- begin options: {} -->", path.join(" "))),
+                "docs/cli/{c}.md does not document `brdfwave {}`",
+                path.join(" ")
+            );
+            let text = help(&path);
+            let mut section = "";
+            for line in text.lines() {
+                if line.ends_with(':') && !line.starts_with(' ') {
+                    section = line;
+                    continue;
+                }
+                if (section == "Options:" || section == "Arguments:") && !line.trim().is_empty() {
+                    let t = line.trim_start();
+                    if t.starts_with('-') || t.starts_with('<') || t.starts_with('[') {
+                        // The text after the option (clap's own "[default: …]" does not count).
+                        let described = t
+                            .split("  ")
+                            .skip(1)
+                            .map(str::trim)
+                            .any(|part| !part.is_empty() && !part.starts_with('['));
+                        assert!(
+                            described,
+                            "`brdfwave {} --help`: no help text for: {t}",
+                            path.join(" ")
+                        );
+                        checked += 1;
+                    }
                 }
             }
         }
     }
-    // Every subcommand is in the synopsis.
-    let top = String::from_utf8(run(&["--help".to_string()], &common::repo()).stdout).unwrap();
-    let mut in_commands = false;
-    for line in top.lines() {
-        if line == "Commands:" {
-            in_commands = true;
-            continue;
-        }
-        if in_commands {
-            let Some(name) = line.split_whitespace().next() else {
-                break;
-            };
-            if name == "help" {
-                continue;
-            }
-            assert!(
-                seen.iter()
-                    .any(|s| s == name || s.starts_with(&format!("{name} "))),
-                "the README synopsis lacks `brdfwave {name}`"
-            );
-        }
-    }
+    assert!(checked > 60, "{checked} options");
 }
 
-/// The example materials (README's inline `'model = …'`, scenes/README's `[materials.…]`
-/// blocks) and the example scene load without a warning.
+/// The example materials (the inline `'model = …'` of every page, scenes/README's
+/// `[materials.…]` blocks) and the example scene load without a warning.
 #[test]
 fn example_materials_and_scenes_load_without_warnings() {
     let tmp = tempfile::tempdir().unwrap();
@@ -352,7 +571,10 @@ fn example_materials_and_scenes_load_without_warnings() {
         run(&args, &common::repo());
     };
     let mut materials = 0;
-    for span in inline_spans(&read("README.md")) {
+    for span in pages()
+        .iter()
+        .flat_map(|p| inline_spans(&without_generated(&read(p))))
+    {
         if let Some(m) = span.strip_prefix('\'').and_then(|s| s.strip_suffix('\'')) {
             if m.starts_with("model = ") {
                 eval(m);
@@ -408,8 +630,7 @@ fn example_materials_and_scenes_load_without_warnings() {
     );
 }
 
-/// Both scene tables list exactly the shipped scenes; scenes/README.md documents every model
-/// (and README.md's model table lists them all).
+/// Both scene tables (docs/scenes.md, scenes/README.md) list exactly the shipped scenes.
 #[test]
 fn scene_and_model_tables_are_complete() {
     let shipped: BTreeSet<String> = std::fs::read_dir(common::repo().join("scenes"))
@@ -429,7 +650,11 @@ fn scene_and_model_tables_are_complete() {
             .map(String::from)
             .collect()
     };
-    assert_eq!(table_entries("README.md", "scenes/"), shipped, "README.md");
+    assert_eq!(
+        table_entries("docs/scenes.md", "scenes/"),
+        shipped,
+        "docs/scenes.md"
+    );
     assert_eq!(
         table_entries("scenes/README.md", ""),
         shipped,
@@ -438,8 +663,8 @@ fn scene_and_model_tables_are_complete() {
 }
 
 /// Every model's parameter documentation is the text generated from its declared parameters
-/// (`brdf::docs`): the table at the top of `src/brdf/<model>.rs`, its row of README.md's model
-/// table and its row of scenes/README.md's table. `BRDFWAVE_WRITE_DOCS=1` rewrites them instead.
+/// (`brdf::docs`): the table at the top of `src/brdf/<model>.rs`, its row of docs/models.md's
+/// model table and its row of scenes/README.md's table. `BRDFWAVE_WRITE_DOCS=1` rewrites them instead.
 #[test]
 fn model_parameter_tables_are_generated_from_the_declarations() {
     use brdfwave::brdf::{docs, ModelInfo, MODELS};
@@ -448,7 +673,7 @@ fn model_parameter_tables_are_generated_from_the_declarations() {
     let mut unwritable = Vec::new();
     type Row = fn(&ModelInfo) -> String;
     let rows: [(&str, Row); 2] = [
-        ("README.md", docs::readme_row),
+        ("docs/models.md", docs::models_page_row),
         ("scenes/README.md", docs::scenes_readme_row),
     ];
     for (doc, row) in rows {
@@ -603,4 +828,72 @@ fn layers_do_not_import_the_layers_above_them() {
         "imports against the layering:\n{}",
         bad.join("\n")
     );
+}
+
+/// GitHub's anchor of a heading: lower case, punctuation dropped (but `-` and `_`), spaces to `-`.
+fn anchor(heading: &str) -> String {
+    heading
+        .trim()
+        .to_lowercase()
+        .chars()
+        .filter(|c| c.is_alphanumeric() || matches!(c, ' ' | '-' | '_'))
+        .map(|c| if c == ' ' { '-' } else { c })
+        .collect()
+}
+
+/// Every relative link of every page (README.md, BENCHMARKS.md, scenes/README.md, docs/ with
+/// its history) names a file or directory that exists, and a `#part` of a Markdown file one of
+/// its headings: the pages link to each other and must not break when one moves.
+#[test]
+fn links_between_pages_resolve() {
+    let mut all = pages();
+    all.extend(["BENCHMARKS.md".to_string(), "docs/bench-log.md".to_string()]);
+    let mut bad = Vec::new();
+    let mut checked = 0;
+    for page in &all {
+        let md = read(page);
+        let dir = Path::new(page).parent().unwrap().to_path_buf();
+        let mut in_block = false;
+        for line in md.lines() {
+            if line.trim_start().starts_with("```") {
+                in_block = !in_block;
+            }
+            if in_block {
+                continue;
+            }
+            for part in line.split("](").skip(1) {
+                let Some(target) = part.split(')').next() else {
+                    continue;
+                };
+                if target.contains("://") || target.starts_with("mailto:") || target.is_empty() {
+                    continue;
+                }
+                let (file, frag) = target.split_once('#').unwrap_or((target, ""));
+                let path = if file.is_empty() {
+                    PathBuf::from(page)
+                } else {
+                    dir.join(file)
+                };
+                checked += 1;
+                let full = common::repo().join(&path);
+                if !full.exists() {
+                    bad.push(format!("{page}: ({target}): no {}", path.display()));
+                    continue;
+                }
+                if !frag.is_empty() && full.extension().is_some_and(|e| e == "md") {
+                    let text = std::fs::read_to_string(&full).unwrap();
+                    let found = text
+                        .lines()
+                        .filter_map(|l| l.strip_prefix('#'))
+                        .map(|h| h.trim_start_matches('#'))
+                        .any(|h| anchor(h) == frag);
+                    if !found {
+                        bad.push(format!("{page}: ({target}): no heading #{frag}"));
+                    }
+                }
+            }
+        }
+    }
+    assert!(checked > 60, "{checked} links");
+    assert!(bad.is_empty(), "broken links:\n{}", bad.join("\n"));
 }

@@ -105,7 +105,7 @@ const GOLD: &str = "model = \"cook_torrance\"\nkd = 0.0\ndistribution = \"ggx\"\
 /// An environment map (the material preview's studio, turned and scaled) lights a diffuse
 /// sphere, a rough gold one and a diffuse floor.
 #[test]
-#[ignore = "opt-in: needs Mitsuba 3 and takes seconds (README, Mitsuba 3 XML scenes)"]
+#[ignore = "opt-in: needs Mitsuba 3 and takes seconds (docs/scenes.md, Mitsuba 3 XML scenes)"]
 fn an_envmap_scene_renders_like_mitsuba() {
     let dir = tempfile::tempdir().unwrap();
     let toml = head(&format!(
@@ -125,7 +125,7 @@ fn an_envmap_scene_renders_like_mitsuba() {
 /// OBJ texture coordinates `convert` writes, scaled by `to_uv`), a linear EXR on a rough
 /// conductor's roughness; lit by the studio map.
 #[test]
-#[ignore = "opt-in: needs Mitsuba 3 and takes seconds (README, Mitsuba 3 XML scenes)"]
+#[ignore = "opt-in: needs Mitsuba 3 and takes seconds (docs/scenes.md, Mitsuba 3 XML scenes)"]
 fn a_textured_scene_renders_like_mitsuba() {
     let dir = tempfile::tempdir().unwrap();
     let tiles = common::repo()
@@ -157,7 +157,7 @@ fn a_textured_scene_renders_like_mitsuba() {
 /// A thin lens (Mitsuba's `thinlens`), focused on the nearer sphere, with the envmap scene's
 /// lighting.
 #[test]
-#[ignore = "opt-in: needs Mitsuba 3 and takes seconds (README, Mitsuba 3 XML scenes)"]
+#[ignore = "opt-in: needs Mitsuba 3 and takes seconds (docs/scenes.md, Mitsuba 3 XML scenes)"]
 fn a_thin_lens_renders_like_mitsuba() {
     let dir = tempfile::tempdir().unwrap();
     let toml = head(&format!(

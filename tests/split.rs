@@ -216,7 +216,7 @@ fn merge_refuses_parts_that_do_not_make_one_render() {
     assert!(err(&[&a, &d.join("missing.bwfilm")]).contains("missing.bwfilm"));
 }
 
-/// The local way to split a render (README): scripts/render-parts.sh renders parts in two
+/// The local way to split a render (docs/splitting.md): scripts/render-parts.sh renders parts in two
 /// processes with xargs -P and merges them; the result is the single CPU render, bit for bit.
 /// Run again, it keeps the parts it has; with a part deleted, merge refuses until it is back.
 #[test]

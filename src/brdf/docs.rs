@@ -1,6 +1,6 @@
 //! The parameter documentation, generated from each model's declared parameters
 //! ([`ModelInfo::params`](super::ModelInfo)): the table at the top of the model's Rust file,
-//! its row of README.md's model table and its row of scenes/README.md's per-model table.
+//! its row of docs/models.md's model table and its row of scenes/README.md's per-model table.
 //! tests/docs.rs compares the three texts exactly; [`update_model_file`] and [`update_rows`]
 //! rewrite them (`BRDFWAVE_WRITE_DOCS=1 cargo test --release --test docs` does that).
 
@@ -134,9 +134,9 @@ pub fn texture_fields_table() -> String {
     s
 }
 
-/// The model's row of README.md's model table: where the survey gives it, the parameter names,
+/// The model's row of docs/models.md's model table: where the survey gives it, the parameter names,
 /// and a choice's options.
-pub fn readme_row(m: &ModelInfo) -> String {
+pub fn models_page_row(m: &ModelInfo) -> String {
     let params: Vec<String> = m
         .params
         .iter()
@@ -249,7 +249,7 @@ mod tests {
             }
             for p in m.params {
                 assert!(
-                    readme_row(m).contains(&format!("`{}`", p.name)),
+                    models_page_row(m).contains(&format!("`{}`", p.name)),
                     "{}",
                     p.name
                 );
@@ -261,14 +261,14 @@ mod tests {
     #[test]
     fn rows_are_replaced_and_missing_rows_named() {
         let text = "a\n| `lambert` | old |\nb";
-        let (out, missing) = update_rows(text, &MODELS, readme_row);
+        let (out, missing) = update_rows(text, &MODELS, models_page_row);
         // Lambert's row replaced, every other model's inserted after it in registry order.
-        let rows: Vec<String> = MODELS.iter().map(readme_row).collect();
+        let rows: Vec<String> = MODELS.iter().map(models_page_row).collect();
         assert_eq!(out, format!("a\n{}\nb", rows.join("\n")));
         assert_eq!(missing.len(), MODELS.len() - 1);
         assert!(missing.contains(&"ward"));
         // Without the first model's row there is nothing to insert after.
-        let (out, missing) = update_rows("a\nb", &MODELS[..2], readme_row);
+        let (out, missing) = update_rows("a\nb", &MODELS[..2], models_page_row);
         assert_eq!((out.as_str(), missing.len()), ("a\nb", 2));
     }
 }

@@ -21,7 +21,7 @@
 //! `shaders/brdf/` (with `<name>_eval`, `<name>_pdf` and `<name>_sample`), one line in the
 //! `registry!` list below and `tests/brdf_<name>.rs`. The megakernel's dispatch and the record
 //! codes are generated ([`glsl`]), the parameter tables too ([`docs`]); what cannot be derived (a
-//! GPU parity material, a stress generator, a sphere in `scenes/lineup.toml`, the README rows)
+//! GPU parity material, a stress generator, a sphere in `scenes/lineup.toml`, the docs' table rows)
 //! fails a coverage test that names the model (tests/model_registry.rs, tests/brdf_gpu_parity.rs,
 //! tests/docs.rs). A model whose parameter is a data file (`measured`, a MERL table, which cannot
 //! be shipped) has its representative material name a file that [`write_fixtures`] writes; the

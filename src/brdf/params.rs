@@ -76,11 +76,11 @@ pub trait Choice: Copy + 'static {
 
 /// Declares, in one block of a model's file (after its struct and enums), what its registry row
 /// ([`super::ModelInfo`]) reads besides `parse`:
-/// * `survey`: where the survey gives the model (README's model table), as `SURVEY`;
+/// * `survey`: where the survey gives the model (docs/models.md's model table), as `SURVEY`;
 /// * `params`: its scene-file parameters, one row each. A row `NAME = rgb(…)`, `scalar(…)`,
 ///   `choice(…)` or `file(…)`, optionally followed by `.range_text(…)` or `.default_text(…)`,
 ///   is `const NAME: Param = Param::rgb(…)…;`, and `PARAMS` lists them in row order (the
-///   model's parameter tables in its docs and the READMEs are generated from it: `brdf::docs`);
+///   model's parameter tables in its docs, docs/models.md and scenes/README.md are generated from it: `brdf::docs`);
 /// * `representative`: the materials `brdf report` measures ([`Representative`]), as
 ///   `REPRESENTATIVE`;
 /// * `record_codes`: the [`choice_enum!`] types whose codes `pack` writes into the GPU record,
@@ -97,7 +97,7 @@ macro_rules! declare_model {
         $($(#[$meta])* const $c: Param = Param::$ctor($($arg),+)$(.$then($($targ),*))*;)+
         /// The scene-file parameters (the table above is generated from them: `brdf::docs`).
         pub const PARAMS: &[Param] = &[$($c),+];
-        /// Where the survey gives the model (README's model table).
+        /// Where the survey gives the model (docs/models.md's model table).
         pub const SURVEY: &str = $survey;
         /// The materials `brdf report` measures.
         pub const REPRESENTATIVE: $crate::brdf::params::Representative = $representative;
@@ -218,7 +218,7 @@ pub enum Kind {
 /// One parameter of a model, declared once in the model's file (`PARAMS`): the parser reads
 /// its default and range from here ([`ParamReader::rgb_of`], [`ParamReader::scalar_of`],
 /// [`ParamReader::choice_of`]), the "unknown field" message lists the declared names, and the
-/// parameter tables of the model file, README.md and scenes/README.md are generated from it
+/// parameter tables of the model file, docs/models.md and scenes/README.md are generated from it
 /// (`brdf::docs`; tests/docs.rs compares them).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Param {

@@ -519,7 +519,7 @@ pub fn build(scene: &Scene) -> Bvh {
 /// from them, and reads each leaf's triangles from a copy in leaf order
 /// ([`Bvh::leaf_triangles`], 36 bytes a triangle). A tree for one renderer leaves out what only
 /// the other reads (for a million triangles 36 MB of triangles, or the binary nodes once the
-/// wide tree is made: the renderers' peak memory, BENCHMARKS.md).
+/// wide tree is made: the renderers' peak memory, docs/bench-log.md).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Traversal {
     /// Both: everything [`Bvh`] holds ([`build`]; the tests compare the two traversals).
@@ -573,7 +573,7 @@ pub(super) fn build_with(scene: &Scene, parallel_prims: usize, traversal: Traver
     let (sah_sum, mut stats, first, later) = (b.sah_sum, b.stats, b.nodes, b.later);
     // The boxes and centroids are the build's alone: freed before the nodes are joined and the
     // leaves' triangles gathered, they no longer add to the set-up's peak memory (37 MB for a
-    // million triangles; BENCHMARKS.md).
+    // million triangles; docs/bench-log.md).
     drop((boxes, centroids));
     let mut nodes = Builder::join(first, later);
     // The wide tree straight after the nodes, so that a tree for the CPU alone frees them

@@ -35,7 +35,7 @@
 //! to [`WIDTH`] children (each starts from a binary node's two children and opens the inner
 //! child with the largest box until it has four), whose boxes are tested four at a time in
 //! SIMD registers. Its leaves are the binary tree's, so it indexes the same `prims`. The CPU
-//! reference runs about 10 % faster on it than on the binary tree (BENCHMARKS.md).
+//! reference runs about 10 % faster on it than on the binary tree (docs/bench-log.md).
 //!
 //! # Traversal
 //! Iterative, near child first, with a private stack: on the GPU over the binary tree, with

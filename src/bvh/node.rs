@@ -8,7 +8,7 @@ pub const STACK_SIZE: usize = 64;
 pub(super) const LEAF_FLAG: u32 = 0x8000_0000;
 /// The most traversal-stack entries the GLSL traversal keeps in registers (`BVH_STACK_REGS` in
 /// `shaders/bvh.glsl`); a deeper tree gets the array stack of [`STACK_SIZE`] entries. Measured
-/// on lavapipe (BENCHMARKS.md): 8 and 16 registers pay on the Cornell box (depth 5); 24 and 32
+/// on lavapipe (docs/bench-log.md): 8 and 16 registers pay on the Cornell box (depth 5); 24 and 32
 /// gain nothing there, nor on a 1M-triangle mesh (depth 23), since every push and pop shifts
 /// them all.
 pub const REGISTER_STACK_MAX: u32 = 16;
@@ -21,7 +21,7 @@ const REGISTER_STACK_STEP: u32 = 8;
 /// on the stack, `build::MAX_DEPTH`), rounded up to a multiple of 8; `None` beyond
 /// [`REGISTER_STACK_MAX`]. On lavapipe a stack in registers is a few selects per step, where
 /// an array indexed by the stack pointer is a per-lane loop of branches and loads
-/// (BENCHMARKS.md, optimisation log).
+/// (docs/bench-log.md, optimisation log).
 pub fn register_stack_size(max_depth: u32) -> Option<u32> {
     let size = (max_depth + 1).div_ceil(REGISTER_STACK_STEP) * REGISTER_STACK_STEP;
     (size <= REGISTER_STACK_MAX).then_some(size)

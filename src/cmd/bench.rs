@@ -9,39 +9,39 @@ pub struct BenchArgs {
     /// The scene file to benchmark.
     scene: PathBuf,
     /// Reference image (EXR); default: rendered once by the CPU reference and cached.
-    #[arg(long)]
+    #[arg(value_name = "FILE.exr", long)]
     reference: Option<PathBuf>,
     /// Render seconds, shared equally by the configurations.
-    #[arg(long, default_value_t = 60.0)]
+    #[arg(value_name = "SECONDS", long, default_value_t = 60.0)]
     budget: f64,
     /// Comma-separated: wavefront, megakernel (each optionally -t1, -t2, … for lavapipe's
     /// LP_NUM_THREADS), cpu, each optionally -sobol or -independent last (the sampler;
     /// default multijitter); mitsuba-scalar, mitsuba-llvm, mitsuba-cuda, each optionally
     /// -stratified, -multijitter, -orthogonal or -ldsampler last (default independent).
-    #[arg(long, default_value = brdfwave::bench::DEFAULT_CONFIGS)]
+    #[arg(value_name = "LIST", long, default_value = brdfwave::bench::DEFAULT_CONFIGS)]
     configs: String,
     /// Output directory.
-    #[arg(long, default_value = "out/bench")]
+    #[arg(value_name = "DIR", long, default_value = "out/bench")]
     out: PathBuf,
     /// Image size WxH (overrides the scene).
-    #[arg(long, value_parser = parse_res)]
+    #[arg(value_name = "WxH", long, value_parser = parse_res)]
     res: Option<(u32, u32)>,
     /// Maximum path segments (overrides the scene).
-    #[arg(long)]
+    #[arg(value_name = "D", long)]
     max_depth: Option<u32>,
     /// Samples per pixel of the rendered reference.
-    #[arg(long, default_value_t = 1024)]
+    #[arg(value_name = "N", long, default_value_t = 1024)]
     reference_spp: u32,
     /// Every configuration renders at least this many samples per pixel, whatever the
     /// budget; the equal-spp table reads 16, 64 and 256.
-    #[arg(long, default_value_t = 1)]
+    #[arg(value_name = "N", long, default_value_t = 1)]
     min_spp: u32,
     /// Vulkan device: a case-insensitive part of its name (default: lavapipe if present).
-    #[arg(long)]
+    #[arg(value_name = "NAME", long)]
     device: Option<String>,
     /// Also measure set-up and speed against scene size, with a generated mesh of this many
     /// triangles (e.g. 1048576) and the lineup scene.
-    #[arg(long)]
+    #[arg(value_name = "TRIANGLES", long)]
     scaling: Option<u32>,
 }
 

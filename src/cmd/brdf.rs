@@ -17,21 +17,21 @@ pub enum BrdfCommand {
     /// Evaluate f and pdf for direction pairs from a CSV (header wi_x,wi_y,wi_z,wo_x,wo_y,wo_z).
     Eval {
         /// The material as an inline TOML table, e.g. 'model = "ward", kd = 0.1, ks = 0.8, alpha_x = 0.2, alpha_y = 0.1'.
-        #[arg(long)]
+        #[arg(value_name = "TOML", long)]
         material: String,
         /// CSV of direction pairs, header wi_x,wi_y,wi_z,wo_x,wo_y,wo_z: unit vectors in the
         /// local frame (z = normal), both pointing away from the surface, wi toward the light.
-        #[arg(long)]
+        #[arg(value_name = "FILE.csv", long)]
         dirs: PathBuf,
         /// Where to evaluate: the Rust model or its GLSL twin on the Vulkan device.
         #[arg(long, value_enum, default_value = "cpu")]
         backend: Backend,
         /// Output CSV (default: stdout); missing directories are created.
-        #[arg(long)]
+        #[arg(value_name = "FILE.csv", long)]
         out: Option<PathBuf>,
         /// Vulkan device for --backend gpu: a case-insensitive part of its name (default:
         /// lavapipe if present; `brdfwave devices` lists them).
-        #[arg(long, value_parser = parse_device)]
+        #[arg(value_name = "NAME", long, value_parser = parse_device)]
         device: Option<String>,
     },
     /// Plot materials, overlaid with a legend: the polar plot in the plane of incidence, the
@@ -40,7 +40,7 @@ pub enum BrdfCommand {
     Plot {
         /// A material as an inline TOML table, as for `brdf eval`; may be given several times
         /// (one curve or panel each).
-        #[arg(long, required = true)]
+        #[arg(value_name = "TOML", long, required = true)]
         material: Vec<String>,
         /// What to draw: `polar` (f in the plane of incidence), `slice` (f over θh×θd at
         /// φd = 90°, the BRDF Explorer's image slice), `albedo` (against θi) or `hemisphere`
@@ -48,38 +48,43 @@ pub enum BrdfCommand {
         #[arg(long, value_enum, default_value = "polar")]
         kind: PlotKind,
         /// Angle of incidence in degrees, in [0, 90) (polar and hemisphere plots).
-        #[arg(long, allow_hyphen_values = true, default_value = "45")]
+        #[arg(
+            value_name = "DEG",
+            long,
+            allow_hyphen_values = true,
+            default_value = "45"
+        )]
         theta_i: f32,
         /// Value scale: `lin` or `log` (default: lin for polar and albedo, log for slice and
         /// hemisphere).
-        #[arg(long, value_parser = brdfwave::plot::Scale::parse)]
+        #[arg(value_name = "lin|log", long, value_parser = brdfwave::plot::Scale::parse)]
         scale: Option<brdfwave::plot::Scale>,
         /// Output: .svg or .png; .exr or .pfm for the drawn picture as linear values. Missing
         /// directories are created.
-        #[arg(long)]
+        #[arg(value_name = "FILE", long)]
         out: PathBuf,
     },
     /// Measure every model at representative parameters: albedo, reciprocity, χ², cost, variance.
     Report {
         /// Directory for report.md, report.csv and lobe_*.png (created if missing).
-        #[arg(long, default_value = "out/report")]
+        #[arg(value_name = "DIR", long, default_value = "out/report")]
         out: PathBuf,
         /// Skip the GPU cost measurement.
         #[arg(long)]
         no_gpu: bool,
         /// Vulkan device for the GPU cost measurement: a case-insensitive part of its name
         /// (default: lavapipe if present; `brdfwave devices` lists them).
-        #[arg(long, value_parser = parse_device)]
+        #[arg(value_name = "NAME", long, value_parser = parse_device)]
         device: Option<String>,
     },
     /// Write a synthetic MERL .binary file: the material sampled at every cell centre (for
     /// trying `brdf fit` without measured data, which MERL distributes).
     Merl {
         /// The material as an inline TOML table, as for `brdf eval`.
-        #[arg(long)]
+        #[arg(value_name = "TOML", long)]
         material: String,
         /// Output .binary file (34992012 bytes); missing directories are created.
-        #[arg(long)]
+        #[arg(value_name = "FILE.binary", long)]
         out: PathBuf,
     },
     /// Fit the survey's models to a measured material (a MERL .binary file): fit.md, fit.csv,

@@ -12,18 +12,18 @@ use std::path::{Path, PathBuf};
 #[derive(clap::Args)]
 pub struct MergeArgs {
     /// The partial films (.bwfilm), in any order.
-    #[arg(required = true)]
+    #[arg(value_name = "PART.bwfilm", required = true)]
     parts: Vec<PathBuf>,
     /// Output images (.exr, .png or .pfm); may be given several times.
-    #[arg(long = "out", required = true)]
+    #[arg(value_name = "FILE", long = "out", required = true)]
     out: Vec<PathBuf>,
     /// The samples the parts must hold together, START..END: a set that holds others (a
     /// missing last part) is refused (default: 0..spp, all the samples of the render the parts
     /// record).
-    #[arg(long, value_parser = brdfwave::film::parse_samples)]
+    #[arg(value_name = "START..END", long, value_parser = brdfwave::film::parse_samples)]
     samples: Option<std::ops::Range<u32>>,
     /// Also write the per-pixel variance of one sample (EXR).
-    #[arg(long)]
+    #[arg(value_name = "FILE.exr", long)]
     variance_out: Option<PathBuf>,
     /// Print the summary as one JSON object on stdout.
     #[arg(long)]

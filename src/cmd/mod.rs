@@ -6,6 +6,7 @@ pub mod brdf;
 pub mod convert;
 pub mod devices;
 pub mod diff;
+pub mod docs;
 pub mod fit;
 pub mod merge;
 pub mod render;

@@ -34,17 +34,17 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value = "gpu")]
     backend: Backend,
     /// Samples per pixel (overrides the scene).
-    #[arg(long)]
+    #[arg(value_name = "N", long)]
     spp: Option<u32>,
     /// Image size WxH (overrides the scene).
-    #[arg(long, value_parser = parse_res)]
+    #[arg(value_name = "WxH", long, value_parser = parse_res)]
     res: Option<(u32, u32)>,
     /// Maximum path segments; the camera segment is one (overrides the scene).
-    #[arg(long)]
+    #[arg(value_name = "D", long)]
     max_depth: Option<u32>,
     /// Seed of the random numbers, 0 to 4294967295 (overrides the scene); the same seed
     /// gives nearly the same image on both backends.
-    #[arg(long)]
+    #[arg(value_name = "S", long)]
     seed: Option<u32>,
     /// Where the random numbers come from (overrides the scene): `multijitter` (correlated
     /// multi-jittered points of the render's sample count, the default), `sobol`
@@ -54,19 +54,19 @@ pub struct RenderArgs {
     /// Output files (.exr, .png or .pfm images; .bwfilm, a partial film for `brdfwave
     /// merge`); may be given several times; missing directories are created. Default:
     /// out/<scene name>.png
-    #[arg(long = "out")]
+    #[arg(value_name = "FILE", long = "out")]
     out: Vec<PathBuf>,
     /// Render only these sample indices, START..END (END exclusive), e.g. 0..256, for a
     /// partial film: parts with consecutive ranges merge into the image of one render of spp
     /// samples (`--spp`, else the scene's), which the range must lie in (default: 0..spp).
-    #[arg(long, value_parser = brdfwave::film::parse_samples)]
+    #[arg(value_name = "START..END", long, value_parser = brdfwave::film::parse_samples)]
     samples: Option<std::ops::Range<u32>>,
     /// Render only the pixels of this tile, X,Y,W,H (from the top-left corner), for a
     /// partial film; images written are the tile's size (default: the whole image).
-    #[arg(long, value_parser = brdfwave::film::Tile::parse)]
+    #[arg(value_name = "X,Y,W,H", long, value_parser = brdfwave::film::Tile::parse)]
     tile: Option<Tile>,
     /// Also write the per-pixel variance of one sample (EXR), for statistical tests.
-    #[arg(long)]
+    #[arg(value_name = "FILE.exr", long)]
     variance_out: Option<PathBuf>,
     /// Render in K independent batches of spp/K samples, 2 to 65536 (8 or more for the z-test
     /// of `diff`, whose approximations want K − 1 >= 7 degrees of freedom), and write beside the
@@ -79,7 +79,7 @@ pub struct RenderArgs {
     batches: Option<u32>,
     /// Vulkan device: a case-insensitive part of its name (default: lavapipe if present;
     /// `brdfwave devices` lists them). GPU backend only.
-    #[arg(long, value_parser = parse_device)]
+    #[arg(value_name = "NAME", long, value_parser = parse_device)]
     device: Option<String>,
     /// Enable the Khronos validation layer; the run fails if it reports anything, or if the
     /// layer is not installed. GPU backend only.
@@ -87,7 +87,7 @@ pub struct RenderArgs {
     validation: bool,
     /// GPU: most paths in flight at a time, 64 to 1048576 (the default). The image does not
     /// depend on it.
-    #[arg(long)]
+    #[arg(value_name = "N", long)]
     wave_paths: Option<u32>,
     /// GPU: how paths are followed: `wavefront` (the stages with queues), `megakernel` (one
     /// kernel per wave, the benchmark's baseline) or `auto` (the default: the megakernel for
@@ -106,7 +106,7 @@ pub struct RenderArgs {
     set: Vec<Set>,
     /// Worker threads, 1 to 1024: the CPU backend's thread pool, or on the GPU backend
     /// lavapipe's (LP_NUM_THREADS, which other drivers ignore). Default: one per core.
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    #[arg(value_name = "N", long, value_parser = clap::value_parser!(u32).range(1..=1024))]
     threads: Option<u32>,
     /// No progress bar and no text summary (with --json, the JSON summary is still printed);
     /// warnings and errors still go to stderr.

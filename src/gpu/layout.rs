@@ -12,7 +12,7 @@
 //! only for RGBA8 unorm texels.) Scene data (read only, read at every BVH node and triangle) is
 //! therefore bound as `readonly` storage texel buffers, the path state and the queues as
 //! read-write ones, the scene-wide values as a uniform buffer; counters (atomics), indirect
-//! arguments and the film stay storage buffers. BENCHMARKS.md has the measurements.
+//! arguments and the film stay storage buffers. docs/bench-log.md has the measurements.
 
 use crate::conventions::SEGMENTS_COUNTED;
 use ash::vk;

@@ -189,7 +189,7 @@ pub struct GpuRenderer<'a> {
 
 impl<'a> GpuRenderer<'a> {
     /// A wavefront renderer of the whole image with the largest wave ([`MAX_WAVE_PATHS`]
-    /// paths). Larger waves were faster on every device measured (BENCHMARKS.md).
+    /// paths). Larger waves were faster on every device measured (docs/bench-log.md).
     pub fn new(
         ctx: &'a Context,
         scene: &'a Scene,
@@ -216,7 +216,7 @@ impl<'a> GpuRenderer<'a> {
 
     /// A renderer with `options` (see [`GpuOptions`]). It lets go of `bvh` once the tree is
     /// uploaded, before the other buffers are made: given the only reference, the host's copy
-    /// is freed there (BENCHMARKS.md, the scene's memory).
+    /// is freed there (docs/bench-log.md, the scene's memory).
     pub fn with_options(
         ctx: &'a Context,
         scene: &'a Scene,

@@ -116,7 +116,7 @@ pub(super) enum Schedule {
     /// A scene that shades one model: `extend_shade` hits, shades and traces the shadow ray
     /// (no material or shadow queue: with one model they only cost). Several models behind
     /// `brdf/any.glsl`'s switch in one such kernel measured no faster than the stages
-    /// (BENCHMARKS.md).
+    /// (docs/bench-log.md).
     Fused {
         base: WaveKernels,
         extend_shade: ShadeKernel,

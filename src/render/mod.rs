@@ -179,7 +179,7 @@ impl<'c> Backend<'c> {
 /// A renderer of `tile` of `scene` (whose BVH is `bvh`) on `backend`, with an empty film. The
 /// tile must lie within the image. The CPU reference keeps the BVH; the GPU uploads it and
 /// lets go of it, so a caller that passes its only reference frees the host's copy here (36 MB
-/// of nodes for a million triangles: BENCHMARKS.md, the scene's memory).
+/// of nodes for a million triangles: docs/bench-log.md, the scene's memory).
 pub fn open<'a>(
     backend: Backend<'a>,
     scene: &'a Scene,

@@ -25,7 +25,7 @@ pub const MULTIJITTER_MAX_BITS: u32 = 24;
 /// length needs (no loop on either backend). It replaces Kensler's (2013) hash, with two
 /// multiplies where that has seven: over 20,000 keys it reaches more of the small permutations
 /// (all 24 of 4 elements, against Kensler's 8) with flatter pair statistics, decorrelates the
-/// paddings of two pairs as well, and renders have the same error (BENCHMARKS.md, the
+/// paddings of two pairs as well, and renders have the same error (docs/bench-log.md, the
 /// sampler-cost step).
 #[inline]
 pub fn hashed_permute(i: u32, bits: u32, p: u32) -> u32 {

@@ -122,7 +122,7 @@ pub enum DeltaLight {
 /// One triangle. Positions are in world space; the geometric normal is
 /// `normalize(cross(v1 - v0, v2 - v0))` and defines the front side. Its optional per-vertex
 /// attributes are kept apart, in [`Scene::attributes`], so that a big mesh without them (the
-/// usual case) takes 48 bytes a triangle instead of 116 (BENCHMARKS.md: set-up memory).
+/// usual case) takes 48 bytes a triangle instead of 116 (docs/bench-log.md: set-up memory).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Triangle {
     pub v: [Vec3; 3],

@@ -11,7 +11,7 @@ use std::sync::Mutex;
 /// The package that provides lavapipe, named in every "no Vulkan" error.
 pub(super) const INSTALL_HINT: &str =
     "install the Vulkan loader and the lavapipe software driver: \
-     `sudo apt-get install libvulkan1 mesa-vulkan-drivers` (see README, \"Requirements\")";
+     `sudo apt-get install libvulkan1 mesa-vulkan-drivers` (see docs/install.md)";
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 
 /// Where validation messages go; the debug messenger gets a pointer to it (boxed, so it never
