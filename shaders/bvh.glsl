@@ -10,6 +10,7 @@
 // whose `BVH_BINDINGS` lists them). Their formats and contents: src/gpu/layout.rs `Binding`.
 #ifndef BVH_GLSL
 #define BVH_GLSL
+#extension GL_EXT_control_flow_attributes : require
 
 #ifndef BVH_DECLARED
 #error "bvh.glsl needs a generated interface (wavefront/interface.glsl or a probe's) first"
@@ -206,7 +207,13 @@ bool bvh_triangle_f64(BvhRay r, vec3 d, vec3 v0, vec3 v1, vec3 v2, float tmax, o
 }
 #endif
 
-bool bvh_triangle(BvhRay r, vec3 d, vec3 v0, vec3 v1, vec3 v2, float tmax, out float t, out vec2 bary) {
+// What the single-precision triangle test found: a hit, a miss, or a t within its rounding
+// error of 0, which only the double-precision test can decide.
+const int BVH_MISS = 0;
+const int BVH_HIT = 1;
+const int BVH_AMBIGUOUS = 2;
+
+int bvh_triangle(BvhRay r, vec3 v0, vec3 v1, vec3 v2, float tmax, out float t, out vec2 bary) {
     t = 0.0;
     bary = vec2(0.0);
     precise vec3 a = v0 - r.o;
@@ -221,30 +228,27 @@ bool bvh_triangle(BvhRay r, vec3 d, vec3 v0, vec3 v1, vec3 v2, float tmax, out f
     precise float u = cx * by - cy * bx;
     precise float v = ax * cy - ay * cx;
     precise float w = bx * ay - by * ax;
-    if ((u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0)) return false;
+    if ((u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0)) return BVH_MISS;
     precise float det = u + v + w;
-    if (det == 0.0) return false;
+    if (det == 0.0) return BVH_MISS;
     precise float az = r.s.z * a[r.kz];
     precise float bz = r.s.z * b[r.kz];
     precise float cz = r.s.z * c[r.kz];
     precise float tt = u * az + v * bz + w * cz;
     precise float rcp = 1.0 / det;
     precise float th = tt * rcp;
-    if (!(th <= tmax)) return false;
+    if (!(th <= tmax)) return BVH_MISS;
     float bound = bvh_triangle_t_error(vec3(a[r.kx], a[r.ky], a[r.kz]), vec3(b[r.kx], b[r.ky], b[r.kz]),
                                        vec3(c[r.kx], c[r.ky], c[r.kz]), vec3(ax, bx, cx), vec3(ay, by, cy),
                                        vec3(az, bz, cz), vec3(u, v, w), rcp);
     if (th > bound) {
         t = th;
         bary = vec2(v * rcp, w * rcp);
-        return true;
+        return BVH_HIT;
     }
-    if (th < -bound) return false;
-#ifndef BVH_NO_F64
-    return bvh_triangle_f64(r, d, v0, v1, v2, tmax, t, bary);
-#else
-    return false;
-#endif
+    // Within the bound of 0: single precision cannot tell. The traversal redoes it in double
+    // after its loop (bvh_traverse), or, without doubles, misses it.
+    return th < -bound ? BVH_MISS : BVH_AMBIGUOUS;
 }
 
 // Rust: sphere_c. c = |o - center|^2 - radius^2 from the ten products o_i^2, -2 o_i center_i,
@@ -337,22 +341,31 @@ uint bvh_link(uint index, uint count) {
 #define BVH_SPHERES
 #endif
 
-// Ray against primitive reference `ref`: t in (0, tmax] and (b1, b2) for triangles.
-bool bvh_primitive(BvhRay r, vec3 o, vec3 d, uint ref, float tmax, out float t, out vec2 bary) {
+// Triangles that the single-precision test finds ambiguous wait, up to this many per ray, for
+// the double-precision test after the traversal (bvh_traverse). More within rounding of one ray
+// origin takes the origin within float rounding of a vertex where five or more triangles meet;
+// past four the oldest is missed, as every ambiguous triangle is without doubles.
+#if defined(BVH_TRIANGLES) && !defined(BVH_NO_F64)
+#define BVH_PENDING 4
+#endif
+
+// Ray against primitive reference `ref`: t in (0, tmax] and (b1, b2) for triangles; BVH_HIT,
+// BVH_MISS or (triangles only) BVH_AMBIGUOUS.
+int bvh_primitive(BvhRay r, vec3 o, vec3 d, uint ref, float tmax, out float t, out vec2 bary) {
     bary = vec2(0.0);
 #if defined(BVH_SPHERES) && defined(BVH_TRIANGLES)
     if ((ref & BVH_SPHERE_BIT) != 0u) {
         vec4 cr = sphere_texel((ref & ~BVH_SPHERE_BIT) * 2u);
-        return bvh_sphere(o, d, cr.xyz, cr.w, tmax, t);
+        return bvh_sphere(o, d, cr.xyz, cr.w, tmax, t) ? BVH_HIT : BVH_MISS;
     }
     uint k = ref * 3u;
-    return bvh_triangle(r, d, tri_texel(k).xyz, tri_texel(k + 1u).xyz, tri_texel(k + 2u).xyz, tmax, t, bary);
+    return bvh_triangle(r, tri_texel(k).xyz, tri_texel(k + 1u).xyz, tri_texel(k + 2u).xyz, tmax, t, bary);
 #elif defined(BVH_SPHERES)
     vec4 cr = sphere_texel((ref & ~BVH_SPHERE_BIT) * 2u);
-    return bvh_sphere(o, d, cr.xyz, cr.w, tmax, t);
+    return bvh_sphere(o, d, cr.xyz, cr.w, tmax, t) ? BVH_HIT : BVH_MISS;
 #else
     uint k = ref * 3u;
-    return bvh_triangle(r, d, tri_texel(k).xyz, tri_texel(k + 1u).xyz, tri_texel(k + 2u).xyz, tmax, t, bary);
+    return bvh_triangle(r, tri_texel(k).xyz, tri_texel(k + 1u).xyz, tri_texel(k + 2u).xyz, tmax, t, bary);
 #endif
 }
 
@@ -402,6 +415,10 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
 #endif
     uint sp = 0u;
     uint cur = 0u;
+#ifdef BVH_PENDING
+    uvec4 pending = uvec4(0u);
+    uint n_pending = 0u;
+#endif
     while (true) {
         bool live = true;
         while ((cur & BVH_LEAF_FLAG) == 0u) {
@@ -449,19 +466,50 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
             vec2 bary;
             // The tie rule: a smaller t, or the same t and a smaller reference. Before the
             // first hit, hit.t is tmax and only t < tmax counts.
-            if (bvh_primitive(r, o, d, ref, hit.t, t, bary) && (t < hit.t || (found && ref < hit.prim))) {
+            int res = bvh_primitive(r, o, d, ref, hit.t, t, bary);
+            if (res == BVH_HIT && (t < hit.t || (found && ref < hit.prim))) {
                 hit.t = t;
                 hit.prim = ref;
                 hit.bary = bary;
                 found = true;
                 if (any_hit) return true;
             }
+#ifdef BVH_PENDING
+            // Newest first; past BVH_PENDING the oldest is dropped (missed).
+            bool amb = res == BVH_AMBIGUOUS;
+            pending = amb ? uvec4(ref, pending.xyz) : pending;
+            n_pending = amb ? min(n_pending + 1u, uint(BVH_PENDING)) : n_pending;
+#endif
         }
         if (sp == 0u) break;
         cur = BVH_STACK_TOP(stack, sp);
         BVH_STACK_STEP(stack, sp, false, true, 0u)
         sp -= 1u;
     }
+#ifdef BVH_PENDING
+    // The ambiguous triangles in double, against the final hit under the same tie rule: the
+    // closest t, then the smallest reference, is the hit whatever the order of the tests, so
+    // this is the hit the CPU reference finds testing each in double where it meets it. A loop
+    // whose trip count is the most any lane needs (at least one, masked): on lavapipe, which runs both sides of every
+    // branch under a mask, the double test costs once per ray here, where inside the leaf loop
+    // it cost once per triangle test (14 % of the Cornell box's time; BENCHMARKS.md).
+    // Not unrolled: unrolled to its four steps, each would run masked on every ray.
+    [[dont_unroll]] while (n_pending > 0u) {
+        uint ref = pending.x;
+        pending = pending.yzwx;
+        n_pending -= 1u;
+        uint tk = ref * 3u;
+        float t;
+        vec2 bary;
+        if (bvh_triangle_f64(r, d, tri_texel(tk).xyz, tri_texel(tk + 1u).xyz, tri_texel(tk + 2u).xyz, hit.t, t, bary)
+            && (t < hit.t || (found && ref < hit.prim))) {
+            hit.t = t;
+            hit.prim = ref;
+            hit.bary = bary;
+            found = true;
+        }
+    }
+#endif
     return found;
 }
 
