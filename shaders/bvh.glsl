@@ -489,11 +489,11 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
 #ifdef BVH_PENDING
     // The ambiguous triangles in double, against the final hit under the same tie rule: the
     // closest t, then the smallest reference, is the hit whatever the order of the tests, so
-    // this is the hit the CPU reference finds testing each in double where it meets it. A loop
-    // whose trip count is the most any lane needs (at least one, masked): on lavapipe, which runs both sides of every
-    // branch under a mask, the double test costs once per ray here, where inside the leaf loop
-    // it cost once per triangle test (14 % of the Cornell box's time; BENCHMARKS.md).
-    // Not unrolled: unrolled to its four steps, each would run masked on every ray.
+    // this is the hit the CPU reference finds testing each in double where it meets it. On
+    // lavapipe, which runs both sides of every branch under a mask, the double test costs once
+    // per ray here (a loop runs as often as its busiest lane needs, at least once, masked),
+    // where inside the leaf loop it cost once per triangle test: 14 % of the Cornell box's time
+    // (docs/bench-log.md). Not unrolled: unrolled, each of its four steps would run on every ray.
     [[dont_unroll]] while (n_pending > 0u) {
         uint ref = pending.x;
         pending = pending.yzwx;

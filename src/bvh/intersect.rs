@@ -156,6 +156,9 @@ impl Ray {
     /// (the f32 inputs are exact in f64), with the same bound for f64's rounding; a `t` still
     /// within it is taken for the surface the ray leaves, and missed. Woop, Benthin & Wald 2013
     /// fall back to double precision where an edge function is 0; here it is `t` that needs it.
+    /// The GLSL twin runs it after the traversal loop on the (up to four) triangles it found
+    /// ambiguous, not where it meets them (`bvh_traverse`: on lavapipe a branch does not skip
+    /// code); the tie rule makes the hit the same.
     #[cold]
     #[inline(never)]
     fn triangle_f64(&self, v: &[Vec3; 3], tmax: f32) -> Option<(f32, Vec2)> {
