@@ -6,28 +6,13 @@
 
 mod common;
 
-use common::cli::{s, Cli};
+use common::cli::{help_options, s, Cli};
 
 const CLI: Cli = Cli {
     tag: "cmdopts",
     own_cache: true,
     env_remove: &["LP_NUM_THREADS"],
 };
-
-/// The long options `brdfwave COMMAND --help` lists, help itself aside.
-fn options_of(command: &str) -> Vec<String> {
-    let help = std::process::Command::new(env!("CARGO_BIN_EXE_brdfwave"))
-        .args([command, "--help"])
-        .output()
-        .unwrap();
-    let help = String::from_utf8(help.stdout).unwrap();
-    help.lines()
-        .skip_while(|l| *l != "Options:")
-        .filter_map(|l| l.trim_start().split([' ', ',']).next())
-        .filter(|w| w.starts_with("--") && *w != "--help")
-        .map(str::to_string)
-        .collect()
-}
 
 /// An option with its value and what it needs beside it.
 struct Opt<'a> {
@@ -48,7 +33,7 @@ fn opt<'a>(name: &'a str, args: &[&'a str], needs: &[&'a str]) -> Opt<'a> {
 /// when the command runs to its end: exit status 0, or 1 for a verdict that failed (diff), never
 /// a refusal (an `error:` line or clap's usage error, status 2).
 fn every_pair_runs(command: &str, base: &[&str], table: &[Opt]) {
-    let listed = options_of(command);
+    let listed = help_options(command);
     assert!(listed.len() >= 4, "{command} --help lists {listed:?}");
     for o in &listed {
         assert!(

@@ -327,18 +327,8 @@ fn every_pair_of_render_options_is_accepted() {
     ];
     // The options of `render --help`: clap's own list, so that a new option fails here until
     // the table above gives it a value.
-    let help = std::process::Command::new(env!("CARGO_BIN_EXE_brdfwave"))
-        .args(["render", "--help"])
-        .output()
-        .unwrap();
-    let help = String::from_utf8(help.stdout).unwrap();
-    let named: Vec<&str> = help
-        .lines()
-        .skip_while(|l| *l != "Options:")
-        .filter_map(|l| l.trim_start().split([' ', ',']).next())
-        .filter(|w| w.starts_with('-') && *w != "-h" && *w != "--help")
-        .collect();
-    assert!(named.len() > 15, "{help}");
+    let named = common::cli::help_options("render");
+    assert!(named.len() > 15, "{named:?}");
     for o in &named {
         assert!(
             options.iter().any(|(name, _)| name == o),

@@ -113,6 +113,19 @@ pub fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_brdfwave"))
 }
 
+/// The options `brdfwave COMMAND --help` lists under "Options:" (long and short, help itself
+/// aside): clap's own list, for tests whose tables must name every option.
+pub fn help_options(command: &str) -> Vec<String> {
+    let out = bin().args([command, "--help"]).output().unwrap();
+    let help = String::from_utf8(out.stdout).unwrap();
+    help.lines()
+        .skip_while(|l| *l != "Options:")
+        .filter_map(|l| l.trim_start().split([' ', ',']).next())
+        .filter(|w| w.starts_with('-') && *w != "-h" && *w != "--help")
+        .map(str::to_string)
+        .collect()
+}
+
 /// `brdf eval` of `material` on the directions file `dirs`, then `extra`.
 pub fn eval_args<'a>(material: &'a str, dirs: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
     let mut a = vec!["brdf", "eval", "--material", material, "--dirs", dirs];
