@@ -393,6 +393,12 @@ int bvh_primitive(BvhRay r, vec3 o, vec3 d, uint ref, float tmax, out float t, o
 #define BVH_STACK_TOP(st, sp) st[(sp) == 0u ? 0u : (sp) - 1u]
 #endif
 
+// The tie rule: a hit at (t, ref) replaces the current one when it is closer, or as close with
+// a smaller reference. Before the first hit, hit.t is tmax and only t < tmax counts.
+bool bvh_replaces(float t, uint ref, Hit hit, bool found) {
+    return t < hit.t || (found && ref < hit.prim);
+}
+
 // Near-first stack traversal of the binary tree. The CPU reference walks a 4-wide tree
 // collapsed from it (src/bvh/traverse.rs), in another order; both keep the same hit, because
 // the tie rule (among equal t the smallest primitive reference) does not depend on the order.
@@ -464,10 +470,8 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
             uint ref = bvh_prim(i);
             float t;
             vec2 bary;
-            // The tie rule: a smaller t, or the same t and a smaller reference. Before the
-            // first hit, hit.t is tmax and only t < tmax counts.
             int res = bvh_primitive(r, o, d, ref, hit.t, t, bary);
-            if (res == BVH_HIT && (t < hit.t || (found && ref < hit.prim))) {
+            if (res == BVH_HIT && bvh_replaces(t, ref, hit, found)) {
                 hit.t = t;
                 hit.prim = ref;
                 hit.bary = bary;
@@ -502,7 +506,7 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
         float t;
         vec2 bary;
         if (bvh_triangle_f64(r, d, tri_texel(tk).xyz, tri_texel(tk + 1u).xyz, tri_texel(tk + 2u).xyz, hit.t, t, bary)
-            && (t < hit.t || (found && ref < hit.prim))) {
+            && bvh_replaces(t, ref, hit, found)) {
             hit.t = t;
             hit.prim = ref;
             hit.bary = bary;
