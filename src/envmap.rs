@@ -68,12 +68,6 @@ impl fmt::Debug for EnvMap {
     /// The scene hash of partial films prints the scene with `{:?}`: the texels enter as a
     /// hash of their bits, not as millions of numbers.
     fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
-        let mut h = crate::hash::Fnv64::new();
-        for t in &self.texels {
-            for c in t {
-                h.bytes(&c.to_bits().to_le_bytes());
-            }
-        }
         write!(
             f,
             "EnvMap {{ {}x{}, scale {:?}, to_world {:?}, texels {:016x} }}",
@@ -81,7 +75,7 @@ impl fmt::Debug for EnvMap {
             self.height,
             self.scale,
             self.to_world,
-            h.finish()
+            crate::hash::texels_hash(&self.texels)
         )
     }
 }

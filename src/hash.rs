@@ -37,6 +37,16 @@ impl Fnv64 {
     }
 }
 
+/// FNV-1a of RGB texels' bits: how an image enters a scene's `{:?}` (the hash of partial
+/// films), as one number instead of millions.
+pub fn texels_hash(texels: &[[f32; 3]]) -> u64 {
+    let mut h = Fnv64::new();
+    for c in texels.iter().flatten() {
+        h.bytes(&c.to_bits().to_le_bytes());
+    }
+    h.finish()
+}
+
 impl Default for Fnv64 {
     fn default() -> Self {
         Self::new()

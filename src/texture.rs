@@ -90,12 +90,6 @@ pub struct Texture {
 impl fmt::Debug for Texture {
     /// The texels as a hash of their bits (the scene hash prints materials with `{:?}`).
     fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
-        let mut h = crate::hash::Fnv64::new();
-        for t in &self.texels {
-            for c in t {
-                h.bytes(&c.to_bits().to_le_bytes());
-            }
-        }
         write!(
             f,
             "Texture {{ {}x{}, {:?}, {:?}, to_uv {:?}, texels {:016x} }}",
@@ -104,7 +98,7 @@ impl fmt::Debug for Texture {
             self.filter,
             self.wrap,
             self.to_uv,
-            h.finish()
+            crate::hash::texels_hash(&self.texels)
         )
     }
 }
