@@ -15,84 +15,10 @@ const BLOCK: usize = 16;
 /// the peer's standard errors (15 degrees of freedom).
 const MI_RENDERS: usize = 16;
 const MI_SPP: usize = 4;
-/// Rec. 709 luminance weights, on both sides of the comparison.
-const LUM: [f64; 3] = [0.2126, 0.7152, 0.0722];
-
-/// Mitsuba's block means of luminance (Rec. 709), one row per render, or `None` when Mitsuba
-/// 3 cannot be imported.
-fn mitsuba_block_means(xml: &Path) -> Option<Vec<Vec<f64>>> {
-    let script = format!(
-        r#"
-import sys
-try:
-    import mitsuba as mi, numpy as np
-except ImportError:
-    print("absent"); sys.exit(0)
-mi.set_variant("scalar_rgb")
-scene = mi.load_file({xml:?})
-for seed in range({MI_RENDERS}):
-    a = np.array(mi.render(scene, spp={MI_SPP}, seed=seed), dtype=np.float64)[..., :3]
-    lum = a @ np.array({lum:?})
-    h, w = lum.shape
-    b = lum.reshape(h // {BLOCK}, {BLOCK}, w // {BLOCK}, {BLOCK}).mean(axis=(1, 3))
-    print(" ".join(repr(float(v)) for v in b.ravel()))
-"#,
-        xml = xml.display().to_string(),
-        lum = LUM
-    );
-    let out = Command::new("python3")
-        .args(["-c", &script])
-        .output()
-        .ok()?;
-    assert!(
-        out.status.success(),
-        "Mitsuba failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let text = String::from_utf8(out.stdout).unwrap();
-    if text.trim() == "absent" {
-        return None;
-    }
-    let rows = text
-        .lines()
-        .filter(|l| !l.trim().is_empty())
-        .map(|l| l.split(' ').map(|v| v.parse().unwrap()).collect())
-        .collect();
-    Some(rows)
-}
-
-/// The largest |z| over the blocks between brdfwave's image (its block means and their
-/// standard errors from the variance layer, `spp` samples) scaled by `scale`, and Mitsuba's
-/// renders (mean and standard error over the renders).
+/// The largest |z| over the blocks between brdfwave's image scaled by `scale` and Mitsuba's
+/// renders (`common::mitsuba::compare`).
 fn worst_z(ours: &imageio::Layered, spp: f64, scale: f64, peer: &[Vec<f64>]) -> f64 {
-    let (w, h) = (ours.image.width as usize, ours.image.height as usize);
-    let var = ours.variance.as_ref().expect("a variance layer");
-    let lum = |c: [f32; 3]| (0..3).map(|i| LUM[i] * c[i] as f64).sum::<f64>();
-    let (bw, n) = (w / BLOCK, (BLOCK * BLOCK) as f64);
-    let k = peer.len() as f64;
-    let mut worst = 0.0f64;
-    for b in 0..bw * (h / BLOCK) {
-        let (bx, by) = (b % bw * BLOCK, b / bw * BLOCK);
-        let (mut m, mut v) = (0.0, 0.0);
-        for y in by..by + BLOCK {
-            for x in bx..bx + BLOCK {
-                m += lum(ours.image.get(x as u32, y as u32));
-                // The luminance's variance at most (Σ w_c σ_c)², the bound for fully
-                // correlated channels (one path's RGB are strongly correlated): a generous
-                // variance, a lenient test.
-                let c = var.get(x as u32, y as u32);
-                let sd = (0..3)
-                    .map(|i| LUM[i] * (c[i].max(0.0) as f64).sqrt())
-                    .sum::<f64>();
-                v += sd * sd;
-            }
-        }
-        let (m, se2) = (scale * m / n, scale * scale * v / (n * n * spp));
-        let pm = peer.iter().map(|r| r[b]).sum::<f64>() / k;
-        let pv = peer.iter().map(|r| (r[b] - pm).powi(2)).sum::<f64>() / (k - 1.0) / k;
-        worst = worst.max((m - pm).abs() / (se2 + pv).sqrt().max(1e-12));
-    }
-    worst
+    common::mitsuba::compare(ours, spp, scale, BLOCK, peer).0
 }
 
 // The twin names Mitsuba's `multijitter` sampler. Until 2026-12-02 it named `ldsampler`, and
@@ -105,7 +31,7 @@ fn worst_z(ours: &imageio::Layered, spp: f64, scale: f64, peer: &[Vec<f64>]) -> 
 #[test]
 fn an_xml_scene_renders_alike_in_mitsuba_and_brdfwave() {
     let xml = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/xml/cornell-box.xml");
-    let Some(peer) = mitsuba_block_means(&xml) else {
+    let Some(peer) = common::mitsuba::block_means(&xml, BLOCK, MI_RENDERS, MI_SPP) else {
         println!("skipped: Mitsuba 3 is not installed (pip install mitsuba numpy)");
         return;
     };
