@@ -28,24 +28,7 @@ fn gpu_and_cpu_agree_within_noise() {
     let cpu = common::render_cpu(&preview(72, 30, 64, 2, Sampler::Independent));
     assert_eq!(gpu.nonfinite_samples + cpu.nonfinite_samples, 0);
     println!("pipelines: {pipelines:?}");
-    let z = |a: &brdfwave::output::RenderOutput, b: &brdfwave::output::RenderOutput| {
-        let opts = metrics::ZTestOptions {
-            alpha: 0.01,
-            variance: metrics::VarianceModel::Pooled,
-            ..Default::default()
-        };
-        metrics::z_test_with(
-            &a.mean,
-            &a.variance,
-            a.spp as u64,
-            &b.mean,
-            &b.variance,
-            b.spp as u64,
-            &opts,
-        )
-        .unwrap()
-    };
-    let r = z(&gpu, &cpu);
+    let r = common::pooled_z_test(&gpu, &cpu);
     if !r.pass {
         common::save("material-preview-z-gpu.exr", &gpu.mean);
         common::save("material-preview-z-cpu.exr", &cpu.mean);
@@ -56,7 +39,10 @@ fn gpu_and_cpu_agree_within_noise() {
         variance: gpu.variance.clone(),
         ..gpu
     };
-    assert!(!z(&brighter, &cpu).pass, "a 3 % brighter image passed");
+    assert!(
+        !common::pooled_z_test(&brighter, &cpu).pass,
+        "a 3 % brighter image passed"
+    );
 }
 
 /// The same seed on both backends: the same paths, the same image up to rounding. Measured as

@@ -96,30 +96,6 @@ fn cornell_box(sampler: Sampler, spp: u32, seed: u32) -> brdfwave::scene::Scene 
     s
 }
 
-/// The per-pixel two-sample z-test of two renders' means at alpha 0.01 with the pooled
-/// (Student) variance: the calibrated choice when both run the same estimator (Welch is
-/// anti-conservative for skewed per-sample distributions).
-fn pooled_z_test(
-    a: &brdfwave::output::RenderOutput,
-    b: &brdfwave::output::RenderOutput,
-) -> metrics::ZTestReport {
-    let opts = metrics::ZTestOptions {
-        alpha: 0.01,
-        variance: metrics::VarianceModel::Pooled,
-        ..Default::default()
-    };
-    metrics::z_test_with(
-        &a.mean,
-        &a.variance,
-        a.spp as u64,
-        &b.mean,
-        &b.variance,
-        b.spp as u64,
-        &opts,
-    )
-    .unwrap()
-}
-
 /// Independent seeds: per-pixel two-sample test of the means (Mitsuba-style, Šidák-corrected).
 /// With the `independent` sampler: the pooled variance is the calibrated choice only when a
 /// pixel's samples are independent (a `sobol` render's per-sample variance overstates the
@@ -129,7 +105,7 @@ fn cornell_box_gpu_and_cpu_agree_statistically_with_independent_seeds() {
     let ctx = context();
     let (gpu, _) = render_gpu(&ctx, &cornell_box(Sampler::Independent, 128, 1));
     let cpu = render_cpu(&cornell_box(Sampler::Independent, 128, 2));
-    let r = pooled_z_test(&gpu, &cpu);
+    let r = common::pooled_z_test(&gpu, &cpu);
     if !r.pass {
         save("z-gpu.exr", &gpu.mean);
         save("z-cpu.exr", &cpu.mean);
@@ -161,7 +137,7 @@ fn stratified_samplers_agree_with_independent_and_have_less_error() {
     };
     let i = mse(Sampler::Independent);
     for sampler in [Sampler::Multijitter, Sampler::Sobol] {
-        let r = pooled_z_test(&render_cpu(&cornell_box(sampler, 128, 1)), &indep);
+        let r = common::pooled_z_test(&render_cpu(&cornell_box(sampler, 128, 1)), &indep);
         assert!(r.pass, "{sampler}: {r}");
         let s = mse(sampler);
         assert!(

@@ -79,6 +79,27 @@ pub fn context() -> Context {
     .expect("a Vulkan device (install mesa-vulkan-drivers)")
 }
 
+/// The per-pixel two-sample z-test of two renders' means at alpha 0.01 with the pooled
+/// (Student) variance: the calibrated choice when both run the same estimator (Welch is
+/// anti-conservative for skewed per-sample distributions).
+pub fn pooled_z_test(a: &RenderOutput, b: &RenderOutput) -> metrics::ZTestReport {
+    let opts = metrics::ZTestOptions {
+        alpha: 0.01,
+        variance: metrics::VarianceModel::Pooled,
+        ..Default::default()
+    };
+    metrics::z_test_with(
+        &a.mean,
+        &a.variance,
+        a.spp as u64,
+        &b.mean,
+        &b.variance,
+        b.spp as u64,
+        &opts,
+    )
+    .unwrap()
+}
+
 /// Render on the CPU reference, through the renderer interface (`brdfwave::render`).
 pub fn render_cpu(s: &Scene) -> RenderOutput {
     render::render_whole(Backend::Cpu, s).expect("CPU render")
