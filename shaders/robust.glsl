@@ -80,6 +80,7 @@ vec3 triangle_normal(vec3 v0, vec3 v1, vec3 v2) {
 
 // Shadow rays end this fraction of their length before the light point (Rust: SHADOW_EPSILON).
 #define SHADOW_EPSILON uintBitsToFloat(0x38d1b717u)
+#define ORIGIN_MIN uintBitsToFloat(0x0d800000u)
 
 // Rust: next_float_up / next_float_down / offset_ray_origin (the same arithmetic).
 // The next float above (below) x; -0 and +0 are treated as +0 (-0). Non-finite x unchanged.
@@ -97,12 +98,20 @@ float next_float_down(float x) {
 // Move p, within err (per coordinate) of the true surface point, off the surface to the side of
 // the unit normal n: by |n|.err along n, then each coordinate one float further along n
 // (Pharr, Jakob & Humphreys 2016, sec. 3.9.5).
+// A coordinate left within ORIGIN_MIN of 0 is set to +-ORIGIN_MIN on the side of n: never a
+// subnormal, which lavapipe computes in microcode on Intel cores (Rust: ORIGIN_MIN). The test
+// is on the bits, so the subnormal is no operand of arithmetic (and an FTZ device agrees).
 vec3 offset_ray_origin(vec3 p, vec3 err, vec3 n) {
     precise float d = abs(n.x) * err.x + abs(n.y) * err.y + abs(n.z) * err.z;
     precise vec3 q = p + n * d;
     for (int i = 0; i < 3; ++i) {
-        if (n[i] > 0.0) q[i] = next_float_up(q[i]);
-        else if (n[i] < 0.0) q[i] = next_float_down(q[i]);
+        if (n[i] > 0.0) {
+            float s = next_float_up(q[i]);
+            q[i] = (floatBitsToUint(s) & 0x7fffffffu) < floatBitsToUint(ORIGIN_MIN) ? ORIGIN_MIN : s;
+        } else if (n[i] < 0.0) {
+            float s = next_float_down(q[i]);
+            q[i] = (floatBitsToUint(s) & 0x7fffffffu) < floatBitsToUint(ORIGIN_MIN) ? -ORIGIN_MIN : s;
+        }
     }
     return q;
 }

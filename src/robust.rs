@@ -25,8 +25,10 @@
 //!    `o + t·d`; [`sphere_point`], in f64). A triangle's barycentrics are first moved a few ulps
 //!    inside its edges ([`pull_inside`]), so that a point near an edge is not on the plane of
 //!    the neighbouring face. The new ray leaves from the point moved along the geometric normal,
-//!    to the side it goes to, by that bound and one float more ([`offset_ray_origin`]): in
-//!    exact arithmetic the origin is then strictly on that side of the surface.
+//!    to the side it goes to, by that bound and one float more ([`offset_ray_origin`]; a
+//!    coordinate that this leaves within 2^-100 of 0 goes to ±2^-100, [`ORIGIN_MIN`], never
+//!    to a subnormal): in exact arithmetic the origin is then strictly on that side of the
+//!    surface.
 //! 2. **The hit test.** That alone is not enough: the test that meets the new ray has its own
 //!    rounding. A triangle test's `t` carries an error that grows with the triangle's extent
 //!    relative to the origin, not with the origin's coordinates, so where the origin's bound is
@@ -260,6 +262,13 @@ const SPHERE_F64: f32 = 1.0 / (1u64 << 50) as f32;
 /// is near y = 0 lost 15 % of its direct light to shadow rays blocked by the light itself).
 pub const SHADOW_EPSILON: f32 = 1e-4;
 
+/// The least magnitude of a coordinate [`offset_ray_origin`] moves: 2^-100. Products of it
+/// with the factors the intersection tests and error bounds apply (down to γ₃ ≈ 2^-21.4, or a
+/// shear factor above 2^-26) stay normal floats, and it is far below any distance a scene can
+/// hold: 2^-100 ≈ 7.9e-31 is 1e-11 of the smallest distance whose square is a normal float
+/// (about 1.1e-19), which the light densities need.
+pub const ORIGIN_MIN: f32 = 1.0 / (1u128 << 100) as f32;
+
 /// The next f32 above `x` (towards +inf); +0 for -0. Infinities and NaN are returned as they are.
 #[inline]
 pub fn next_float_up(x: f32) -> f32 {
@@ -291,16 +300,35 @@ pub fn next_float_down(x: f32) -> f32 {
 /// with the error of `p` itself, so it is the same fraction of the scene at every scale and
 /// translation (fixed offsets are not: Wächter & Binder 2019's 256 ulps and `n/65536` near zero
 /// moved origins by a visible part of a scene scaled by 1e-6 or moved 1e6 away).
+///
+/// A coordinate the step leaves within [`ORIGIN_MIN`] of 0 (a point on a coordinate plane,
+/// such as a floor at y = 0, whose bound there is 0) is set to ±`ORIGIN_MIN` on the side of
+/// `n` instead: one float from 0 would be a subnormal, and every ray from such a floor would
+/// carry subnormals through its box and triangle tests, which Intel cores compute in
+/// microcode, about a hundred times slower (docs/bench-log.md: the CPU reference 1.2x and
+/// lavapipe 2x slower on the Cornell box). Further along `n` is on the same side.
 pub fn offset_ray_origin(p: Vec3, err: Vec3, n: Vec3) -> Vec3 {
+    // |q| < ORIGIN_MIN on the bits, so that the subnormal is never an operand of arithmetic.
+    let below_origin_min = |q: f32| q.to_bits() & 0x7fff_ffff < ORIGIN_MIN.to_bits();
     let d = dot3(n.abs(), err);
     let q = p + n * d;
     // By the sign of n, not of the offset: a point with a zero error bound (a vertex at the
-    // origin) still moves one float.
+    // origin) still moves.
     let one = |q: f32, n: f32| -> f32 {
         if n > 0.0 {
-            next_float_up(q)
+            let q = next_float_up(q);
+            if below_origin_min(q) {
+                ORIGIN_MIN
+            } else {
+                q
+            }
         } else if n < 0.0 {
-            next_float_down(q)
+            let q = next_float_down(q);
+            if below_origin_min(q) {
+                -ORIGIN_MIN
+            } else {
+                q
+            }
         } else {
             q
         }
@@ -355,8 +383,11 @@ mod tests {
 
     #[test]
     fn offset_moves_to_the_normal_side_at_all_scales() {
+        // Down to 1e-18: below it a scene's squared distances are no longer normal floats
+        // (so no light density works), and origins near 0 would move by ORIGIN_MIN, more
+        // than this test's few error bounds.
         for &s in &[
-            1e-30f32, 1e-6, 1e-3, 0.02, 1.0, 100.0, 1.0e4, -1.0e4, 1.0e6, 1.0e30,
+            1e-18f32, 1e-6, 1e-3, 0.02, 1.0, 100.0, 1.0e4, -1.0e4, 1.0e6, 1.0e30,
         ] {
             let v = [
                 Vec3::new(s, -0.7 * s, 0.3 * s),
@@ -392,11 +423,22 @@ mod tests {
             let q = offset_ray_origin(p, err, -n);
             assert!((q - p).dot(n) < 0.0, "scale {s}: not moved to the back");
         }
-        // Coordinates at zero still move (to the smallest subnormal at least).
+        // Coordinates at zero still move, to ±ORIGIN_MIN and never into the subnormals;
+        // one near zero moves there too, along n, whatever its sign.
         let q = offset_ray_origin(Vec3::ZERO, Vec3::ZERO, Vec3::Z);
-        assert!(q.z > 0.0 && q.x == 0.0 && q.y == 0.0);
+        assert!(q.z == ORIGIN_MIN && q.x == 0.0 && q.y == 0.0);
         let q = offset_ray_origin(Vec3::splat(-0.0), Vec3::ZERO, -Vec3::Z);
-        assert!(q.z < 0.0);
+        assert_eq!(q.z, -ORIGIN_MIN);
+        for z in [-1e-35f32, -1e-40, f32::from_bits(1), 1e-32] {
+            let up = offset_ray_origin(Vec3::new(1.0, 2.0, z), Vec3::ZERO, Vec3::Z);
+            assert_eq!(up, Vec3::new(1.0, 2.0, ORIGIN_MIN), "{z}");
+            let down = offset_ray_origin(Vec3::new(1.0, 2.0, z), Vec3::ZERO, -Vec3::Z);
+            assert_eq!(down, Vec3::new(1.0, 2.0, -ORIGIN_MIN), "{z}");
+        }
+        // Beyond ORIGIN_MIN the step is one float, as before.
+        let z = ORIGIN_MIN * 4.0;
+        let q = offset_ray_origin(Vec3::new(0.0, 0.0, z), Vec3::ZERO, Vec3::Z);
+        assert_eq!(q.z, next_float_up(z));
     }
 
     #[test]
@@ -423,6 +465,10 @@ mod tests {
         assert_eq!(
             define("SHADOW_EPSILON"),
             format!("uintBitsToFloat({:#010x}u)", SHADOW_EPSILON.to_bits())
+        );
+        assert_eq!(
+            define("ORIGIN_MIN"),
+            format!("uintBitsToFloat({:#010x}u)", ORIGIN_MIN.to_bits())
         );
         assert_eq!(define("SHIFT_ULPS").parse::<f32>().unwrap(), SHIFT_ULPS);
         for (name, v) in [("SPHERE_ROUND", SPHERE_ROUND), ("SPHERE_F64", SPHERE_F64)] {
