@@ -80,6 +80,7 @@ vec3 triangle_normal(vec3 v0, vec3 v1, vec3 v2) {
 
 // Shadow rays end this fraction of their length before the light point (Rust: SHADOW_EPSILON).
 #define SHADOW_EPSILON uintBitsToFloat(0x38d1b717u)
+// The least magnitude of a coordinate offset_ray_origin moves, 2^-100 (Rust: ORIGIN_MIN).
 #define ORIGIN_MIN uintBitsToFloat(0x0d800000u)
 
 // Rust: next_float_up / next_float_down / offset_ray_origin (the same arithmetic).
@@ -99,7 +100,7 @@ float next_float_down(float x) {
 // the unit normal n: by |n|.err along n, then each coordinate one float further along n
 // (Pharr, Jakob & Humphreys 2016, sec. 3.9.5).
 // A coordinate left within ORIGIN_MIN of 0 is set to +-ORIGIN_MIN on the side of n: never a
-// subnormal, which lavapipe computes in microcode on Intel cores (Rust: ORIGIN_MIN). The test
+// subnormal, which Intel cores (lavapipe's too) compute in microcode assists. The test
 // is on the bits, so the subnormal is no operand of arithmetic (and an FTZ device agrees).
 vec3 offset_ray_origin(vec3 p, vec3 err, vec3 n) {
     precise float d = abs(n.x) * err.x + abs(n.y) * err.y + abs(n.z) * err.z;
