@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::cli::{help_options, s, Cli};
+use common::cli::{help_options, render_args_spp, s, Cli};
 
 const CLI: Cli = Cli {
     tag: "cmdopts",
@@ -71,28 +71,18 @@ fn every_pair_of_diff_options_runs() {
     let (test, reference) = (d.join("test.exr"), d.join("ref.exr"));
     let (test_var, ref_var) = (d.join("test-var.exr"), d.join("ref-var.exr"));
     for (seed, out, var) in [("1", &test, &test_var), ("2", &reference, &ref_var)] {
-        CLI.status(
-            &[
-                "render",
-                "scenes/cornell-box.toml",
-                "--backend",
-                "cpu",
-                "--res",
-                "8x8",
-                "--spp",
-                "8",
-                "--batches",
-                "2",
-                "--seed",
-                seed,
-                "--quiet",
-                "--out",
-                s(out),
-                "--variance-out",
-                s(var),
-            ],
-            0,
-        );
+        let extra = [
+            "--batches",
+            "2",
+            "--seed",
+            seed,
+            "--quiet",
+            "--out",
+            s(out),
+            "--variance-out",
+            s(var),
+        ];
+        CLI.status(&render_args_spp("8", &extra), 0);
     }
     let (map, trip, pmap) = (d.join("e.png"), d.join("t.png"), d.join("p.exr"));
     let z = ["--z-test"];
@@ -127,21 +117,7 @@ fn every_pair_of_merge_options_runs() {
     let parts: Vec<_> = (0..2).map(|i| d.join(format!("part-{i}.bwfilm"))).collect();
     for (i, range) in ["0..2", "2..4"].iter().enumerate() {
         CLI.status(
-            &[
-                "render",
-                "scenes/cornell-box.toml",
-                "--backend",
-                "cpu",
-                "--res",
-                "8x8",
-                "--spp",
-                "4",
-                "--samples",
-                range,
-                "--quiet",
-                "--out",
-                s(&parts[i]),
-            ],
+            &render_args_spp("4", &["--samples", range, "--quiet", "--out", s(&parts[i])]),
             0,
         );
     }

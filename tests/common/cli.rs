@@ -141,6 +141,14 @@ pub fn render_args<'a>(extra: &[&'a str]) -> Vec<&'a str> {
     a
 }
 
+/// [`render_args`] with `spp` samples per pixel instead of [`super::QUICK_RENDER`]'s one.
+pub fn render_args_spp<'a>(spp: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut a = render_args(extra);
+    let at = a.iter().position(|&w| w == "--spp").unwrap() + 1;
+    a[at] = spp;
+    a
+}
+
 /// A path as the `&str` of a command-line argument.
 pub fn s(p: &Path) -> &str {
     p.to_str().unwrap()
