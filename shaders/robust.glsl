@@ -106,13 +106,10 @@ vec3 offset_ray_origin(vec3 p, vec3 err, vec3 n) {
     precise float d = abs(n.x) * err.x + abs(n.y) * err.y + abs(n.z) * err.z;
     precise vec3 q = p + n * d;
     for (int i = 0; i < 3; ++i) {
-        if (n[i] > 0.0) {
-            float s = next_float_up(q[i]);
-            q[i] = (floatBitsToUint(s) & 0x7fffffffu) < floatBitsToUint(ORIGIN_MIN) ? ORIGIN_MIN : s;
-        } else if (n[i] < 0.0) {
-            float s = next_float_down(q[i]);
-            q[i] = (floatBitsToUint(s) & 0x7fffffffu) < floatBitsToUint(ORIGIN_MIN) ? -ORIGIN_MIN : s;
-        }
+        if (!(n[i] > 0.0) && !(n[i] < 0.0)) continue; // 0 or NaN: unchanged, as in Rust
+        float s = n[i] > 0.0 ? next_float_up(q[i]) : next_float_down(q[i]);
+        bool below = (floatBitsToUint(s) & 0x7fffffffu) < floatBitsToUint(ORIGIN_MIN);
+        q[i] = below ? (n[i] > 0.0 ? ORIGIN_MIN : -ORIGIN_MIN) : s;
     }
     return q;
 }

@@ -315,22 +315,17 @@ pub fn offset_ray_origin(p: Vec3, err: Vec3, n: Vec3) -> Vec3 {
     // By the sign of n, not of the offset: a point with a zero error bound (a vertex at the
     // origin) still moves.
     let one = |q: f32, n: f32| -> f32 {
-        if n > 0.0 {
-            let q = next_float_up(q);
-            if below_origin_min(q) {
-                ORIGIN_MIN
-            } else {
-                q
-            }
+        let (step, least) = if n > 0.0 {
+            (next_float_up(q), ORIGIN_MIN)
         } else if n < 0.0 {
-            let q = next_float_down(q);
-            if below_origin_min(q) {
-                -ORIGIN_MIN
-            } else {
-                q
-            }
+            (next_float_down(q), -ORIGIN_MIN)
         } else {
-            q
+            return q;
+        };
+        if below_origin_min(step) {
+            least
+        } else {
+            step
         }
     };
     Vec3::new(one(q.x, n.x), one(q.y, n.y), one(q.z, n.z))
