@@ -151,6 +151,7 @@ pub fn render(scene: &Scene, options: &Options) -> Result<Render> {
             let ctx = Context::new(&ContextOptions {
                 device: options.device.clone(),
                 validation: false,
+                ray_query: false,
             })?;
             Some((ctx, ShaderCompiler::new()?))
         }

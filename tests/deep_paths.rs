@@ -41,6 +41,7 @@ fn context() -> Context {
     Context::new(&brdfwave::vk::ContextOptions {
         device: None,
         validation: false,
+        ray_query: false,
     })
     .expect("a Vulkan device (install mesa-vulkan-drivers)")
 }

@@ -14,6 +14,7 @@ fn context() -> Context {
     let ctx = Context::new(&ContextOptions {
         device: None,
         validation: true,
+        ray_query: false,
     })
     .expect("a Vulkan 1.2 device; install lavapipe: sudo apt-get install mesa-vulkan-drivers");
     assert!(
@@ -99,6 +100,7 @@ fn devices_are_listed_and_bad_names_rejected() {
     let again = Context::new(&ContextOptions {
         device: Some(word),
         validation: false,
+        ray_query: false,
     })
     .expect("device by name");
     assert_eq!(again.device_name, ctx.device_name);
@@ -106,6 +108,7 @@ fn devices_are_listed_and_bad_names_rejected() {
     let err = Context::new(&ContextOptions {
         device: Some("no-such-gpu-xyz".into()),
         validation: false,
+        ray_query: false,
     })
     .err()
     .expect("an unknown device name is an error");

@@ -225,6 +225,7 @@ fn contexts(o: &BenchOptions) -> Result<Vec<Option<Context>>> {
                 Some(Context::new(&ContextOptions {
                     device: o.device.clone(),
                     validation: false,
+                    ray_query: false,
                 })?)
             }
             _ => None,

@@ -35,6 +35,7 @@ pub(super) fn scaling(o: &BenchOptions, mesh_triangles: u32) -> Result<String> {
     let ctx = Context::new(&ContextOptions {
         device: o.device.clone(),
         validation: false,
+        ray_query: false,
     })?;
     let mut md = String::from("| scene | triangles | BVH nodes | BVH build s | compile cold s | compile warm s | pipelines s | wavefront paths/s | rays/s | CPU paths/s |\n|---|---|---|---|---|---|---|---|---|---|\n");
     for (name, mut s) in scenes {

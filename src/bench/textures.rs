@@ -59,6 +59,7 @@ pub(super) fn texture_cost(o: &BenchOptions) -> Result<Option<String>> {
     let ctx = Context::new(&ContextOptions {
         device: o.device.clone(),
         validation: false,
+        ray_query: false,
     })?;
     let compiler = ShaderCompiler::new()?;
     let paths = textured.width as f64 * textured.height as f64 * 4.0;

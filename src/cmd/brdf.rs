@@ -158,6 +158,7 @@ fn eval(
             let ctx = vk::Context::new(&vk::ContextOptions {
                 device,
                 validation: false,
+                ray_query: false,
             })?;
             let compiler = vk::ShaderCompiler::new()?;
             brdfwave::gpu::brdf_probe::eval(&ctx, &compiler, &m, &pairs)?
@@ -260,6 +261,7 @@ fn report(out: &Path, no_gpu: bool, device: Option<String>) -> Result<()> {
         let ctx = vk::Context::new(&vk::ContextOptions {
             device,
             validation: false,
+            ray_query: false,
         })?;
         let compiler = vk::ShaderCompiler::new()?;
         Some((ctx, compiler))

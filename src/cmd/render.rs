@@ -495,6 +495,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
             vk::Context::new(&vk::ContextOptions {
                 device: a.device.clone(),
                 validation: a.validation,
+                ray_query: false,
             })?,
             vk::ShaderCompiler::new()?,
         )),

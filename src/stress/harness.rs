@@ -339,6 +339,7 @@ pub fn cli(
         Context::new(&ContextOptions {
             device: device.clone(),
             validation: false,
+            ray_query: false,
         })
         .context("--device")?
         .finish();
@@ -352,6 +353,7 @@ pub fn cli(
         context: ContextOptions {
             device,
             validation: false,
+            ray_query: false,
         },
     };
     let t = Instant::now();

@@ -26,6 +26,10 @@ pub struct ContextOptions {
     /// Enable `VK_LAYER_KHRONOS_validation` (with synchronisation validation) when installed and
     /// collect its warnings and errors (see [`Context::validation_messages`]).
     pub validation: bool,
+    /// Enable ray queries on acceleration structures the driver builds (`VK_KHR_ray_query`,
+    /// `VK_KHR_acceleration_structure`; [`crate::vk::accel`]); an error where the device lacks
+    /// them. Only the traversal benchmark (`brdfwave rays`) asks for them.
+    pub ray_query: bool,
 }
 
 /// Optional device features, enabled when the device supports them.
@@ -43,6 +47,9 @@ pub struct DeviceFeatures {
     /// `shaderFloat64`: the sphere test and sphere points compute in double
     /// (`shaders/bvh.glsl`, `shaders/robust.glsl`), so scenes with spheres need it.
     pub shader_float64: bool,
+    /// Ray queries and acceleration structures, with buffer device addresses (asked for with
+    /// [`ContextOptions::ray_query`]).
+    pub ray_query: bool,
 }
 
 /// Timestamp queries available per command buffer.
@@ -138,8 +145,12 @@ impl Context {
             .expect("usable device has a compute family");
         let props = unsafe { instance.get_physical_device_properties(pd) };
 
-        let (device, features) =
-            create_device(&instance, cand, queue_family, timestamp_valid_bits)?;
+        let (device, features) = create_device(
+            &instance,
+            cand,
+            (queue_family, timestamp_valid_bits),
+            opts.ray_query,
+        )?;
         partial.device = Some(device.clone());
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
         let allocator = Allocator::new(&AllocatorCreateDesc {
@@ -147,7 +158,7 @@ impl Context {
             device: device.clone(),
             physical_device: pd,
             debug_settings: Default::default(),
-            buffer_device_address: false,
+            buffer_device_address: features.ray_query,
             allocation_sizes: Default::default(),
         })
         .map_err(|e| anyhow!("creating the gpu-allocator allocator: {e}"))?;

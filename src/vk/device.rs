@@ -160,15 +160,70 @@ pub(super) fn choose(cands: &[Candidate], wanted: Option<&str>) -> Result<usize>
     pick.ok_or_else(|| anyhow!("no usable Vulkan device (Vulkan 1.2 with a compute queue); available devices:\n{}\n{INSTALL_HINT}", list()))
 }
 
+/// The device extensions [`super::ContextOptions::ray_query`] enables.
+const RAY_QUERY_EXTENSIONS: [&std::ffi::CStr; 3] = [
+    ash::khr::acceleration_structure::NAME,
+    ash::khr::ray_query::NAME,
+    ash::khr::deferred_host_operations::NAME,
+];
+
+/// Why `cand` cannot trace ray queries, if it cannot: the extensions or features it lacks.
+fn ray_query_missing(instance: &ash::Instance, cand: &Candidate) -> Result<Option<String>> {
+    let pd = cand.pd;
+    let have = unsafe { instance.enumerate_device_extension_properties(pd) }
+        .context("vkEnumerateDeviceExtensionProperties")?;
+    let mut missing: Vec<String> = RAY_QUERY_EXTENSIONS
+        .iter()
+        .filter(|&&want| {
+            !have
+                .iter()
+                .any(|e| e.extension_name_as_c_str().ok() == Some(want))
+        })
+        .map(|e| e.to_string_lossy().into_owned())
+        .collect();
+    if missing.is_empty() {
+        let mut rq = vk::PhysicalDeviceRayQueryFeaturesKHR::default();
+        let mut accel = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default();
+        let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
+        let mut f2 = vk::PhysicalDeviceFeatures2::default()
+            .push_next(&mut rq)
+            .push_next(&mut accel)
+            .push_next(&mut f12);
+        unsafe { instance.get_physical_device_features2(pd, &mut f2) };
+        for (name, on) in [
+            ("rayQuery", rq.ray_query),
+            ("accelerationStructure", accel.acceleration_structure),
+            ("bufferDeviceAddress", f12.buffer_device_address),
+        ] {
+            if on != vk::TRUE {
+                missing.push(format!("the {name} feature"));
+            }
+        }
+    }
+    Ok((!missing.is_empty()).then(|| missing.join(", ")))
+}
+
 /// Creates the logical device on `cand` with one queue of `queue_family`, enabling the
-/// optional features it supports ([`DeviceFeatures`]) and nothing else.
+/// optional features it supports ([`DeviceFeatures`]) and nothing else; with `ray_query`, also
+/// ray queries and acceleration structures, or an error that names what the device lacks.
 pub(super) fn create_device(
     instance: &ash::Instance,
     cand: &Candidate,
-    queue_family: u32,
-    timestamp_valid_bits: u32,
+    (queue_family, timestamp_valid_bits): (u32, u32),
+    ray_query: bool,
 ) -> Result<(ash::Device, DeviceFeatures)> {
     let pd = cand.pd;
+    if ray_query {
+        if let Some(missing) = ray_query_missing(instance, cand)? {
+            bail!(
+                "{} ({}) cannot trace ray queries: it lacks {missing}. Mesa's lavapipe has them \
+                 from Mesa 24.1 (Debian 12's bookworm-backports carries Mesa 25.0); point \
+                 VK_ICD_FILENAMES at such a driver's lvp_icd.json",
+                cand.name,
+                cand.driver_name
+            );
+        }
+    }
     let subgroup_ballot = {
         let mut sg = vk::PhysicalDeviceSubgroupProperties::default();
         let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut sg);
@@ -192,17 +247,29 @@ pub(super) fn create_device(
     };
     let mut f12 = vk::PhysicalDeviceVulkan12Features::default()
         .scalar_block_layout(scalar)
-        .storage_buffer8_bit_access(int8);
+        .storage_buffer8_bit_access(int8)
+        .buffer_device_address(ray_query);
     let core = vk::PhysicalDeviceFeatures::default().shader_float64(float64);
+    let mut rq = vk::PhysicalDeviceRayQueryFeaturesKHR::default().ray_query(true);
+    let mut accel =
+        vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
     let mut f2 = vk::PhysicalDeviceFeatures2::default()
         .features(core)
         .push_next(&mut f12);
+    if ray_query {
+        f2 = f2.push_next(&mut rq).push_next(&mut accel);
+    }
     let priorities = [1.0f32];
     let queue_info = [vk::DeviceQueueCreateInfo::default()
         .queue_family_index(queue_family)
         .queue_priorities(&priorities)];
+    let extensions: Vec<*const std::ffi::c_char> = match ray_query {
+        true => RAY_QUERY_EXTENSIONS.iter().map(|e| e.as_ptr()).collect(),
+        false => Vec::new(),
+    };
     let device_info = vk::DeviceCreateInfo::default()
         .queue_create_infos(&queue_info)
+        .enabled_extension_names(&extensions)
         .push_next(&mut f2);
     let device = unsafe { instance.create_device(pd, &device_info, None) }
         .with_context(|| format!("vkCreateDevice on {}", cand.name))?;
@@ -212,6 +279,7 @@ pub(super) fn create_device(
         timestamps: timestamp_valid_bits > 0,
         subgroup_ballot,
         shader_float64: float64,
+        ray_query,
     };
     Ok((device, features))
 }

@@ -8,13 +8,14 @@
 //! Vulkan could not start), `device.rs` (the physical device choice), `context.rs` (the logical
 //! device, queue, allocator, shared objects and teardown), `buffer.rs`,
 //! `shader.rs` (GLSL → SPIR-V), `pipeline.rs` (pipelines, descriptor sets, pipeline cache),
-//! `commands.rs` (recording, submission, timestamps), `cache.rs` (on-disk cache helpers).
+//! `commands.rs` (recording, submission, timestamps), `cache.rs` (on-disk cache helpers),
+//! `accel.rs` (the driver's own acceleration structures, for the traversal benchmark).
 //!
 //! A typical kernel launch:
 //! ```no_run
 //! # use brdfwave::vk::*;
 //! # fn main() -> anyhow::Result<()> {
-//! let ctx = Context::new(&ContextOptions { device: None, validation: true })?;
+//! let ctx = Context::new(&ContextOptions { device: None, validation: true, ray_query: false })?;
 //! let spirv = ShaderCompiler::new()?.compile("wavefront/generate.comp", &[], &[])?;
 //! let pipeline = ctx.create_compute_pipeline("generate", &spirv, 1, 16)?;
 //! let buf = ctx.create_buffer_with_data("data", &[0u32; 256], ash::vk::BufferUsageFlags::STORAGE_BUFFER)?;
@@ -28,6 +29,7 @@
 //! # ctx.destroy_buffer(buf); ctx.destroy_pipeline(pipeline); Ok(()) }
 //! ```
 
+pub mod accel;
 mod buffer;
 pub mod cache;
 mod commands;

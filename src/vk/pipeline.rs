@@ -34,12 +34,16 @@ pub struct ComputePipeline {
 pub enum Resource<'b> {
     Buffer(&'b Buffer),
     Texels(&'b Buffer, vk::BufferView),
+    /// A top-level acceleration structure (a context made with
+    /// [`super::ContextOptions::ray_query`]; [`super::accel`]).
+    Accel(&'b super::accel::AccelStructure),
 }
 
 impl Resource<'_> {
     fn buffer(&self) -> &Buffer {
         match self {
             Resource::Buffer(b) | Resource::Texels(b, _) => b,
+            Resource::Accel(a) => &a.buffer,
         }
     }
 }
@@ -237,6 +241,17 @@ impl Context {
         }
         for (i, (r, &t)) in resources.iter().zip(&pipeline.bindings).enumerate() {
             let b = r.buffer();
+            let is_accel = matches!(r, Resource::Accel(_));
+            if is_accel != (t == vk::DescriptorType::ACCELERATION_STRUCTURE_KHR) {
+                bail!(
+                    "descriptor set for pipeline \"{}\": binding {i} (\"{}\") is a {t:?}",
+                    pipeline.name,
+                    b.name
+                );
+            }
+            if is_accel {
+                continue;
+            }
             let (usage, max, limit) = match t {
                 vk::DescriptorType::STORAGE_BUFFER => (
                     vk::BufferUsageFlags::STORAGE_BUFFER,
@@ -280,9 +295,9 @@ impl Context {
             .unwrap_or_else(|e| e.into_inner())
             .allocate(
                 &self.device,
-                pipeline.pipeline,
-                pipeline.set_layout,
+                (pipeline.pipeline, pipeline.set_layout),
                 pipeline.bindings.len() as u32,
+                self.features.ray_query,
             )
             .with_context(|| {
                 format!(
@@ -303,13 +318,27 @@ impl Context {
             .iter()
             .map(|r| match r {
                 Resource::Texels(_, v) => [*v],
-                Resource::Buffer(_) => [vk::BufferView::null()],
+                Resource::Buffer(_) | Resource::Accel(_) => [vk::BufferView::null()],
+            })
+            .collect();
+        let accels: Vec<[vk::AccelerationStructureKHR; 1]> = resources
+            .iter()
+            .map(|r| match r {
+                Resource::Accel(a) => [a.raw],
+                _ => [vk::AccelerationStructureKHR::null()],
+            })
+            .collect();
+        let mut accel_writes: Vec<vk::WriteDescriptorSetAccelerationStructureKHR> = accels
+            .iter()
+            .map(|a| {
+                vk::WriteDescriptorSetAccelerationStructureKHR::default().acceleration_structures(a)
             })
             .collect();
         let writes: Vec<_> = resources
             .iter()
+            .zip(accel_writes.iter_mut())
             .enumerate()
-            .map(|(i, r)| {
+            .map(|(i, (r, aw))| {
                 let w = vk::WriteDescriptorSet::default()
                     .dst_set(set)
                     .dst_binding(i as u32)
@@ -317,6 +346,7 @@ impl Context {
                 match r {
                     Resource::Buffer(_) => w.buffer_info(&infos[i]),
                     Resource::Texels(..) => w.texel_buffer_view(&views[i]),
+                    Resource::Accel(_) => w.descriptor_count(1).push_next(aw),
                 }
             })
             .collect();
@@ -388,9 +418,9 @@ impl DescriptorPools {
     fn allocate(
         &mut self,
         device: &ash::Device,
-        owner: vk::Pipeline,
-        layout: vk::DescriptorSetLayout,
+        (owner, layout): (vk::Pipeline, vk::DescriptorSetLayout),
         descriptors: u32,
+        ray_query: bool,
     ) -> Result<vk::DescriptorSet> {
         let layouts = [layout];
         let fits = |p: &Pool| p.sets_left > 0 && p.descriptors_left >= descriptors;
@@ -401,17 +431,22 @@ impl DescriptorPools {
                 None => {
                     let count = Self::DESCRIPTORS_PER_POOL.max(descriptors);
                     // Room for `count` descriptors of each type a pipeline may bind.
-                    let sizes = [
+                    // Acceleration structures only on a device that has them.
+                    let types = [
                         vk::DescriptorType::STORAGE_BUFFER,
                         vk::DescriptorType::UNIFORM_BUFFER,
                         vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
                         vk::DescriptorType::STORAGE_TEXEL_BUFFER,
-                    ]
-                    .map(|t| {
-                        vk::DescriptorPoolSize::default()
-                            .ty(t)
-                            .descriptor_count(count)
-                    });
+                        vk::DescriptorType::ACCELERATION_STRUCTURE_KHR,
+                    ];
+                    let sizes: Vec<_> = types[..if ray_query { 5 } else { 4 }]
+                        .iter()
+                        .map(|&t| {
+                            vk::DescriptorPoolSize::default()
+                                .ty(t)
+                                .descriptor_count(count)
+                        })
+                        .collect();
                     let info = vk::DescriptorPoolCreateInfo::default()
                         .flags(vk::DescriptorPoolCreateFlags::FREE_DESCRIPTOR_SET)
                         .max_sets(Self::SETS_PER_POOL)

@@ -75,6 +75,7 @@ pub fn context() -> Context {
     Context::new(&ContextOptions {
         device: None,
         validation: true,
+        ray_query: false,
     })
     .expect("a Vulkan device (install mesa-vulkan-drivers)")
 }
