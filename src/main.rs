@@ -72,6 +72,9 @@ enum Command {
     /// Run time against error: every configuration renders the scene progressively, taking
     /// turns, compared with a reference after each pass; writes bench.csv, bench.png, bench.md.
     Bench(cmd::bench::BenchArgs),
+    /// Time the BVH traversal alone: a scene's camera, bounce and shadow rays through
+    /// brdfwave's traversal and through the Vulkan driver's own ray queries, on one device.
+    Rays(cmd::rays::RaysArgs),
     /// List the Vulkan devices.
     Devices,
     /// Evaluate, plot and measure reflectance models.
@@ -112,6 +115,7 @@ fn main() {
         Command::Merge(args) => cmd::merge::run(args),
         Command::Diff(args) => cmd::diff::run(args),
         Command::Bench(args) => cmd::bench::run(args),
+        Command::Rays(args) => cmd::rays::run(args),
         Command::Devices => cmd::devices::run(),
         Command::Brdf { command } => cmd::brdf::run(command),
         Command::Stress(args) => cmd::stress::run(args),

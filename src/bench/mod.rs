@@ -38,6 +38,7 @@
 
 mod config;
 mod mitsuba;
+pub mod rays;
 mod reference;
 mod runner;
 mod scaling;
@@ -464,7 +465,7 @@ fn write_csv(o: &BenchOptions, records: &[PassRecord]) -> Result<()> {
 /// widest vector instructions (a name like "Intel(R) Xeon(R) Processor" alone does not tell
 /// one host from another, and lavapipe's speed depends on which it is), and its hardware
 /// threads.
-pub(super) fn machine() -> String {
+pub fn machine() -> String {
     let info = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
     let field = |key: &str| {
         info.lines()

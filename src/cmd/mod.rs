@@ -9,6 +9,7 @@ pub mod diff;
 pub mod docs;
 pub mod fit;
 pub mod merge;
+pub mod rays;
 pub mod render;
 pub mod stress;
 mod summary;
