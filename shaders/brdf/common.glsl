@@ -100,7 +100,9 @@ float pow_one_minus(float x, float n) {
     return exp(n * log1p_f(-max(x, 0.0)));
 }
 
-// erfc with relative accuracy (Numerical Recipes erfcc form), |x| clamped to 10.
+// erfc with relative accuracy (Numerical Recipes erfcc form) where it is a normal float; 0
+// from |x| = ERFC_ZERO on (brdf::common::erfc says why); |x| clamped to 10 in the formula.
+const float ERFC_ZERO = 9.19;
 float erfc(float x) {
     float z = min(abs(x), 10.0);
     float t = 1.0 / (1.0 + 0.5 * z);
@@ -112,7 +114,7 @@ float erfc(float x) {
         + t * (0.27886807
         + t * (-1.13520398
         + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277))))))));
-    float r = t * exp(-z * z + p);
+    float r = z >= ERFC_ZERO ? 0.0 : t * exp(-z * z + p);
     return x >= 0.0 ? r : 2.0 - r;
 }
 
@@ -237,7 +239,7 @@ const float FRAC_1_SQRT_PI = 0.5641896;
 float smith_g1_beckmann(vec3 w, float alpha) {
     if (w.z <= 0.0) return 0.0;
     float s = sqrt(w.x * w.x + w.y * w.y);
-    if (w.z >= 10.0 * alpha * s) return 1.0;
+    if (w.z >= 9.0 * alpha * s) return 1.0;
     float a = w.z / (alpha * s);
     float den = a * (2.0 - erfc(a)) + exp(-a * a) * FRAC_1_SQRT_PI;
     return min(2.0 * a / den, 1.0);
