@@ -300,7 +300,7 @@ vec3 sample_ggx_vndf(vec3 wo, vec2 u, float alpha) {
 #define BECKMANN_VNDF_TOLERANCE 1e-6
 vec2 beckmann_visible_slopes(float cos_t, float sin_t, vec2 u) {
     float tan_t = sin_t / cos_t;
-    float cot_t = sin_t * 10.0 >= cos_t ? cos_t / sin_t : 10.0;
+    float cot_t = sin_t * 9.0 >= cos_t ? cos_t / sin_t : 9.0;  // changes no value; no subnormal
     float b_max = 1.0 - erfc(cot_t);
     float k = tan_t * FRAC_1_SQRT_PI;
     float norm = 1.0 / (1.0 + b_max + k * exp(-cot_t * cot_t));

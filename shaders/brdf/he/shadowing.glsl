@@ -17,7 +17,7 @@ float he_shadow_s1(float sigma0, float tau, vec3 w) {
     if (w.z <= 0.0) return 0.0;
     float a = he_shadow_arg(sigma0, tau, w);
     float n = a * (1.0 - 0.5 * erfc(a));
-    float e = exp(-a * a) * (0.5 / sqrt(PI));
+    float e = a >= 9.0 ? 0.0 : exp(-a * a) * (0.5 / sqrt(PI));  // S1 = 1 either way from 9
     return n / (n + e);
 }
 

@@ -30,7 +30,13 @@ pub fn shadow_s1(sigma0: f32, tau: f32, w: Vec3) -> f32 {
     }
     let a = shadow_arg(sigma0, tau, w);
     let n = a * (1.0 - 0.5 * erfc(a));
-    let e = (-a * a).exp() * (0.5 / PI.sqrt());
+    // From a = 9, e < 2e-36 vanishes beside n = a in f32 (S₁ = 1 either way); not formed, as
+    // e^(−a²) would be subnormal or underflow, which costs Intel cores microcode assists.
+    let e = if a >= 9.0 {
+        0.0
+    } else {
+        (-a * a).exp() * (0.5 / PI.sqrt())
+    };
     n / (n + e)
 }
 
