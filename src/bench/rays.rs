@@ -92,6 +92,10 @@ void main() {
 }
 "#;
 
+/// The most rays of one kind: one dispatch of the most workgroups of 64 that every Vulkan
+/// device takes (maxComputeWorkGroupCount[0] ≥ 65535).
+pub const MAX_RAYS: u64 = 65535 * 64;
+
 /// What to measure.
 pub struct RaysOptions {
     /// Camera rays per pixel of the scene's image (and so bounce and shadow rays per pixel).
@@ -215,6 +219,17 @@ pub fn run(scene: &Scene, o: &RaysOptions) -> Result<RaysReport> {
     }
     if scene.triangles.is_empty() {
         bail!("the scene has no triangles to trace");
+    }
+    let camera_rays = scene.width as u64 * scene.height as u64 * o.per_pixel.max(1) as u64;
+    if camera_rays > MAX_RAYS {
+        bail!(
+            "{}x{} pixels × {} rays per pixel are {camera_rays} camera rays; at most {MAX_RAYS} \
+             (one dispatch of 65535 workgroups of 64, Vulkan's guaranteed limit): use a smaller \
+             --res or --per-pixel",
+            scene.width,
+            scene.height,
+            o.per_pixel
+        );
     }
     let b = bvh::build(scene);
     let sets = make_rays(scene, &b, o.per_pixel.max(1), o.seed);

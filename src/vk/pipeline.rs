@@ -244,9 +244,14 @@ impl Context {
             let is_accel = matches!(r, Resource::Accel(_));
             if is_accel != (t == vk::DescriptorType::ACCELERATION_STRUCTURE_KHR) {
                 bail!(
-                    "descriptor set for pipeline \"{}\": binding {i} (\"{}\") is a {t:?}",
+                    "descriptor set for pipeline \"{}\": binding {i} is a {t:?}, and \"{}\" {}",
                     pipeline.name,
-                    b.name
+                    b.name,
+                    if is_accel {
+                        "is an acceleration structure"
+                    } else {
+                        "is not one"
+                    }
                 );
             }
             if is_accel {
