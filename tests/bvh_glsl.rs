@@ -6,8 +6,7 @@
 mod common;
 
 use brdfwave::bvh::{self, Bvh, SPHERE_BIT};
-use brdfwave::gpu::interface::{self, ProbeBinding};
-use brdfwave::gpu::scene_buffers;
+use brdfwave::gpu::bvh_probe;
 use brdfwave::robust;
 use brdfwave::scene::Scene;
 use brdfwave::stress::Rng;
@@ -17,7 +16,7 @@ use glam::{Vec2, Vec3};
 
 /// The probe kernel: per ray two vec4 in (o, tmax), (d, 0); out two uvec4:
 /// (closest prim or ~0, t, b1, b2) and (any hit, offset_ray_origin(o, |o|·4e-7, d)). Its
-/// bindings and push constant are declared by the header [`probe_interface`] generates.
+/// bindings and push constant are declared by the header `gpu::bvh_probe::interface_glsl` generates.
 const PROBE: &str = r#"#version 460
 #extension GL_GOOGLE_include_directive : require
 #include "bvh_probe/interface.glsl"
@@ -38,38 +37,14 @@ void main() {
 }
 "#;
 
-/// The probe's bindings in slot order: the rays, the results, then the scene as the renderer
-/// binds it ([`interface::BVH_BINDINGS`]).
-fn probe_bindings() -> Vec<ProbeBinding> {
-    let own = |block, member, access| ProbeBinding::Storage {
-        block,
-        member,
-        access,
-        about: "",
-    };
-    let mut b = vec![
-        own("Rays", "vec4 rays[]", "readonly"),
-        own("Out", "uvec4 outp[]", "writeonly"),
-    ];
-    b.extend(interface::BVH_BINDINGS.map(ProbeBinding::Layout));
-    b
-}
-
-/// The probe's generated interface: its bindings and `uint count` as its push constant.
-fn probe_interface() -> String {
-    let push = [interface::Field {
-        name: "count",
-        glsl: "uint",
-        doc: "",
-    }];
-    interface::probe_glsl("BVH_PROBE_INTERFACE", &probe_bindings(), &push)
-}
-
 /// The probe compiled by the product's shader compiler (shaders as embedded in the build), with
 /// `defines` (the renderer's [`brdfwave::gpu::bvh_defines`] for a tree, or none: the array
 /// stack).
 fn compile_probe(defines: &[(String, String)]) -> Vec<u32> {
-    let generated = [("bvh_probe/interface.glsl".to_string(), probe_interface())];
+    let generated = [(
+        bvh_probe::INTERFACE_PATH.to_string(),
+        bvh_probe::interface_glsl(),
+    )];
     ShaderCompiler::new()
         .and_then(|c| c.with_source("bvh_probe.comp", PROBE))
         .and_then(|c| c.compile_generated("bvh_probe.comp", defines, &[], &generated))
@@ -85,9 +60,8 @@ fn glsl_twin_compiles_for_vulkan() {
 }
 
 /// Runs the probe over `rays` ((o, tmax), (d, 0) per ray) against the scene as the renderer
-/// uploads it (`gpu::scene_buffers`, texel views in the formats of `gpu::layout`).
+/// uploads it (`gpu::bvh_probe::BvhTexels`).
 fn run_probe(ctx: &Context, spirv: &[u32], s: &Scene, b: &Bvh, rays: &[[f32; 4]]) -> Vec<[u32; 4]> {
-    use brdfwave::gpu::layout::{Binding, Kind};
     let storage = raw::BufferUsageFlags::STORAGE_BUFFER;
     let n = rays.len() / 2;
     let inp = ctx.create_buffer_with_data("rays", rays, storage).unwrap();
@@ -99,44 +73,13 @@ fn run_probe(ctx: &Context, spirv: &[u32], s: &Scene, b: &Bvh, rays: &[[f32; 4]]
             brdfwave::vk::MemoryLocation::GpuOnly,
         )
         .unwrap();
-    let scene_data: [(Binding, Vec<u8>); 4] = [
-        (Binding::BvhNodes, scene_buffers::bvh_nodes(b).to_vec()),
-        (Binding::BvhPrims, bytemuck::cast_slice(&b.prims).to_vec()),
-        (
-            Binding::Triangles,
-            bytemuck::cast_slice(&scene_buffers::triangle_data(s)).to_vec(),
-        ),
-        (
-            Binding::Spheres,
-            bytemuck::cast_slice(&scene_buffers::sphere_data(s)).to_vec(),
-        ),
-    ];
-    assert!(scene_data.iter().map(|d| d.0).eq(interface::BVH_BINDINGS));
-    let mut bufs = Vec::new();
-    let mut views = Vec::new();
-    for (binding, bytes) in &scene_data {
-        let Kind::ReadImage(format) = binding.kind() else {
-            panic!("{binding:?} is a texel buffer in the renderer")
-        };
-        let buf = ctx
-            .create_buffer_with_data(binding.name(), bytes, binding.usage())
-            .unwrap();
-        views.push(ctx.create_buffer_view(&buf, format).unwrap());
-        bufs.push(buf);
-    }
-    let kinds: Vec<_> = probe_bindings()
-        .iter()
-        .map(|b| b.descriptor_type())
-        .collect();
+    let texels = bvh_probe::BvhTexels::upload(ctx, s, b).unwrap();
+    let kinds = bvh_probe::descriptor_types();
     let p = ctx
         .create_compute_pipeline_with("bvh_probe", spirv, &kinds, 4)
         .unwrap();
     let mut res = vec![Resource::Buffer(&inp), Resource::Buffer(&out)];
-    res.extend(
-        bufs.iter()
-            .zip(&views)
-            .map(|(b, &v)| Resource::Texels(b, v)),
-    );
+    res.extend(texels.resources());
     let set = ctx.create_descriptor_set_with(&p, &res).unwrap();
     let mut rec = ctx.begin().unwrap();
     rec.bind(&p, set);
@@ -145,12 +88,9 @@ fn run_probe(ctx: &Context, spirv: &[u32], s: &Scene, b: &Bvh, rays: &[[f32; 4]]
     ctx.submit_and_wait(rec).unwrap();
     let result: Vec<[u32; 4]> = ctx.download(&out).unwrap();
     ctx.destroy_pipeline(p);
-    for v in views {
-        ctx.destroy_buffer_view(v);
-    }
-    for buf in bufs.into_iter().chain([inp, out]) {
-        ctx.destroy_buffer(buf);
-    }
+    texels.destroy(ctx);
+    ctx.destroy_buffer(inp);
+    ctx.destroy_buffer(out);
     result
 }
 

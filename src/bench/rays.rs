@@ -19,9 +19,8 @@
 
 use crate::bvh::{self, Bvh};
 use crate::camera::CameraBasis;
-use crate::gpu::interface::{self, ProbeBinding};
-use crate::gpu::layout::{Binding, Kind};
-use crate::gpu::{bvh_defines, scene_buffers};
+use crate::gpu::bvh_defines;
+use crate::gpu::bvh_probe::{self, BvhTexels};
 use crate::robust;
 use crate::scene::Scene;
 use crate::stress::Rng;
@@ -35,7 +34,7 @@ use std::time::Instant;
 /// Mesa 24.2, lavapipe runs both sides of every `if`, and would run both traversals.
 const OURS: &str = r#"#version 460
 #extension GL_GOOGLE_include_directive : require
-#include "rays_probe/interface.glsl"
+#include "bvh_probe/interface.glsl"
 #include "bvh.glsl"
 layout(local_size_x = 64) in;
 void main() {
@@ -254,27 +253,11 @@ fn run_on(
 ) -> Result<RaysReport> {
     let storage = raw::BufferUsageFlags::STORAGE_BUFFER;
     // brdfwave's kernel and the scene as the renderer uploads it (texel views).
-    let push = [interface::Field {
-        name: "count",
-        glsl: "uint",
-        doc: "",
-    }];
-    let own = |block, member, access| ProbeBinding::Storage {
-        block,
-        member,
-        access,
-        about: "",
-    };
-    let mut bindings = vec![
-        own("Rays", "vec4 rays[]", "readonly"),
-        own("Out", "uvec4 outp[]", "writeonly"),
-    ];
-    bindings.extend(interface::BVH_BINDINGS.map(ProbeBinding::Layout));
     let generated = [(
-        "rays_probe/interface.glsl".to_string(),
-        interface::probe_glsl("RAYS_PROBE_INTERFACE", &bindings, &push),
+        bvh_probe::INTERFACE_PATH.to_string(),
+        bvh_probe::interface_glsl(),
     )];
-    let kinds: Vec<_> = bindings.iter().map(|b| b.descriptor_type()).collect();
+    let kinds = bvh_probe::descriptor_types();
     let mut ours = Vec::new();
     for any in [false, true] {
         let mut defines = bvh_defines(b);
@@ -287,28 +270,7 @@ fn run_on(
             .spirv;
         ours.push(ctx.create_compute_pipeline_with("rays ours", &spirv, &kinds, 4)?);
     }
-    let scene_data: [(Binding, Vec<u8>); 4] = [
-        (Binding::BvhNodes, scene_buffers::bvh_nodes(b).to_vec()),
-        (Binding::BvhPrims, bytemuck::cast_slice(&b.prims).to_vec()),
-        (
-            Binding::Triangles,
-            bytemuck::cast_slice(&scene_buffers::triangle_data(scene)).to_vec(),
-        ),
-        (
-            Binding::Spheres,
-            bytemuck::cast_slice(&scene_buffers::sphere_data(scene)).to_vec(),
-        ),
-    ];
-    let mut scene_bufs = Vec::new();
-    let mut views = Vec::new();
-    for (binding, bytes) in &scene_data {
-        let Kind::ReadImage(format) = binding.kind() else {
-            bail!("{binding:?} is not a texel buffer in the renderer");
-        };
-        let buf = ctx.create_buffer_with_data(binding.name(), bytes, binding.usage())?;
-        views.push(ctx.create_buffer_view(&buf, format)?);
-        scene_bufs.push(buf);
-    }
+    let texels = BvhTexels::upload(ctx, scene, b)?;
     // The platform's: the scene's triangles in their own order (a hit's primitive index is
     // then the triangle index, as brdfwave's `prim` is).
     let query = if o.ours_only {
@@ -356,12 +318,7 @@ fn run_on(
         let out = ctx.create_buffer("hits", (n * 16) as u64, storage, MemoryLocation::GpuOnly)?;
         let count = n as u32;
         let mut res = vec![Resource::Buffer(&inp), Resource::Buffer(&out)];
-        res.extend(
-            scene_bufs
-                .iter()
-                .zip(&views)
-                .map(|(b, &v)| Resource::Texels(b, v)),
-        );
+        res.extend(texels.resources());
         let ours_p = &ours[*any as usize];
         let set = ctx.create_descriptor_set_with(ours_p, &res)?;
         let (ours_s, ours_hits) = time(ctx, ours_p, set, count, &out, o.repeats)?;
@@ -399,12 +356,7 @@ fn run_on(
     for p in ours {
         ctx.destroy_pipeline(p);
     }
-    for v in views {
-        ctx.destroy_buffer_view(v);
-    }
-    for buf in scene_bufs {
-        ctx.destroy_buffer(buf);
-    }
+    texels.destroy(ctx);
     if let Some((ps, accel)) = query {
         for p in ps {
             ctx.destroy_pipeline(p);

@@ -42,6 +42,7 @@
 //! queue, argument and `prepare` tables of [`layout`]: every number follows from those.
 
 pub mod brdf_probe;
+pub mod bvh_probe;
 pub mod interface;
 mod kernels;
 pub mod layout;
