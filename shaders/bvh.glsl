@@ -399,7 +399,7 @@ bool bvh_replaces(float t, uint ref, Hit hit, bool found) {
     return t < hit.t || (found && ref < hit.prim);
 }
 
-// Near-first stack traversal of the binary tree. The CPU reference walks a 4-wide tree
+// Near-first stack traversal of the binary tree. The CPU reference walks an 8-wide tree
 // collapsed from it (src/bvh/traverse.rs), in another order; both keep the same hit, because
 // the tie rule (among equal t the smallest primitive reference) does not depend on the order.
 // any_hit stops at the first hit. Inner nodes are walked in a loop of their own until

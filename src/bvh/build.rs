@@ -515,7 +515,7 @@ pub fn build(scene: &Scene) -> Bvh {
 }
 
 /// Which traversals a tree is for. The GPU kernels walk the binary [`Bvh::nodes`] and read the
-/// scene's own triangle buffer; the CPU traversal walks the 4-wide [`Bvh::wide`], collapsed
+/// scene's own triangle buffer; the CPU traversal walks the 8-wide [`Bvh::wide`], collapsed
 /// from them, and reads each leaf's triangles from a copy in leaf order
 /// ([`Bvh::leaf_triangles`], 36 bytes a triangle). A tree for one renderer leaves out what only
 /// the other reads (for a million triangles 36 MB of triangles, or the binary nodes once the

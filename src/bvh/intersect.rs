@@ -2,8 +2,9 @@
 //! `shaders/bvh.glsl`: `bvh_make_ray`, `bvh_box_hit`, `bvh_triangle`, `bvh_sphere`); the
 //! methods and their numerics are those of the [`crate::bvh`] module documentation.
 
+use super::wide::{Lanes, WIDTH};
 use crate::robust::gamma;
-use glam::{DVec3, Vec2, Vec3, Vec3A, Vec4};
+use glam::{DVec3, Vec2, Vec3, Vec3A};
 
 /// Ize 2013: the far slab distance is multiplied by this (1 + 2^-20, exact in f32), more than
 /// the 1 + 2·γ₃ the three roundings of `(b - o) · inv` need, to absorb the rounding of the
@@ -79,14 +80,13 @@ impl Ray {
         })
     }
 
-    /// The per-axis splats of the box test's constants, for [`RaySplats::box_hit4`].
+    /// The box test's per-ray constants, for [`BoxRay::box_hit`].
     #[inline]
-    pub(super) fn splats(&self) -> RaySplats {
-        let splat = |v: Vec3A| [Vec4::splat(v.x), Vec4::splat(v.y), Vec4::splat(v.z)];
-        RaySplats {
-            o: splat(self.o_a),
-            inv: splat(self.inv),
-            pad: splat(self.pad),
+    pub(super) fn box_ray(&self) -> BoxRay {
+        BoxRay {
+            o: self.o_a.to_array(),
+            inv: self.inv.to_array(),
+            pad: self.pad.to_array(),
         }
     }
 
@@ -247,34 +247,43 @@ fn triangle_t_error(
     3.0 * (gamma(3) * max_e * max_z + delta_e * max_z + delta_z * max_e) * rcp.abs()
 }
 
-/// The box test's per-ray constants, each component in all four lanes (x, y, z).
+/// The box test's per-ray constants (x, y, z).
 #[derive(Clone, Copy, Debug)]
-pub(super) struct RaySplats {
-    o: [Vec4; 3],
-    inv: [Vec4; 3],
-    pad: [Vec4; 3],
+pub(super) struct BoxRay {
+    o: [f32; 3],
+    inv: [f32; 3],
+    pad: [f32; 3],
 }
 
-impl RaySplats {
-    /// Conservative slab test (Ize 2013) of the four boxes of a wide node at once, in SIMD
-    /// registers: the hit lanes as bits (absent children included; the caller masks them) and
-    /// the entry distances, clamped to 0. Per lane the arithmetic of the GLSL twin
-    /// (`bvh_box_hit`), so a box is hit or missed alike on both sides: for a finite origin, a direction
-    /// that [`Ray::new`] accepts and a finite box no value here is NaN, so the minima and
-    /// maxima are those of the GLSL's scalar order (a NaN would be dropped by one order and
-    /// kept by another).
+impl BoxRay {
+    /// Conservative slab test (Ize 2013) of the boxes of a wide node at once (the compiler
+    /// puts the lanes in SIMD registers): the hit lanes as bits (absent children included; the
+    /// caller masks them) and the entry distances, clamped to 0. Per lane the arithmetic of the
+    /// GLSL twin (`bvh_box_hit`), so a box is hit or missed alike on both sides: for a finite
+    /// origin, a direction that [`Ray::new`] accepts and a finite box no value here is NaN, so
+    /// the minima and maxima are those of the GLSL's scalar order (a NaN would be dropped by one
+    /// order and kept by another).
     #[inline]
-    pub(super) fn box_hit4(&self, lo: &[Vec4; 3], hi: &[Vec4; 3], tmax: f32) -> (u32, Vec4) {
-        let mut tnear = Vec4::ZERO;
-        let mut tfar = Vec4::splat(tmax);
+    pub(super) fn box_hit(&self, lo: &[Lanes; 3], hi: &[Lanes; 3], tmax: f32) -> (u32, Lanes) {
+        let mut tnear = [0.0f32; WIDTH];
+        let mut tfar = [tmax; WIDTH];
         for a in 0..3 {
-            let t0 = (lo[a] - self.o[a]) * self.inv[a];
-            let t1 = (hi[a] - self.o[a]) * self.inv[a];
-            tnear = tnear.max(t0.min(t1) - self.pad[a]);
-            tfar = tfar.min(t0.max(t1) + self.pad[a]);
+            let (o, inv, pad) = (self.o[a], self.inv[a], self.pad[a]);
+            for k in 0..WIDTH {
+                let t0 = (lo[a][k] - o) * inv;
+                let t1 = (hi[a][k] - o) * inv;
+                let (t_in, t_out) = if t1 < t0 { (t1, t0) } else { (t0, t1) };
+                let n = t_in - pad;
+                let f = t_out + pad;
+                tnear[k] = if n > tnear[k] { n } else { tnear[k] };
+                tfar[k] = if f < tfar[k] { f } else { tfar[k] };
+            }
         }
-        let tfar = tfar * BOX_WIDEN;
-        (tnear.cmple(tfar).bitmask(), tnear)
+        let mut hits = 0u32;
+        for k in 0..WIDTH {
+            hits |= u32::from(tnear[k] <= tfar[k] * BOX_WIDEN) << k;
+        }
+        (hits, tnear)
     }
 }
 

@@ -1,7 +1,7 @@
 //! Host BVH: binned-SAH construction, the 64-byte GPU node layout and the CPU traversal.
 //!
 //! One job per file: `build.rs` the construction, `node.rs` the node layout and the stack's
-//! link encoding, `wide.rs` the CPU's 4-wide tree collapsed from the binary one,
+//! link encoding, `wide.rs` the CPU's 8-wide tree collapsed from the binary one,
 //! `intersect.rs` the ray set-up and the box and primitive tests, `traverse.rs` the CPU
 //! traversal; this file the public types. The robust-geometry helpers the renderers apply
 //! to a hit (error bounds, ray-origin offsets) are [`crate::robust`]'s.
@@ -33,9 +33,10 @@
 //! # The CPU's wide tree
 //! The CPU traversal walks [`Bvh::wide`]: the binary tree collapsed into [`WideNode`]s of up
 //! to [`WIDTH`] children (each starts from a binary node's two children and opens the inner
-//! child with the largest box until it has four), whose boxes are tested four at a time in
+//! child with the largest box until it has eight), whose boxes are tested all at once in
 //! SIMD registers. Its leaves are the binary tree's, so it indexes the same `prims`. The CPU
-//! reference runs about 10 % faster on it than on the binary tree (docs/bench-log.md).
+//! reference ran about 10 % faster on a 4-wide tree than on the binary one, and 3–6 % faster
+//! again on the 8-wide one (docs/bench-log.md).
 //!
 //! # Traversal
 //! Iterative, near child first, with a private stack: on the GPU over the binary tree, with
@@ -155,7 +156,7 @@ pub struct Bvh {
     /// traversal reads a leaf's triangles from consecutive memory instead of the scene's larger
     /// `Triangle` records. Empty in a tree built for the GPU alone ([`Traversal::GpuOnly`]).
     pub leaf_triangles: Vec<[Vec3; 3]>,
-    /// The CPU traversal's 4-wide tree, collapsed from `nodes` (root = 0; the same leaves).
+    /// The CPU traversal's 8-wide tree, collapsed from `nodes` (root = 0; the same leaves).
     /// Empty in a tree built for the GPU alone.
     pub wide: Vec<WideNode>,
     /// Box of the whole scene (empty scene: both zero).

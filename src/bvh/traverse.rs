@@ -1,4 +1,4 @@
-//! The CPU traversal: the 4-wide tree ([`super::wide`]), near children first, with a private
+//! The CPU traversal: the 8-wide tree ([`super::wide`]), near children first, with a private
 //! stack. Its GLSL twin, `bvh_traverse` in `shaders/bvh.glsl`, walks the binary tree the wide
 //! one was collapsed from, with the same box and primitive tests; the two meet the primitives
 //! in different orders and find the same hit, because the tie rule (the [`crate::bvh`] module
@@ -9,7 +9,7 @@ use super::node::LEAF_FLAG;
 use super::wide::{WIDE_STACK_SIZE, WIDTH};
 use super::{Bvh, Hit, SPHERE_BIT};
 use crate::scene::Scene;
-use glam::{UVec4, Vec2, Vec3};
+use glam::{Vec2, Vec3};
 
 impl Bvh {
     /// Closest hit with t in (0, tmax); ties are resolved as the module documentation says.
@@ -30,15 +30,16 @@ impl Bvh {
             "the CPU traversal of a BVH built for the GPU alone (bvh::Traversal::GpuOnly)"
         );
         let ray = Ray::new(o, d)?;
-        let splats = ray.splats();
+        let box_ray = ray.box_ray();
         let mut best = Hit {
             t: tmax,
             prim: u32::MAX,
             bary: Vec2::ZERO,
         };
         let mut found = false;
-        // Not zeroed: zeroing its 183 entries for every ray made renders 3–5 % slower
-        // (docs/bench-log.md), and only entries below `sp`, each written before, are read.
+        // Not zeroed: zeroing its entries (183 for the 4-wide tree) for every ray made renders
+        // 3–5 % slower (docs/bench-log.md), and only entries below `sp`, each written before,
+        // are read.
         let mut stack = [std::mem::MaybeUninit::<u32>::uninit(); WIDE_STACK_SIZE];
         let mut sp = 0usize;
         let mut cur = 0u32;
@@ -68,8 +69,11 @@ impl Bvh {
                 }
             } else {
                 let n = &self.wide[cur as usize];
-                let (hits, tnear) = splats.box_hit4(&n.lo, &n.hi, best.t);
-                let present = UVec4::from(n.child).cmpne(UVec4::ZERO).bitmask();
+                let (hits, tn) = box_ray.box_hit(&n.lo, &n.hi, best.t);
+                let mut present = 0u32;
+                for (k, &c) in n.child.iter().enumerate() {
+                    present |= u32::from(c != 0) << k;
+                }
                 let mut hits = hits & present;
                 match hits.count_ones() {
                     0 => {}
@@ -80,7 +84,6 @@ impl Bvh {
                     k => {
                         // Near first: the hit children by entry distance (equal distances in
                         // child order), the nearest next and the others pushed far to near.
-                        let tn = tnear.to_array();
                         let mut order = [0usize; WIDTH];
                         for slot in order.iter_mut().take(k as usize) {
                             *slot = hits.trailing_zeros() as usize;

@@ -1,6 +1,9 @@
-//! The CPU traversal's 4-wide tree: the binary tree collapsed (each wide node holds up to four
-//! of a binary node's descendants), with the four children's boxes stored axis by axis so
-//! that one SIMD test checks all four. Its leaves are the binary tree's leaves, so it indexes
+//! The CPU traversal's 8-wide tree: the binary tree collapsed (each wide node holds up to
+//! [`WIDTH`] of a binary node's descendants), with the children's boxes stored axis by axis so
+//! that one SIMD test checks them all (one 256-bit register per plane with AVX, two with SSE).
+//! Eight children, as Embree's BVH8 has on AVX machines: against four, the CPU reference's
+//! renders are 3–6 % faster with the same pixels (docs/bench-log.md); sixteen gained nothing
+//! more. Its leaves are the binary tree's leaves, so it indexes
 //! the same [`super::Bvh::prims`]. The GPU kernels walk the binary tree; both find the same
 //! hits because the tie rule does not depend on the order in which primitives are met (the
 //! [`crate::bvh`] module documentation).
@@ -8,35 +11,37 @@
 use super::build::children;
 use super::node::{link, GpuNode};
 use super::MAX_DEPTH;
-use glam::Vec4;
 
 /// Children per wide node.
-pub const WIDTH: usize = 4;
+pub const WIDTH: usize = 8;
+
+/// One value per child of a wide node.
+pub type Lanes = [f32; WIDTH];
 
 /// Traversal stack entries for the wide tree: visiting a node at wide depth k leaves at most
-/// three entries per level above it and three of its own, and a wide node is never deeper than
-/// the binary node it was made from.
-pub(super) const WIDE_STACK_SIZE: usize = 3 * (MAX_DEPTH as usize + 1);
+/// `WIDTH - 1` entries per level above it and as many of its own, and a wide node is never
+/// deeper than the binary node it was made from.
+pub(super) const WIDE_STACK_SIZE: usize = (WIDTH - 1) * (MAX_DEPTH as usize + 1);
 
-/// One node of the wide tree (128 bytes, two cache lines).
+/// One node of the wide tree (256 bytes, four cache lines).
 #[repr(C, align(64))]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WideNode {
-    /// The children's lower box corners: x of all four, then y, then z.
-    pub lo: [Vec4; 3],
+    /// The children's lower box corners: x of all children, then y, then z.
+    pub lo: [Lanes; 3],
     /// The children's upper box corners, likewise.
-    pub hi: [Vec4; 3],
+    pub hi: [Lanes; 3],
     /// Child links in the stack encoding ([`super::node::link`]) over wide nodes and
     /// `prims`; 0 for an absent child (the root, node 0, is nobody's child).
     pub child: [u32; WIDTH],
 }
 
-const _: () = assert!(std::mem::size_of::<WideNode>() == 128);
+const _: () = assert!(std::mem::size_of::<WideNode>() == 256);
 
 impl WideNode {
     const EMPTY: WideNode = WideNode {
-        lo: [Vec4::ZERO; 3],
-        hi: [Vec4::ZERO; 3],
+        lo: [[0.0; WIDTH]; 3],
+        hi: [[0.0; WIDTH]; 3],
         child: [0; WIDTH],
     };
 }
@@ -173,7 +178,9 @@ mod tests {
         let mut w = Vec::new();
         collapse(&[leaf], &mut w);
         assert_eq!(w.len(), 1);
-        assert_eq!(w[0].child, [link(0, 3), 0, 0, 0]);
+        let mut want = [0; WIDTH];
+        want[0] = link(0, 3);
+        assert_eq!(w[0].child, want);
         let mut w = Vec::new();
         collapse(&[GpuNode::default()], &mut w);
         assert_eq!(w.len(), 1);

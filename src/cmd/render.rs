@@ -187,7 +187,7 @@ struct RenderSummary {
     #[serde(flatten)]
     gpu: Option<GpuSetup>,
     seconds_bvh: f64,
-    /// Nodes of the tree the backend walks: binary on the GPU, 4-wide on the CPU.
+    /// Nodes of the tree the backend walks: binary on the GPU, 8-wide on the CPU.
     bvh_nodes: usize,
     seconds_setup: f64,
     seconds_render: f64,
@@ -484,7 +484,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
         },
     );
     let seconds_bvh = t_bvh.elapsed().as_secs_f64();
-    // The nodes of the tree the backend walks: binary on the GPU, 4-wide on the CPU.
+    // The nodes of the tree the backend walks: binary on the GPU, 8-wide on the CPU.
     let bvh_nodes = match a.backend {
         Backend::Gpu => bvh.nodes.len(),
         Backend::Cpu => bvh.wide.len(),
