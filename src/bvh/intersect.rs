@@ -4,7 +4,7 @@
 
 use super::wide::{Lanes, WIDTH};
 use crate::robust::gamma;
-use glam::{DVec3, Vec2, Vec3, Vec3A};
+use glam::{DVec3, Vec2, Vec3, Vec3A, Vec4};
 
 /// Ize 2013: the far slab distance is multiplied by this (1 + 2^-20, exact in f32), more than
 /// the 1 + 2·γ₃ the three roundings of `(b - o) · inv` need, to absorb the rounding of the
@@ -279,9 +279,12 @@ impl BoxRay {
                 tfar[k] = if f < tfar[k] { f } else { tfar[k] };
             }
         }
+        // The comparisons four lanes at a time, each four a `movmskps`: written lane by lane,
+        // the compiler assembled the mask one bit at a time.
         let mut hits = 0u32;
-        for k in 0..WIDTH {
-            hits |= u32::from(tnear[k] <= tfar[k] * BOX_WIDEN) << k;
+        for (q, (n, f)) in tnear.chunks_exact(4).zip(tfar.chunks_exact(4)).enumerate() {
+            let (n, f) = (Vec4::from_slice(n), Vec4::from_slice(f));
+            hits |= n.cmple(f * BOX_WIDEN).bitmask() << (4 * q);
         }
         (hits, tnear)
     }

@@ -70,11 +70,7 @@ impl Bvh {
             } else {
                 let n = &self.wide[cur as usize];
                 let (hits, tn) = box_ray.box_hit(&n.lo, &n.hi, best.t);
-                let mut present = 0u32;
-                for (k, &c) in n.child.iter().enumerate() {
-                    present |= u32::from(c != 0) << k;
-                }
-                let mut hits = hits & present;
+                let mut hits = hits & n.present;
                 match hits.count_ones() {
                     0 => {}
                     1 => {

@@ -34,6 +34,8 @@ pub struct WideNode {
     /// Child links in the stack encoding ([`super::node::link`]) over wide nodes and
     /// `prims`; 0 for an absent child (the root, node 0, is nobody's child).
     pub child: [u32; WIDTH],
+    /// Bit k set where child k is present (`child[k] != 0`).
+    pub present: u32,
 }
 
 const _: () = assert!(std::mem::size_of::<WideNode>() == 256);
@@ -43,6 +45,7 @@ impl WideNode {
         lo: [[0.0; WIDTH]; 3],
         hi: [[0.0; WIDTH]; 3],
         child: [0; WIDTH],
+        present: 0,
     };
 }
 
@@ -88,6 +91,7 @@ fn fill(nodes: &[GpuNode], binary: usize, wide: usize, out: &mut Vec<WideNode>) 
         } else {
             link(c.index, c.count)
         };
+        node.present |= 1 << k;
     }
     out.resize(first + below.len(), WideNode::EMPTY);
     out[wide] = node;
@@ -154,8 +158,12 @@ mod tests {
         assert!(seen.iter().all(|&s| s), "unreachable wide nodes");
         let (w, n) = (b.wide.len(), b.nodes.len());
         assert!(w * 2 < n, "{w} wide nodes for {n} binary ones");
-        // A node with room left has only leaves: there was no inner child to open.
+        // A node with room left has only leaves: there was no inner child to open. Its
+        // `present` bits are its links that are not 0.
         for (i, n) in b.wide.iter().enumerate() {
+            let links = n.child.iter().enumerate();
+            let present = links.fold(0, |m, (k, &c)| m | u32::from(c != 0) << k);
+            assert_eq!(n.present, present, "node {i}");
             let present = n.child.iter().filter(|&&c| c != 0).count();
             let inner = n
                 .child
