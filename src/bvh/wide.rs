@@ -3,9 +3,9 @@
 //! that one SIMD test checks them all (one 256-bit register per plane with AVX, two with SSE).
 //! Eight children, as Embree's BVH8 has on AVX machines: against four, the CPU reference's
 //! renders are 3–6 % faster with the same pixels (docs/bench-log.md); sixteen gained nothing
-//! more. Its leaves are the binary tree's leaves, so it indexes
-//! the same [`super::Bvh::prims`]. The GPU kernels walk the binary tree; both find the same
-//! hits because the tie rule does not depend on the order in which primitives are met (the
+//! more. Its leaves are the binary tree's leaves, so it indexes the same
+//! [`super::Bvh::prims`]. The GPU kernels walk the binary tree; both find the same hits
+//! because the tie rule does not depend on the order in which primitives are met (the
 //! [`crate::bvh`] module documentation).
 
 use super::build::children;
@@ -17,6 +17,9 @@ pub const WIDTH: usize = 8;
 
 /// One value per child of a wide node.
 pub type Lanes = [f32; WIDTH];
+
+// The box test compares its lanes four at a time (`intersect::BoxRay::box_hit`).
+const _: () = assert!(WIDTH % 4 == 0 && WIDTH <= 32);
 
 /// Traversal stack entries for the wide tree: visiting a node at wide depth k leaves at most
 /// `WIDTH - 1` entries per level above it and as many of its own, and a wide node is never
@@ -162,8 +165,8 @@ mod tests {
         // `present` bits are its links that are not 0.
         for (i, n) in b.wide.iter().enumerate() {
             let links = n.child.iter().enumerate();
-            let present = links.fold(0, |m, (k, &c)| m | u32::from(c != 0) << k);
-            assert_eq!(n.present, present, "node {i}");
+            let mask = links.fold(0, |m, (k, &c)| m | u32::from(c != 0) << k);
+            assert_eq!(n.present, mask, "node {i}");
             let present = n.child.iter().filter(|&&c| c != 0).count();
             let inner = n
                 .child
