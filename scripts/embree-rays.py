@@ -1,5 +1,5 @@
 """Mitsuba 3's traversal (Embree, through `llvm_ad_rgb`) on the kinds of rays `brdfwave rays`
-traces: the CPU anchor beside brdfwave's own traversal (issue 43). Run it through
+traces: the CPU reference's peer beside brdfwave's own traversal. Run it through
 scripts/embree-rays.sh, which converts the scene and prints brdfwave's figures beside these.
 
 Usage: python3 embree-rays.py SCENE.xml [RES] [PER_PIXEL]
@@ -23,6 +23,8 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+if not 2 <= len(sys.argv) <= 4:
+    sys.exit(__doc__.split("\n\n")[1])
 mi.set_variant("llvm_ad_rgb")
 scene = mi.load_file(sys.argv[1])
 res = int(sys.argv[2]) if len(sys.argv) > 2 else 256

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # brdfwave's CPU traversal beside Mitsuba 3's (Embree, `llvm_ad_rgb`), on the same kinds of
-# rays (issue 43's anchor for the CPU; docs/bench-log.md, "The CPU traversal beside
-# Embree's"). Both on all the host's threads, warm, the fastest of 5 runs.
+# rays (docs/cli/rays.md; docs/bench-log.md, "The CPU traversal beside Embree's"). Both on
+# all the host's threads, warm, the fastest of 5 runs.
 #
 #   bash scripts/embree-rays.sh [SCENE.toml] [RES]   # default scenes/cornell-box.toml, 256
 #
@@ -12,6 +12,10 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scene=${1:-scenes/cornell-box.toml} res=${2:-256}
+if ! python3 -c 'import mitsuba' 2> /dev/null; then
+    echo "embree-rays.sh: needs Mitsuba 3 for python3 (pip install mitsuba)" >&2
+    exit 1
+fi
 [ -x target/release/brdfwave ] || cargo build --release --quiet
 if [ -z "${DRJIT_LIBLLVM_PATH:-}" ]; then
     for f in "$(rustc --print sysroot)"/lib/libLLVM*.so*; do
