@@ -61,6 +61,12 @@ pub fn stirling_remainder(m: f32) -> f32 {
 /// L − ½ln(2πm) − r(m) − ln m − c/m with L = m ln(g/m) + m − g = −m·φ(g/m − 1): by the series
 /// of [`phi_ln`] for g/m in [½, 2] (where the direct form cancels), and as m(ln g − ln m) + m − g
 /// outside (where φ(g/m − 1) would lose the digits of g in 1 + (g/m − 1): 1.3 % at g = 1e-6).
+///
+/// Never inlined, as the plain release build already leaves it: the profile-guided build
+/// (`scripts/pgo-build.sh`) inlined it into [`series`], and renders of He's model, whose time
+/// is mostly this function's `ln`s and the caller's `exp`, became 4 % slower
+/// (docs/bench-log.md, "A build guided by a profile").
+#[inline(never)]
 pub fn series_log_term(g: f32, c: f32, m: f32) -> f32 {
     let ln_m = m.ln();
     let r = g / m;
