@@ -447,18 +447,15 @@ fn every_command_of_every_page_runs() {
                         );
                     }
                     ["bash", "scripts/material-preview.sh"] => common::material_preview_table(),
-                    // Needs Mitsuba 3 and minutes: shown, not run; the script must exist and
-                    // parse.
-                    ["bash", "scripts/embree-rays.sh", ..] => {
+                    // Minutes of work (two full builds; Mitsuba 3 for the Embree rays): shown,
+                    // not run; the script must exist and parse.
+                    ["bash", script @ ("scripts/embree-rays.sh" | "scripts/pgo-build.sh"), ..] => {
                         let ok = Command::new("bash")
-                            .args(["-n", "scripts/embree-rays.sh"])
+                            .args(["-n", script])
                             .current_dir(common::repo())
                             .status()
                             .is_ok_and(|s| s.success());
-                        assert!(
-                            ok,
-                            "{page}: scripts/embree-rays.sh is missing or does not parse"
-                        );
+                        assert!(ok, "{page}: {script} is missing or does not parse");
                     }
                     ["bash", "scripts/render-parts.sh", args @ ..] => {
                         let mut a: Vec<String> = args.iter().map(|s| s.to_string()).collect();
