@@ -12,8 +12,9 @@
 # meshes (a 64K-triangle one for a deep tree), an environment map, textures, a thin lens,
 # point and directional lights, the three samplers, Russian roulette, a Mitsuba XML scene.
 # It needs the toolchain's llvm-profdata (rustup's `llvm-tools` component, installed here when
-# missing) and takes about 5 minutes on 2 cores, most of it two full builds. RUSTFLAGS, when
-# set, replaces the `-C target-cpu=native` of .cargo/config.toml, as it does for cargo.
+# missing; without rustup, llvm-profdata-N for rustc's LLVM N) and takes about 5 minutes on 2
+# cores, most of it two full builds. RUSTFLAGS, when set, replaces the `-C target-cpu=native`
+# of .cargo/config.toml, as it does for cargo.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -21,11 +22,18 @@ sysroot=$(rustc --print sysroot)
 host=$(rustc -vV | sed -n 's/^host: //p')
 profdata=$sysroot/lib/rustlib/$host/bin/llvm-profdata
 if [ ! -x "$profdata" ]; then
-    if ! command -v rustup > /dev/null; then
-        echo "pgo-build: $profdata is missing and there is no rustup to install llvm-tools" >&2
+    # A toolchain without rustup (a distribution's rustc) takes the llvm-profdata of its own
+    # LLVM version, whose profile format it reads.
+    llvm_major=$(rustc -vV | sed -n 's/^LLVM version: \([0-9]*\).*/\1/p')
+    if command -v rustup > /dev/null; then
+        rustup component add llvm-tools
+    elif command -v "llvm-profdata-$llvm_major" > /dev/null; then
+        profdata=$(command -v "llvm-profdata-$llvm_major")
+    else
+        echo "pgo-build: no llvm-profdata for rustc's LLVM $llvm_major: neither $profdata nor" \
+            "llvm-profdata-$llvm_major, and no rustup to install the llvm-tools component" >&2
         exit 1
     fi
-    rustup component add llvm-tools
 fi
 base_flags=${RUSTFLAGS:--C target-cpu=native}
 root=$PWD/target/pgo
