@@ -105,11 +105,10 @@ RUSTFLAGS="$base_flags -Cprofile-use=$root/$sum.profdata" CARGO_TARGET_DIR=targe
 # The profile changes what the compiler inlines and how it lays out code, never an arithmetic
 # result: the two builds must render the same pixels, bit for bit.
 fast=target/pgo/release/brdfwave
-for b in "$gen" "$fast"; do
-    "$b" render scenes/cornell-box-glossy.toml --backend cpu --res 32x32 --spp 4 --quiet \
-        --out "$train/check-$(basename "$(dirname "$(dirname "$b")")").pfm"
-done
-if ! cmp -s "$train/check-pgo-gen.pfm" "$train/check-pgo.pfm"; then
+check() { "$1" render scenes/cornell-box-glossy.toml --backend cpu --res 32x32 --spp 4 --quiet --out "$2"; }
+check "$gen" "$train/check-instrumented.pfm"
+check "$fast" "$train/check-guided.pfm"
+if ! cmp -s "$train/check-instrumented.pfm" "$train/check-guided.pfm"; then
     echo "pgo-build: the two builds render different pixels ($train/check-*.pfm)" >&2
     exit 1
 fi

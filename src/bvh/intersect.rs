@@ -92,9 +92,8 @@ impl Ray {
 
     /// Woop–Benthin–Wald watertight test; (t, (b1, b2)) with t in (0, tmax]: a hit at
     /// exactly `tmax` is returned, for the tie rule (the [`crate::bvh`] module documentation).
-    // Inlined into the path loop, as the profile-guided build inlines it; with this and five
-    // more hot calls out of line, the plain build was 2-4 % slower (docs/bench-log.md, "Hot
-    // functions inlined by hand").
+    // Inlined as the profile-guided build inlines it (docs/bench-log.md, "Hot functions inlined
+    // by hand").
     #[inline(always)]
     pub(super) fn triangle(&self, v: &[Vec3; 3], tmax: f32) -> Option<(f32, Vec2)> {
         // Each vertex relative to the origin on the ray's permuted axes (kx, ky, kz): the same

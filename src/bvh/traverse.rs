@@ -24,9 +24,8 @@ impl Bvh {
         self.traverse::<true>(scene, o, d, tmax).is_some()
     }
 
-    // Inlined into the path loop, as the profile-guided build inlines it; with this and five
-    // more hot calls out of line, the plain build was 2-4 % slower (docs/bench-log.md, "Hot
-    // functions inlined by hand").
+    // Inlined as the profile-guided build inlines it (docs/bench-log.md, "Hot functions inlined
+    // by hand").
     #[inline(always)]
     fn traverse<const ANY: bool>(&self, scene: &Scene, o: Vec3, d: Vec3, tmax: f32) -> Option<Hit> {
         assert!(

@@ -83,9 +83,8 @@ impl Surface {
 
 /// Reconstruct the hit surface from the BVH hit record (position from barycentrics, not o + t·d).
 /// `normals` holds each triangle's geometric normal ([`crate::scene::Triangle::geometric_normal`]).
-// Inlined into the path loop, as the profile-guided build inlines it; with this and five
-// more hot calls out of line, the plain build was 2-4 % slower (docs/bench-log.md, "Hot
-// functions inlined by hand").
+// Inlined as the profile-guided build inlines it (docs/bench-log.md, "Hot functions inlined
+// by hand").
 #[inline(always)]
 pub fn surface_at(scene: &Scene, normals: &[Vec3], hit: &Hit, o: Vec3, d: Vec3) -> Surface {
     if hit.prim & SPHERE_BIT != 0 {
@@ -165,9 +164,8 @@ pub struct LightSample {
 /// Choose an emissive primitive by power and a point uniformly by area on it (a pair of
 /// triangles by one 2-D sample over both, [`pair_barycentrics`]). `normals` as for
 /// [`surface_at`].
-// Inlined into the path loop, as the profile-guided build inlines it; with this and five
-// more hot calls out of line, the plain build was 2-4 % slower (docs/bench-log.md, "Hot
-// functions inlined by hand").
+// Inlined as the profile-guided build inlines it (docs/bench-log.md, "Hot functions inlined
+// by hand").
 #[inline(always)]
 pub fn sample_light(
     scene: &Scene,

@@ -335,9 +335,8 @@ impl PathRng {
     }
 
     /// The numbers of dimensions `dim` and `dim + 1` (one pair; `dim` even) at `depth`.
-    // Inlined into the path loop, as the profile-guided build inlines it; with this and five
-    // more hot calls out of line, the plain build was 2-4 % slower (docs/bench-log.md, "Hot
-    // functions inlined by hand").
+    // Inlined as the profile-guided build inlines it (docs/bench-log.md, "Hot functions inlined
+    // by hand").
     #[inline(always)]
     pub fn get2(&self, depth: u32, dim: u32) -> glam::Vec2 {
         debug_assert!(dim & 1 == 0, "a pair starts at an even dimension");

@@ -69,9 +69,8 @@ pub fn multijitter_pattern_key(pair_key: u32, sample: u32, bits: u32) -> u32 {
 /// within it: x = (c·n + σ_y(r) + ξ)/N, y = (r·m + σ_x(c) + η)/N. Every N-point pattern is
 /// then stratified in the m×n grid and in each coordinate's N strata ("n-rooks"). Integer
 /// arithmetic throughout, so both backends compute the same bits.
-// Inlined into the path loop, as the profile-guided build inlines it; with this and five
-// more hot calls out of line, the plain build was 2-4 % slower (docs/bench-log.md, "Hot
-// functions inlined by hand").
+// Inlined as the profile-guided build inlines it (docs/bench-log.md, "Hot functions inlined
+// by hand").
 #[inline(always)]
 pub fn multijitter_pair(sample: u32, p: u32, bits: u32) -> (u32, u32) {
     let kx = bits.div_ceil(2);
