@@ -78,6 +78,55 @@ fn windowed_series_matches_a_brute_force_f64_sum() {
     eprintln!("series worst relative error {worst:e} over {cases} cases");
 }
 
+/// Random (g, c) over the range renders reach and beyond, log-uniform: both ways of summing
+/// (the walk from the mode where the window holds at most 128 terms, every s-th term where it
+/// holds more) against the f64 sum of every term.
+#[test]
+fn series_is_accurate_on_random_arguments_both_ways() {
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut uniform = move || {
+        // splitmix64
+        state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let (mut walked, mut strided, mut worst) = (0, 0, 0.0f64);
+    for _ in 0..3000 {
+        let g = 10f64.powf(-6.0 + 9.0 * uniform()) as f32;
+        let c = (g.max(1.0) as f64 * 10f64.powf(-4.0 + 10.0 * uniform())) as f32;
+        if uniform() < 0.1 {
+            // c = 0 exactly: the specular direction's own value.
+            continue;
+        }
+        let want = series_f64(g as f64, c as f64);
+        if want < 1e-37 {
+            continue; // below f32's normal range
+        }
+        match he::series_walk(g, c, he::series_mode(g, c)) {
+            Some(_) => walked += 1,
+            None => strided += 1,
+        }
+        let got = he::series(g, c) as f64;
+        let e = (got - want).abs() / want;
+        worst = worst.max(e);
+        assert!(e < 1e-4, "g={g} c={c}: {got} vs {want} ({e:e})");
+    }
+    for g in [1e-6f32, 0.01, 0.7, 3.0, 20.0, 44.0, 46.0, 300.0] {
+        let want = series_f64(g as f64, 0.0);
+        let got = he::series(g, 0.0) as f64;
+        let e = (got - want).abs() / want;
+        worst = worst.max(e);
+        assert!(e < 1e-4, "g={g} c=0: {got} vs {want} ({e:e})");
+    }
+    eprintln!("series worst relative error {worst:e}: {walked} walked, {strided} strided");
+    assert!(
+        walked > 300 && strided > 100,
+        "{walked} walked, {strided} strided"
+    );
+}
+
 /// λ = 0.5, σ₀ = 2, τ = 10 µm, wi at 30°, wo at 30/45/60° opposite (reference values by an
 /// independent double-precision evaluation of He et al. 1991, eqs. 76–83): He's
 /// directional-diffuse term (F = 1) vs Torrance–Sparrow with Beckmann m = 2σ₀/τ times He's S.

@@ -1,6 +1,7 @@
-// The series of He et al.'s directional-diffuse term (the D of survey eq. 12), summed in log
-// space over a window that provably holds all but e^(−40) of it. Rust twin:
-// src/brdf/he/series.rs (the window's proof, the cap and the accuracy).
+// The series of He et al.'s directional-diffuse term (the D of survey eq. 12), summed over a
+// window that provably holds all but e^(−40) of it: term by term from the largest one by the
+// ratio of consecutive terms, or every s-th term in log space where the window is wider than
+// HE_MAX_TERMS. Rust twin: src/brdf/he/series.rs (the window's proof, the cap and the accuracy).
 #ifndef BRDF_HE_SERIES_GLSL
 #define BRDF_HE_SERIES_GLSL
 #include "brdf/common.glsl"
@@ -41,9 +42,17 @@ float he_log_term(float g, float c, float m) {
 }
 // ln(t(m+1)/t(m)), decreasing in m (Rust: series_log_ratio).
 float he_log_ratio(float g, float c, float m) {
-    return log(g) + log(m / (m + 1.0)) - log(m + 1.0) + c / (m * (m + 1.0));
+    float n = m + 1.0;
+    return log(g) + log(m / (n * n)) + c / (m * n);
+}
+// t(m+1)/t(m) = g·m/(m+1)² e^(c/(m(m+1))), +inf where the exponential overflows (Rust:
+// series_ratio).
+float he_ratio(float g, float c, float m) {
+    float n = m + 1.0;
+    return g * m / (n * n) * exp(c / (m * n));
 }
 #define HE_WINDOW_DROP 40.0
+#define HE_WINDOW_DROP_RATIO 4.248354e-18
 #define HE_BISECTION_STEPS 40
 
 // Bisection of an integer bracket [A, B] (float variables) until B - A <= 1, at most
@@ -67,19 +76,58 @@ bool he_lo_ok(float g, float c, float m, float peak) {
     return lr > 0.0 && he_log_term(g, c, m) - log(expm1_f(lr)) <= peak;
 }
 
-// Σ_{m≥1} gᵐ e^(−g)/(m!·m) e^(−c/m): log space over the window of the Rust series_window (mode
-// by bisection on the term ratio, ends where the geometric bound on the rest is e^(−40) of it;
-// the proof is there), at most HE_MAX_TERMS strided terms.
+// The smallest m >= 1 with ln ρ(m) < 0: the largest term (Rust: series_mode).
+float he_mode(float g, float c) {
+    if (he_log_ratio(g, c, 1.0) < 0.0) return 1.0;
+    float a = 1.0;
+    float b = ceil(max(2.0 * g, 2.0 * sqrt(c))) + 1.0;
+    HE_BISECT(a, b, mid, he_log_ratio(g, c, mid) < 0.0)
+    return b;
+}
+// Σ t(m)/t(mode) over the window, term by term outwards from the mode; a negative value when
+// the window holds more than HE_MAX_TERMS terms (Rust: series_walk, where the end tests are
+// explained).
+float he_walk(float g, float c, float mode) {
+    float sum = 1.0;
+    int terms = 1;
+    float m = mode;
+    float t = 1.0;
+    for (int j = 0; j < HE_MAX_TERMS; ++j) {
+        float rho = he_ratio(g, c, m);
+        if (rho < 1.0 && t * rho <= HE_WINDOW_DROP_RATIO * (1.0 - rho)) break;
+        if (terms == HE_MAX_TERMS) return -1.0;
+        t *= rho;
+        m += 1.0;
+        sum += t;
+        terms += 1;
+    }
+    m = mode;
+    t = 1.0;
+    for (int j = 0; j < HE_MAX_TERMS && m > 1.0; ++j) {
+        float rho = he_ratio(g, c, m - 1.0);
+        if (rho > 1.0 && t <= HE_WINDOW_DROP_RATIO * (rho - 1.0)) break;
+        if (terms == HE_MAX_TERMS) return -1.0;
+        t /= rho;
+        m -= 1.0;
+        sum += t;
+        terms += 1;
+    }
+    return sum;
+}
+// Σ_{m≥1} gᵐ e^(−g)/(m!·m) e^(−c/m) over the window of the Rust series_window (mode by
+// bisection on the term ratio, ends where the geometric bound on the rest is e^(−40) of it; the
+// proof is there): he_walk times the largest term, or at most HE_MAX_TERMS strided terms in log
+// space where the window is wider.
 float he_series(float g, float c) {
     if (g <= 1e-30 || !(c >= 0.0)) return 0.0;
-    float start = 2.0 * sqrt(c);
-    float mode = 1.0;
-    if (!(he_log_ratio(g, c, 1.0) < 0.0)) {
-        float a = 1.0;
-        float b = ceil(max(2.0 * g, start)) + 1.0;
-        HE_BISECT(a, b, mid, he_log_ratio(g, c, mid) < 0.0)  // smallest m with ln ρ(m) < 0
-        mode = b;
+    float mode = he_mode(g, c);
+    // The window's predicted width, 2√80·√(mode³/(mode² + 2c)) terms, at most 110: walk
+    // (Rust: series_looks_narrow).
+    if (320.0 * mode * mode * mode <= 12100.0 * (mode * mode + 2.0 * c)) {
+        float relative = he_walk(g, c, mode);
+        if (relative > 0.0) return exp(he_log_term(g, c, mode)) * relative;
     }
+    float start = 2.0 * sqrt(c);
     float peak = he_log_term(g, c, mode) - HE_WINDOW_DROP;
     float a = mode;
     float b = ceil(max(4.0 * g, start)) + 60.0;
@@ -101,5 +149,4 @@ float he_series(float g, float c) {
     }
     return sum * stride;
 }
-
 #endif

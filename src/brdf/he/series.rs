@@ -1,20 +1,34 @@
 //! The series of the directional-diffuse term (the D of survey eq. 12),
-//! Σ_{m≥1} gᵐe^(−g)/(m!·m) · exp(−c/m), is summed in log space, term by term
-//! exp(−m·φ(g/m − 1) − ½ln(2πm) − r(m) − ln m − c/m), φ(ε) = ε − ln(1 + ε) (a series in
-//! z = ε/(2+ε) near 0, so no cancellation), r(m) = ln m! − (m ln m − m + ½ ln 2πm) the Stirling
-//! remainder (table for m ≤ 3, three-term series above), over the window of
-//! [`series_window`]: around the largest term m̂ (found by bisection on the ratio of
-//! consecutive terms, which decreases with m), out to where the terms are e^(−40) below it and
-//! fall geometrically; proved there to omit at most 2e^(−40) ≈ 8.5e-18 of the sum for every g
-//! and every c. (A window fixed around g, such as m ∈ [g − 8√g, g + 8√g + 10], would miss that
-//! e^(−c/m) moves the largest terms to m ≫ g when c ≫ g²: rough surfaces far from the specular
-//! direction would be 2 % off where the value is below 1e-20.) The loop is capped at
-//! [`HE_MAX_TERMS`] = 128 evaluations (the GPU needs a bound): when the window is wider the sum
-//! takes every s-th term times s. The terms are a smooth bell of width w ≈ 1/√(−d²ln t/dm²)
-//! and the window spans about ±9w, so s ≈ 18w/128 and by Poisson summation the relative error
-//! of the strided sum is ~exp(−2π²w²/s²) ≈ e^(−990): the cap costs no accuracy. The total
-//! error is f32 rounding: measured against an f64 sum of every term (tests/brdf_he.rs). The
-//! cost is ≤ 128 exp/log pairs plus three bisections of ≤ 40 log evaluations per channel.
+//! Σ_{m≥1} gᵐe^(−g)/(m!·m) · exp(−c/m), summed over the window of [`series_window`]: around
+//! the largest term m̂ (found by bisection on the ratio of consecutive terms, which decreases
+//! with m), out to where the terms are e^(−40) below it and fall geometrically; proved there to
+//! omit at most 2e^(−40) ≈ 8.5e-18 of the sum for every g and every c. (A window fixed around
+//! g, such as m ∈ [g − 8√g, g + 8√g + 10], would miss that e^(−c/m) moves the largest terms to
+//! m ≫ g when c ≫ g²: rough surfaces far from the specular direction would be 2 % off where the
+//! value is below 1e-20.)
+//!
+//! Two ways over the window, one per width, each capped at [`HE_MAX_TERMS`] = 128 terms (the
+//! GPU needs a bound):
+//! * **Narrow** (most surfaces; g up to about 45 at c = 0): [`series_walk`] starts at m̂ and
+//!   walks outwards term by term, each term the previous one times the ratio
+//!   ρ(m) = g·m/(m+1)² · e^(c/(m(m+1))), one `exp` a term, relative to t(m̂); it stops at
+//!   the window's ends by the same tests [`series_window`] bisects on. One `exp` and `ln` give
+//!   t(m̂) itself, ln t(m̂) = −m̂·φ(g/m̂ − 1) − ½ln(2πm̂) − r(m̂) − ln m̂ − c/m̂ with
+//!   φ(ε) = ε − ln(1 + ε) (a series in z = ε/(2+ε) near 0, so no cancellation) and
+//!   r(m) = ln m! − (m ln m − m + ½ ln 2πm) the Stirling remainder (table for m ≤ 3,
+//!   three-term series above). Each step rounds a few times, so a term k steps from m̂ is off
+//!   by about 4k·2⁻²⁴ of itself; the terms that matter lie within a few widths of m̂.
+//! * **Wide**, when the walk would take more than 128 terms: every s-th term of the window in
+//!   log space, times s. The terms are a smooth bell of width w ≈ 1/√(−d²ln t/dm²) and the
+//!   window spans about ±9w, so s ≈ 18w/128 and by Poisson summation the relative error of the
+//!   strided sum is ~exp(−2π²w²/s²) ≈ e^(−990): the cap costs no accuracy.
+//!
+//! The total error is f32 rounding: measured against an f64 sum of every term
+//! (tests/brdf_he.rs). The narrow sum costs one bisection of ≤ 40 log evaluations and an `exp`
+//! a term; the wide one three bisections and 128 exp/log pairs. Before the walk, every window
+//! was summed in log space (an `exp` and one or two `ln`s a term, after three bisections): the
+//! CPU reference renders a Cornell box with He's walls (σ₀ = 0.18 µm) 2.0x faster since, and
+//! the lineup 1.19x (docs/bench-log.md, "He's series walked from its largest term").
 //!
 //! GLSL twin: `shaders/brdf/he/series.glsl`.
 
@@ -78,10 +92,18 @@ pub fn series_log_term(g: f32, c: f32, m: f32) -> f32 {
     lead - 0.5 * (2.0 * PI).ln() - 0.5 * ln_m - stirling_remainder(m) - ln_m - c / m
 }
 
-/// ln of the ratio of consecutive series terms, ln(t(m+1)/t(m)) = ln g + ln(m/(m+1))
-/// − ln(m+1) + c/(m(m+1)). The ratio decreases with m (see [`series_window`]).
+/// ln of the ratio of consecutive series terms, ln(t(m+1)/t(m)) = ln g + ln(m/(m+1)²)
+/// + c/(m(m+1)). The ratio decreases with m (see [`series_window`]).
 pub fn series_log_ratio(g: f32, c: f32, m: f32) -> f32 {
-    g.ln() + (m / (m + 1.0)).ln() - (m + 1.0).ln() + c / (m * (m + 1.0))
+    let n = m + 1.0;
+    g.ln() + (m / (n * n)).ln() + c / (m * n)
+}
+
+/// The ratio itself, ρ(m) = t(m+1)/t(m) = g·m/(m+1)² · e^(c/(m(m+1))): +∞ where the exponential
+/// overflows (far below the mode, where c ≫ m²), never NaN for g > 0, c ≥ 0, m ≥ 1.
+pub fn series_ratio(g: f32, c: f32, m: f32) -> f32 {
+    let n = m + 1.0;
+    g * m / (n * n) * (c / (m * n)).exp()
 }
 
 /// How far below its largest term a window end must be: e^(−40) ≈ 4e-18.
@@ -104,6 +126,16 @@ fn bisect(mut a: f32, mut b: f32, to_b: impl Fn(f32) -> bool) -> (f32, f32) {
         }
     }
     (a, b)
+}
+
+/// The mode m̂ of the series' terms (its largest term): the smallest m ≥ 1 with ln ρ(m) < 0,
+/// by bisection in [1, ⌈max(2g, 2√c)⌉ + 1] (why it lies there: [`series_window`]).
+pub fn series_mode(g: f32, c: f32) -> f32 {
+    if series_log_ratio(g, c, 1.0) < 0.0 {
+        return 1.0;
+    }
+    let m_up = (2.0 * g).max(2.0 * c.sqrt()).ceil() + 1.0;
+    bisect(1.0, m_up, |m| series_log_ratio(g, c, m) < 0.0).1
 }
 
 /// The summation window [lo, hi] of [`series`] and its mode m̂ (largest term).
@@ -131,14 +163,15 @@ fn bisect(mut a: f32, mut b: f32, to_b: impl Fn(f32) -> bool) -> (f32, f32) {
 /// ~1e-7·|ln t|, a few units at most, which the 40 absorbs many times over). For c = 0 and
 /// large g the window is about g ± 9.4√g, like the old g ± 8√g.
 pub fn series_window(g: f32, c: f32) -> (f32, f32, f32) {
+    let mode = series_mode(g, c);
+    let (lo, hi) = series_ends(g, c, mode);
+    (lo, mode, hi)
+}
+
+/// The window's ends [lo, hi] around the mode m̂ = [`series_mode`], by the two bisections that
+/// [`series_window`] describes.
+pub fn series_ends(g: f32, c: f32, mode: f32) -> (f32, f32) {
     let start = 2.0 * c.sqrt();
-    // Mode: smallest m with ln ρ(m) < 0, in [1, m_up].
-    let m_up = (2.0 * g).max(start).ceil() + 1.0;
-    let mode = if series_log_ratio(g, c, 1.0) < 0.0 {
-        1.0
-    } else {
-        bisect(1.0, m_up, |m| series_log_ratio(g, c, m) < 0.0).1
-    };
     let peak = series_log_term(g, c, mode) - HE_WINDOW_DROP;
     // Upper end: smallest m in [mode, h_up] with ln ρ(m) < 0 and
     // ln t(m) − ln(1/ρ(m) − 1) ≤ ln t(m̂) − 40.
@@ -165,17 +198,82 @@ pub fn series_window(g: f32, c: f32) -> (f32, f32, f32) {
     } else {
         bisect(1.0, mode, |m| !lo_ok(m)).0
     };
-    (lo, mode, hi)
+    (lo, hi)
 }
 
-/// Σ_{m≥1} gᵐ e^(−g)/(m!·m) · e^(−c/m), in log space over the window of [`series_window`]
-/// (which accounts for e^(−c/m)) with at most [`HE_MAX_TERMS`] evaluations (stride s, each
-/// term weighted s; see the module header for the accuracy).
+/// e^(−40) as the ratio of a window end's tail bound to the largest term (linear form of
+/// [`HE_WINDOW_DROP`], for [`series_walk`]).
+const HE_WINDOW_DROP_RATIO: f32 = 4.248_354e-18;
+
+/// The series' sum relative to its largest term, Σ t(m)/t(m̂) over the window of
+/// [`series_window`], term by term outwards from the mode m̂, each term the previous one times
+/// [`series_ratio`] (or divided by it, going down). The walk up stops at the first m with
+/// ρ(m) < 1 and t(m)·ρ(m)/(1 − ρ(m)) ≤ e^(−40)·t(m̂), the walk down at m = 1 or the first m
+/// with ρ(m−1) > 1 and t(m)/(ρ(m−1) − 1) ≤ e^(−40)·t(m̂): the ends [`series_window`] bisects
+/// for (the tests are monotone, so the first m met is the one it finds). `None` when the window
+/// holds more than [`HE_MAX_TERMS`] terms: [`series`] then sums every s-th term.
+pub fn series_walk(g: f32, c: f32, mode: f32) -> Option<f32> {
+    let mut sum = 1.0f32;
+    let mut terms = 1;
+    // Up: ρ(m) < 1 from the mode on, so the products stay below 1.
+    let (mut m, mut t) = (mode, 1.0f32);
+    loop {
+        let rho = series_ratio(g, c, m);
+        if rho < 1.0 && t * rho <= HE_WINDOW_DROP_RATIO * (1.0 - rho) {
+            break;
+        }
+        if terms == HE_MAX_TERMS {
+            return None;
+        }
+        t *= rho;
+        m += 1.0;
+        sum += t;
+        terms += 1;
+    }
+    // Down: ρ(m − 1) ≥ 1 below the mode; +∞ (overflow far below it) ends the walk at once.
+    let (mut m, mut t) = (mode, 1.0f32);
+    while m > 1.0 {
+        let rho = series_ratio(g, c, m - 1.0);
+        if rho > 1.0 && t <= HE_WINDOW_DROP_RATIO * (rho - 1.0) {
+            break;
+        }
+        if terms == HE_MAX_TERMS {
+            return None;
+        }
+        t /= rho;
+        m -= 1.0;
+        sum += t;
+        terms += 1;
+    }
+    Some(sum)
+}
+
+/// Whether the window looks narrow enough for [`series_walk`], so that a wide one does not
+/// spend 128 terms on a walk that gives up. ln t(m) ≈ m ln g − ln m! − c/m has curvature
+/// −1/m − 2c/m³ at the mode, so the bell's width is w ≈ √(m̂³/(m̂² + 2c)) and the window, out
+/// to e^(−40), about 2√80·w terms; the walk is tried where that is at most 110. Only a choice
+/// of method (both are exact): on a grid of g in [1e-3, 1e2] and c up to 1e6·g, no window under
+/// this bound held more than 128 terms.
+pub fn series_looks_narrow(c: f32, mode: f32) -> bool {
+    // 320·w² ≤ 110², without the division (GLSL twin: the same expression).
+    320.0 * mode * mode * mode <= 12100.0 * (mode * mode + 2.0 * c)
+}
+
+/// Σ_{m≥1} gᵐ e^(−g)/(m!·m) · e^(−c/m) over the window of [`series_window`] (which accounts
+/// for e^(−c/m)): by [`series_walk`] times the largest term, or, when the window holds more
+/// than [`HE_MAX_TERMS`] terms, every s-th term in log space, each weighted s (see the module
+/// header for the accuracy of both).
 pub fn series(g: f32, c: f32) -> f32 {
     if g <= 1e-30 || c.is_nan() || c < 0.0 {
         return 0.0;
     }
-    let (lo, _, hi) = series_window(g, c);
+    let mode = series_mode(g, c);
+    if series_looks_narrow(c, mode) {
+        if let Some(relative) = series_walk(g, c, mode) {
+            return series_log_term(g, c, mode).exp() * relative;
+        }
+    }
+    let (lo, hi) = series_ends(g, c, mode);
     let count = hi - lo + 1.0;
     let stride = (count / HE_MAX_TERMS as f32).ceil().max(1.0);
     let mut sum = 0.0f32;
