@@ -55,9 +55,9 @@ const MODE_EVAL: u32 = 0;
 const MODE_SAMPLE: u32 = 1;
 const MODE_COST: u32 = 2;
 const MODE_MATH: u32 = 3;
-/// Evaluations per invocation in the cost mode: He's at most 1,137 loop iterations each keep
-/// the invocation within lavapipe's 65,535 (docs/loops.md).
-const COST_REPS: u32 = 48;
+/// Evaluations per invocation in the cost mode (He's at most 849 loop iterations each keep the
+/// invocation within lavapipe's 65,535: docs/loops.md).
+const COST_REPS: u32 = 64;
 
 /// The probe kernel compiled for one material's model.
 struct Probe<'a> {

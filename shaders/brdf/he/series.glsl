@@ -7,6 +7,7 @@
 #include "brdf/common.glsl"
 
 #define HE_MAX_TERMS 128
+#define HE_STRIDED_TERMS 32
 
 // φ(ε) = ε − ln(1 + ε) without cancellation near 0 (series in z = ε/(2+ε)).
 float he_phi_ln(float eps) {
@@ -140,9 +141,9 @@ float he_series(float g, float c) {
     HE_BISECT(a, b, mid, !he_lo_ok(g, c, mid, peak))  // largest m <= mode with he_lo_ok
     float lo = a;
     float count = hi - lo + 1.0;
-    float stride = max(ceil(count / float(HE_MAX_TERMS)), 1.0);
+    float stride = max(ceil(count / float(HE_STRIDED_TERMS)), 1.0);
     float sum = 0.0;
-    for (int j = 0; j < HE_MAX_TERMS; ++j) {
+    for (int j = 0; j < HE_STRIDED_TERMS; ++j) {
         float mm = lo + float(j) * stride;
         if (mm > hi) break;
         sum += exp(he_log_term(g, c, mm));

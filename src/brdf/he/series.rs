@@ -7,28 +7,30 @@
 //! m ≫ g when c ≫ g²: rough surfaces far from the specular direction would be 2 % off where the
 //! value is below 1e-20.)
 //!
-//! Two ways over the window, one per width, each capped at [`HE_MAX_TERMS`] = 128 terms (the
-//! GPU needs a bound):
+//! Two ways over the window, one per width (the GPU needs a bound on each):
 //! * **Narrow** (most surfaces; g up to about 45 at c = 0): [`series_walk`] starts at m̂ and
 //!   walks outwards term by term, each term the previous one times the ratio
 //!   ρ(m) = g·m/(m+1)² · e^(c/(m(m+1))), one `exp` a term, relative to t(m̂); it stops at
-//!   the window's ends by the same tests [`series_window`] bisects on. One `exp` and `ln` give
-//!   t(m̂) itself, ln t(m̂) = −m̂·φ(g/m̂ − 1) − ½ln(2πm̂) − r(m̂) − ln m̂ − c/m̂ with
-//!   φ(ε) = ε − ln(1 + ε) (a series in z = ε/(2+ε) near 0, so no cancellation) and
+//!   the window's ends by the same tests [`series_window`] bisects on, and gives up past
+//!   [`HE_MAX_TERMS`] = 128 terms. One `exp` and `ln` give t(m̂) itself,
+//!   ln t(m̂) = −m̂·φ(g/m̂ − 1) − ½ln(2πm̂) − r(m̂) − ln m̂ − c/m̂ with φ(ε) = ε − ln(1 + ε)
+//!   (a series in z = ε/(2+ε) near 0, so no cancellation) and
 //!   r(m) = ln m! − (m ln m − m + ½ ln 2πm) the Stirling remainder (table for m ≤ 3,
 //!   three-term series above). Each step rounds a few times, so a term k steps from m̂ is off
 //!   by about 4k·2⁻²⁴ of itself; the terms that matter lie within a few widths of m̂.
-//! * **Wide**, when the walk would take more than 128 terms: every s-th term of the window in
-//!   log space, times s. The terms are a smooth bell of width w ≈ 1/√(−d²ln t/dm²) and the
-//!   window spans about ±9w, so s ≈ 18w/128 and by Poisson summation the relative error of the
-//!   strided sum is ~exp(−2π²w²/s²) ≈ e^(−990): the cap costs no accuracy.
+//! * **Wide** (a predicted width over 110 terms, or a walk that gave up): every s-th term of the
+//!   window in log space, times s, [`HE_STRIDED_TERMS`] = 32 of them. The terms are a smooth
+//!   bell of width w ≈ 1/√(−d²ln t/dm²) and the window spans about ±9w, so s ≈ 18w/32 and by
+//!   Poisson summation the relative error of the strided sum is ~exp(−2π²w²/s²) ≈ e^(−60),
+//!   far below f32's rounding. Measured: 16 terms give the same worst error as 128 on the
+//!   random arguments of tests/brdf_he.rs.
 //!
 //! The total error is f32 rounding: measured against an f64 sum of every term
 //! (tests/brdf_he.rs). The narrow sum costs one bisection of ≤ 40 log evaluations and an `exp`
-//! a term; the wide one three bisections and 128 exp/log pairs. Before the walk, every window
-//! was summed in log space (an `exp` and one or two `ln`s a term, after three bisections): the
-//! CPU reference renders a Cornell box with He's walls (σ₀ = 0.18 µm) 2.0x faster since, and
-//! the lineup 1.19x (docs/bench-log.md, "He's series walked from its largest term").
+//! a term; the wide one three bisections and 32 exp/log pairs. Before, every window was summed
+//! in log space (an `exp` and one or two `ln`s a term, after three bisections), the wide ones
+//! over 128 terms: the CPU reference renders a Cornell box with He's walls (σ₀ = 0.18 µm) 2.0x
+//! faster since (docs/bench-log.md, "He's series walked from its largest term").
 //!
 //! GLSL twin: `shaders/brdf/he/series.glsl`.
 
@@ -37,6 +39,8 @@ use std::f32::consts::PI;
 
 /// Cap on the number of series terms evaluated (the GPU loop bound).
 pub const HE_MAX_TERMS: u32 = 128;
+/// Terms of the strided sum over a wide window (every s-th term, s = ⌈window / 32⌉).
+pub const HE_STRIDED_TERMS: u32 = 32;
 
 /// φ(ε) = ε − ln(1 + ε) ≥ 0 for ε > −1, without cancellation near 0: with z = ε/(2 + ε),
 /// φ = 2z²/(1 − z) − 2(z³/3 + z⁵/5 + …) for |z| ≤ 1/3, the direct form otherwise.
@@ -275,9 +279,9 @@ pub fn series(g: f32, c: f32) -> f32 {
     }
     let (lo, hi) = series_ends(g, c, mode);
     let count = hi - lo + 1.0;
-    let stride = (count / HE_MAX_TERMS as f32).ceil().max(1.0);
+    let stride = (count / HE_STRIDED_TERMS as f32).ceil().max(1.0);
     let mut sum = 0.0f32;
-    for j in 0..HE_MAX_TERMS {
+    for j in 0..HE_STRIDED_TERMS {
         let mm = lo + j as f32 * stride;
         if mm > hi {
             break;
