@@ -21,9 +21,11 @@
 //! * **Wide** (a predicted width over 110 terms, or a walk that gave up): every s-th term of the
 //!   window in log space, times s, [`HE_STRIDED_TERMS`] = 32 of them. The terms are a smooth
 //!   bell of width w ≈ 1/√(−d²ln t/dm²) and the window spans about ±9w, so s ≈ 18w/32 and by
-//!   Poisson summation the relative error of the strided sum is ~exp(−2π²w²/s²) ≈ e^(−60),
-//!   far below f32's rounding. Measured: 16 terms give the same worst error as 128 on the
-//!   random arguments of tests/brdf_he.rs.
+//!   Poisson summation the relative error of the strided sum is ~exp(−2π²w²/s²) ≈ e^(−62),
+//!   far below f32's rounding. Measured: on a grid of 4,095 wide windows (g from 1e-3 to 1e4,
+//!   c up to 1e7·g) the stride was at most 0.70 of the predicted width and the worst error
+//!   4.3e-6; 16 terms give the same worst error as 128 on the random arguments of
+//!   tests/brdf_he.rs.
 //!
 //! The total error is f32 rounding: measured against an f64 sum of every term
 //! (tests/brdf_he.rs). The narrow sum costs one bisection of ≤ 40 log evaluations and an `exp`
@@ -264,9 +266,9 @@ pub fn series_looks_narrow(c: f32, mode: f32) -> bool {
 }
 
 /// Σ_{m≥1} gᵐ e^(−g)/(m!·m) · e^(−c/m) over the window of [`series_window`] (which accounts
-/// for e^(−c/m)): by [`series_walk`] times the largest term, or, when the window holds more
-/// than [`HE_MAX_TERMS`] terms, every s-th term in log space, each weighted s (see the module
-/// header for the accuracy of both).
+/// for e^(−c/m)): by [`series_walk`] times the largest term, or, where the window looks wide
+/// ([`series_looks_narrow`]) or the walk gives up, [`HE_STRIDED_TERMS`] terms in log space,
+/// every s-th one weighted s (see the module header for the accuracy of both).
 pub fn series(g: f32, c: f32) -> f32 {
     if g <= 1e-30 || c.is_nan() || c < 0.0 {
         return 0.0;
