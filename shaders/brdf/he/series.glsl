@@ -1,7 +1,7 @@
 // The series of He et al.'s directional-diffuse term (the D of survey eq. 12), summed over a
 // window that provably holds all but e^(−40) of it: term by term from the largest one by the
-// ratio of consecutive terms, or every s-th term in log space where the window is wider than
-// HE_MAX_TERMS. Rust twin: src/brdf/he/series.rs (the window's proof, the cap and the accuracy).
+// ratio of consecutive terms, or every s-th term in log space where the window is wide. Rust
+// twin: src/brdf/he/series.rs (the window's proof, the caps and the accuracy).
 #ifndef BRDF_HE_SERIES_GLSL
 #define BRDF_HE_SERIES_GLSL
 #include "brdf/common.glsl"
@@ -117,8 +117,8 @@ float he_walk(float g, float c, float mode) {
 }
 // Σ_{m≥1} gᵐ e^(−g)/(m!·m) e^(−c/m) over the window of the Rust series_window (mode by
 // bisection on the term ratio, ends where the geometric bound on the rest is e^(−40) of it; the
-// proof is there): he_walk times the largest term, or at most HE_MAX_TERMS strided terms in log
-// space where the window is wider.
+// proof is there): he_walk times the largest term, or HE_STRIDED_TERMS strided terms in log
+// space where the window looks wide or the walk gives up.
 float he_series(float g, float c) {
     if (g <= 1e-30 || !(c >= 0.0)) return 0.0;
     float mode = he_mode(g, c);
