@@ -1,5 +1,5 @@
 // The series of He et al.'s directional-diffuse term (the D of survey eq. 12), summed over a
-// window that provably holds all but e^(−40) of it: term by term from the largest one by the
+// window that provably holds all but e^(−20) of it: term by term from the largest one by the
 // ratio of consecutive terms, or every s-th term in log space where the window is wide. Rust
 // twin: src/brdf/he/series.rs (the window's proof, the caps and the accuracy).
 #ifndef BRDF_HE_SERIES_GLSL
@@ -52,8 +52,8 @@ float he_ratio(float g, float c, float m) {
     float n = m + 1.0;
     return g * m / (n * n) * exp(c / (m * n));
 }
-#define HE_WINDOW_DROP 40.0
-#define HE_WINDOW_DROP_RATIO 4.248354e-18
+#define HE_WINDOW_DROP 20.0
+#define HE_WINDOW_DROP_RATIO 2.0611536e-9
 #define HE_BISECTION_STEPS 40
 
 // Bisection of an integer bracket [A, B] (float variables) until B - A <= 1, at most
@@ -116,15 +116,15 @@ float he_walk(float g, float c, float mode) {
     return sum;
 }
 // Σ_{m≥1} gᵐ e^(−g)/(m!·m) e^(−c/m) over the window of the Rust series_window (mode by
-// bisection on the term ratio, ends where the geometric bound on the rest is e^(−40) of it; the
+// bisection on the term ratio, ends where the geometric bound on the rest is e^(−20) of it; the
 // proof is there): he_walk times the largest term, or HE_STRIDED_TERMS strided terms in log
 // space where the window looks wide or the walk gives up.
 float he_series(float g, float c) {
     if (g <= 1e-30 || !(c >= 0.0)) return 0.0;
     float mode = he_mode(g, c);
-    // The window's predicted width, 2√80·√(mode³/(mode² + 2c)) terms, at most 110: walk
+    // The window's predicted width, 2√40·√(mode³/(mode² + 2c)) terms, at most 110: walk
     // (Rust: series_looks_narrow).
-    if (320.0 * mode * mode * mode <= 12100.0 * (mode * mode + 2.0 * c)) {
+    if (160.0 * mode * mode * mode <= 12100.0 * (mode * mode + 2.0 * c)) {
         float relative = he_walk(g, c, mode);
         if (relative > 0.0) return exp(he_log_term(g, c, mode)) * relative;
     }

@@ -1,14 +1,15 @@
 //! The series of the directional-diffuse term (the D of survey eq. 12),
 //! Σ_{m≥1} gᵐe^(−g)/(m!·m) · exp(−c/m), summed over the window of [`series_window`]: around
 //! the largest term m̂ (found by bisection on the ratio of consecutive terms, which decreases
-//! with m), out to where the terms are e^(−40) below it and fall geometrically; proved there to
-//! omit at most 2e^(−40) ≈ 8.5e-18 of the sum for every g and every c. (A window fixed around
+//! with m), out to where the terms are e^(−20) below it and fall geometrically; proved there to
+//! omit at most 2e^(−20) ≈ 4.1e-9 of the sum for every g and every c, 15 times below f32's
+//! rounding. (A window fixed around
 //! g, such as m ∈ [g − 8√g, g + 8√g + 10], would miss that e^(−c/m) moves the largest terms to
 //! m ≫ g when c ≫ g²: rough surfaces far from the specular direction would be 2 % off where the
 //! value is below 1e-20.)
 //!
 //! Two ways over the window, one per width (the GPU needs a bound on each):
-//! * **Narrow** (most surfaces; g up to about 45 at c = 0): [`series_walk`] starts at m̂ and
+//! * **Narrow** (most surfaces; g up to about 75 at c = 0): [`series_walk`] starts at m̂ and
 //!   walks outwards term by term, each term the previous one times the ratio
 //!   ρ(m) = g·m/(m+1)² · e^(c/(m(m+1))), one `exp` a term, relative to t(m̂); it stops at
 //!   the window's ends by the same tests [`series_window`] bisects on, and gives up past
@@ -20,12 +21,12 @@
 //!   by about 4k·2⁻²⁴ of itself; the terms that matter lie within a few widths of m̂.
 //! * **Wide** (a predicted width over 110 terms, or a walk that gave up): every s-th term of the
 //!   window in log space, times s, [`HE_STRIDED_TERMS`] = 32 of them. The terms are a smooth
-//!   bell of width w ≈ 1/√(−d²ln t/dm²) and the window spans about ±9w, so s ≈ 18w/32 and by
-//!   Poisson summation the relative error of the strided sum is ~exp(−2π²w²/s²) ≈ e^(−62),
-//!   far below f32's rounding. Measured: on a grid of 4,095 wide windows (g from 1e-3 to 1e4,
-//!   c up to 1e7·g) the stride was at most 0.70 of the predicted width and the worst error
-//!   4.3e-6; 16 terms give the same worst error as 128 on the random arguments of
-//!   tests/brdf_he.rs.
+//!   bell of width w ≈ 1/√(−d²ln t/dm²) and the window spans about ±6.5w, so s ≈ 13w/32 and
+//!   by Poisson summation the relative error of the strided sum is ~exp(−2π²w²/s²) ≈ e^(−120),
+//!   far below f32's rounding. Measured: on a grid of 3,581 wide windows (g from 1e-3 to 1e4,
+//!   c up to 1e7·g) the stride was at most 0.50 of the predicted width and the worst error
+//!   3.6e-6; 16 terms gave the same worst error as 128 on the random arguments of
+//!   tests/brdf_he.rs (with the wider window of e^(−40)).
 //!
 //! The total error is f32 rounding: measured against an f64 sum of every term
 //! (tests/brdf_he.rs). The narrow sum costs one bisection of ≤ 40 log evaluations and an `exp`
@@ -112,8 +113,10 @@ pub fn series_ratio(g: f32, c: f32, m: f32) -> f32 {
     g * m / (n * n) * (c / (m * n)).exp()
 }
 
-/// How far below its largest term a window end must be: e^(−40) ≈ 4e-18.
-pub const HE_WINDOW_DROP: f32 = 40.0;
+/// How far below its largest term a window end must be: e^(−20) ≈ 2.1e-9, so that the window
+/// omits less than f32's rounding of the sum (it was e^(−40) until the walk of
+/// [`series_walk`]; half the drop makes the window about 0.7 as wide).
+pub const HE_WINDOW_DROP: f32 = 20.0;
 /// Bisection steps for each of the mode and the two window ends (enough for 2^40 > any m).
 pub const HE_BISECTION_STEPS: u32 = 40;
 
@@ -155,19 +158,19 @@ pub fn series_mode(g: f32, c: f32) -> f32 {
 /// from g up to about √(c / ln(m̂/g)) when c ≫ g², far outside the old window g ± 8√g.
 ///
 /// * Upper end: hi is the smallest m ≥ m̂ with ρ(hi) < 1 and t(hi)·ρ(hi)/(1 − ρ(hi)) ≤
-///   e^(−40)·t(m̂) (in logs: ln t(hi) − ln(1/ρ(hi) − 1) ≤ ln t(m̂) − 40). Since ρ decreases,
-///   t(hi + j) ≤ t(hi)·ρ(hi)^j, so Σ_{m>hi} t(m) ≤ t(hi)·ρ(hi)/(1 − ρ(hi)) ≤ e^(−40)·t(m̂).
+///   e^(−20)·t(m̂) (in logs: ln t(hi) − ln(1/ρ(hi) − 1) ≤ ln t(m̂) − 20). Since ρ decreases,
+///   t(hi + j) ≤ t(hi)·ρ(hi)^j, so Σ_{m>hi} t(m) ≤ t(hi)·ρ(hi)/(1 − ρ(hi)) ≤ e^(−20)·t(m̂).
 ///   The left side decreases with m after m̂ (t falls, ρ falls), so once true the condition
 ///   stays true and a bisection finds hi; its upper bracket H = ⌈max(4g, 2√c)⌉ + 60 satisfies
 ///   it (from max(4g, 2√c) on, ln ρ < ln(g/(m+1)) + ¼ < −ln 2, and then ≥ 58 halvings).
 /// * Lower end: lo = 1 when no m ≤ m̂ qualifies; otherwise the largest m ≤ m̂ with
-///   ρ(m−1) > 1 and t(m)/(ρ(m−1) − 1) ≤ e^(−40)·t(m̂). Below lo the terms fall at least by
+///   ρ(m−1) > 1 and t(m)/(ρ(m−1) − 1) ≤ e^(−20)·t(m̂). Below lo the terms fall at least by
 ///   1/ρ(lo−1) per step (ρ is larger further down), so Σ_{m<lo} t(m) ≤ t(lo)/(ρ(lo−1) − 1).
 ///
-/// With t(m̂) ≤ Σ t, the window omits at most 2e^(−40) ≈ 8.5e-18 of the sum, for every g > 0
+/// With t(m̂) ≤ Σ t, the window omits at most 2e^(−20) ≈ 4.1e-9 of the sum, for every g > 0
 /// and c ≥ 0, up to the f32 rounding of the tests themselves (ln t has absolute error
-/// ~1e-7·|ln t|, a few units at most, which the 40 absorbs many times over). For c = 0 and
-/// large g the window is about g ± 9.4√g, like the old g ± 8√g.
+/// ~1e-7·|ln t|: where that is a few units, the omitted part can reach e^(−17) ≈ 4e-8, still
+/// under f32's rounding of the sum). For c = 0 and large g the window is about g ± 6.5√g.
 pub fn series_window(g: f32, c: f32) -> (f32, f32, f32) {
     let mode = series_mode(g, c);
     let (lo, hi) = series_ends(g, c, mode);
@@ -180,7 +183,7 @@ pub fn series_ends(g: f32, c: f32, mode: f32) -> (f32, f32) {
     let start = 2.0 * c.sqrt();
     let peak = series_log_term(g, c, mode) - HE_WINDOW_DROP;
     // Upper end: smallest m in [mode, h_up] with ln ρ(m) < 0 and
-    // ln t(m) − ln(1/ρ(m) − 1) ≤ ln t(m̂) − 40.
+    // ln t(m) − ln(1/ρ(m) − 1) ≤ ln t(m̂) − 20.
     let h_up = (4.0 * g).max(start).ceil() + 60.0;
     let up_ok = |m: f32| {
         let lr = series_log_ratio(g, c, m);
@@ -207,15 +210,15 @@ pub fn series_ends(g: f32, c: f32, mode: f32) -> (f32, f32) {
     (lo, hi)
 }
 
-/// e^(−40) as the ratio of a window end's tail bound to the largest term (linear form of
+/// e^(−20) as the ratio of a window end's tail bound to the largest term (linear form of
 /// [`HE_WINDOW_DROP`], for [`series_walk`]).
-const HE_WINDOW_DROP_RATIO: f32 = 4.248_354e-18;
+const HE_WINDOW_DROP_RATIO: f32 = 2.061_153_6e-9;
 
 /// The series' sum relative to its largest term, Σ t(m)/t(m̂) over the window of
 /// [`series_window`], term by term outwards from the mode m̂, each term the previous one times
 /// [`series_ratio`] (or divided by it, going down). The walk up stops at the first m with
-/// ρ(m) < 1 and t(m)·ρ(m)/(1 − ρ(m)) ≤ e^(−40)·t(m̂), the walk down at m = 1 or the first m
-/// with ρ(m−1) > 1 and t(m)/(ρ(m−1) − 1) ≤ e^(−40)·t(m̂): the ends [`series_window`] bisects
+/// ρ(m) < 1 and t(m)·ρ(m)/(1 − ρ(m)) ≤ e^(−20)·t(m̂), the walk down at m = 1 or the first m
+/// with ρ(m−1) > 1 and t(m)/(ρ(m−1) − 1) ≤ e^(−20)·t(m̂): the ends [`series_window`] bisects
 /// for (the tests are monotone, so the first m met is the one it finds). `None` when the window
 /// holds more than [`HE_MAX_TERMS`] terms: [`series`] then sums every s-th term.
 pub fn series_walk(g: f32, c: f32, mode: f32) -> Option<f32> {
@@ -257,12 +260,12 @@ pub fn series_walk(g: f32, c: f32, mode: f32) -> Option<f32> {
 /// Whether the window looks narrow enough for [`series_walk`], so that a wide one does not
 /// spend 128 terms on a walk that gives up. ln t(m) ≈ m ln g − ln m! − c/m has curvature
 /// −1/m − 2c/m³ at the mode, so the bell's width is w ≈ √(m̂³/(m̂² + 2c)) and the window, out
-/// to e^(−40), about 2√80·w terms; the walk is tried where that is at most 110. Only a choice
-/// of method (both are exact): on a grid of g in [1e-3, 1e2] and c up to 1e6·g, no window under
-/// this bound held more than 128 terms.
+/// to e^(−20), about 2√40·w terms; the walk is tried where that is at most 110. Only a choice
+/// of method (both are exact): on a grid of 24,000 (g, c), g from 1e-3 to 1e4 and c up to
+/// 1e7·g, no walk tried under this bound gave up.
 pub fn series_looks_narrow(c: f32, mode: f32) -> bool {
-    // 320·w² ≤ 110², without the division (GLSL twin: the same expression).
-    320.0 * mode * mode * mode <= 12100.0 * (mode * mode + 2.0 * c)
+    // 160·w² ≤ 110², without the division (GLSL twin: the same expression).
+    160.0 * mode * mode * mode <= 12100.0 * (mode * mode + 2.0 * c)
 }
 
 /// Σ_{m≥1} gᵐ e^(−g)/(m!·m) · e^(−c/m) over the window of [`series_window`] (which accounts
