@@ -3,10 +3,9 @@
 //! the largest term m̂ (found by bisection on the ratio of consecutive terms, which decreases
 //! with m), out to where the terms are e^(−20) below it and fall geometrically; proved there to
 //! omit at most 2e^(−20) ≈ 4.1e-9 of the sum for every g and every c, 15 times below f32's
-//! rounding. (A window fixed around
-//! g, such as m ∈ [g − 8√g, g + 8√g + 10], would miss that e^(−c/m) moves the largest terms to
-//! m ≫ g when c ≫ g²: rough surfaces far from the specular direction would be 2 % off where the
-//! value is below 1e-20.)
+//! rounding. (A window fixed around g, such as m ∈ [g − 8√g, g + 8√g + 10], would miss that
+//! e^(−c/m) moves the largest terms to m ≫ g when c ≫ g²: rough surfaces far from the specular
+//! direction would be 2 % off where the value is below 1e-20.)
 //!
 //! Two ways over the window, one per width (the GPU needs a bound on each):
 //! * **Narrow** (most surfaces; g up to about 75 at c = 0): [`series_walk`] starts at m̂ and
