@@ -78,9 +78,9 @@ fn windowed_series_matches_a_brute_force_f64_sum() {
     eprintln!("series worst relative error {worst:e} over {cases} cases");
 }
 
-/// Random (g, c) over the range renders reach and beyond, log-uniform: both ways of summing
-/// (the walk from the mode where the window holds at most 128 terms, every s-th term where it
-/// holds more) against the f64 sum of every term.
+/// Random (g, c) over the range renders reach and beyond, log-uniform, and c = 0: both ways
+/// of summing (the walk from the mode where the window looks narrow and holds at most 128
+/// terms, every s-th term elsewhere) against the f64 sum of every term.
 #[test]
 fn series_is_accurate_on_random_arguments_both_ways() {
     let mut state = 0x9e37_79b9_7f4a_7c15u64;
@@ -95,25 +95,28 @@ fn series_is_accurate_on_random_arguments_both_ways() {
     let (mut walked, mut strided, mut worst) = (0, 0, 0.0f64);
     for _ in 0..3000 {
         let g = 10f64.powf(-6.0 + 9.0 * uniform()) as f32;
-        let c = (g.max(1.0) as f64 * 10f64.powf(-4.0 + 10.0 * uniform())) as f32;
+        let mut c = (g.max(1.0) as f64 * 10f64.powf(-4.0 + 10.0 * uniform())) as f32;
         if uniform() < 0.1 {
-            // c = 0 exactly: the specular direction's own value.
-            continue;
+            c = 0.0; // exactly: the specular direction's own value
         }
         let want = series_f64(g as f64, c as f64);
         if want < 1e-37 {
             continue; // below f32's normal range
         }
-        match he::series_walk(g, c, he::series_mode(g, c)) {
-            Some(_) => walked += 1,
-            None => strided += 1,
+        // Which way `series` takes.
+        let mode = he::series_mode(g, c);
+        if he::series_looks_narrow(c, mode) && he::series_walk(g, c, mode).is_some() {
+            walked += 1;
+        } else {
+            strided += 1;
         }
         let got = he::series(g, c) as f64;
         let e = (got - want).abs() / want;
         worst = worst.max(e);
         assert!(e < 1e-4, "g={g} c={c}: {got} vs {want} ({e:e})");
     }
-    for g in [1e-6f32, 0.01, 0.7, 3.0, 20.0, 44.0, 46.0, 300.0] {
+    // Either side of where the walk stops being tried at c = 0 (g ≈ 75).
+    for g in [1e-6f32, 0.01, 0.7, 3.0, 20.0, 74.0, 77.0, 300.0] {
         let want = series_f64(g as f64, 0.0);
         let got = he::series(g, 0.0) as f64;
         let e = (got - want).abs() / want;
