@@ -83,15 +83,8 @@ fn windowed_series_matches_a_brute_force_f64_sum() {
 /// terms, every s-th term elsewhere) against the f64 sum of every term.
 #[test]
 fn series_is_accurate_on_random_arguments_both_ways() {
-    let mut state = 0x9e37_79b9_7f4a_7c15u64;
-    let mut uniform = move || {
-        // splitmix64
-        state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rng = brdfwave::stress::Rng::new(0x9e37_79b9_7f4a_7c15);
+    let mut uniform = move || rng.f64();
     let (mut walked, mut strided, mut worst) = (0, 0, 0.0f64);
     for _ in 0..3000 {
         let g = 10f64.powf(-6.0 + 9.0 * uniform()) as f32;

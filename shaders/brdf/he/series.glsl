@@ -53,7 +53,7 @@ float he_ratio(float g, float c, float m) {
     return g * m / (n * n) * exp(c / (m * n));
 }
 #define HE_WINDOW_DROP 20.0
-#define HE_WINDOW_DROP_RATIO 2.0611536e-9
+#define HE_WINDOW_DROP_RATIO exp(-HE_WINDOW_DROP)
 #define HE_BISECTION_STEPS 40
 
 // Bisection of an integer bracket [A, B] (float variables) until B - A <= 1, at most
@@ -122,9 +122,9 @@ float he_walk(float g, float c, float mode) {
 float he_series(float g, float c) {
     if (g <= 1e-30 || !(c >= 0.0)) return 0.0;
     float mode = he_mode(g, c);
-    // The window's predicted width, 2√40·√(mode³/(mode² + 2c)) terms, at most 110: walk
-    // (Rust: series_looks_narrow).
-    if (160.0 * mode * mode * mode <= 12100.0 * (mode * mode + 2.0 * c)) {
+    // The window's predicted width, 2√(2·HE_WINDOW_DROP)·√(mode³/(mode² + 2c)) terms, at most
+    // 110: walk (Rust: series_looks_narrow).
+    if (8.0 * HE_WINDOW_DROP * mode * mode * mode <= 12100.0 * (mode * mode + 2.0 * c)) {
         float relative = he_walk(g, c, mode);
         if (relative > 0.0) return exp(he_log_term(g, c, mode)) * relative;
     }

@@ -209,10 +209,6 @@ pub fn series_ends(g: f32, c: f32, mode: f32) -> (f32, f32) {
     (lo, hi)
 }
 
-/// e^(−20) as the ratio of a window end's tail bound to the largest term (linear form of
-/// [`HE_WINDOW_DROP`], for [`series_walk`]).
-const HE_WINDOW_DROP_RATIO: f32 = 2.061_153_6e-9;
-
 /// The series' sum relative to its largest term, Σ t(m)/t(m̂) over the window of
 /// [`series_window`], term by term outwards from the mode m̂, each term the previous one times
 /// [`series_ratio`] (or divided by it, going down). The walk up stops at the first m with
@@ -221,13 +217,15 @@ const HE_WINDOW_DROP_RATIO: f32 = 2.061_153_6e-9;
 /// for (the tests are monotone, so the first m met is the one it finds). `None` when the window
 /// holds more than [`HE_MAX_TERMS`] terms: [`series`] then sums every s-th term.
 pub fn series_walk(g: f32, c: f32, mode: f32) -> Option<f32> {
+    // e^(−HE_WINDOW_DROP): a window end's tail bound relative to the largest term.
+    let drop = (-HE_WINDOW_DROP).exp();
     let mut sum = 1.0f32;
     let mut terms = 1;
     // Up: ρ(m) < 1 from the mode on, so the products stay below 1.
     let (mut m, mut t) = (mode, 1.0f32);
     loop {
         let rho = series_ratio(g, c, m);
-        if rho < 1.0 && t * rho <= HE_WINDOW_DROP_RATIO * (1.0 - rho) {
+        if rho < 1.0 && t * rho <= drop * (1.0 - rho) {
             break;
         }
         if terms == HE_MAX_TERMS {
@@ -242,7 +240,7 @@ pub fn series_walk(g: f32, c: f32, mode: f32) -> Option<f32> {
     let (mut m, mut t) = (mode, 1.0f32);
     while m > 1.0 {
         let rho = series_ratio(g, c, m - 1.0);
-        if rho > 1.0 && t <= HE_WINDOW_DROP_RATIO * (rho - 1.0) {
+        if rho > 1.0 && t <= drop * (rho - 1.0) {
             break;
         }
         if terms == HE_MAX_TERMS {
@@ -259,12 +257,13 @@ pub fn series_walk(g: f32, c: f32, mode: f32) -> Option<f32> {
 /// Whether the window looks narrow enough for [`series_walk`], so that a wide one does not
 /// spend 128 terms on a walk that gives up. ln t(m) ≈ m ln g − ln m! − c/m has curvature
 /// −1/m − 2c/m³ at the mode, so the bell's width is w ≈ √(m̂³/(m̂² + 2c)) and the window, out
-/// to e^(−20), about 2√40·w terms; the walk is tried where that is at most 110. Only a choice
+/// to e^(−D) (D = [`HE_WINDOW_DROP`] = 20), about 2√(2D)·w terms; the walk is tried where
+/// that is at most 110. Only a choice
 /// of method (both are exact): on a grid of 24,000 (g, c), g from 1e-3 to 1e4 and c up to
 /// 1e7·g, no walk tried under this bound gave up.
 pub fn series_looks_narrow(c: f32, mode: f32) -> bool {
-    // 160·w² ≤ 110², without the division (GLSL twin: the same expression).
-    160.0 * mode * mode * mode <= 12100.0 * (mode * mode + 2.0 * c)
+    // 8D·w² ≤ 110², without the division (GLSL twin: the same expression).
+    8.0 * HE_WINDOW_DROP * mode * mode * mode <= 12100.0 * (mode * mode + 2.0 * c)
 }
 
 /// Σ_{m≥1} gᵐ e^(−g)/(m!·m) · e^(−c/m) over the window of [`series_window`] (which accounts
