@@ -59,7 +59,7 @@ float he_ratio(float g, float c, float m) {
 // Bisection of an integer bracket [A, B] (float variables) until B - A <= 1, at most
 // HE_BISECTION_STEPS halvings: the midpoint MID replaces B where TO_B (an expression in MID)
 // holds, A otherwise. A macro because GLSL has no closures; the three searches of
-// he_series use it, as the Rust series_window uses bisect.
+// he_series use it, as the Rust series_mode and series_ends use bisect.
 #define HE_BISECT(A, B, MID, TO_B) \
     for (int i_bisect = 0; i_bisect < HE_BISECTION_STEPS; ++i_bisect) { \
         if (B - A <= 1.0) break; \
@@ -115,7 +115,7 @@ float he_walk(float g, float c, float mode) {
     }
     return sum;
 }
-// Σ_{m≥1} gᵐ e^(−g)/(m!·m) e^(−c/m) over the window of the Rust series_window (mode by
+// Σ_{m≥1} gᵐ e^(−g)/(m!·m) e^(−c/m) over the window of the Rust series_ends (mode by
 // bisection on the term ratio, ends where the geometric bound on the rest is e^(−20) of it; the
 // proof is there): he_walk times the largest term, or HE_STRIDED_TERMS strided terms in log
 // space where the window looks wide or the walk gives up.

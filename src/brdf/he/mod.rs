@@ -65,8 +65,9 @@ pub mod shadowing;
 pub mod terms;
 
 pub use series::{
-    phi_ln, series, series_ends, series_log_ratio, series_log_term, series_looks_narrow, series_mode, series_ratio, series_walk,
-    series_window, stirling_remainder, HE_BISECTION_STEPS, HE_MAX_TERMS, HE_STRIDED_TERMS, HE_WINDOW_DROP,
+    phi_ln, series, series_ends, series_log_ratio, series_log_term, series_looks_narrow,
+    series_mode, series_ratio, series_walk, stirling_remainder, HE_BISECTION_STEPS, HE_MAX_TERMS,
+    HE_STRIDED_TERMS, HE_WINDOW_DROP,
 };
 pub use shadowing::{effective_sigma, shadow_s1, solve_z0, HE_NEWTON_STEPS};
 pub use terms::{dd_unit, specular_attenuation, specular_reflectance};

@@ -1,5 +1,5 @@
 //! The series of the directional-diffuse term (the D of survey eq. 12),
-//! Σ_{m≥1} gᵐe^(−g)/(m!·m) · exp(−c/m), summed over the window of [`series_window`]: around
+//! Σ_{m≥1} gᵐe^(−g)/(m!·m) · exp(−c/m), summed over the window of [`series_ends`]: around
 //! the largest term m̂ (found by bisection on the ratio of consecutive terms, which decreases
 //! with m), out to where the terms are e^(−20) below it and fall geometrically; proved there to
 //! omit at most 2e^(−20) ≈ 4.1e-9 of the sum for every g and every c, 15 times below f32's
@@ -11,7 +11,7 @@
 //! * **Narrow** (most surfaces; g up to about 75 at c = 0): [`series_walk`] starts at m̂ and
 //!   walks outwards term by term, each term the previous one times the ratio
 //!   ρ(m) = g·m/(m+1)² · e^(c/(m(m+1))), one `exp` a term, relative to t(m̂); it stops at
-//!   the window's ends by the same tests [`series_window`] bisects on, and gives up past
+//!   the window's ends by the same tests [`series_ends`] bisects on, and gives up past
 //!   [`HE_MAX_TERMS`] = 128 terms. One `exp` and `ln` give t(m̂) itself,
 //!   ln t(m̂) = −m̂·φ(g/m̂ − 1) − ½ln(2πm̂) − r(m̂) − ln m̂ − c/m̂ with φ(ε) = ε − ln(1 + ε)
 //!   (a series in z = ε/(2+ε) near 0, so no cancellation) and
@@ -99,7 +99,7 @@ pub fn series_log_term(g: f32, c: f32, m: f32) -> f32 {
 }
 
 /// ln of the ratio of consecutive series terms, ln(t(m+1)/t(m)) = ln g + ln(m/(m+1)²)
-/// + c/(m(m+1)). The ratio decreases with m (see [`series_window`]).
+/// + c/(m(m+1)). The ratio decreases with m (see [`series_ends`]).
 pub fn series_log_ratio(g: f32, c: f32, m: f32) -> f32 {
     let n = m + 1.0;
     g.ln() + (m / (n * n)).ln() + c / (m * n)
@@ -137,7 +137,7 @@ fn bisect(mut a: f32, mut b: f32, to_b: impl Fn(f32) -> bool) -> (f32, f32) {
 }
 
 /// The mode m̂ of the series' terms (its largest term): the smallest m ≥ 1 with ln ρ(m) < 0,
-/// by bisection in [1, ⌈max(2g, 2√c)⌉ + 1] (why it lies there: [`series_window`]).
+/// by bisection in [1, ⌈max(2g, 2√c)⌉ + 1] (why it lies there: [`series_ends`]).
 pub fn series_mode(g: f32, c: f32) -> f32 {
     if series_log_ratio(g, c, 1.0) < 0.0 {
         return 1.0;
@@ -146,7 +146,8 @@ pub fn series_mode(g: f32, c: f32) -> f32 {
     bisect(1.0, m_up, |m| series_log_ratio(g, c, m) < 0.0).1
 }
 
-/// The summation window [lo, hi] of [`series`] and its mode m̂ (largest term).
+/// The summation window [lo, hi] of [`series`] around the mode m̂ = [`series_mode`] (largest
+/// term), by two bisections.
 ///
 /// **Why it is enough** (proof). The ratio of consecutive terms is
 /// ρ(m) = t(m+1)/t(m) = g·m/(m+1)² · e^(c/(m(m+1))), a product of two positive factors that
@@ -170,14 +171,6 @@ pub fn series_mode(g: f32, c: f32) -> f32 {
 /// and c ≥ 0, up to the f32 rounding of the tests themselves (ln t has absolute error
 /// ~1e-7·|ln t|: where that is a few units, the omitted part can reach e^(−17) ≈ 4e-8, still
 /// under f32's rounding of the sum). For c = 0 and large g the window is about g ± 6.5√g.
-pub fn series_window(g: f32, c: f32) -> (f32, f32, f32) {
-    let mode = series_mode(g, c);
-    let (lo, hi) = series_ends(g, c, mode);
-    (lo, mode, hi)
-}
-
-/// The window's ends [lo, hi] around the mode m̂ = [`series_mode`], by the two bisections that
-/// [`series_window`] describes.
 pub fn series_ends(g: f32, c: f32, mode: f32) -> (f32, f32) {
     let start = 2.0 * c.sqrt();
     let peak = series_log_term(g, c, mode) - HE_WINDOW_DROP;
@@ -210,10 +203,10 @@ pub fn series_ends(g: f32, c: f32, mode: f32) -> (f32, f32) {
 }
 
 /// The series' sum relative to its largest term, Σ t(m)/t(m̂) over the window of
-/// [`series_window`], term by term outwards from the mode m̂, each term the previous one times
+/// [`series_ends`], term by term outwards from the mode m̂, each term the previous one times
 /// [`series_ratio`] (or divided by it, going down). The walk up stops at the first m with
 /// ρ(m) < 1 and t(m)·ρ(m)/(1 − ρ(m)) ≤ e^(−20)·t(m̂), the walk down at m = 1 or the first m
-/// with ρ(m−1) > 1 and t(m)/(ρ(m−1) − 1) ≤ e^(−20)·t(m̂): the ends [`series_window`] bisects
+/// with ρ(m−1) > 1 and t(m)/(ρ(m−1) − 1) ≤ e^(−20)·t(m̂): the ends [`series_ends`] bisects
 /// for (the tests are monotone, so the first m met is the one it finds). `None` when the window
 /// holds more than [`HE_MAX_TERMS`] terms: [`series`] then sums every s-th term.
 pub fn series_walk(g: f32, c: f32, mode: f32) -> Option<f32> {
@@ -266,7 +259,7 @@ pub fn series_looks_narrow(c: f32, mode: f32) -> bool {
     8.0 * HE_WINDOW_DROP * mode * mode * mode <= 12100.0 * (mode * mode + 2.0 * c)
 }
 
-/// Σ_{m≥1} gᵐ e^(−g)/(m!·m) · e^(−c/m) over the window of [`series_window`] (which accounts
+/// Σ_{m≥1} gᵐ e^(−g)/(m!·m) · e^(−c/m) over the window of [`series_ends`] (which accounts
 /// for e^(−c/m)): by [`series_walk`] times the largest term, or, where the window looks wide
 /// ([`series_looks_narrow`]) or the walk gives up, [`HE_STRIDED_TERMS`] terms in log space,
 /// every s-th one weighted s (see the module header for the accuracy of both).
