@@ -7,6 +7,7 @@ use brdfwave::brdf::common::erfc;
 use brdfwave::brdf::he::{self, He};
 mod common;
 use brdfwave::brdf::validate::dir_from_theta_deg;
+use brdfwave::stress::he_series_f64;
 use common::brdf::{
     check_reciprocal, check_sampled_albedo, check_sampler, default_of, grey, mixture_albedo,
     mixture_sampler, model, models, rejects_fields, warns_each, AlbedoCheck, SamplerCheck, ANGLES,
@@ -31,27 +32,6 @@ fn erfc_has_relative_accuracy() {
     assert!(worst < 2e-5, "{worst}");
 }
 
-/// f64 reference, brute force: every term from m = 1 up to where the terms have fallen by
-/// e^-60 from the largest and keep falling geometrically (the ratio of consecutive terms
-/// decreases with m, so once it is below ½ the rest is less than the last term). No window.
-fn series_f64(g: f64, c: f64) -> f64 {
-    let ln_t = |m: f64| m * g.ln() - g - libm::lgamma(m + 1.0) - m.ln() - c / m;
-    let mut sum = 0.0f64;
-    let mut best = f64::NEG_INFINITY;
-    let mut m = 1.0f64;
-    loop {
-        let l = ln_t(m);
-        best = best.max(l);
-        sum += l.exp();
-        let ratio = ln_t(m + 1.0) - l;
-        if l < best - 60.0 && ratio < -std::f64::consts::LN_2 {
-            break;
-        }
-        m += 1.0;
-    }
-    sum
-}
-
 #[test]
 fn windowed_series_matches_a_brute_force_f64_sum() {
     let mut worst = 0.0f64;
@@ -63,7 +43,7 @@ fn windowed_series_matches_a_brute_force_f64_sum() {
         // far from the specular direction): the old window g ± 8√g was 2% off there.
         for cf in [0.0, 0.3, 1.0, 10.0, 1e2, 1e3, 1e4, 1e6] {
             let c = cf * g.max(1.0);
-            let want = series_f64(g, c);
+            let want = he_series_f64(g, c);
             if want < 1e-37 {
                 continue; // below f32's normal range: nothing to compare
             }
@@ -92,7 +72,7 @@ fn series_is_accurate_on_random_arguments_both_ways() {
         if uniform() < 0.1 {
             c = 0.0; // exactly: the specular direction's own value
         }
-        let want = series_f64(g as f64, c as f64);
+        let want = he_series_f64(g as f64, c as f64);
         if want < 1e-37 {
             continue; // below f32's normal range
         }
@@ -110,7 +90,7 @@ fn series_is_accurate_on_random_arguments_both_ways() {
     }
     // Either side of where the walk stops being tried at c = 0 (g ≈ 75).
     for g in [1e-6f32, 0.01, 0.7, 3.0, 20.0, 74.0, 77.0, 300.0] {
-        let want = series_f64(g as f64, 0.0);
+        let want = he_series_f64(g as f64, 0.0);
         let got = he::series(g, 0.0) as f64;
         let e = (got - want).abs() / want;
         worst = worst.max(e);

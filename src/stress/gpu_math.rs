@@ -6,8 +6,12 @@ use super::models::quiet_material;
 use super::rng::Rng;
 use anyhow::Result;
 
-/// f64 reference of the He series: every term from m = 1 until negligible and falling.
-fn he_series_f64(g: f64, c: f64) -> f64 {
+/// f64 reference of He's series, Σ_{m≥1} gᵐe^(−g)/(m!·m) · exp(−c/m) (the D of survey eq. 12;
+/// `brdf::he::series`), brute force: every term from m = 1 up to where the terms
+/// have fallen by e^-60 from the largest and keep falling geometrically (the ratio of
+/// consecutive terms decreases with m, so once it is below ½ the rest is less than the last
+/// term). No window. Also the reference of `tests/brdf_he.rs`.
+pub fn he_series_f64(g: f64, c: f64) -> f64 {
     let ln_t = |m: f64| m * g.ln() - g - libm::lgamma(m + 1.0) - m.ln() - c / m;
     let (mut sum, mut best, mut m) = (0.0f64, f64::NEG_INFINITY, 1.0f64);
     loop {

@@ -57,6 +57,7 @@ mod scene_numbers;
 mod self_shadow;
 
 pub use geometry::{block_z_max, transform_scene, two_sided_z};
+pub use gpu_math::he_series_f64;
 pub use harness::{cli, run, CaseResult, Env, Failure, Group, GroupStats, Options, Report, GROUPS};
 pub use models::{quiet_material, random_direction, random_material, random_material_of};
 pub use rng::{case_seed, Rng};
