@@ -41,25 +41,7 @@ fn agree(dir: &Path, name: &str, toml: &str) {
         return;
     };
     let exr = dir.join(format!("{name}.exr"));
-    common::run_ok(
-        Command::new(env!("CARGO_BIN_EXE_brdfwave"))
-            .args([
-                "render",
-                xml.to_str().unwrap(),
-                "--backend",
-                "cpu",
-                "--quiet",
-            ])
-            .args([
-                "--sampler",
-                "independent",
-                "--spp",
-                &SPP.to_string(),
-                "--out",
-            ])
-            .arg(&exr),
-    );
-    let ours = imageio::read_layered(&exr).unwrap();
+    let ours = common::mitsuba::render_ours(&xml, SPP as usize, &exr);
     assert_eq!((ours.image.width, ours.image.height), (SIZE, SIZE));
     let (z, ratio) = common::mitsuba::compare(&ours, SPP as f64, 1.0, BLOCK, &peer);
     println!("{name}: worst block |z| {z:.2}, mean luminance brdfwave / Mitsuba = {ratio:.4}");

@@ -7,7 +7,6 @@ mod common;
 
 use brdfwave::imageio;
 use std::path::Path;
-use std::process::Command;
 
 /// Side of the square pixel blocks compared (the image is 256×256: 256 blocks).
 const BLOCK: usize = 16;
@@ -39,25 +38,7 @@ fn an_xml_scene_renders_alike_in_mitsuba_and_brdfwave() {
     let dir = tempfile::tempdir().unwrap();
     let exr = dir.path().join("ours.exr");
     let spp = 64;
-    common::run_ok(
-        Command::new(env!("CARGO_BIN_EXE_brdfwave"))
-            .args([
-                "render",
-                xml.to_str().unwrap(),
-                "--backend",
-                "cpu",
-                "--quiet",
-            ])
-            .args([
-                "--sampler",
-                "independent",
-                "--spp",
-                &spp.to_string(),
-                "--out",
-            ])
-            .arg(&exr),
-    );
-    let ours = imageio::read_layered(&exr).unwrap();
+    let ours = common::mitsuba::render_ours(&xml, spp, &exr);
     assert_eq!((ours.image.width, ours.image.height), (256, 256));
     // 256 blocks at a family-wise false-alarm rate of 1e-3: |z| < 4.6 (Bonferroni, normal
     // tails; the peer's 15 degrees of freedom make the threshold a little generous).

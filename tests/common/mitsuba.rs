@@ -93,3 +93,24 @@ pub fn compare(
     }
     (worst, ours_sum / peer_sum)
 }
+
+/// brdfwave's render of the XML scene `xml` as the peer tests compare it with Mitsuba's: the
+/// CPU reference, the independent sampler (Mitsuba's default, whose variance of one sample the
+/// z-test assumes), `spp` samples; written to `exr` and read back with its layers.
+pub fn render_ours(xml: &Path, spp: usize, exr: &Path) -> imageio::Layered {
+    let spp = spp.to_string();
+    super::run_ok(Command::new(env!("CARGO_BIN_EXE_brdfwave")).args([
+        "render",
+        xml.to_str().unwrap(),
+        "--backend",
+        "cpu",
+        "--quiet",
+        "--sampler",
+        "independent",
+        "--spp",
+        &spp,
+        "--out",
+        exr.to_str().unwrap(),
+    ]));
+    imageio::read_layered(exr).unwrap()
+}
