@@ -334,8 +334,12 @@ fn malformed_xml_names_its_line() {
     let e = load_str("<scene version=\"2.1.0\"/>", Path::new("m.xml"))
         .unwrap_err()
         .to_string();
+    assert!(e.contains("no <sensor"), "a Mitsuba 2 file is read: {e}");
+    let e = load_str("<scene version=\"0.6.0\"/>", Path::new("m.xml"))
+        .unwrap_err()
+        .to_string();
     assert!(
-        e.starts_with("m.xml:1: ") && e.contains("only Mitsuba 3"),
+        e.starts_with("m.xml:1: ") && e.contains("only Mitsuba 2 and 3"),
         "{e}"
     );
     // Nesting deep enough to exhaust a recursive reader is refused, located.
@@ -400,7 +404,7 @@ fn unsupported_elements_are_refused_where_they_are() {
     expect_error(
         r#"<shape type="sphere"><ref id="nope"/></shape>"#,
         "nope",
-        "no <bsdf id=\"nope\"> before it",
+        "no top-level <bsdf id=\"nope\"> in the scene",
     );
     expect_error(
         r#"<shape type="sphere"><float name="radius" value="$rr"/></shape>"#,
@@ -461,7 +465,7 @@ fn ply_delta_lights_and_twosided_map_to_their_toml_forms() {
     expect_error(
         r#"<bsdf type="twosided" id="t"><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#,
         "twosided",
-        "exactly one nested <bsdf>",
+        "exactly one BSDF, nested or by <ref> (found 2 nested and 0 <ref>)",
     );
     expect_error(
         r#"<emitter type="point"><point name="position" x="1"/><transform name="to_world"><translate x="1"/></transform></emitter>"#,
@@ -472,6 +476,85 @@ fn ply_delta_lights_and_twosided_map_to_their_toml_forms() {
         r#"<shape type="sphere"><emitter type="point"/></shape>"#,
         "type=\"point\"",
         "belongs at the top level",
+    );
+}
+
+/// What Mitsuba 3 does with files users write, which a reader of the documentation alone would
+/// get wrong: a constant `<spectrum>` in an emitter is that multiple of D65 (in a BSDF, grey);
+/// a twosided BSDF may name its BSDF by `<ref>`; a shape may name a BSDF defined after it.
+#[test]
+fn mitsuba_readings_of_spectra_refs_and_order() {
+    let d65 = Vec3::new(1.204_793_9, 0.948_291, 0.908_916_06);
+    let scene = |body: &str| {
+        let text = format!(
+            "<scene version=\"3.0.0\">\n{}\n{body}\n</scene>\n",
+            SENSOR.lines().take(6).collect::<Vec<_>>().join("\n")
+        );
+        load_str(&text, Path::new("dir/s.xml")).unwrap_or_else(|e| panic!("{e}"))
+    };
+    let s = scene(
+        r#"<emitter type="constant"><spectrum name="radiance" value="2"/></emitter>
+<emitter type="point"><spectrum name="intensity" value="3"/></emitter>
+<emitter type="directional"><float name="irradiance" value="4"/></emitter>
+<shape type="sphere"><emitter type="area"><spectrum name="radiance" value="5"/></emitter></shape>
+<shape type="sphere"><bsdf type="diffuse"><spectrum name="reflectance" value="0.5"/></bsdf></shape>"#,
+    );
+    let close = |a: Vec3, b: Vec3| (a - b).abs().max_element() <= 1e-6 * b.max_element();
+    assert!(close(s.environment, 2.0 * d65), "{}", s.environment);
+    use brdfwave::scene::DeltaLight;
+    let DeltaLight::Point { intensity, .. } = s.lights[0] else {
+        panic!()
+    };
+    assert!(close(intensity, 3.0 * d65), "{intensity}");
+    let DeltaLight::Directional { irradiance, .. } = s.lights[1] else {
+        panic!()
+    };
+    assert_eq!(irradiance, Vec3::splat(4.0), "a <float> is grey");
+    assert!(
+        close(s.emitters[0].radiance, 5.0 * d65),
+        "{}",
+        s.emitters[0].radiance
+    );
+    let lambert = |i: usize| {
+        let m = &s.materials[s.spheres[i].material as usize];
+        m.brdf.eval(Vec3::Z, Vec3::Z) * std::f32::consts::PI
+    };
+    assert!(
+        close(lambert(1), Vec3::splat(0.5)),
+        "a <spectrum> in a BSDF is grey"
+    );
+
+    // A twosided BSDF by <ref>, the BSDF after the shapes that name it; the BSDF it wraps is
+    // no material of its own unless a shape uses it too.
+    let wrapped = r#"<shape type="sphere"><ref id="two"/></shape>
+<bsdf type="diffuse" id="white"><rgb name="reflectance" value="0.3"/></bsdf>
+<bsdf type="twosided" id="two"><ref id="white"/></bsdf>"#;
+    let s = scene(wrapped);
+    let m = &s.materials[s.spheres[0].material as usize];
+    assert!(m.twosided);
+    assert!(close(
+        m.brdf.eval(Vec3::Z, Vec3::Z) * std::f32::consts::PI,
+        Vec3::splat(0.3)
+    ));
+    assert_eq!(s.material_names, ["two"]);
+    let s = scene(&format!(
+        "{wrapped}\n<shape type=\"sphere\"><ref id=\"white\"/></shape>"
+    ));
+    let mut names = s.material_names.clone();
+    names.sort();
+    assert_eq!(names, ["two", "white"]);
+    assert!(!s.materials[s.spheres[1].material as usize].twosided);
+    // A twosided BSDF names one read before it; a name nothing defines is refused, located.
+    expect_error(
+        r#"<bsdf type="twosided" id="two"><ref id="later"/></bsdf>
+<bsdf type="diffuse" id="later"/>"#,
+        "<ref id=\"later\"",
+        "a twosided BSDF names only one defined before it",
+    );
+    expect_error(
+        r#"<shape type="sphere"><ref id="nowhere"/></shape>"#,
+        "<ref id=\"nowhere\"",
+        "no top-level <bsdf id=\"nowhere\"> in the scene (BSDFs with ids: none",
     );
 }
 

@@ -27,6 +27,7 @@ const SPANNED_FIELDS: &[&str] = &[SPANNED_START, SPANNED_END, SPANNED_VALUE];
 /// A value and its byte span in the source, like `toml::Spanned`, except that a table
 /// TOML creates implicitly (through dotted keys: `sphere.radius = 1` or `[a.b]` without
 /// `[a]`) has no span and is read with `span = None`, where `toml::Spanned` would fail.
+#[derive(Clone)]
 pub(super) struct Sp<T> {
     pub(super) span: Option<Range<usize>>,
     pub(super) value: T,

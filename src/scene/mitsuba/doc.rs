@@ -156,10 +156,14 @@ impl Reader {
             return Err(invalid(&file, Some(at(root)), Some("scene"), msg));
         }
         match root.attribute("version") {
-            Some(v) if v.split('.').next() == Some("3") => {}
+            // Mitsuba 2 wrote the format Mitsuba 3 reads, and Mitsuba 3 loads its files as they
+            // are; older files (0.x) have other parameter names, which Mitsuba 3 renames on load.
+            Some(v) if matches!(v.split('.').next(), Some("2" | "3")) => {}
             Some(v) => {
-                let msg =
-                    format!("version \"{v}\": only Mitsuba 3 scenes (version=\"3.x.y\") are read");
+                let msg = format!(
+                    "version \"{}\": only Mitsuba 2 and 3 scenes (version=\"2.x.y\" or \"3.x.y\") are read; an older file's parameter names differ (Mitsuba 3 upgrades them when it loads one)",
+                    crate::errors::excerpt(v)
+                );
                 return Err(invalid(&file, Some(at(root)), Some("scene"), msg));
             }
             None => {

@@ -141,6 +141,19 @@ impl Cx<'_> {
             )),
         }
     }
+    /// An emitter's radiance, intensity or irradiance: [`Cx::color_of`], except that a
+    /// constant `<spectrum>` is that multiple of the CIE D65 illuminant, as Mitsuba 3 reads a
+    /// constant spectrum inside an emitter (so that `<spectrum value="1"/>` emits daylight, not
+    /// equal energy); in its RGB variants that is [`D65_SRGB`] per unit. A `<float>` stays
+    /// grey, as in Mitsuba.
+    pub(super) fn emission_of(&self, el: &El) -> Result<[f64; 3], SceneError> {
+        let c = self.color_of(el)?;
+        Ok(if el.tag == "spectrum" {
+            [0, 1, 2].map(|i| c[i] * D65_SRGB[i])
+        } else {
+            c
+        })
+    }
     fn color_value(&self, el: &El) -> Result<Sp<Value>, SceneError> {
         if el.tag == "texture" {
             return texture_value(self, el);
@@ -151,6 +164,46 @@ impl Cx<'_> {
             Value::Array(c.iter().map(|x| Value::Float(*x)).collect()),
         ))
     }
+}
+
+/// The linear sRGB colour of one unit of the CIE D65 illuminant spectrum as Mitsuba 3.9.1's RGB
+/// variants evaluate it (the spectrum integrated against the CIE 1931 matching functions,
+/// normalised by ∫ȳ, and taken to linear sRGB; read from `mi.traverse` of a constant emitter
+/// with `<spectrum name="radiance" value="1"/>`, in f32).
+pub(super) const D65_SRGB: [f64; 3] = [
+    1.204_793_930_053_711,
+    0.948_291_003_704_071,
+    0.908_916_056_156_158_4,
+];
+
+/// The ids that `<bsdf type="twosided">` elements under `els` name by `<ref>`.
+fn twosided_refs<'e>(els: &'e [El], out: &mut Vec<&'e str>) {
+    for el in els {
+        if el.tag == "bsdf" && el.attr("type") == Some("twosided") {
+            let refs = el.children.iter().filter(|c| c.tag == "ref");
+            out.extend(refs.filter_map(|r| r.attr("id")));
+        }
+        twosided_refs(&el.children, out);
+    }
+}
+
+/// The message for a `<ref id>` that names no BSDF read before it (`known`: those read).
+pub(super) fn undefined_ref<'a>(id: &str, known: impl Iterator<Item = &'a String>) -> String {
+    let mut known: Vec<&str> = known
+        .map(String::as_str)
+        .filter(|k| !k.starts_with('('))
+        .collect();
+    known.sort_unstable();
+    format!(
+        "<ref id=\"{}\">: no top-level <bsdf id=\"{}\"> in the scene (BSDFs with ids: {}; a twosided BSDF names only one defined before it)",
+        crate::errors::excerpt(id),
+        crate::errors::excerpt(id),
+        if known.is_empty() {
+            "none".to_string()
+        } else {
+            known.join(", ")
+        }
+    )
 }
 
 /// The scene's top-level elements → the raw scene. `width`/`height` default to Mitsuba's
@@ -172,6 +225,20 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
     let mut lights = Vec::new();
     let mut saw_integrator: Option<&El> = None;
     unique_ids(cx, top)?;
+    // The top-level BSDFs first, in their order: a shape may refer to one defined after it, as
+    // Mitsuba allows.
+    for el in top.iter().filter(|el| el.tag == "bsdf") {
+        let Some(id) = el.attr("id") else {
+            return Err(cx.el_err(
+                el,
+                "a top-level <bsdf> needs an id (shapes refer to it with <ref id=\"…\"/>)",
+            ));
+        };
+        let table = bsdf(cx, el, &materials)?;
+        if materials.insert(id.to_string(), sp(el, table)).is_some() {
+            return Err(cx.el_err(el, format!("a second <bsdf> with id '{id}'")));
+        }
+    }
     for el in top {
         match (el.tag.as_str(), el.attr("type")) {
             ("sensor", _) => {
@@ -193,18 +260,8 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
                 saw_integrator = Some(el);
                 super::sensor::integrator(cx, el, &mut integrator)?;
             }
-            ("bsdf", _) => {
-                let Some(id) = el.attr("id") else {
-                    return Err(cx.el_err(
-                        el,
-                        "a top-level <bsdf> needs an id (shapes refer to it with <ref id=\"…\"/>)",
-                    ));
-                };
-                let table = bsdf(cx, el)?;
-                if materials.insert(id.to_string(), sp(el, table)).is_some() {
-                    return Err(cx.el_err(el, format!("a second <bsdf> with id '{id}'")));
-                }
-            }
+            // Read before everything else (below).
+            ("bsdf", _) => {}
             ("emitter", Some("constant")) => {
                 if environment.is_some() {
                     return Err(cx.el_err(
@@ -216,7 +273,7 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
                 let Some(r) = p.take("radiance") else {
                     return Err(cx.el_err(el, "<emitter type=\"constant\"> needs a radiance"));
                 };
-                let radiance = sp(r, Triple(cx.color_of(r)?));
+                let radiance = sp(r, Triple(cx.emission_of(r)?));
                 p.finish(cx, "radiance")?;
                 environment = Some(RawEnvironment {
                     radiance: Some(radiance),
@@ -257,6 +314,15 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
     };
     if saw_integrator.is_none() {
         super::sensor::default_depth(cx, &mut integrator);
+    }
+    // A BSDF that a twosided one names by <ref> was copied into it: unless a shape uses it as
+    // it is, it is no material of its own (the assembly would warn that no shape uses it).
+    let mut wrapped = Vec::new();
+    twosided_refs(top, &mut wrapped);
+    for id in wrapped {
+        if !shapes.iter().any(|s| s.value.material.value == id) {
+            materials.remove(id);
+        }
     }
     Ok(RawScene {
         camera,
@@ -350,7 +416,7 @@ fn delta_light(cx: &Cx, el: &El) -> Result<Sp<RawLight>, SceneError> {
         (None, None) => [0.0, 0.0, 1.0],
     };
     let power_value = match p.take(power) {
-        Some(e) => sp(e, Triple(cx.color_of(e)?)),
+        Some(e) => sp(e, Triple(cx.emission_of(e)?)),
         None => sp(el, Triple([1.0; 3])),
     };
     p.finish(cx, &format!("{place}, {power}, to_world"))?;
@@ -387,8 +453,13 @@ pub(super) fn emitter_error(cx: &Cx, el: &El, in_shape: bool) -> SceneError {
     }
 }
 
-/// A BSDF element → the material table `brdf::parse_material` reads.
-pub(super) fn bsdf(cx: &Cx, el: &El) -> Result<MaterialTable, SceneError> {
+/// A BSDF element → the material table `brdf::parse_material` reads. `defined`: the top-level
+/// BSDFs read so far, which a `twosided` one may name by `<ref id>`.
+pub(super) fn bsdf(
+    cx: &Cx,
+    el: &El,
+    defined: &BTreeMap<String, Sp<MaterialTable>>,
+) -> Result<MaterialTable, SceneError> {
     let kind = cx.attr(el, "type")?;
     let mut p = Props::new(cx, el)?;
     let mut t = MaterialTable::new();
@@ -410,22 +481,42 @@ pub(super) fn bsdf(cx: &Cx, el: &El) -> Result<MaterialTable, SceneError> {
             p.finish(cx, "diffuse_reflectance, specular_reflectance, int_ior, ext_ior, nonlinear = false, and for roughplastic distribution, alpha, sample_visible")?;
         }
         "twosided" => {
-            // One nested BSDF for both sides: the `twosided` flag of a brdfwave material.
-            // Mitsuba's second nested BSDF (a different back side) has no brdfwave form.
+            // One BSDF for both sides, nested or named by a <ref>: the `twosided` flag of a
+            // brdfwave material. Mitsuba's second BSDF (a different back side) has no brdfwave
+            // form.
+            let refs = p.take_tag("ref");
             let inner = p.take_tag("bsdf");
-            let [inner] = inner.as_slice() else {
-                let msg = format!(
-                    "<bsdf type=\"twosided\"> needs exactly one nested <bsdf> (found {}): brdfwave shades both sides with one material",
-                    inner.len()
-                );
-                return Err(cx.el_err(el, msg));
+            t = match (refs.as_slice(), inner.as_slice()) {
+                ([], [inner]) => {
+                    if inner.attr("type") == Some("twosided") {
+                        return Err(
+                            cx.el_err(inner, "a <bsdf type=\"twosided\"> inside another one")
+                        );
+                    }
+                    bsdf(cx, inner, defined)?
+                }
+                ([r], []) => {
+                    let id = cx.attr(r, "id")?;
+                    let Some(table) = defined.get(id) else {
+                        return Err(cx.el_err(r, undefined_ref(id, defined.keys())));
+                    };
+                    if table.value.contains_key("twosided") {
+                        let msg = format!("<ref id=\"{id}\"> names a twosided BSDF inside another <bsdf type=\"twosided\">");
+                        return Err(cx.el_err(r, msg));
+                    }
+                    table.value.clone()
+                }
+                _ => {
+                    let msg = format!(
+                        "<bsdf type=\"twosided\"> needs exactly one BSDF, nested or by <ref> (found {} nested and {} <ref>): brdfwave shades both sides with one material",
+                        inner.len(),
+                        refs.len()
+                    );
+                    return Err(cx.el_err(el, msg));
+                }
             };
-            if inner.attr("type") == Some("twosided") {
-                return Err(cx.el_err(inner, "a <bsdf type=\"twosided\"> inside another one"));
-            }
-            t = bsdf(cx, inner)?;
             t.insert("twosided".into(), sp(el, Value::Boolean(true)));
-            p.finish(cx, "one nested bsdf")?;
+            p.finish(cx, "one nested bsdf or ref")?;
         }
         name if crate::brdf::MODELS.iter().any(|m| m.name == name) => {
             // One of the survey's models by our name: the parameters as the model names them.

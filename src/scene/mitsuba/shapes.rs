@@ -64,7 +64,7 @@ fn area_emitter(cx: &Cx, emitters: &[&El]) -> Result<Option<Sp<Triple>>, SceneEr
             };
             let c = Sp {
                 span: Some(r.span.clone()),
-                value: Triple(cx.color_of(r)?),
+                value: Triple(cx.emission_of(r)?),
             };
             ep.finish(cx, "radiance")?;
             Ok(Some(c))
@@ -226,27 +226,13 @@ fn material(
         ([r], []) => {
             let id = cx.attr(r, "id")?;
             if !materials.contains_key(id) {
-                let mut known: Vec<&str> = materials
-                    .keys()
-                    .map(String::as_str)
-                    .filter(|k| *k != DEFAULT_MATERIAL && *k != DEFAULT_EMITTER_MATERIAL)
-                    .collect();
-                known.sort_unstable();
-                let msg = format!(
-                    "<ref id=\"{id}\">: no <bsdf id=\"{id}\"> before it (defined: {})",
-                    if known.is_empty() {
-                        "none".to_string()
-                    } else {
-                        known.join(", ")
-                    }
-                );
-                return Err(cx.el_err(r, msg));
+                return Err(cx.el_err(r, super::plugins::undefined_ref(id, materials.keys())));
             }
             Ok(sp(r, id.to_string()))
         }
         ([], [b]) => {
             let name = format!("{label} bsdf");
-            let table = bsdf(cx, b)?;
+            let table = bsdf(cx, b, materials)?;
             materials.insert(name.clone(), sp(b, table));
             Ok(sp(b, name))
         }
