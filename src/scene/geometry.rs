@@ -124,7 +124,13 @@ impl Transform {
 /// the axis points at the viewer (the right-hand rule, as Mitsuba's `rotate`): Rodrigues'
 /// formula in f64.
 pub(super) fn axis_rotation(axis: DVec3, deg: f64) -> DMat3 {
-    let k = axis.normalize();
+    rodrigues(axis.normalize(), deg)
+}
+
+/// Rodrigues' formula with the axis `k` as given, `cos θ·I + sin θ·[k]× + (1 − cos θ)·k·kᵀ`: the
+/// rotation by `deg` degrees about `k` when `k` is a unit vector. Mitsuba 3 applies it to the
+/// axis of a `<rotate>` as written, unit or not (`crate::scene::mitsuba`).
+pub(super) fn rodrigues(k: DVec3, deg: f64) -> DMat3 {
     let (s, c) = deg.to_radians().sin_cos();
     let kx = DMat3::from_cols(
         DVec3::new(0.0, k.z, -k.y),

@@ -225,6 +225,7 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
     let mut lights = Vec::new();
     let mut saw_integrator: Option<&El> = None;
     unique_ids(cx, top)?;
+    super::values::rotate_axis_warnings(cx, top);
     // The top-level BSDFs first, in their order: a shape may refer to one defined after it, as
     // Mitsuba allows.
     for el in top.iter().filter(|el| el.tag == "bsdf") {

@@ -98,6 +98,28 @@ pub(super) struct ToWorld {
     pub(super) lookat: Option<[[f64; 3]; 3]>,
 }
 
+/// A warning for each `<rotate>` under `els` whose axis is not of unit length (off by more than
+/// 1e-3, a stretch an image could show). Mitsuba 3 puts the axis as written into Rodrigues'
+/// formula, so such a "rotation" also stretches what it turns; [`to_world`] does as Mitsuba 3
+/// does, and the warning says so. Axes it cannot read are left to `to_world`'s errors.
+pub(super) fn rotate_axis_warnings(cx: &mut Cx, els: &[El]) {
+    for el in els {
+        if el.tag == "rotate" {
+            if let Ok(a) = cx.xyz(el, 0.0) {
+                let len = DVec3::from(a).length();
+                if len > 0.0 && (len - 1.0).abs() > 1e-3 {
+                    let msg = format!(
+                        "the axis ({}, {}, {}) has length {len:.6}, not 1: Mitsuba 3 rotates by the axis as written, which also stretches the shape, and so does brdfwave; give a unit axis for a rotation",
+                        a[0], a[1], a[2]
+                    );
+                    cx.warn(Some(el.span.clone()), &el.path, msg);
+                }
+            }
+        }
+        rotate_axis_warnings(cx, &el.children);
+    }
+}
+
 /// Mitsuba's order: each child is applied after the ones before it, `M = T_n · … · T_1`.
 pub(super) fn to_world(cx: &Cx, t: &El) -> Result<ToWorld, SceneError> {
     let mut m = DMat4::IDENTITY;
@@ -112,7 +134,9 @@ pub(super) fn to_world(cx: &Cx, t: &El) -> Result<ToWorld, SceneError> {
                 if axis == DVec3::ZERO {
                     return Err(cx.el_err(c, "<rotate> needs a non-zero axis (x, y, z or value)"));
                 }
-                DMat4::from_mat3(crate::scene::geometry::axis_rotation(axis, angle))
+                // The axis as written, as Mitsuba 3 takes it (a non-unit one also scales and
+                // shears; the reader warns: `rotate_axis_warnings`).
+                DMat4::from_mat3(crate::scene::geometry::rodrigues(axis, angle))
             }
             "matrix" => {
                 let v = cx.numbers(c, cx.attr(c, "value")?)?;
@@ -252,7 +276,16 @@ mod tests {
         let t = compose("<matrix value=\"1 0 0 7  0 0 -1 8  0 1 0 9  0 0 0 1\"/>").unwrap();
         assert_eq!(apply(&t, [0.0, 1.0, 0.0]), DVec3::new(7.0, 8.0, 10.0));
         let t = compose("<rotate value=\"1, 1, 1\" angle=\"120\"/>").unwrap();
-        assert!((apply(&t, [1.0, 0.0, 0.0]) - DVec3::Y).length() < 1e-12);
+        let third = 1.0 / 3f64.sqrt();
+        let t_unit = compose(&format!(
+            "<rotate value=\"{third}, {third}, {third}\" angle=\"120\"/>"
+        ))
+        .unwrap();
+        assert!((apply(&t_unit, [1.0, 0.0, 0.0]) - DVec3::Y).length() < 1e-6);
+        // A non-unit axis as Mitsuba 3.9.1 takes it (`ScalarTransform4f().rotate([1, 1, 1],
+        // 120) @ [1, 0, 0]` is (1, 2.36603, 0.633975)): not a rotation.
+        let want = DVec3::new(1.0, 1.5 + 0.75f64.sqrt(), 1.5 - 0.75f64.sqrt());
+        assert!((apply(&t, [1.0, 0.0, 0.0]) - want).length() < 1e-12);
         let t = compose("<matrix value=\"2 0 0  0 2 0  0 0 2\"/>").unwrap();
         assert_eq!(apply(&t, [1.0, 1.0, 1.0]), DVec3::splat(2.0));
         assert!(
