@@ -558,6 +558,33 @@ fn mitsuba_readings_of_spectra_refs_and_order() {
     );
 }
 
+/// Where brdfwave renders a file otherwise than Mitsuba would, or as Mitsuba does but not as
+/// the file seems to mean, it says so: a film without a filter (Mitsuba's default is a
+/// Gaussian), a `<rotate>` about an axis that is not a unit vector (taken as written).
+#[test]
+fn warnings_say_where_a_reading_is_surprising() {
+    let warned = |s: &Scene, what: &str| s.warnings.iter().any(|w| w.contains(what));
+    let s = load_xml(r#"<shape type="sphere"/>"#).unwrap();
+    assert!(
+        warned(&s, "no <rfilter>: Mitsuba's default is a Gaussian"),
+        "{:?}",
+        s.warnings
+    );
+    let boxed =
+        xml("<shape type=\"sphere\"/>").replace("</film>", "<rfilter type=\"box\"/></film>");
+    let s = load_str(&boxed, Path::new("dir/s.xml")).unwrap();
+    assert!(!warned(&s, "rfilter"), "{:?}", s.warnings);
+    let rotated = |axis: &str| {
+        load_xml(&format!(
+            r#"<shape type="rectangle"><transform name="to_world"><rotate value="{axis}" angle="30"/></transform></shape>"#
+        ))
+        .unwrap()
+    };
+    assert!(warned(&rotated("1, 1, 0"), "has length 1.414214, not 1"));
+    assert!(!warned(&rotated("0.7071, 0.7071, 0"), "not 1"));
+    assert!(!warned(&rotated("0, 0, 1"), "not 1"));
+}
+
 /// `convert` keeps delta lights and two-sided materials: the XML it writes loads back to the
 /// same lights and the same flag.
 #[test]

@@ -215,16 +215,20 @@ fn film(cx: &mut Cx, f: &El) -> Result<RawFilm, SceneError> {
             *slot = sp(e, v);
         }
     }
-    for (tag, ok) in [("rfilter", "box")] {
-        for r in p.take_tag(tag) {
-            if r.attr("type") != Some(ok) {
-                let msg = format!(
-                    "{} is replaced by brdfwave's one-pixel box filter",
-                    r.describe()
-                );
-                cx.warn(Some(r.span.clone()), &r.path, msg);
-            }
+    let filters = p.take_tag("rfilter");
+    for r in &filters {
+        if r.attr("type") != Some("box") {
+            let msg = format!(
+                "{} is replaced by brdfwave's one-pixel box filter",
+                r.describe()
+            );
+            cx.warn(Some(r.span.clone()), &r.path, msg);
         }
+    }
+    if filters.is_empty() {
+        // Mitsuba's film defaults to a Gaussian filter: the same means, a softer image.
+        let msg = "no <rfilter>: Mitsuba's default is a Gaussian (stddev 0.5), brdfwave filters with a one-pixel box (write <rfilter type=\"box\"/> for the same image in both)";
+        cx.warn(Some(f.span.clone()), &f.path, msg);
     }
     for name in ["pixel_format", "component_format", "file_format"] {
         if let Some(e) = p.take(name) {
