@@ -216,6 +216,139 @@ fn rectangle_cube_and_disk_become_triangles_placed_by_to_world() {
     assert!((area / std::f64::consts::PI - 1.0).abs() < 2e-4, "{area}");
 }
 
+/// Mitsuba's normals of its `rectangle`, `disk`, `cube` and `sphere` go through the inverse
+/// transpose of `to_world`: a mirroring transform reverses the winding but not the side they
+/// face, so the reader winds the triangles the other way (and turns a sphere inward, as Mitsuba
+/// does); `flip_normals` turns them back. A mesh's triangles face their vertex normals.
+#[test]
+fn mirroring_transforms_keep_mitsubas_front_sides() {
+    let mirror = r#"<transform name="to_world"><scale x="-1"/><translate y="1"/></transform>"#;
+    let load_shape = |shape: &str, flip: bool| {
+        let flip = if flip {
+            r#"<boolean name="flip_normals" value="true"/>"#
+        } else {
+            ""
+        };
+        load_xml(&format!("<shape type=\"{shape}\">{flip}{mirror}</shape>")).unwrap()
+    };
+    for shape in ["rectangle", "disk"] {
+        // scale(-1, 1, 1) keeps the normal +z: (M^-T)·z = z.
+        for (flip, want) in [(false, 1.0), (true, -1.0)] {
+            let s = load_shape(shape, flip);
+            for t in &s.triangles {
+                assert!(
+                    t.geometric_normal().z * want > 0.999,
+                    "{shape} {flip}: {t:?}"
+                );
+            }
+            let mirrored = s.warnings.iter().any(|w| w.contains("mirrors"));
+            assert!(!mirrored, "{shape}: nothing turns over: {:?}", s.warnings);
+        }
+    }
+    let s = load_shape("cube", false);
+    for t in &s.triangles {
+        let c = (t.v[0] + t.v[1] + t.v[2]) / 3.0 - Vec3::Y;
+        assert!(
+            t.geometric_normal().dot(c) > 0.0,
+            "a mirrored cube faces out: {t:?}"
+        );
+    }
+    assert!(load_shape("sphere", false).spheres[0].inward);
+    assert!(!load_shape("sphere", true).spheres[0].inward);
+
+    // An OBJ with outward vertex normals under the mirror: the winding follows the normals.
+    let d = tempfile::tempdir().unwrap();
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\n";
+    write(d.path(), "t.obj", obj);
+    let main = write(
+        d.path(),
+        "s.xml",
+        &xml(&format!(
+            r#"<shape type="obj"><string name="filename" value="t.obj"/>{mirror}</shape>"#
+        )),
+    );
+    let s = load(&main).unwrap();
+    assert!(s.triangles[0].geometric_normal().z > 0.999);
+    assert!(s
+        .warnings
+        .iter()
+        .any(|w| w.contains("keeps the side they face")));
+}
+
+/// Mitsuba's texture coordinates on its own shapes: the rectangle's ((x + 1)/2, (y + 1)/2)
+/// with or without `flip_normals`, the disk's (r, φ/2π), and each cube face onto [0, 1]².
+#[test]
+fn generated_shapes_carry_mitsubas_texture_coordinates() {
+    let textured = r#"<bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="t.exr"/></texture></bsdf>"#;
+    let d = tempfile::tempdir().unwrap();
+    let tex = d.path().join("t.exr");
+    brdfwave::imageio::write(
+        &tex,
+        &brdfwave::imageio::Image::from_fn(2, 2, |_, _| [0.5; 3]),
+    )
+    .unwrap();
+    // `shape` is the start tag's type and anything after it inside the tag.
+    let load_shape = |shape: &str, inside: &str| {
+        let body = format!("<shape type=\"{shape}\">{inside}{textured}</shape>");
+        load(&write(d.path(), "s.xml", &xml(&body))).unwrap()
+    };
+    let uv_at = |s: &Scene, k: usize, i: usize| s.attributes_of(k).uv.expect("uv")[i];
+    for flipped in [false, true] {
+        let inside = match flipped {
+            true => r#"<boolean name="flip_normals" value="true"/>"#,
+            false => "",
+        };
+        let s = load_shape("rectangle", inside);
+        assert_eq!(s.triangles.len(), 2);
+        for (k, t) in s.triangles.iter().enumerate() {
+            for (i, p) in t.v.iter().enumerate() {
+                let want = glam::Vec2::new((p.x + 1.0) / 2.0, (p.y + 1.0) / 2.0);
+                assert_eq!(uv_at(&s, k, i), want, "flip_normals {flipped}");
+            }
+            assert_eq!(t.geometric_normal().z > 0.0, !flipped);
+        }
+    }
+    let s = load_shape("disk", "");
+    for (k, t) in s.triangles.iter().enumerate() {
+        for (i, p) in t.v.iter().enumerate().skip(1) {
+            let uv = uv_at(&s, k, i);
+            assert!((uv.x - p.truncate().length()).abs() < 1e-6);
+            let phi = p.y.atan2(p.x).rem_euclid(std::f32::consts::TAU) / std::f32::consts::TAU;
+            // The rim vertex at φ = 0 is v = 0 on one side of the seam and v = 1 on the other.
+            assert!(
+                (uv.y - phi).abs() < 1e-5 || (uv.y - 1.0).abs() < 1e-6,
+                "{uv} {p}"
+            );
+        }
+    }
+    let s = load_shape("cube", "");
+    assert_eq!(s.triangles.len(), 12);
+    for face in 0..6 {
+        let mut corners: Vec<(Vec3, glam::Vec2)> = Vec::new();
+        for k in [2 * face, 2 * face + 1] {
+            for i in 0..3 {
+                corners.push((s.triangles[k].v[i], uv_at(&s, k, i)));
+            }
+        }
+        // Four distinct corners of the face, each at a distinct corner of [0, 1]², and (u, v)
+        // an affine function of the position (so that the two triangles agree).
+        let mut uvs: Vec<[u32; 2]> = corners
+            .iter()
+            .map(|c| [c.1.x as u32, c.1.y as u32])
+            .collect();
+        uvs.sort();
+        uvs.dedup();
+        assert_eq!(uvs, [[0, 0], [0, 1], [1, 0], [1, 1]], "face {face}");
+        for a in &corners {
+            for b in &corners {
+                if a.0 == b.0 {
+                    assert_eq!(a.1, b.1, "face {face}: one corner, one (u, v)");
+                }
+            }
+        }
+    }
+}
+
 #[test]
 fn spheres_take_similarities_only() {
     let s = load_xml(

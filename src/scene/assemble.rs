@@ -461,7 +461,7 @@ pub(super) fn shape_primitives(
 
     one_geometry_kind(cx, f, shape, &label)?;
     let xf = match &s.transform {
-        Some(t) => Some(super::transform::transform(cx, f, t)?),
+        Some(t) => Some(super::transform::transform(cx, f, t, s.sides)?),
         None => None,
     };
     // A point of a quad or triangle, placed by the shape's transform and still finite.
@@ -513,7 +513,15 @@ pub(super) fn shape_primitives(
     }
     if let Some(listed) = &s.triangles {
         let tris = &mut out.triangles;
+        let first = tris.len();
         polygon_triangles(cx, (f, &label, "triangle"), listed, &place, &tri, tris)?;
+        if let (true, Some(uvs)) = (textured, &s.triangle_uvs) {
+            out.attributes.resize(first, VertexAttributes::NONE);
+            out.attributes.extend(uvs.iter().map(|t| VertexAttributes {
+                n: None,
+                uv: Some(t.map(Vec2::from_array)),
+            }));
+        }
     }
     if let Some(sp) = &s.sphere {
         let placed = xf.as_ref().zip(s.transform.as_ref().map(|t| t.span()));
@@ -540,6 +548,7 @@ pub(super) fn shape_primitives(
             label: label.clone(),
             material,
             emitter,
+            sides: s.sides,
         };
         let sink = TriangleSink {
             triangles: &mut out.triangles,
@@ -554,6 +563,7 @@ pub(super) fn shape_primitives(
             label,
             material,
             emitter,
+            sides: s.sides,
         };
         let mut mo = super::mtl::MtlOut {
             materials: &mut out.mtl_materials,

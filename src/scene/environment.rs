@@ -87,7 +87,7 @@ pub(super) fn environment(
 /// The map's `transform`: a rotation (a translation is allowed and has no effect on a map at
 /// infinity); a scale, shear or mirror is refused.
 fn rotation(cx: &mut Cx, t: &Sp<super::schema::RawTransform>) -> Result<Mat3, SceneError> {
-    let xf = super::transform::transform(cx, "environment", t)?;
+    let xf = super::transform::transform(cx, "environment", t, super::schema::Sides::Winding)?;
     let (a, _) = xf.affine();
     let dev = (a.transpose() * a - DMat3::IDENTITY)
         .to_cols_array()

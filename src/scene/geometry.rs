@@ -2,6 +2,7 @@
 //! ([`super::obj`], [`super::ply_shape`]) apply: the shape transform, the triangle checks and
 //! the face rules of meshes.
 
+use super::schema::Sides;
 use super::spanned::Cx;
 use super::{Triangle, VertexAttributes};
 use glam::{DMat3, DVec3, Vec2, Vec3};
@@ -197,10 +198,12 @@ impl TriangleSink<'_> {
 
 /// The face rules that OBJ and PLY meshes share, with the counts their closing warnings give:
 /// zero-area triangles skipped, vertex normals that are zero or not finite dropped (the
-/// triangle uses its geometric normal), normals opposite to the winding counted, texture
-/// coordinates that are not finite dropped.
+/// triangle uses its geometric normal), normals opposite to the winding counted (or, by
+/// Mitsuba's rule, [`Sides::ByNormals`], the winding turned to them), texture coordinates that
+/// are not finite dropped.
 #[derive(Default)]
 pub(super) struct FaceRules {
+    by_normals: bool,
     skipped: usize,
     dropped_normals: usize,
     flipped: usize,
@@ -208,6 +211,22 @@ pub(super) struct FaceRules {
 }
 
 impl FaceRules {
+    /// The rules for a mesh whose front sides are chosen by `sides`.
+    pub(super) fn new(sides: Sides) -> FaceRules {
+        FaceRules {
+            by_normals: sides == Sides::ByNormals,
+            ..FaceRules::default()
+        }
+    }
+
+    /// Rules with the same choice of front sides, and no counts yet (for a part of the mesh).
+    pub(super) fn part(&self) -> FaceRules {
+        FaceRules {
+            by_normals: self.by_normals,
+            ..FaceRules::default()
+        }
+    }
+
     /// The triangle of the placed vertices `v` (checked by [`edge_overflow`] first), with the
     /// attributes of their normals `n` and texture coordinates `uv`, or `None` when it has zero
     /// area.
@@ -223,15 +242,33 @@ impl FaceRules {
             self.skipped += 1;
             return None;
         }
-        let n = n.filter(|n| {
+        let (mut v, mut uv) = (v, uv);
+        let mut n = n.filter(|n| {
             let usable = n.iter().all(|x| x.is_finite() && *x != Vec3::ZERO);
             if !usable {
                 self.dropped_normals += 1;
-            } else if (n[0] + n[1] + n[2]).dot(crate::robust::triangle_normal(&v)) < 0.0 {
-                self.flipped += 1;
             }
             usable
         });
+        if let Some(normals) = &mut n {
+            if (normals[0] + normals[1] + normals[2]).dot(crate::robust::triangle_normal(&v)) < 0.0
+            {
+                if self.by_normals {
+                    // Mitsuba's front side: where the normals point. The same triangle, the
+                    // other winding.
+                    v.swap(1, 2);
+                    normals.swap(1, 2);
+                    // Without texture coordinates a point's are its barycentrics (b1, b2)
+                    // (`crate::texture`): written out, so that they stay those of the file's
+                    // order.
+                    let mut t = uv.unwrap_or([Vec2::ZERO, Vec2::X, Vec2::Y]);
+                    t.swap(1, 2);
+                    uv = Some(t);
+                } else {
+                    self.flipped += 1;
+                }
+            }
+        }
         self.made += 1;
         let attributes = VertexAttributes {
             n,
@@ -265,6 +302,7 @@ impl FaceRules {
         (format, shown, label): (&str, &str, &str),
     ) {
         let FaceRules {
+            by_normals: _,
             skipped,
             dropped_normals,
             flipped,

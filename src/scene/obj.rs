@@ -133,6 +133,8 @@ pub(super) struct ObjShape {
     pub(super) label: String,
     pub(super) material: u32,
     pub(super) emitter: Option<u32>,
+    /// Which side of a triangle is the front ([`FaceRules::new`]).
+    pub(super) sides: super::schema::Sides,
 }
 
 /// Where an OBJ file's messages point: the scene's span and field, and the file as shown.
@@ -199,7 +201,7 @@ pub(super) fn obj_triangles(
     drop(text);
     // Scene materials and emitters of the library's materials, made when a face uses them.
     let mut made: Vec<Option<(u32, Option<u32>)>> = vec![None; library.len()];
-    let mut rules = FaceRules::default();
+    let mut rules = FaceRules::new(shape.sides);
     for model in &models {
         let m = &model.mesh;
         let (material, emitter) = match (m.material_id, mtl.as_deref_mut()) {
@@ -299,9 +301,10 @@ fn model_triangles(
             .map(|_| <&mut [VertexAttributes]>::default())
             .collect(),
     };
+    let part_rules = rules.part();
     let piece =
         |k: usize, dst: &mut [Triangle], dst_attributes: &mut [VertexAttributes], faces: &[u32]| {
-            let mut rules = FaceRules::default();
+            let mut rules = part_rules.part();
             let mut made = 0;
             for (t, face) in faces.chunks_exact(3).enumerate() {
                 let face = (k * FACES_PER_PIECE + t, face);

@@ -112,6 +112,30 @@ pub(super) struct RawShape {
     /// ([`super::geometry::smooth_vertex_normals`]).
     #[serde(skip)]
     pub(super) smooth_if_no_normals: bool,
+    /// Which side of the shape's surfaces is the front (set by the Mitsuba reader; TOML scenes
+    /// keep the default, the winding).
+    #[serde(skip)]
+    pub(super) sides: Sides,
+    /// The texture coordinates of `triangles`, per vertex (the Mitsuba reader's `rectangle`,
+    /// `cube` and `disk`, parameterised as Mitsuba parameterises them).
+    #[serde(skip)]
+    pub(super) triangle_uvs: Option<Vec<[[f32; 2]; 3]>>,
+}
+
+/// Which side of a shape's triangles is the front.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(super) enum Sides {
+    /// The counter-clockwise winding, as placed: a mirroring transform turns the shape over
+    /// (TOML scenes: `scenes/README.md`).
+    #[default]
+    Winding,
+    /// The reader has wound the shape's triangles (and set a sphere's `inward`) so that they
+    /// face as Mitsuba's normals do, mirrored or not: Mitsuba's `rectangle`, `cube`, `disk` and
+    /// `sphere`, whose normals go through the inverse transpose of `to_world`.
+    Kept,
+    /// A mesh triangle with vertex normals faces the side they point to (its winding is turned
+    /// to agree), one without by its winding: Mitsuba shades by the interpolated normals.
+    ByNormals,
 }
 
 #[derive(Deserialize)]

@@ -7,7 +7,7 @@
 use super::assemble::fmt_vec;
 use super::error::SceneError;
 use super::geometry::{axis_rotation, Transform};
-use super::schema::RawTransform;
+use super::schema::{RawTransform, Sides};
 use super::spanned::{Cx, Sp};
 use glam::{DMat3, DVec3};
 
@@ -15,6 +15,7 @@ pub(super) fn transform(
     cx: &mut Cx,
     f: &str,
     t: &Sp<RawTransform>,
+    sides: Sides,
 ) -> Result<Transform, SceneError> {
     let raw = &t.value;
     if let Some(m) = &raw.matrix {
@@ -30,7 +31,7 @@ pub(super) fn transform(
             );
             return Err(cx.err(m.span(), &format!("{f}.transform.matrix"), msg));
         }
-        return matrix(cx, &format!("{f}.transform.matrix"), m);
+        return matrix(cx, &format!("{f}.transform.matrix"), m, sides);
     }
     let (mut translate, mut scale) = (glam::Vec3::ZERO, glam::Vec3::ONE);
     if let Some(v) = &raw.translate {
@@ -84,12 +85,13 @@ pub(super) fn transform(
 }
 
 /// A row-major 4×4 matrix: finite, affine (last row `[0, 0, 0, 1]`), invertible. A mirror
-/// (negative determinant) is legal and warned about: it reverses the winding, so the front
-/// sides turn over (as in Mitsuba, where the winding decides too).
+/// (negative determinant) is legal; it reverses the winding, and where the winding decides the
+/// front side (`sides`) that is warned about: the front sides turn over.
 fn matrix(
     cx: &mut Cx,
     field: &str,
     m: &Sp<super::schema::Arr<super::schema::Arr<f64, 4>, 4>>,
+    sides: Sides,
 ) -> Result<Transform, SceneError> {
     let mut rows = [[0.0f64; 4]; 4];
     for (i, row) in m.value.iter().enumerate() {
@@ -115,12 +117,14 @@ fn matrix(
             format!("the matrix is singular (determinant {det:e}): it would flatten the shape");
         return Err(cx.err(m.span(), field, msg));
     }
-    if det < 0.0 {
-        cx.warn(
-            m.span(),
-            field,
-            "the matrix mirrors (negative determinant): it reverses the winding, so each triangle's front side turns over",
-        );
+    let turns_over = match sides {
+        Sides::Winding => Some("it reverses the winding, so each triangle's front side turns over"),
+        Sides::Kept => None,
+        Sides::ByNormals => Some("as in Mitsuba, a triangle with vertex normals keeps the side they face (its winding is turned to agree), and one without turns over"),
+    };
+    if let (true, Some(what)) = (det < 0.0, turns_over) {
+        let msg = format!("the matrix mirrors (negative determinant): {what}");
+        cx.warn(m.span(), field, msg);
     }
     Ok(xf)
 }

@@ -823,6 +823,8 @@ pub(super) fn raw_shape(el: &El, material: Sp<String>) -> RawShape {
         transform: None,
         as_written: false,
         smooth_if_no_normals: false,
+        sides: crate::scene::schema::Sides::Winding,
+        triangle_uvs: None,
     }
 }
 

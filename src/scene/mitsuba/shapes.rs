@@ -1,19 +1,25 @@
-//! `<shape>` → a raw shape: its geometry (`obj`; `rectangle`, `cube` and `disk` as quads or
-//! triangles in their local frame; `sphere` analytic), its `to_world` as the shape's matrix
-//! transform, its BSDF (inline, `<ref>`, or Mitsuba's default diffuse 0.5) and its `area`
-//! emitter.
+//! `<shape>` → a raw shape: its geometry (`obj`; `rectangle`, `cube` and `disk` as triangles in
+//! their local frame with Mitsuba's texture coordinates; `sphere` analytic), its `to_world` as
+//! the shape's matrix transform, its BSDF (inline, `<ref>`, or Mitsuba's default diffuse 0.5)
+//! and its `area` emitter.
 //!
 //! Mitsuba's local shapes: `rectangle` is [−1, 1]² at z = 0 facing +z, `cube` is [−1, 1]³ facing
 //! out, `disk` the unit disk at z = 0 facing +z (here a fan of [`DISK_SEGMENTS`] triangles:
 //! its area is 0.99990 × π), `sphere` `center` (default 0) and `radius` (default 1), kept
-//! analytic when `to_world` is a similarity. `flip_normals` turns a sphere inward and reverses
-//! the winding of the generated shapes.
+//! analytic when `to_world` is a similarity.
+//!
+//! Front sides as Mitsuba's: its shapes' normals go through the inverse transpose of
+//! `to_world`, so a mirroring `to_world` (negative determinant), which reverses the winding,
+//! leaves them facing the same side; the generated shapes are then wound the other way, and a
+//! sphere turns inward, as Mitsuba's does. `flip_normals` turns them over. A mesh's triangles
+//! face the side of their vertex normals ([`Sides::ByNormals`]: Mitsuba shades by them).
 
 use super::doc::El;
 use super::plugins::{bsdf, emitter_error, raw_shape, raw_sphere, shape_transform, sp, Props};
 use crate::scene::error::SceneError;
-use crate::scene::schema::{Arr, MaterialTable, RawShape, Triple};
+use crate::scene::schema::{Arr, MaterialTable, RawShape, Sides, Triple};
 use crate::scene::spanned::{Cx, Sp};
+use glam::DMat3;
 use std::collections::BTreeMap;
 
 /// Triangles of a `disk`.
@@ -46,7 +52,11 @@ pub(super) fn shape(
         Some(f) => cx.bool_of(f)?,
         None => false,
     };
-    let supported = geometry(cx, el, &kind, &mut p, flip, &mut raw)?;
+    let mirrored = match to_world {
+        Some(t) => DMat3::from_mat4(super::values::to_world(cx, t)?.m).determinant() < 0.0,
+        None => false,
+    };
+    let supported = geometry(cx, el, &kind, &mut p, (flip, mirrored), &mut raw)?;
     raw.transform = shape_transform(cx, to_world)?;
     raw.as_written = raw.transform.is_none();
     p.finish(cx, supported)?;
@@ -81,7 +91,7 @@ fn geometry(
     el: &El,
     kind: &str,
     p: &mut Props,
-    flip: bool,
+    (flip, mirrored): (bool, bool),
     raw: &mut RawShape,
 ) -> Result<&'static str, SceneError> {
     const GENERATED: &str = "bsdf or ref, emitter type=\"area\", to_world, flip_normals";
@@ -101,8 +111,10 @@ fn geometry(
             if let Some(n) = p.take("face_normals") {
                 raw.face_normals = Some(sp(n, cx.bool_of(n)?));
             }
-            // Mitsuba gives a mesh without normals smooth ones (unless face_normals).
+            // Mitsuba gives a mesh without normals smooth ones (unless face_normals), and shades
+            // by the normals: their side is the front.
             raw.smooth_if_no_normals = true;
+            raw.sides = Sides::ByNormals;
             if flip {
                 let a = if kind == "obj" { "an" } else { "a" };
                 return Err(cx.el_err(el, format!("flip_normals on {a} {kind} mesh is not supported (reverse the faces' winding in the file)")));
@@ -118,45 +130,43 @@ fn geometry(
                 Some(r) => cx.float(r)?,
                 None => 1.0,
             };
-            raw.sphere = Some(raw_sphere(el, center, radius, flip));
+            // A mirroring to_world turns Mitsuba's sphere inside out (its normals go through the
+            // inverse transpose), as flip_normals does.
+            raw.sphere = Some(raw_sphere(el, center, radius, flip != mirrored));
+            raw.sides = Sides::Kept;
             Ok("center, radius, bsdf or ref, emitter type=\"area\", to_world, flip_normals")
         }
-        "rectangle" | "cube" => {
-            let faces: Vec<[[f64; 3]; 4]> = if kind == "rectangle" {
-                vec![face([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])]
-            } else {
-                CUBE_FACES
-                    .iter()
-                    .map(|(n, u, v)| face(*n, *u, *v))
-                    .collect()
+        "rectangle" | "cube" | "disk" => {
+            let (tris, uvs) = match kind {
+                "rectangle" => quads_uv(&[RECTANGLE]),
+                "cube" => quads_uv(&CUBE_FACES),
+                _ => disk_uv(),
             };
-            let quads = faces
+            // Mitsuba's normals: +z of the local frame (the cube's outward), through the inverse
+            // transpose of to_world, turned by flip_normals. A mirroring to_world reverses the
+            // winding but not those normals, so the triangles are wound the other way then too.
+            let reverse = flip != mirrored;
+            let tris = tris
                 .into_iter()
-                .map(|mut q| {
-                    if flip {
-                        q.reverse();
-                    }
-                    sp(el, Arr(q.map(Arr)))
-                })
-                .collect();
-            raw.quads = Some(sp(el, quads));
-            Ok(GENERATED)
-        }
-        "disk" => {
-            let at = |i: usize| {
-                let a = std::f64::consts::TAU * (i % DISK_SEGMENTS) as f64 / DISK_SEGMENTS as f64;
-                [a.cos(), a.sin(), 0.0]
-            };
-            let tris = (0..DISK_SEGMENTS)
-                .map(|i| {
-                    let mut t = [[0.0; 3], at(i), at(i + 1)];
-                    if flip {
+                .map(|mut t| {
+                    if reverse {
                         t.swap(1, 2);
                     }
                     sp(el, Arr(t.map(Arr)))
                 })
                 .collect();
+            let uvs = uvs
+                .into_iter()
+                .map(|mut t| {
+                    if reverse {
+                        t.swap(1, 2);
+                    }
+                    t
+                })
+                .collect();
             raw.triangles = Some(sp(el, tris));
+            raw.triangle_uvs = Some(uvs);
+            raw.sides = Sides::Kept;
             Ok(GENERATED)
         }
         other => {
@@ -174,20 +184,74 @@ fn geometry(
 /// each is read: `tests/mitsuba_xml.rs`).
 pub(super) const SHAPES: [&str; 6] = ["obj", "ply", "rectangle", "cube", "sphere", "disk"];
 
-/// The outward faces of [−1, 1]³: (normal, u, v) with u × v = normal.
-const CUBE_FACES: [([f64; 3], [f64; 3], [f64; 3]); 6] = [
-    ([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]),
-    ([-1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]),
-    ([0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]),
-    ([0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]),
-    ([0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
-    ([0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]),
+/// Mitsuba's `rectangle`: [−1, 1]² at z = 0, (u, v) = ((x + 1)/2, (y + 1)/2), corners
+/// counter-clockwise seen from +z.
+const RECTANGLE: [([f64; 3], [f32; 2]); 4] = [
+    ([-1.0, -1.0, 0.0], [0.0, 0.0]),
+    ([1.0, -1.0, 0.0], [1.0, 0.0]),
+    ([1.0, 1.0, 0.0], [1.0, 1.0]),
+    ([-1.0, 1.0, 0.0], [0.0, 1.0]),
 ];
 
-/// The quad `c − u − v, c + u − v, c + u + v, c − u + v`, facing u × v.
-fn face(c: [f64; 3], u: [f64; 3], v: [f64; 3]) -> [[f64; 3]; 4] {
-    let p = |su: f64, sv: f64| [0, 1, 2].map(|i| c[i] + su * u[i] + sv * v[i]);
-    [p(-1.0, -1.0), p(1.0, -1.0), p(1.0, 1.0), p(-1.0, 1.0)]
+/// Mitsuba's `cube` (a mesh in Mitsuba 3: `src/shapes/cube.cpp`), face by face: its four
+/// corners, counter-clockwise seen from outside, and their texture coordinates, which map each
+/// face onto [0, 1]² as Mitsuba's do (corner by corner the same (u, v)).
+const CUBE_FACES: [[([f64; 3], [f32; 2]); 4]; 6] = {
+    const fn face(c: [[f64; 3]; 4]) -> [([f64; 3], [f32; 2]); 4] {
+        [
+            (c[0], [0.0, 1.0]),
+            (c[1], [1.0, 1.0]),
+            (c[2], [1.0, 0.0]),
+            (c[3], [0.0, 0.0]),
+        ]
+    }
+    const P: f64 = 1.0;
+    const N: f64 = -1.0;
+    [
+        face([[P, N, N], [P, N, P], [N, N, P], [N, N, N]]), // −y
+        face([[P, P, N], [N, P, N], [N, P, P], [P, P, P]]), // +y
+        face([[P, N, N], [P, P, N], [P, P, P], [P, N, P]]), // +x
+        face([[P, N, P], [P, P, P], [N, P, P], [N, N, P]]), // +z
+        face([[N, N, P], [N, P, P], [N, P, N], [N, N, N]]), // −x
+        face([[P, P, N], [P, N, N], [N, N, N], [N, P, N]]), // −z
+    ]
+};
+
+/// Triangles and per-vertex texture coordinates of quads, two triangles each (corners 0 1 2
+/// and 0 2 3).
+fn quads_uv(quads: &[[([f64; 3], [f32; 2]); 4]]) -> (Vec<[[f64; 3]; 3]>, Vec<[[f32; 2]; 3]>) {
+    let mut tris = Vec::new();
+    let mut uvs = Vec::new();
+    for q in quads {
+        for idx in [[0, 1, 2], [0, 2, 3]] {
+            tris.push(idx.map(|i| q[i].0));
+            uvs.push(idx.map(|i| q[i].1));
+        }
+    }
+    (tris, uvs)
+}
+
+/// Mitsuba's `disk`, the unit disk at z = 0 facing +z, as a fan of [`DISK_SEGMENTS`] triangles
+/// (area 0.99990 × π) with Mitsuba's texture coordinates (u, v) = (r, φ/2π) at the vertices
+/// (the centre's v that of the middle of its triangle; within a triangle they are interpolated
+/// linearly, which misplaces v by at most half a segment's width, 1/512, near the centre).
+fn disk_uv() -> (Vec<[[f64; 3]; 3]>, Vec<[[f32; 2]; 3]>) {
+    let n = DISK_SEGMENTS as f64;
+    let at = |i: usize| {
+        let a = std::f64::consts::TAU * (i % DISK_SEGMENTS) as f64 / n;
+        [a.cos(), a.sin(), 0.0]
+    };
+    let v = |x: f64| (x / n) as f32;
+    let tris = (0..DISK_SEGMENTS)
+        .map(|i| [[0.0; 3], at(i), at(i + 1)])
+        .collect();
+    let uvs = (0..DISK_SEGMENTS)
+        .map(|i| {
+            let i = i as f64;
+            [[0.0, v(i + 0.5)], [1.0, v(i)], [1.0, v(i + 1.0)]]
+        })
+        .collect();
+    (tris, uvs)
 }
 
 /// The shape's material name: a `<ref>` to a top-level BSDF, an inline `<bsdf>` (added under
