@@ -186,7 +186,7 @@ pub(super) const SHAPES: [&str; 6] = ["obj", "ply", "rectangle", "cube", "sphere
 
 /// Mitsuba's `rectangle`: [−1, 1]² at z = 0, (u, v) = ((x + 1)/2, (y + 1)/2), corners
 /// counter-clockwise seen from +z.
-const RECTANGLE: [([f64; 3], [f32; 2]); 4] = [
+const RECTANGLE: [Corner; 4] = [
     ([-1.0, -1.0, 0.0], [0.0, 0.0]),
     ([1.0, -1.0, 0.0], [1.0, 0.0]),
     ([1.0, 1.0, 0.0], [1.0, 1.0]),
@@ -196,8 +196,8 @@ const RECTANGLE: [([f64; 3], [f32; 2]); 4] = [
 /// Mitsuba's `cube` (a mesh in Mitsuba 3: `src/shapes/cube.cpp`), face by face: its four
 /// corners, counter-clockwise seen from outside, and their texture coordinates, which map each
 /// face onto [0, 1]² as Mitsuba's do (corner by corner the same (u, v)).
-const CUBE_FACES: [[([f64; 3], [f32; 2]); 4]; 6] = {
-    const fn face(c: [[f64; 3]; 4]) -> [([f64; 3], [f32; 2]); 4] {
+const CUBE_FACES: [[Corner; 4]; 6] = {
+    const fn face(c: [[f64; 3]; 4]) -> [Corner; 4] {
         [
             (c[0], [0.0, 1.0]),
             (c[1], [1.0, 1.0]),
@@ -217,9 +217,15 @@ const CUBE_FACES: [[([f64; 3], [f32; 2]); 4]; 6] = {
     ]
 };
 
+/// A corner: its position in the shape's local frame and its texture coordinates.
+type Corner = ([f64; 3], [f32; 2]);
+
+/// Triangles, and the texture coordinates of their vertices.
+type UvTriangles = (Vec<[[f64; 3]; 3]>, Vec<[[f32; 2]; 3]>);
+
 /// Triangles and per-vertex texture coordinates of quads, two triangles each (corners 0 1 2
 /// and 0 2 3).
-fn quads_uv(quads: &[[([f64; 3], [f32; 2]); 4]]) -> (Vec<[[f64; 3]; 3]>, Vec<[[f32; 2]; 3]>) {
+fn quads_uv(quads: &[[Corner; 4]]) -> UvTriangles {
     let mut tris = Vec::new();
     let mut uvs = Vec::new();
     for q in quads {
@@ -235,7 +241,7 @@ fn quads_uv(quads: &[[([f64; 3], [f32; 2]); 4]]) -> (Vec<[[f64; 3]; 3]>, Vec<[[f
 /// (area 0.99990 × π) with Mitsuba's texture coordinates (u, v) = (r, φ/2π) at the vertices
 /// (the centre's v that of the middle of its triangle; within a triangle they are interpolated
 /// linearly, which misplaces v by at most half a segment's width, 1/512, near the centre).
-fn disk_uv() -> (Vec<[[f64; 3]; 3]>, Vec<[[f32; 2]; 3]>) {
+fn disk_uv() -> UvTriangles {
     let n = DISK_SEGMENTS as f64;
     let at = |i: usize| {
         let a = std::f64::consts::TAU * (i % DISK_SEGMENTS) as f64 / n;
