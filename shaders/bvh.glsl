@@ -30,9 +30,12 @@ void triangle_texels(uint i, out vec4 v0, out vec4 v1, out vec4 v2) {
 }
 
 // Sphere i's two texels: (center, radius) and (material, emitter, inward, 0) as bits.
+// Texels per sphere (Rust: scene_buffers::sphere_data): (center, radius), (material, emitter,
+// inward, frame flags), the frame's quaternion.
+#define SPHERE_TEXELS 3u
 void sphere_texels(uint i, out vec4 center_radius, out uvec4 info) {
-    center_radius = sphere_texel(2u * i);
-    info = floatBitsToUint(sphere_texel(2u * i + 1u));
+    center_radius = sphere_texel(SPHERE_TEXELS * i);
+    info = floatBitsToUint(sphere_texel(SPHERE_TEXELS * i + 1u));
 }
 
 struct Hit {
@@ -355,13 +358,13 @@ int bvh_primitive(BvhRay r, vec3 o, vec3 d, uint ref, float tmax, out float t, o
     bary = vec2(0.0);
 #if defined(BVH_SPHERES) && defined(BVH_TRIANGLES)
     if ((ref & BVH_SPHERE_BIT) != 0u) {
-        vec4 cr = sphere_texel((ref & ~BVH_SPHERE_BIT) * 2u);
+        vec4 cr = sphere_texel((ref & ~BVH_SPHERE_BIT) * SPHERE_TEXELS);
         return bvh_sphere(o, d, cr.xyz, cr.w, tmax, t) ? BVH_HIT : BVH_MISS;
     }
     uint k = ref * 3u;
     return bvh_triangle(r, tri_texel(k).xyz, tri_texel(k + 1u).xyz, tri_texel(k + 2u).xyz, tmax, t, bary);
 #elif defined(BVH_SPHERES)
-    vec4 cr = sphere_texel((ref & ~BVH_SPHERE_BIT) * 2u);
+    vec4 cr = sphere_texel((ref & ~BVH_SPHERE_BIT) * SPHERE_TEXELS);
     return bvh_sphere(o, d, cr.xyz, cr.w, tmax, t) ? BVH_HIT : BVH_MISS;
 #else
     uint k = ref * 3u;

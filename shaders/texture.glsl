@@ -85,6 +85,14 @@ vec3 texture_lookup(uint t, vec2 uv) {
     return r;
 }
 
+// A direction from a turned sphere's centre in the sphere's own frame: the rotation by the unit
+// quaternion q, then z negated for a mirror (Rust: SphereFrame::to_local, the same steps).
+vec3 sphere_local(vec4 q, bool mirror, vec3 d) {
+    precise vec3 t = cross(q.xyz, d) * 2.0;
+    precise vec3 r = d + t * q.w + cross(q.xyz, t);
+    return mirror ? vec3(r.x, r.y, -r.z) : r;
+}
+
 // (u, v) of a point on a sphere, d = (p - centre) / radius (Rust: texture::sphere_uv).
 vec2 sphere_uv(vec3 d) {
     precise float u = atan2_f32(d.y, d.x) * 0.15915494;
@@ -103,6 +111,9 @@ vec2 surface_uv(uint prim, vec2 bary, vec3 p) {
         uvec4 info;
         sphere_texels(prim & ~SPHERE_BIT, cr, info);
         precise vec3 d = (p - cr.xyz) / cr.w;
+        if ((info.w & 1u) != 0u) {
+            d = sphere_local(sphere_texel(SPHERE_TEXELS * (prim & ~SPHERE_BIT) + 2u), (info.w & 2u) != 0u, d);
+        }
         return sphere_uv(d);
     }
 #endif

@@ -22,7 +22,9 @@
 //! whose material has a texture gets (0, 0), (1, 0), (1, 1), (0, 1) at v0 … v3 (Mitsuba's
 //! `rectangle`); an OBJ file's `vt` v is flipped (OBJ's v runs up the image), a PLY file's is
 //! taken as stored; a sphere has u = φ/2π with φ = atan2(y, x) and v = θ/π with θ from +z, in
-//! the sphere's frame (the world's axes about its centre).
+//! the sphere's own frame: the world's axes about its centre, turned (or mirrored) as its
+//! transform turned the sphere ([`crate::scene::SphereFrame`]), as Mitsuba's `to_world` turns
+//! its sphere's.
 
 use crate::brdf::params::Param;
 use crate::brdf::textured::RecordSlot;
@@ -292,7 +294,8 @@ pub fn sphere_uv(d: Vec3) -> Vec2 {
 pub fn hit_uv(scene: &crate::scene::Scene, hit: &crate::bvh::Hit, p: Vec3) -> Vec2 {
     if hit.prim & crate::bvh::SPHERE_BIT != 0 {
         let s = &scene.spheres[(hit.prim & !crate::bvh::SPHERE_BIT) as usize];
-        sphere_uv((p - s.center) / s.radius)
+        let d = (p - s.center) / s.radius;
+        sphere_uv(s.frame.map_or(d, |f| f.to_local(d)))
     } else {
         let a = scene.attributes_of(hit.prim as usize);
         triangle_uv(a.uv, hit.bary.x, hit.bary.y)

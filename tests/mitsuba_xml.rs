@@ -349,6 +349,38 @@ fn generated_shapes_carry_mitsubas_texture_coordinates() {
     }
 }
 
+/// A sphere its transform turns, or mirrors, is written with that turn in `to_world` (its
+/// texture coordinates turn with it in Mitsuba too) and reads back with the same frame,
+/// centre, radius and front side.
+#[test]
+fn turned_spheres_convert_with_their_frames() {
+    let toml = "[camera]\nposition = [0.0, 1.0, -5.0]\ntarget = [0.0, 0.0, 0.0]\nfov_y = 40.0\n\
+        [film]\nwidth = 16\nheight = 16\n\
+        [materials.m]\nmodel = \"lambert\"\n\
+        [[shapes]]\nmaterial = \"m\"\nsphere = { center = [0.0, 0.0, 0.0], radius = 1.0 }\n\
+        transform = { translate = [0.0, 0.5, 0.0], rotate = { axis = [1.0, 0.3, 0.0], angle_deg = -70.0 } }\n\
+        [[shapes]]\nmaterial = \"m\"\nsphere = { center = [2.0, 0.0, 0.0], radius = 0.5, inward = true }\n\
+        transform = { matrix = [[0.0, -1.0, 0.0, 0.0], [-1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]] }\n";
+    let s = load_str(toml, Path::new("t.toml")).unwrap();
+    let c = to_mitsuba(&s, "m", Options::default()).unwrap();
+    let x = load_str(&c.xml, Path::new("t.xml")).unwrap_or_else(|e| panic!("{e}\n{}", c.xml));
+    assert_eq!(s.spheres.len(), 2);
+    for (a, b) in s.spheres.iter().zip(&x.spheres) {
+        assert!((a.center - b.center).length() < 1e-6, "{a:?} {b:?}");
+        assert!((a.radius - b.radius).abs() < 1e-6);
+        assert_eq!(a.inward, b.inward);
+        let (fa, fb) = (a.frame.expect("turned"), b.frame.expect("turned"));
+        assert_eq!(fa.mirror, fb.mirror);
+        for d in [Vec3::X, Vec3::Y, Vec3::Z] {
+            assert!(
+                (fa.to_local(d) - fb.to_local(d)).length() < 1e-5,
+                "{fa:?} {fb:?}"
+            );
+        }
+    }
+    assert!(s.spheres[1].frame.unwrap().mirror);
+}
+
 #[test]
 fn spheres_take_similarities_only() {
     let s = load_xml(

@@ -162,6 +162,62 @@ fn textured_materials_render_alike_on_both_backends() {
     common::finish(ctx);
 }
 
+/// A sphere's texture turns with the sphere, as Mitsuba's does: the frame its transform gives
+/// takes a turned direction back to the one it came from (a mirror too), the GPU renders what
+/// the CPU renders, and the image is not the unturned sphere's.
+#[test]
+fn a_turned_sphere_turns_its_texture() {
+    use glam::Vec3;
+    let dir = tempfile::tempdir().unwrap();
+    write_common(dir.path());
+    let with = |transform: &str| {
+        let text = scene_text("model = \"lambert\"\nalbedo = { texture = \"ground.png\" }")
+            .replace(
+                "sphere = { center = [0.0, 0.0, 0.0], radius = 0.8 }\n",
+                &format!("sphere = {{ center = [0.0, 0.0, 0.0], radius = 0.8 }}\n{transform}"),
+            );
+        load(dir.path(), &text)
+    };
+    let plain = with("");
+    assert_eq!(plain.spheres[0].frame, None);
+    // (About z by a quarter turn the checkered texture would look the same.)
+    let turned = with("transform = { rotate = { axis = [1.0, 0.0, 0.0], angle_deg = 90.0 } }\n");
+    let f = turned.spheres[0]
+        .frame
+        .expect("a turned sphere has a frame");
+    // 90° about x takes y to z: the frame takes z back to y.
+    assert!((f.to_local(Vec3::Z) - Vec3::Y).length() < 1e-6);
+    let mirrored = with(
+        "transform = { matrix = [[-1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]] }\n",
+    );
+    let f = mirrored.spheres[0]
+        .frame
+        .expect("a mirrored sphere has a frame");
+    for d in [
+        Vec3::X,
+        Vec3::Y,
+        Vec3::Z,
+        Vec3::new(0.3, -0.5, 0.8).normalize(),
+    ] {
+        let back = f.to_local(Vec3::new(-d.x, d.y, d.z));
+        assert!((back - d).length() < 1e-6, "{d} -> {back}");
+    }
+    let ctx = common::context();
+    let plain_image = common::render_cpu(&plain).mean;
+    for (label, s) in [("turned", &turned), ("mirrored", &mirrored)] {
+        let (gpu, _) = common::render_gpu(&ctx, s);
+        let cpu = common::render_cpu(s);
+        let rmse = brdfwave::metrics::rmse(&gpu.mean, &cpu.mean).unwrap();
+        assert!(rmse < 1e-5, "{label}: GPU and CPU differ, RMSE {rmse:e}");
+        let moved = brdfwave::metrics::rmse(&plain_image, &cpu.mean).unwrap();
+        assert!(
+            moved > 1e-2,
+            "{label}: the texture did not turn (RMSE {moved:e})"
+        );
+    }
+    common::finish(ctx);
+}
+
 /// A texture whose texels all equal the material's constant gives the constant material's
 /// image: on the CPU bit for bit, on the GPU within rounding (its record's derived words are
 /// recomputed in GLSL).

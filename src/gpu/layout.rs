@@ -191,7 +191,7 @@ impl Binding {
             Binding::BvhNodes => ("bvh_nodes", "4 texels per node: (lmin, left), (lmax, right), (rmin, left_count), (rmax, right_count); the u32 fields as bits in .w (src/bvh/node.rs)"),
             Binding::BvhPrims => ("bvh_prims", "primitive references: triangle index, or sphere index | BVH_SPHERE_BIT"),
             Binding::Triangles => ("tri_data", "3 texels per triangle: (v0, material bits), (v1, emitter bits or 0xFFFFFFFF), (v2, unused)"),
-            Binding::Spheres => ("sphere_data", "2 texels per sphere: (center, radius), (material bits, emitter bits, inward bits, 0)"),
+            Binding::Spheres => ("sphere_data", "3 texels per sphere: (center, radius), (material bits, emitter bits, inward bits, frame flags bits), the frame's quaternion (src/scene/mod.rs SphereFrame)"),
             Binding::TriAttrs => ("tri_attrs", "4 texels per triangle: (n0, u0), (n1, u1), (n2, u2), (v0, v1, v2, flags)"),
             Binding::Materials => ("material_words", "the material records (src/brdf/mod.rs)"),
             Binding::Lights => ("light_table", "(prim ref, floatBits(cdf)) per emitting primitive"),

@@ -63,17 +63,20 @@ pub fn triangle_attributes(scene: &Scene) -> Vec<[f32; 4]> {
     out
 }
 
-/// 2 vec4 per sphere: (center, radius), (material, emitter, inward, 0).
+/// 3 vec4 per sphere: (center, radius), (material, emitter, inward, frame flags: 1 turned,
+/// 2 mirrored), the frame's quaternion (x, y, z, w) (`crate::scene::SphereFrame`).
 pub fn sphere_data(scene: &Scene) -> Vec<[f32; 4]> {
-    let mut out = Vec::with_capacity(scene.spheres.len() * 2);
+    let mut out = Vec::with_capacity(scene.spheres.len() * 3);
     for s in &scene.spheres {
         out.push([s.center.x, s.center.y, s.center.z, s.radius]);
+        let flags = s.frame.map_or(0, |f| 1 | (f.mirror as u32) << 1);
         out.push([
             bits(s.material),
             bits(s.emitter.unwrap_or(NO_EMITTER)),
             bits(s.inward as u32),
-            0.0,
+            bits(flags),
         ]);
+        out.push(s.frame.map_or([0.0, 0.0, 0.0, 1.0], |f| f.q));
     }
     out
 }

@@ -765,8 +765,10 @@ fn sphere_primitive(
         );
         return Err(cx.err(r.radius.span(), &fr, msg));
     }
+    let mut frame = None;
     if let Some((xf, span)) = placed {
         (center, radius) = transformed_sphere(cx, f, span, xf, center, radius)?;
+        frame = sphere_frame(xf);
     }
     Ok(Sphere {
         center,
@@ -774,6 +776,33 @@ fn sphere_primitive(
         material,
         emitter,
         inward: r.inward,
+        frame,
+    })
+}
+
+/// The frame a similarity `xf` turns a sphere by, as the inverse of its rotation (`W = Rᵀ`,
+/// with `R` the linear part over its scale), or `None` when it turns nothing.
+fn sphere_frame(xf: &Transform) -> Option<crate::scene::SphereFrame> {
+    let s = xf.similarity_scale()?;
+    let (a, _) = xf.affine();
+    let mut w = (a * (1.0 / s)).transpose();
+    let mirror = w.determinant() < 0.0;
+    if mirror {
+        // W = D·Q with D = diag(1, 1, −1): Q = D·W, W's last row negated.
+        w = glam::DMat3::from_cols(
+            w.x_axis * glam::DVec3::new(1.0, 1.0, -1.0),
+            w.y_axis * glam::DVec3::new(1.0, 1.0, -1.0),
+            w.z_axis * glam::DVec3::new(1.0, 1.0, -1.0),
+        );
+    }
+    let off = (w - glam::DMat3::IDENTITY).to_cols_array();
+    if !mirror && off.iter().all(|x| x.abs() <= 1e-12) {
+        return None;
+    }
+    let q = glam::DQuat::from_mat3(&w).normalize();
+    Some(crate::scene::SphereFrame {
+        q: [q.x as f32, q.y as f32, q.z as f32, q.w as f32],
+        mirror,
     })
 }
 

@@ -153,6 +153,36 @@ pub struct Sphere {
     pub material: u32,
     pub emitter: Option<u32>,
     pub inward: bool,
+    /// How the sphere's transform turned it, for its texture coordinates (`crate::texture`),
+    /// which turn with it as Mitsuba's do; `None` when it was not turned.
+    pub frame: Option<SphereFrame>,
+}
+
+/// A turned sphere's own axes: [`SphereFrame::to_local`] takes a direction from its centre
+/// into the frame in which its texture coordinates are laid out (the frame before the
+/// transform). The turn is a unit quaternion `q` (x, y, z, w), followed by z → −z when the
+/// transform mirrors.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SphereFrame {
+    pub q: [f32; 4],
+    pub mirror: bool,
+}
+
+impl SphereFrame {
+    /// `d` in the sphere's own frame: `d + w·t + q⃗ × t` with `t = 2·q⃗ × d` (the rotation by
+    /// the unit quaternion), then z negated for a mirror. GLSL twin: `sphere_local`
+    /// (texture.glsl), the same operations in the same order.
+    pub fn to_local(&self, d: Vec3) -> Vec3 {
+        let [x, y, z, w] = self.q;
+        let v = Vec3::new(x, y, z);
+        let t = v.cross(d) * 2.0;
+        let r = d + t * w + v.cross(t);
+        if self.mirror {
+            Vec3::new(r.x, r.y, -r.z)
+        } else {
+            r
+        }
+    }
 }
 
 #[derive(Clone, Debug)]

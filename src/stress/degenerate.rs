@@ -137,6 +137,7 @@ pub(super) fn case_degenerate(env: &mut Env, seed: u64) -> Result<CaseResult> {
                 material,
                 emitter,
                 inward,
+                frame: None,
             });
         }
         kinds.push(match (tri, sphere) {

@@ -311,6 +311,7 @@ fn geometry_inside_closed_mesh(env: &mut Env, r: &mut Rng, seed: u64) -> Result<
                 material: 0,
                 emitter,
                 inward,
+                frame: None,
             });
             "a sphere".to_string()
         }

@@ -60,6 +60,7 @@ pub fn scene(tris: Vec<[Vec3; 3]>, spheres: Vec<(Vec3, f32, bool)>) -> Scene {
                 material: 0,
                 emitter: None,
                 inward,
+                frame: None,
             })
             .collect(),
         lights: Vec::new(),

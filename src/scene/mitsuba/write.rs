@@ -147,8 +147,20 @@ pub fn to_mitsuba(s: &Scene, mesh_dir: &str, opts: Options) -> Result<Converted,
                     "        <float name=\"radius\" value=\"{}\"/>",
                     sp.radius
                 );
-                if sp.inward {
+                // A turned sphere turns its texture coordinates: Mitsuba's `to_world` applies
+                // after `center` and `radius`, so the turn about the centre is
+                // T(c)·R·T(−c). A mirroring R turns Mitsuba's sphere inward, which
+                // flip_normals undoes where brdfwave's is not.
+                let mirror = sp.frame.is_some_and(|f| f.mirror);
+                if sp.inward != mirror {
                     let _ = writeln!(x, "        <boolean name=\"flip_normals\" value=\"true\"/>");
+                }
+                if let Some(f) = sp.frame {
+                    let _ = writeln!(
+                        x,
+                        "        <transform name=\"to_world\"><matrix value=\"{}\"/></transform>",
+                        sphere_turn(f, c)
+                    );
                 }
                 shape_tail(&mut x, s, sp.material, sp.emitter);
             }
@@ -602,6 +614,31 @@ fn obj_text(tris: &[(&Triangle, VertexAttributes)]) -> String {
     }
     o.push_str(&faces);
     o
+}
+
+/// The 4×4 matrix, row by row, that turns a sphere centred at `c` by the inverse of its
+/// frame's `W` (`R = Wᵀ`, `W = D·Q`: `crate::scene::SphereFrame`) about its centre:
+/// T(c)·R·T(−c).
+fn sphere_turn(f: crate::scene::SphereFrame, c: glam::Vec3) -> String {
+    let [x, y, z, w] = f.q.map(f64::from);
+    let q = glam::DMat3::from_quat(glam::DQuat::from_xyzw(x, y, z, w));
+    let d = glam::DVec3::new(1.0, 1.0, if f.mirror { -1.0 } else { 1.0 });
+    // W = D·Q (rows of Q scaled by d), R = Wᵀ.
+    let wm = glam::DMat3::from_cols(q.x_axis * d, q.y_axis * d, q.z_axis * d);
+    let r = wm.transpose();
+    let c = c.as_dvec3();
+    let t = c - r * c;
+    let rows = [
+        [r.x_axis.x, r.y_axis.x, r.z_axis.x, t.x],
+        [r.x_axis.y, r.y_axis.y, r.z_axis.y, t.y],
+        [r.x_axis.z, r.y_axis.z, r.z_axis.z, t.z],
+        [0.0, 0.0, 0.0, 1.0],
+    ];
+    rows.iter()
+        .flatten()
+        .map(|v| v.to_string())
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 #[cfg(test)]
