@@ -1,7 +1,8 @@
-//! Environment maps and bitmap textures render like Mitsuba 3's: two scenes written by
-//! `brdfwave convert` (an `envmap` around a diffuse and a rough-gold sphere; `bitmap` textures
-//! on a sphere's colour, a rough conductor's roughness and the floor's colour, read through the
-//! floor's OBJ texture coordinates and the sphere's own), rendered by Mitsuba from the XML and
+//! Environment maps and bitmap textures render like Mitsuba 3's: scenes written by `brdfwave
+//! convert` (an `envmap` around a diffuse and a rough-gold sphere; `bitmap` textures on a
+//! sphere's colour, a rough conductor's roughness and the floor's colour, read through the
+//! floor's OBJ texture coordinates and the sphere's own) and by hand (Mitsuba's own shapes,
+//! textured, turned and mirrored), rendered by Mitsuba from the XML and
 //! by brdfwave, compared block by block (two-sample z, Bonferroni over the blocks) and by their
 //! mean luminance (within 0.5 %). Opt-in (about 20 s): `cargo test --release --test
 //! mitsuba_materials -- --ignored`. It needs Mitsuba 3 (`pip install mitsuba numpy`); without
@@ -25,8 +26,8 @@ const SPP: u32 = 128;
 /// the peer's 15 degrees of freedom make the threshold a little generous).
 const Z_MAX: f64 = 4.3;
 
-/// Writes `toml` as `dir/NAME.toml`, converts it to `dir/NAME.xml`, renders the XML on the
-/// CPU (the independent sampler) and compares it with Mitsuba's renders of the same XML.
+/// Writes `toml` as `dir/NAME.toml`, converts it to `dir/NAME.xml`, and compares the XML's
+/// renders ([`agree_xml`]).
 fn agree(dir: &Path, name: &str, toml: &str) {
     let src = dir.join(format!("{name}.toml"));
     std::fs::write(&src, toml).unwrap();
@@ -36,6 +37,13 @@ fn agree(dir: &Path, name: &str, toml: &str) {
             .args(["convert", src.to_str().unwrap(), "--to", "mitsuba"])
             .arg(&xml),
     );
+    agree_xml(dir, name, &xml);
+}
+
+/// Renders the XML scene `xml` on the CPU (the independent sampler) and compares it with
+/// Mitsuba's renders of the same XML.
+fn agree_xml(dir: &Path, name: &str, xml: &Path) {
+    let xml = xml.to_path_buf();
     let Some(peer) = common::mitsuba::block_means(&xml, BLOCK, MI_RENDERS, MI_SPP) else {
         println!("skipped: Mitsuba 3 is not installed (pip install mitsuba numpy)");
         return;
@@ -134,6 +142,89 @@ fn a_textured_scene_renders_like_mitsuba() {
         rough.display()
     ));
     agree(dir.path(), "textured", &toml);
+}
+
+/// Mitsuba's own shapes as a user writes them, textured and placed every way that turns or
+/// mirrors them: a sphere turned about two axes (its texture turns with it), a disk, a cube,
+/// a rectangle with `flip_normals` and one mirrored by its `to_world` (whose front side stays
+/// the one Mitsuba's normals face), under a constant sky.
+#[test]
+#[ignore = "opt-in: needs Mitsuba 3 and takes seconds (docs/scenes.md, Mitsuba 3 XML scenes)"]
+fn mitsubas_own_shapes_render_like_mitsuba() {
+    let dir = tempfile::tempdir().unwrap();
+    // Four coloured quadrants, each another colour.
+    let quadrants = Image::from_fn(8, 8, |x, y| match (x < 4, y < 4) {
+        (true, true) => [0.8, 0.1, 0.1],
+        (false, true) => [0.1, 0.7, 0.1],
+        (true, false) => [0.1, 0.2, 0.8],
+        (false, false) => [0.8, 0.7, 0.1],
+    });
+    imageio::write(&dir.path().join("quadrants.exr"), &quadrants).unwrap();
+    let tex = r#"<bsdf type="twosided"><bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="quadrants.exr"/><string name="filter_type" value="nearest"/></texture></bsdf></bsdf>"#;
+    // Each shape's texture has a wrap mode of its own (the same lookups inside [0, 1]²): Mitsuba
+    // merges the meshes of one BSDF into one, and fails on ones it cannot merge.
+    let count = std::cell::Cell::new(0);
+    let shape = |kind: &str, inside: &str| {
+        let k = count.get();
+        count.set(k + 1);
+        let (wrap, filter) = [
+            ("repeat", "nearest"),
+            ("mirror", "nearest"),
+            ("clamp", "nearest"),
+            ("repeat", "bilinear"),
+            ("mirror", "bilinear"),
+        ][k];
+        let lookup = format!(
+            r#"<string name="filter_type" value="{filter}"/><string name="wrap_mode" value="{wrap}"/>"#
+        );
+        let tex = tex.replace(r#"<string name="filter_type" value="nearest"/>"#, &lookup);
+        format!("<shape type=\"{kind}\">{inside}{tex}</shape>\n")
+    };
+    let xf = |steps: &str| format!("<transform name=\"to_world\">{steps}</transform>");
+    let mut body = String::new();
+    body += &shape(
+        "sphere",
+        &format!(
+            "<point name=\"center\" value=\"-1.2, 0.5, 0.5\"/><float name=\"radius\" value=\"0.5\"/>{}",
+            xf(r#"<rotate x="1" angle="-70"/><rotate y="1" angle="30"/>"#)
+        ),
+    );
+    body += &shape(
+        "disk",
+        &xf(r#"<scale value="0.5"/><rotate y="1" angle="200"/><translate y="1.4"/>"#),
+    );
+    // (Mitsuba merges the meshes of one BSDF, and cannot merge its cube, which has normals,
+    // with the others: the cube's texture is filtered otherwise, which makes its BSDF another.)
+    body += &shape(
+        "cube",
+        &xf(
+            r#"<scale value="0.4"/><rotate y="1" angle="35"/><rotate x="1" angle="20"/><translate x="1.2" y="0.5" z="0.5"/>"#,
+        ),
+    )
+    .replace("nearest", "bilinear");
+    body += &shape(
+        "rectangle",
+        &format!(
+            "<boolean name=\"flip_normals\" value=\"true\"/>{}",
+            xf(r#"<scale value="0.45"/><translate x="-0.5" y="-0.3"/>"#)
+        ),
+    );
+    body += &shape(
+        "rectangle",
+        &xf(
+            r#"<scale x="-0.45" y="0.45"/><rotate y="1" angle="180"/><translate x="0.6" y="-0.3"/>"#,
+        ),
+    );
+    let xml = format!(
+        "<scene version=\"3.0.0\">\n<integrator type=\"path\"><integer name=\"max_depth\" value=\"3\"/></integrator>\n\
+         <sensor type=\"perspective\"><float name=\"fov\" value=\"45\"/>\
+         <transform name=\"to_world\"><lookat origin=\"0, 0.8, -5\" target=\"0, 0.5, 0\" up=\"0, 1, 0\"/></transform>\
+         <film type=\"hdrfilm\"><integer name=\"width\" value=\"{SIZE}\"/><integer name=\"height\" value=\"{SIZE}\"/><rfilter type=\"box\"/></film></sensor>\n\
+         <emitter type=\"constant\"><rgb name=\"radiance\" value=\"1, 1, 1\"/></emitter>\n{body}</scene>\n"
+    );
+    let path = dir.path().join("shapes.xml");
+    std::fs::write(&path, xml).unwrap();
+    agree_xml(dir.path(), "shapes", &path);
 }
 
 /// A thin lens (Mitsuba's `thinlens`), focused on the nearer sphere, with the envmap scene's
