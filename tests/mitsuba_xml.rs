@@ -426,6 +426,55 @@ fn sensor_fov_axis_and_matrix_camera() {
     assert!((s.camera.up - Vec3::Y).length() < 1e-6);
 }
 
+/// Without a `fov`, the `focal_length` of a 35 mm camera (Mitsuba's default 50mm) gives the
+/// diagonal's field of view. The horizontal fields of view Mitsuba 3.9.1 gives
+/// (`mi.traverse(sensor)["x_fov"]`): 34.022057° (50mm, 64 × 64), 47.216316° (35mm, 64 × 64),
+/// 42.311714° (50mm, 96 × 48).
+#[test]
+fn focal_length_as_mitsuba_reads_it() {
+    let load_cam = |lens: &str, (w, h): (u32, u32)| {
+        let text = xml("<shape type=\"sphere\"/>")
+            .replace(
+                "<float name=\"fov\" value=\"40\"/>\n        <string name=\"fov_axis\" value=\"y\"/>",
+                lens,
+            )
+            .replace("value=\"32\"", &format!("value=\"{w}\""))
+            .replace("value=\"16\"", &format!("value=\"{h}\""));
+        load_str(&text, Path::new("s.xml"))
+    };
+    for (lens, size, x_fov) in [
+        ("", (64, 64), 34.022_057),
+        (
+            r#"<string name="focal_length" value="35mm"/>"#,
+            (64, 64),
+            47.216_316,
+        ),
+        (
+            r#"<string name="focal_length" value="50"/>"#,
+            (96, 48),
+            42.311_714,
+        ),
+    ] {
+        let s = load_cam(lens, size).unwrap();
+        let aspect = size.1 as f64 / size.0 as f64;
+        let want = 2.0
+            * ((x_fov / 2.0f64).to_radians().tan() * aspect)
+                .atan()
+                .to_degrees();
+        let got = s.camera.fov_y_deg as f64;
+        assert!((got - want).abs() < 1e-4, "{lens}: {got} against {want}");
+    }
+    let both = r#"<float name="fov" value="40"/><string name="focal_length" value="50mm"/>"#;
+    let e = load_cam(both, (32, 16)).unwrap_err().to_string();
+    assert!(e.contains("either a fov or a focal_length"), "{e}");
+    let axis = r#"<string name="focal_length" value="50mm"/><string name="fov_axis" value="y"/>"#;
+    let e = load_cam(axis, (32, 16)).unwrap_err().to_string();
+    assert!(e.contains("fov_axis goes with a fov"), "{e}");
+    let bad = r#"<string name="focal_length" value="-5mm"/>"#;
+    let e = load_cam(bad, (32, 16)).unwrap_err().to_string();
+    assert!(e.contains("focal_length '-5mm' is not a length"), "{e}");
+}
+
 /// The BSDF mapping: diffuse → lambert, roughconductor with a named metal → conductor Fresnel
 /// with its table, roughplastic → dielectric Cook–Torrance with a diffuse part, and any survey
 /// model by its own name and parameters.

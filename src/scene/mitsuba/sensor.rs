@@ -6,7 +6,9 @@
 //!   target = M·(0, 0, 1), up = M·(0, 1, 0) − position (Mitsuba's camera looks along its local
 //!   +z with +y up). The matrix must be a rotation, a uniform scale and a translation.
 //! * `fov` is along `fov_axis` (Mitsuba's default `x`); it is turned into our vertical field of
-//!   view with the film's aspect ratio.
+//!   view with the film's aspect ratio. Without a `fov`, `focal_length` (Mitsuba's default
+//!   "50mm") is a 35 mm camera's: the film's diagonal sees what a 36 × 24 mm frame's diagonal
+//!   sees through a lens of that focal length.
 //! * Depth: Mitsuba's `max_depth` counts path segments as we do (1: emitters seen directly, 2:
 //!   direct light); its −1 ("unlimited", also its default) becomes our largest depth. Russian
 //!   roulette: Mitsuba's `rr_depth` (default 5) is our `rr_start_depth` (both count the
@@ -56,27 +58,40 @@ pub(super) fn sensor(
         }
     };
     let fov_el = p.take("fov");
-    let fov = match fov_el {
-        Some(f) => {
+    let focal_el = p.take("focal_length");
+    let axis_el = p.take("fov_axis");
+    // The field of view, and the axis it is along.
+    let (fov, axis) = match (fov_el, focal_el) {
+        (Some(f), None) => {
             let fov = cx.float(f)?;
             // Checked as written, before it becomes the vertical field of view.
             if !(fov > 0.0 && fov < 180.0) {
                 let msg = format!("fov {fov} is out of range: must be in (0, 180) degrees");
                 return Err(cx.el_err(f, msg));
             }
-            fov
+            let axis = match axis_el {
+                Some(a) => cx.attr(a, "value")?.to_string(),
+                None => "x".to_string(),
+            };
+            (fov, axis)
         }
-        None => {
+        (Some(_), Some(l)) => {
             return Err(cx.el_err(
-                el,
-                "<sensor type=\"perspective\"> needs a <float name=\"fov\">",
-            ))
+                l,
+                "give either a fov or a focal_length, not both (as Mitsuba)",
+            ));
         }
-    };
-    let axis_el = p.take("fov_axis");
-    let axis = match axis_el {
-        Some(a) => cx.attr(a, "value")?.to_string(),
-        None => "x".to_string(),
+        (None, focal) => {
+            if let Some(a) = axis_el {
+                let msg = "fov_axis goes with a fov: a focal_length (or Mitsuba's default, 50mm) gives the diagonal's field of view";
+                return Err(cx.el_err(a, msg));
+            }
+            let mm = match focal {
+                Some(l) => focal_length_mm(cx, l)?,
+                None => 50.0,
+            };
+            (diagonal_fov(mm), "diagonal".to_string())
+        }
     };
     for ignored in ["near_clip", "far_clip"] {
         if let Some(c) = p.take(ignored) {
@@ -97,8 +112,8 @@ pub(super) fn sensor(
     p.finish(
         cx,
         match thin_lens {
-            false => "fov, fov_axis, to_world, near_clip, far_clip, film, sampler",
-            true => "aperture_radius, focus_distance, fov, fov_axis, to_world, near_clip, far_clip, film, sampler",
+            false => "fov, fov_axis, focal_length, to_world, near_clip, far_clip, film, sampler",
+            true => "aperture_radius, focus_distance, fov, fov_axis, focal_length, to_world, near_clip, far_clip, film, sampler",
         },
     )?;
 
@@ -114,7 +129,7 @@ pub(super) fn sensor(
     }
 
     let (w, h) = (film.width.value as f64, film.height.value as f64);
-    let fov_el = fov_el.unwrap_or(el);
+    let fov_el = fov_el.or(focal_el).unwrap_or(el);
     let half = (fov.to_radians() / 2.0).tan();
     let fov_y = match axis.as_str() {
         "y" => fov,
@@ -366,4 +381,30 @@ fn unlimited(cx: &mut Cx, e: &El, out: &mut RawIntegrator) {
         MAX_DEPTH
     );
     cx.warn(Some(e.span.clone()), &e.path, msg);
+}
+
+/// The diagonal of a 35 mm camera's frame, 36 × 24 mm, in mm.
+const FRAME_DIAGONAL_MM: f64 = 43.266_615_305_567_87;
+
+/// The diagonal field of view, in degrees, of a 35 mm camera whose lens has focal length `mm`:
+/// 2·atan(43.27 / 2f) (Mitsuba's `focal_length`: 50mm gives 46.8°, so 34.0° across a square
+/// film).
+fn diagonal_fov(mm: f64) -> f64 {
+    2.0 * (FRAME_DIAGONAL_MM / (2.0 * mm)).atan().to_degrees()
+}
+
+/// A `focal_length` string, "50mm" or "50" (both millimetres, as Mitsuba reads them), > 0.
+fn focal_length_mm(cx: &Cx, el: &El) -> Result<f64, SceneError> {
+    let text = cx.attr(el, "value")?;
+    let number = text.trim().strip_suffix("mm").unwrap_or(text.trim());
+    match number.trim().parse::<f64>() {
+        Ok(mm) if mm > 0.0 && mm.is_finite() => Ok(mm),
+        _ => {
+            let msg = format!(
+                "focal_length '{}' is not a length in millimetres > 0 (such as \"50mm\")",
+                crate::errors::excerpt(text)
+            );
+            Err(cx.el_err(el, msg))
+        }
+    }
 }
