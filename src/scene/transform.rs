@@ -114,7 +114,7 @@ fn matrix(
     let norm = a.to_cols_array().iter().map(|x| x * x).sum::<f64>().sqrt();
     if det.is_nan() || det.abs() <= 1e-12 * norm * norm * norm {
         let msg =
-            format!("the matrix is singular (determinant {det:e}): it would flatten the shape");
+            format!("the matrix is singular (determinant {det:.3e}): it would flatten the shape");
         return Err(cx.err(m.span(), field, msg));
     }
     let turns_over = match sides {

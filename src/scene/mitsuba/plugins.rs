@@ -665,7 +665,9 @@ fn microfacet(
         (None, Some(u), Some(v)) => {
             let (au, av) = (cx.float(u)?, cx.float(v)?);
             if au != av {
-                return Err(cx.el_err(v, format!("alpha_u {au} ≠ alpha_v {av}: anisotropic roughness is not supported (Cook–Torrance is isotropic; <bsdf type=\"ward\"> is anisotropic)")));
+                // The values as written (parsed in single precision, they would print widened).
+                let (wu, wv) = (cx.attr(u, "value")?, cx.attr(v, "value")?);
+                return Err(cx.el_err(v, format!("alpha_u {wu} ≠ alpha_v {wv}: anisotropic roughness is not supported (Cook–Torrance is isotropic; <bsdf type=\"ward\"> is anisotropic)")));
             }
             Some((u, au))
         }
