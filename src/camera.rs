@@ -39,6 +39,8 @@ impl CameraBasis {
             .cross(crate::robust::normalize_scaled(c.up))
             .normalize();
         let up = right.cross(forward);
+        // A mirrored image: x runs to the camera's left (the lens's disc turned alike).
+        let right = if c.mirror { -right } else { right };
         let tan_half = (c.fov_y_deg.to_radians() * 0.5).tan();
         let aspect = scene.width as f32 / scene.height as f32;
         CameraBasis {
@@ -126,5 +128,24 @@ mod tests {
         }
         // The grid's rings: 182² of 256² points (0.505) lie within r² < 1/2.
         assert!((inner as f32 / total - 0.5).abs() < 0.01, "{inner}");
+    }
+
+    /// A mirrored camera sees through film position (x, y) what the plain one sees through
+    /// (width − x, y): the image turned left to right, the vertical untouched.
+    #[test]
+    fn a_mirrored_camera_mirrors_the_image() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.toml");
+        let mut s = crate::scene::load(&path).unwrap();
+        s.camera.up = Vec3::new(0.2, 1.0, 0.1);
+        let plain = CameraBasis::new(&s);
+        s.camera.mirror = true;
+        let mirrored = CameraBasis::new(&s);
+        let (w, h) = (s.width, s.height);
+        for (fx, fy) in [(0.5, 0.5), (10.25, 200.0), (w as f32 - 3.0, h as f32 * 0.5)] {
+            let a = mirrored.ray_direction(fx, fy, w, h);
+            let b = plain.ray_direction(w as f32 - fx, fy, w, h);
+            assert!((a - b).length() < 1e-6, "({fx}, {fy}): {a} against {b}");
+        }
+        assert_eq!(mirrored.up, plain.up);
     }
 }

@@ -475,6 +475,24 @@ fn focal_length_as_mitsuba_reads_it() {
     assert!(e.contains("focal_length '-5mm' is not a length"), "{e}");
 }
 
+/// A camera whose `to_world` mirrors (`<scale x="-1"/>` before its `lookat`) mirrors the image,
+/// as Mitsuba renders it, and `convert` writes it back that way.
+#[test]
+fn a_mirroring_camera_mirrors_the_image() {
+    let text = xml("<shape type=\"sphere\"/>")
+        .replace("<lookat origin=", "<scale x=\"-1\"/><lookat origin=");
+    let s = load_str(&text, Path::new("s.xml")).unwrap();
+    assert!(s.camera.mirror);
+    assert!((s.camera.position - Vec3::new(0.0, 0.0, -5.0)).length() < 1e-6);
+    assert!((s.camera.up - Vec3::Y).length() < 1e-6);
+    assert!(!load_xml("<shape type=\"sphere\"/>").unwrap().camera.mirror);
+    let c = to_mitsuba(&s, "m", Options::default()).unwrap();
+    assert!(c.xml.contains("<scale x=\"-1\"/><lookat"), "{}", c.xml);
+    let back = load_str(&c.xml, Path::new("t.xml")).unwrap();
+    assert!(back.camera.mirror);
+    assert!((back.camera.position - s.camera.position).length() < 1e-6);
+}
+
 /// The BSDF mapping: diffuse → lambert, roughconductor with a named metal → conductor Fresnel
 /// with its table, roughplastic → dielectric Cook–Torrance with a diffuse part, and any survey
 /// model by its own name and parameters.

@@ -387,6 +387,7 @@ pub(super) fn camera(cx: &Cx, c: &RawCamera) -> Result<Camera, SceneError> {
         fov_y_deg: fov,
         aperture_radius,
         focus_distance,
+        mirror: c.mirror.as_ref().is_some_and(|m| m.value),
     })
 }
 

@@ -49,6 +49,9 @@ pub struct Camera {
     pub aperture_radius: f32,
     /// The distance, along the view direction, of the plane in focus (thin lens only).
     pub focus_distance: f32,
+    /// The image mirrored left to right: x runs to the camera's left (a Mitsuba camera whose
+    /// `to_world` mirrors).
+    pub mirror: bool,
 }
 
 /// Integrator settings; the command line may override them.

@@ -54,6 +54,9 @@ pub(super) struct RawCamera {
     pub(super) aperture_radius: Option<Sp<f64>>,
     /// The distance of the plane in focus (default: the target's distance).
     pub(super) focus_distance: Option<Sp<f64>>,
+    /// The image mirrored left to right (default false).
+    #[serde(default)]
+    pub(super) mirror: Option<Sp<bool>>,
 }
 
 #[derive(Deserialize)]

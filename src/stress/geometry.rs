@@ -276,6 +276,7 @@ fn geometry_inside_closed_mesh(env: &mut Env, r: &mut Rng, seed: u64) -> Result<
         fov_y_deg: r.range(20.0, 150.0),
         aperture_radius: 0.0,
         focus_distance: 1.0,
+        mirror: false,
     };
     scene.width = 16;
     scene.height = 16;

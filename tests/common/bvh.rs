@@ -35,6 +35,7 @@ pub fn scene(tris: Vec<[Vec3; 3]>, spheres: Vec<(Vec3, f32, bool)>) -> Scene {
             fov_y_deg: 45.0,
             aperture_radius: 0.0,
             focus_distance: 1.0,
+            mirror: false,
         },
         width: 1,
         height: 1,

@@ -269,7 +269,7 @@ fn sensor(x: &mut String, s: &Scene) {
         <float name=\"fov\" value=\"{}\"/>
         <string name=\"fov_axis\" value=\"y\"/>
         <transform name=\"to_world\">
-            <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>
+            {}<lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>
         </transform>
         <sampler type=\"{sampler}\">
             <integer name=\"sample_count\" value=\"{}\"/>
@@ -283,6 +283,8 @@ fn sensor(x: &mut String, s: &Scene) {
     </sensor>
 ",
         c.fov_y_deg,
+        // A mirrored image: the camera's x turned over before the lookat places it.
+        if c.mirror { "<scale x=\"-1\"/>" } else { "" },
         rgb(c.position),
         rgb(c.target),
         rgb(c.up),
