@@ -273,6 +273,20 @@ fn mirroring_transforms_keep_mitsubas_front_sides() {
         .warnings
         .iter()
         .any(|w| w.contains("keeps the side they face")));
+    // flip_normals turns a mesh over, winding and normals, with or without a mirror.
+    for transform in ["", mirror] {
+        let main = write(
+            d.path(),
+            "s.xml",
+            &xml(&format!(
+                r#"<shape type="obj"><string name="filename" value="t.obj"/><boolean name="flip_normals" value="true"/>{transform}</shape>"#
+            )),
+        );
+        let s = load(&main).unwrap();
+        assert!(s.triangles[0].geometric_normal().z < -0.999, "{transform}");
+        let n = s.attributes_of(0).n.expect("the file's normals");
+        assert!(n.iter().all(|n| n.z < -0.999), "{transform}: {n:?}");
+    }
 }
 
 /// Mitsuba's texture coordinates on its own shapes: the rectangle's ((x + 1)/2, (y + 1)/2)

@@ -550,6 +550,7 @@ pub(super) fn shape_primitives(
             material,
             emitter,
             sides: s.sides,
+            flip: s.flip_mesh,
         };
         let sink = TriangleSink {
             triangles: &mut out.triangles,
@@ -565,6 +566,7 @@ pub(super) fn shape_primitives(
             material,
             emitter,
             sides: s.sides,
+            flip: s.flip_mesh,
         };
         let mut mo = super::mtl::MtlOut {
             materials: &mut out.mtl_materials,

@@ -204,6 +204,7 @@ impl TriangleSink<'_> {
 #[derive(Default)]
 pub(super) struct FaceRules {
     by_normals: bool,
+    flip: bool,
     skipped: usize,
     dropped_normals: usize,
     flipped: usize,
@@ -211,10 +212,12 @@ pub(super) struct FaceRules {
 }
 
 impl FaceRules {
-    /// The rules for a mesh whose front sides are chosen by `sides`.
-    pub(super) fn new(sides: Sides) -> FaceRules {
+    /// The rules for a mesh whose front sides are chosen by `sides`, turned over (winding and
+    /// normals) where `flip` (Mitsuba's `flip_normals`).
+    pub(super) fn new(sides: Sides, flip: bool) -> FaceRules {
         FaceRules {
             by_normals: sides == Sides::ByNormals,
+            flip,
             ..FaceRules::default()
         }
     }
@@ -223,6 +226,7 @@ impl FaceRules {
     pub(super) fn part(&self) -> FaceRules {
         FaceRules {
             by_normals: self.by_normals,
+            flip: self.flip,
             ..FaceRules::default()
         }
     }
@@ -250,20 +254,34 @@ impl FaceRules {
             }
             usable
         });
-        if let Some(normals) = &mut n {
+        // The same triangle wound the other way, its attributes following their vertices.
+        // Without texture coordinates a point's are its barycentrics (b1, b2) (`crate::texture`):
+        // where the triangle keeps attributes they are written out, so that they stay those of
+        // the file's order.
+        let reverse = |v: &mut [Vec3; 3], n: &mut Option<[Vec3; 3]>, uv: &mut Option<[Vec2; 3]>| {
+            v.swap(1, 2);
+            if let Some(n) = n {
+                n.swap(1, 2);
+            }
+            if uv.is_some() || n.is_some() {
+                let mut t = uv.unwrap_or([Vec2::ZERO, Vec2::X, Vec2::Y]);
+                t.swap(1, 2);
+                *uv = Some(t);
+            }
+        };
+        if self.flip {
+            // Mitsuba's flip_normals on a mesh: both normals turned over.
+            reverse(&mut v, &mut n, &mut uv);
+            if let Some(n) = &mut n {
+                *n = n.map(|x| -x);
+            }
+        }
+        if let Some(normals) = n {
             if (normals[0] + normals[1] + normals[2]).dot(crate::robust::triangle_normal(&v)) < 0.0
             {
                 if self.by_normals {
-                    // Mitsuba's front side: where the normals point. The same triangle, the
-                    // other winding.
-                    v.swap(1, 2);
-                    normals.swap(1, 2);
-                    // Without texture coordinates a point's are its barycentrics (b1, b2)
-                    // (`crate::texture`): written out, so that they stay those of the file's
-                    // order.
-                    let mut t = uv.unwrap_or([Vec2::ZERO, Vec2::X, Vec2::Y]);
-                    t.swap(1, 2);
-                    uv = Some(t);
+                    // Mitsuba's front side: where the normals point.
+                    reverse(&mut v, &mut n, &mut uv);
                 } else {
                     self.flipped += 1;
                 }
@@ -303,6 +321,7 @@ impl FaceRules {
     ) {
         let FaceRules {
             by_normals: _,
+            flip: _,
             skipped,
             dropped_normals,
             flipped,

@@ -135,6 +135,8 @@ pub(super) struct ObjShape {
     pub(super) emitter: Option<u32>,
     /// Which side of a triangle is the front ([`FaceRules::new`]).
     pub(super) sides: super::schema::Sides,
+    /// Every triangle turned over, winding and normals (Mitsuba's `flip_normals`).
+    pub(super) flip: bool,
 }
 
 /// Where an OBJ file's messages point: the scene's span and field, and the file as shown.
@@ -201,7 +203,7 @@ pub(super) fn obj_triangles(
     drop(text);
     // Scene materials and emitters of the library's materials, made when a face uses them.
     let mut made: Vec<Option<(u32, Option<u32>)>> = vec![None; library.len()];
-    let mut rules = FaceRules::new(shape.sides);
+    let mut rules = FaceRules::new(shape.sides, shape.flip);
     for model in &models {
         let m = &model.mesh;
         let (material, emitter) = match (m.material_id, mtl.as_deref_mut()) {

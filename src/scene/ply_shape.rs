@@ -48,7 +48,7 @@ pub(super) fn ply_triangles(
         .as_ref()
         .map(|n| n.iter().map(|&n| xf.normal(n)).collect());
 
-    let mut rules = FaceRules::new(shape.sides);
+    let mut rules = FaceRules::new(shape.sides, shape.flip);
     for (t, idx) in mesh.triangles().enumerate() {
         let [a, b, c] = idx.map(|i| i as usize);
         let v = [positions[a], positions[b], positions[c]];

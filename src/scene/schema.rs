@@ -123,6 +123,10 @@ pub(super) struct RawShape {
     /// `cube` and `disk`, parameterised as Mitsuba parameterises them).
     #[serde(skip)]
     pub(super) triangle_uvs: Option<Vec<[[f32; 2]; 3]>>,
+    /// The mesh (`obj`, `ply`) turned over, winding and vertex normals (the Mitsuba reader's
+    /// `flip_normals`).
+    #[serde(skip)]
+    pub(super) flip_mesh: bool,
 }
 
 /// Which side of a shape's triangles is the front.

@@ -827,6 +827,7 @@ pub(super) fn raw_shape(el: &El, material: Sp<String>) -> RawShape {
         smooth_if_no_normals: false,
         sides: crate::scene::schema::Sides::Winding,
         triangle_uvs: None,
+        flip_mesh: false,
     }
 }
 

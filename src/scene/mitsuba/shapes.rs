@@ -115,11 +115,9 @@ fn geometry(
             // by the normals: their side is the front.
             raw.smooth_if_no_normals = true;
             raw.sides = Sides::ByNormals;
-            if flip {
-                let a = if kind == "obj" { "an" } else { "a" };
-                return Err(cx.el_err(el, format!("flip_normals on {a} {kind} mesh is not supported (reverse the faces' winding in the file)")));
-            }
-            Ok("filename, face_normals, bsdf or ref, emitter type=\"area\", to_world")
+            // flip_normals turns the mesh over: its winding and its normals.
+            raw.flip_mesh = flip;
+            Ok("filename, face_normals, flip_normals, bsdf or ref, emitter type=\"area\", to_world")
         }
         "sphere" => {
             let center = match p.take("center") {
