@@ -507,6 +507,52 @@ fn a_mirroring_camera_mirrors_the_image() {
     assert!((back.camera.position - s.camera.position).length() < 1e-6);
 }
 
+/// Mitsuba's `hide_emitters`: camera rays pass through the emitters they meet and do not see
+/// the environment; the light of both still reaches the scene. An emitting square in front of
+/// a diffuse wall lit by a constant sky: without it the square's pixels are its radiance, with
+/// it they are the wall behind (dimmed a little where the square shades it), on both backends;
+/// `convert` keeps the setting.
+#[test]
+fn hidden_emitters_let_camera_rays_through() {
+    let scene = |hide: bool| {
+        let text = format!(
+            r#"<scene version="3.0.0">
+<integrator type="path"><integer name="max_depth" value="3"/><boolean name="hide_emitters" value="{hide}"/></integrator>
+<sensor type="perspective"><float name="fov" value="40"/>
+<transform name="to_world"><lookat origin="0, 0, -5" target="0, 0, 0" up="0, 1, 0"/></transform>
+<sampler type="independent"><integer name="sample_count" value="32"/></sampler>
+<film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="16"/><rfilter type="box"/></film></sensor>
+<shape type="rectangle"><transform name="to_world"><scale value="5"/><rotate y="1" angle="180"/><translate z="2"/></transform>
+<bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf></shape>
+<shape type="rectangle"><transform name="to_world"><scale value="0.6"/><rotate y="1" angle="180"/></transform>
+<emitter type="area"><rgb name="radiance" value="5"/></emitter></shape>
+<emitter type="constant"><rgb name="radiance" value="1"/></emitter>
+</scene>"#
+        );
+        load_str(&text, Path::new("h.xml")).unwrap()
+    };
+    let (shown, hidden) = (scene(false), scene(true));
+    assert!(hidden.integrator.hide_emitters && !shown.integrator.hide_emitters);
+    let centre = |o: &brdfwave::output::RenderOutput| o.mean.get(8, 8)[1];
+    assert_eq!(centre(&render_cpu(&shown)), 5.0, "the square seen directly");
+    let ctx = context();
+    let cpu = render_cpu(&hidden);
+    let (gpu, _) = render_gpu(&ctx, &hidden);
+    common::finish(ctx);
+    // The wall: albedo 0.5 under a sky of 1, less what the square hides of the sky.
+    let c = centre(&cpu);
+    assert!(
+        c > 0.35 && c < 0.5,
+        "the wall behind the hidden square: {c}"
+    );
+    let rmse = brdfwave::metrics::rmse(&gpu.mean, &cpu.mean).unwrap();
+    assert!(rmse < 1e-5, "GPU and CPU differ: RMSE {rmse:e}");
+    let c = to_mitsuba(&hidden, "m", Options::default()).unwrap();
+    assert!(c
+        .xml
+        .contains("<boolean name=\"hide_emitters\" value=\"true\"/>"));
+}
+
 /// The BSDF mapping: diffuse → lambert, roughconductor with a named metal → conductor Fresnel
 /// with its table, roughplastic → dielectric Cook–Torrance with a diffuse part, and any survey
 /// model by its own name and parameters.

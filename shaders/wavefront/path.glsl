@@ -63,15 +63,33 @@ void camera_ray(uint path, out vec3 o, out vec3 d) {
 // extend counter and dropped). Returns the material queue slot when the path goes on from a
 // surface (whose interaction is `s`, for shading), NO_QUEUE when it ends (miss, back face unless
 // two-sided, the depth limit, a black surface).
+// The most emitters a camera ray passes through with hidden emitters (Rust: HIDE_PASSES).
+#define HIDE_PASSES 16u
+
 uint segment_end(uint depth, vec3 o, vec3 d, float prev_pdf, vec3 b, out vec3 e, out Hit hit, out Surface s) {
     e = vec3(0.0);
-    if (!trace_closest(o, d, 3.402823e38, hit)) {
+    bool found = trace_closest(o, d, 3.402823e38, hit);
+#ifdef HIDE_EMITTERS
+    // Mitsuba's hidden emitters: the camera ray passes through the emitters it meets, on from
+    // just beyond each, at most HIDE_PASSES of them (Rust: segment_end).
+    for (uint k = 0u; depth == 1u && found && k < HIDE_PASSES; ++k) {
+        Surface h = surface_at(hit.prim, hit.bary, hit.t, o, d);
+        if (h.emitter == NO_EMITTER) break;
+        o = offset_ray_origin(h.p, h.p_err, h.front ? -h.ng : h.ng);
+        found = trace_closest(o, d, 3.402823e38, hit);
+    }
+#endif
+    if (!found) {
 #ifdef SCENE_ENV_MAP
         vec3 env = b * env_radiance(d) * env_weight(d, prev_pdf);
 #else
         vec3 env = b * g.environment;
 #endif
         if (finite_or_count(env, counter_nonfinite_extend())) e = env;
+#ifdef HIDE_EMITTERS
+        // What the camera ray sees of the environment is not counted (Rust: trace_path).
+        if (depth == 1u) e = vec3(0.0);
+#endif
         return NO_QUEUE;
     }
     s = surface_at(hit.prim, hit.bary, hit.t, o, d);
@@ -96,6 +114,10 @@ uint segment_end(uint depth, vec3 o, vec3 d, float prev_pdf, vec3 b, out vec3 e,
         }
         vec3 em = b * le * w;
         if (finite_or_count(em, counter_nonfinite_extend())) e = em;
+#ifdef HIDE_EMITTERS
+        // Nor an emitter it could not pass (HIDE_PASSES).
+        if (depth == 1u) e = vec3(0.0);
+#endif
     }
     if (depth >= g.max_depth) return NO_QUEUE;
     return imageLoad(material_words, int(MATERIAL_TEXELS * s.material)).y;

@@ -254,7 +254,11 @@ impl<'a> CpuRenderer<'a> {
             stats.segment_extension[seg] += 1;
             let end = self.segment_end(depth, o, d, prev_pdf, beta, stats);
             if let Some(e) = end.e {
-                l += e;
+                // Hidden emitters: the environment the camera ray sees (it passes through
+                // emitters: segment_end).
+                if !(s.integrator.hide_emitters && depth == 1) {
+                    l += e;
+                }
             }
             let Some(si) = end.surface else {
                 break;

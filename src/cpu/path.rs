@@ -8,6 +8,10 @@ use super::{CpuRenderer, PathStats};
 use crate::rng::{dim, PathRng};
 use glam::Vec3;
 
+/// The most emitters a camera ray passes through with hidden emitters (`hide_emitters`);
+/// GLSL twin: `HIDE_PASSES` in path.glsl.
+pub(super) const HIDE_PASSES: u32 = 16;
+
 /// What the end of a path segment gives (the GLSL `segment_end`'s `e` and return value).
 #[derive(Default)]
 pub(super) struct SegmentEnd {
@@ -63,7 +67,23 @@ impl CpuRenderer<'_> {
     ) -> SegmentEnd {
         let s = self.scene;
         let mut end = SegmentEnd::default();
-        let Some(hit) = self.bvh.closest(s, o, d, f32::MAX) else {
+        let mut o = o;
+        let mut found = self.bvh.closest(s, o, d, f32::MAX);
+        if s.integrator.hide_emitters && depth == 1 {
+            // Mitsuba's hidden emitters: the camera ray passes through the emitters it meets,
+            // on from just beyond each (at most HIDE_PASSES of them; GLSL twin: segment_end).
+            for _ in 0..HIDE_PASSES {
+                let Some(hit) = &found else { break };
+                let si = surface_at(s, &self.normals, hit, o, d);
+                if si.emitter.is_none() {
+                    break;
+                }
+                let beyond = if si.front { -si.ng } else { si.ng };
+                o = crate::robust::offset_ray_origin(si.p, si.p_err, beyond);
+                found = self.bvh.closest(s, o, d, f32::MAX);
+            }
+        }
+        let Some(hit) = found else {
             let e = match &s.environment_map {
                 None => beta * s.environment,
                 Some(m) => beta * m.radiance(d) * self.env_weight(m, d, prev_pdf),

@@ -86,6 +86,10 @@ pub fn scene_hash(s: &crate::scene::Scene) -> String {
     if let Some(m) = &s.environment_map {
         let _ = write!(h, "{m:?}|");
     }
+    // Likewise hidden emitters.
+    if it.hide_emitters {
+        let _ = write!(h, "hide_emitters|");
+    }
     hash_triangles(&mut h, s);
     // The patterns (multijitter) and batches (sobol in batches) the numbers depend on.
     if it.sampler == crate::rng::Sampler::Multijitter || it.batch_spp.is_some() {

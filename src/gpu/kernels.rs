@@ -438,7 +438,7 @@ pub(super) fn build_kernels<'a>(
 /// LIGHT_SPHERES: src/lights.rs), per-vertex shading normals
 /// and texture coordinates (SCENE_SHADING_NORMALS, SCENE_UVS), point and directional lights
 /// (SCENE_DELTA_LIGHTS), two-sided materials (SCENE_TWOSIDED), Russian roulette
-/// (RUSSIAN_ROULETTE), an environment map (SCENE_ENV_MAP), textured materials
+/// (RUSSIAN_ROULETTE), hidden emitters (HIDE_EMITTERS), an environment map (SCENE_ENV_MAP), textured materials
 /// (SCENE_TEXTURES), images (SCENE_IMAGES: the map or textures), a thin-lens camera
 /// (CAMERA_THIN_LENS). On lavapipe both sides of every branch run for all lanes, so code for
 /// something the scene lacks is not free.
@@ -474,6 +474,9 @@ pub fn scene_features(scene: &Scene) -> Vec<&'static str> {
     }
     if scene.integrator.russian_roulette {
         f.push("RUSSIAN_ROULETTE");
+    }
+    if scene.integrator.hide_emitters {
+        f.push("HIDE_EMITTERS");
     }
     if scene.environment_map.is_some() {
         f.push("SCENE_ENV_MAP");

@@ -201,6 +201,7 @@ fn integrator(cx: &Cx, raw: Option<&RawIntegrator>) -> Result<Integrator, SceneE
             cx.at_least_one(&i.max_depth, "integrator.max_depth", d.max_depth)?;
         integrator.seed = i.seed.unwrap_or(d.seed);
         integrator.russian_roulette = i.russian_roulette.unwrap_or(d.russian_roulette);
+        integrator.hide_emitters = i.hide_emitters.unwrap_or(d.hide_emitters);
         integrator.rr_start_depth = cx.at_least_one(
             &i.rr_start_depth,
             "integrator.rr_start_depth",

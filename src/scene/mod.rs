@@ -64,6 +64,9 @@ pub struct Integrator {
     /// Russian roulette from `rr_start_depth` on (off by default: unbiased but noisier).
     pub russian_roulette: bool,
     pub rr_start_depth: u32,
+    /// Camera rays pass through the emitters they meet and do not see the environment (the
+    /// light of both still reaches the scene): Mitsuba's `hide_emitters`.
+    pub hide_emitters: bool,
     /// Where the random numbers come from ([`crate::rng::Sampler`]).
     pub sampler: crate::rng::Sampler,
     /// When only a range of a render's samples is rendered (`--samples`, a part of a split
@@ -97,6 +100,7 @@ impl Default for Integrator {
             seed: 0,
             russian_roulette: false,
             rr_start_depth: 3,
+            hide_emitters: false,
             sampler: crate::rng::Sampler::default(),
             pattern_spp: None,
             batch_spp: None,

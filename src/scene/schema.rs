@@ -75,6 +75,7 @@ pub(super) struct RawIntegrator {
     pub(super) russian_roulette: Option<bool>,
     pub(super) rr_start_depth: Option<Sp<u32>>,
     pub(super) sampler: Option<Sp<String>>,
+    pub(super) hide_emitters: Option<bool>,
 }
 
 #[derive(Deserialize)]

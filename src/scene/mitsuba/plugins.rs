@@ -218,6 +218,7 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
         russian_roulette: None,
         rr_start_depth: None,
         sampler: None,
+        hide_emitters: None,
     };
     let mut environment = None;
     let mut materials: BTreeMap<String, Sp<MaterialTable>> = BTreeMap::new();

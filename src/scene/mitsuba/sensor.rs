@@ -342,11 +342,9 @@ pub(super) fn integrator(cx: &mut Cx, el: &El, out: &mut RawIntegrator) -> Resul
         None => (el, MITSUBA_RR_DEPTH as i64),
     };
     if let Some(h) = p.take("hide_emitters") {
-        if cx.attr(h, "value")? != "false" {
-            return Err(cx.el_err(h, "hide_emitters = true is not supported"));
-        }
+        out.hide_emitters = Some(cx.bool_of(h)?);
     }
-    p.finish(cx, "max_depth, rr_depth, hide_emitters = false")?;
+    p.finish(cx, "max_depth, rr_depth, hide_emitters")?;
     match max_depth {
         Some((e, d)) if d >= 1 => out.max_depth = Some(sp(e, d as u32)),
         Some((e, _)) => unlimited(cx, e, out),

@@ -233,9 +233,13 @@ fn integrator(x: &mut String, s: &Scene) {
     } else {
         i.max_depth
     };
+    let hide = match i.hide_emitters {
+        true => "\n        <boolean name=\"hide_emitters\" value=\"true\"/>",
+        false => "",
+    };
     let _ = writeln!(
         x,
-        "    <integrator type=\"path\">\n        <integer name=\"max_depth\" value=\"{}\"/>\n        <integer name=\"rr_depth\" value=\"{rr}\"/>\n    </integrator>",
+        "    <integrator type=\"path\">\n        <integer name=\"max_depth\" value=\"{}\"/>\n        <integer name=\"rr_depth\" value=\"{rr}\"/>{hide}\n    </integrator>",
         i.max_depth
     );
 }
