@@ -609,6 +609,21 @@ fn defaults_and_command_line_parameters() {
     let defines = [("r".to_string(), "3.5".to_string())];
     let s = load_str_with(&xml(body), Path::new("s.xml"), &defines).unwrap();
     assert_eq!(s.spheres[0].radius, 3.5);
+    assert!(
+        !s.warnings.iter().any(|w| w.contains("-D")),
+        "{:?}",
+        s.warnings
+    );
+    // A -D the scene never substitutes is most likely misspelt: it is warned about.
+    let typo = [("radius".to_string(), "3.5".to_string())];
+    let s = load_str_with(&xml(body), Path::new("s.xml"), &typo).unwrap();
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("-D radius: the scene has no $radius")),
+        "{:?}",
+        s.warnings
+    );
     // A TOML scene takes no parameters.
     let toml = std::fs::read_to_string(repo().join("scenes/white-furnace.toml")).unwrap();
     let e = load_str_with(&toml, Path::new("w.toml"), &defines).unwrap_err();

@@ -74,6 +74,8 @@ pub(super) struct Files {
     pub(super) elements: Vec<El>,
     /// Bytes of the included files read (the scene file itself not counted).
     pub(super) bytes_read: u64,
+    /// The command line's `-D` names that no `$name` of the scene used, sorted.
+    pub(super) unused_defines: Vec<String>,
 }
 
 struct Reader {
@@ -89,6 +91,8 @@ struct Reader {
     bytes_read: u64,
     /// Bytes produced by substitutions so far ([`MAX_EXPANDED_BYTES`]).
     expanded: usize,
+    /// The parameters some `$name` used.
+    used: std::collections::HashSet<String>,
 }
 
 fn invalid(file: &str, line: Option<usize>, field: Option<&str>, msg: String) -> SceneError {
@@ -114,13 +118,22 @@ pub(super) fn read(
         files: 0,
         bytes_read: 0,
         expanded: 0,
+        used: std::collections::HashSet::new(),
     };
     let elements = r.file(path, text)?;
+    let mut unused_defines: Vec<String> = defines
+        .iter()
+        .map(|(name, _)| name.clone())
+        .filter(|name| !r.used.contains(name))
+        .collect();
+    unused_defines.sort_unstable();
+    unused_defines.dedup();
     Ok(Files {
         source: r.source,
         parts: r.parts,
         elements,
         bytes_read: r.bytes_read,
+        unused_defines,
     })
 }
 
@@ -372,7 +385,8 @@ impl Reader {
                         ));
                     }
                     self.expanded += value.len();
-                    out.push_str(value)
+                    out.push_str(value);
+                    self.used.insert(name.to_string());
                 }
                 None => {
                     let mut known: Vec<&str> = self.params.keys().map(String::as_str).collect();

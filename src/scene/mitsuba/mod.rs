@@ -43,6 +43,15 @@ pub(super) fn load_str(
     let mut cx = Cx::new(crate::errors::shown_path(path), &files.source);
     cx.parts = files.parts.clone();
     cx.read_bytes = files.bytes_read;
+    // A -D that the scene never substitutes is most likely misspelt (Mitsuba ignores it too).
+    for name in &files.unused_defines {
+        let msg = format!(
+            "-D {}: the scene has no ${} to substitute it into",
+            crate::errors::excerpt(name),
+            crate::errors::excerpt(name)
+        );
+        cx.warn(None, "-D", msg);
+    }
     let raw = plugins::scene(&mut cx, &files.elements)?;
     super::assemble::build(&mut cx, raw, path)
 }
