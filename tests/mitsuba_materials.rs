@@ -28,7 +28,7 @@ const SPP: u32 = 128;
 const Z_MAX: f64 = 4.3;
 
 /// Writes `toml` as `dir/NAME.toml`, converts it to `dir/NAME.xml`, and compares the XML's
-/// renders ([`agree_xml`]).
+/// renders ([`compare_renders`]).
 fn agree(dir: &Path, name: &str, toml: &str) {
     let src = dir.join(format!("{name}.toml"));
     std::fs::write(&src, toml).unwrap();
@@ -38,12 +38,20 @@ fn agree(dir: &Path, name: &str, toml: &str) {
             .args(["convert", src.to_str().unwrap(), "--to", "mitsuba"])
             .arg(&xml),
     );
-    agree_xml(dir, name, &xml);
+    compare_renders(dir, name, &xml);
+}
+
+/// Writes the hand-written scene `text` as `dir/NAME.xml` and compares its renders
+/// ([`compare_renders`]).
+fn agree_xml(dir: &Path, name: &str, text: &str) {
+    let path = dir.join(format!("{name}.xml"));
+    std::fs::write(&path, text).unwrap();
+    compare_renders(dir, name, &path);
 }
 
 /// Renders the XML scene `xml` on the CPU (the independent sampler) and compares it with
 /// Mitsuba's renders of the same XML.
-fn agree_xml(dir: &Path, name: &str, xml: &Path) {
+fn compare_renders(dir: &Path, name: &str, xml: &Path) {
     let xml = xml.to_path_buf();
     let Some(peer) = common::mitsuba::block_means(&xml, BLOCK, MI_RENDERS, MI_SPP) else {
         println!("skipped: Mitsuba 3 is not installed (pip install mitsuba numpy)");
@@ -223,9 +231,7 @@ fn mitsubas_own_shapes_render_like_mitsuba() {
          <film type=\"hdrfilm\"><integer name=\"width\" value=\"{SIZE}\"/><integer name=\"height\" value=\"{SIZE}\"/><rfilter type=\"box\"/></film></sensor>\n\
          <emitter type=\"constant\"><rgb name=\"radiance\" value=\"1, 1, 1\"/></emitter>\n{body}</scene>\n"
     );
-    let path = dir.path().join("shapes.xml");
-    std::fs::write(&path, xml).unwrap();
-    agree_xml(dir.path(), "shapes", &path);
+    agree_xml(dir.path(), "shapes", &xml);
 }
 
 /// What Mitsuba 3 reads in ways its documentation alone does not tell, in one hand-written
@@ -255,9 +261,7 @@ fn mitsubas_readings_render_like_mitsuba() {
 </scene>
 "#
     );
-    let path = dir.path().join("readings.xml");
-    std::fs::write(&path, xml).unwrap();
-    agree_xml(dir.path(), "readings", &path);
+    agree_xml(dir.path(), "readings", &xml);
 }
 
 /// A thin lens (Mitsuba's `thinlens`), focused on the nearer sphere, with the envmap scene's
