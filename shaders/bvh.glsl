@@ -29,10 +29,10 @@ void triangle_texels(uint i, out vec4 v0, out vec4 v1, out vec4 v2) {
     v2 = tri_texel(3u * i + 2u);
 }
 
-// Sphere i's two texels: (center, radius) and (material, emitter, inward, 0) as bits.
-// Texels per sphere (Rust: scene_buffers::sphere_data): (center, radius), (material, emitter,
-// inward, frame flags), the frame's quaternion.
+// Texels per sphere (Rust: scene_buffers::SPHERE_TEXELS): (center, radius), (material, emitter,
+// inward, frame flags) as bits, the frame's quaternion (texture.glsl).
 #define SPHERE_TEXELS 3u
+// Sphere i's first two texels.
 void sphere_texels(uint i, out vec4 center_radius, out uvec4 info) {
     center_radius = sphere_texel(SPHERE_TEXELS * i);
     info = floatBitsToUint(sphere_texel(SPHERE_TEXELS * i + 1u));

@@ -13,6 +13,8 @@
 //! side only; a path that reaches a back face ends. Russian roulette is optional.
 
 mod path;
+#[cfg(test)]
+pub(crate) use path::HIDE_PASSES;
 mod scatter;
 pub mod surface;
 

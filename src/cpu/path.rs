@@ -10,7 +10,7 @@ use glam::Vec3;
 
 /// The most emitters a camera ray passes through with hidden emitters (`hide_emitters`);
 /// GLSL twin: `HIDE_PASSES` in path.glsl.
-pub(super) const HIDE_PASSES: u32 = 16;
+pub(crate) const HIDE_PASSES: u32 = 16;
 
 /// What the end of a path segment gives (the GLSL `segment_end`'s `e` and return value).
 #[derive(Default)]

@@ -63,10 +63,14 @@ pub fn triangle_attributes(scene: &Scene) -> Vec<[f32; 4]> {
     out
 }
 
-/// 3 vec4 per sphere: (center, radius), (material, emitter, inward, frame flags: 1 turned,
-/// 2 mirrored), the frame's quaternion (x, y, z, w) (`crate::scene::SphereFrame`).
+/// Texels (vec4) per sphere in [`sphere_data`] (GLSL twin: `SPHERE_TEXELS`, bvh.glsl).
+pub const SPHERE_TEXELS: usize = 3;
+
+/// [`SPHERE_TEXELS`] vec4 per sphere: (center, radius), (material, emitter, inward, frame
+/// flags: 1 turned, 2 mirrored), the frame's quaternion (x, y, z, w)
+/// (`crate::scene::SphereFrame`).
 pub fn sphere_data(scene: &Scene) -> Vec<[f32; 4]> {
-    let mut out = Vec::with_capacity(scene.spheres.len() * 3);
+    let mut out = Vec::with_capacity(scene.spheres.len() * SPHERE_TEXELS);
     for s in &scene.spheres {
         out.push([s.center.x, s.center.y, s.center.z, s.radius]);
         let flags = s.frame.map_or(0, |f| 1 | (f.mirror as u32) << 1);
@@ -356,4 +360,18 @@ pub fn env_dist(scene: &Scene) -> Vec<f32> {
 /// BVH nodes as raw words (4 vec4 each).
 pub fn bvh_nodes(bvh: &Bvh) -> &[u8] {
     bytemuck::cast_slice(&bvh.nodes)
+}
+
+#[cfg(test)]
+mod twins {
+    /// The GLSL twins of the layout's constants are the Rust ones.
+    #[test]
+    fn glsl_layout_constants_match() {
+        let bvh = include_str!("../../shaders/bvh.glsl");
+        let texels = crate::robust::glsl_define(bvh, "bvh.glsl", "SPHERE_TEXELS");
+        assert_eq!(texels, format!("{}u", super::SPHERE_TEXELS));
+        let path = include_str!("../../shaders/wavefront/path.glsl");
+        let passes = crate::robust::glsl_define(path, "wavefront/path.glsl", "HIDE_PASSES");
+        assert_eq!(passes, format!("{}u", crate::cpu::HIDE_PASSES));
+    }
 }
