@@ -488,25 +488,14 @@ pub(super) fn bsdf(
             // form.
             let refs = p.take_tag("ref");
             let inner = p.take_tag("bsdf");
-            t = match (refs.as_slice(), inner.as_slice()) {
-                ([], [inner]) => {
-                    if inner.attr("type") == Some("twosided") {
-                        return Err(
-                            cx.el_err(inner, "a <bsdf type=\"twosided\"> inside another one")
-                        );
-                    }
-                    bsdf(cx, inner, defined)?
-                }
+            let (one, table) = match (refs.as_slice(), inner.as_slice()) {
+                ([], [inner]) => (*inner, bsdf(cx, inner, defined)?),
                 ([r], []) => {
                     let id = cx.attr(r, "id")?;
                     let Some(table) = defined.get(id) else {
                         return Err(cx.el_err(r, undefined_ref(id, defined.keys())));
                     };
-                    if table.value.contains_key("twosided") {
-                        let msg = format!("<ref id=\"{id}\"> names a twosided BSDF inside another <bsdf type=\"twosided\">");
-                        return Err(cx.el_err(r, msg));
-                    }
-                    table.value.clone()
+                    (*r, table.value.clone())
                 }
                 _ => {
                     let msg = format!(
@@ -517,6 +506,11 @@ pub(super) fn bsdf(
                     return Err(cx.el_err(el, msg));
                 }
             };
+            if table.contains_key("twosided") {
+                let msg = "a twosided BSDF inside another <bsdf type=\"twosided\">";
+                return Err(cx.el_err(one, msg));
+            }
+            t = table;
             t.insert("twosided".into(), sp(el, Value::Boolean(true)));
             p.finish(cx, "one nested bsdf or ref")?;
         }
@@ -797,8 +791,13 @@ pub(super) fn shape_transform(
     t: Option<&El>,
 ) -> Result<Option<Sp<RawTransform>>, SceneError> {
     let Some(t) = t else { return Ok(None) };
-    let matrix = Arr(rows(&to_world(cx, t)?.m).map(Arr));
-    Ok(Some(sp(
+    Ok(Some(matrix_transform(t, &to_world(cx, t)?.m)))
+}
+
+/// The composed `to_world` `m` of the element `t` as a shape's `transform.matrix`.
+pub(super) fn matrix_transform(t: &El, m: &glam::DMat4) -> Sp<RawTransform> {
+    let matrix = Arr(rows(m).map(Arr));
+    sp(
         t,
         RawTransform {
             translate: None,
@@ -807,7 +806,7 @@ pub(super) fn shape_transform(
             rotate: None,
             matrix: Some(sp(t, matrix)),
         },
-    )))
+    )
 }
 
 /// A raw shape with nothing set but its name and material.

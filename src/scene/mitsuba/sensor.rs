@@ -190,14 +190,15 @@ fn camera(cx: &Cx, t: &El, fov_y: Sp<f64>) -> Result<RawCamera, SceneError> {
     let similar = crate::scene::geometry::Transform::Affine { a, t: DVec3::ZERO }
         .similarity_scale()
         .is_some();
-    if !similar || a.determinant() == 0.0 {
+    let det = a.determinant();
+    if !similar || det == 0.0 {
         let msg = "the camera's to_world must be a rotation (or a mirror), a uniform scale and a translation (no shear)";
         return Err(cx.el_err(t, msg));
     }
     // A mirroring to_world (`<scale x="-1"/>` before a lookat) mirrors the image: the camera's
     // local x, which Mitsuba's image runs against, turns over while the view and up directions
     // do not.
-    let mirror = (a.determinant() < 0.0).then(|| sp(t, true));
+    let mirror = (det < 0.0).then(|| sp(t, true));
     let o = m.transform_point3(DVec3::ZERO);
     Ok(RawCamera {
         position: v(o.to_array()),

@@ -15,7 +15,7 @@
 //! face the side of their vertex normals ([`Sides::ByNormals`]: Mitsuba shades by them).
 
 use super::doc::El;
-use super::plugins::{bsdf, emitter_error, raw_shape, raw_sphere, shape_transform, sp, Props};
+use super::plugins::{bsdf, emitter_error, matrix_transform, raw_shape, raw_sphere, sp, Props};
 use crate::scene::error::SceneError;
 use crate::scene::schema::{Arr, MaterialTable, RawShape, Sides, Triple};
 use crate::scene::spanned::{Cx, Sp};
@@ -52,12 +52,13 @@ pub(super) fn shape(
         Some(f) => cx.bool_of(f)?,
         None => false,
     };
-    let mirrored = match to_world {
-        Some(t) => DMat3::from_mat4(super::values::to_world(cx, t)?.m).determinant() < 0.0,
-        None => false,
+    let to_world = match to_world {
+        Some(t) => Some((t, super::values::to_world(cx, t)?.m)),
+        None => None,
     };
+    let mirrored = to_world.is_some_and(|(_, m)| DMat3::from_mat4(m).determinant() < 0.0);
     let supported = geometry(cx, el, &kind, &mut p, (flip, mirrored), &mut raw)?;
-    raw.transform = shape_transform(cx, to_world)?;
+    raw.transform = to_world.map(|(t, m)| matrix_transform(t, &m));
     raw.as_written = raw.transform.is_none();
     p.finish(cx, supported)?;
     Ok(sp(el, raw))
