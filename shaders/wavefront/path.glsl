@@ -87,7 +87,7 @@ uint segment_end(uint depth, vec3 o, vec3 d, float prev_pdf, vec3 b, out vec3 e,
 #endif
         if (finite_or_count(env, counter_nonfinite_extend())) e = env;
 #ifdef HIDE_EMITTERS
-        // What the camera ray sees of the environment is not counted (Rust: trace_path).
+        // The camera ray does not see the environment (Rust: segment_end).
         if (depth == 1u) e = vec3(0.0);
 #endif
         return NO_QUEUE;

@@ -198,6 +198,10 @@ mod tests {
         };
         assert_eq!(define("BVH_STACK_SIZE"), STACK_SIZE.to_string());
         assert_eq!(
+            define("SPHERE_TEXELS"),
+            format!("{}u", crate::gpu::scene_buffers::SPHERE_TEXELS)
+        );
+        assert_eq!(
             define("BVH_SPHERE_BIT"),
             format!("{SPHERE_BIT:#010X}u").replace("0X", "0x")
         );

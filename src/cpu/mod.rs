@@ -13,8 +13,6 @@
 //! side only; a path that reaches a back face ends. Russian roulette is optional.
 
 mod path;
-#[cfg(test)]
-pub(crate) use path::HIDE_PASSES;
 mod scatter;
 pub mod surface;
 
@@ -256,11 +254,7 @@ impl<'a> CpuRenderer<'a> {
             stats.segment_extension[seg] += 1;
             let end = self.segment_end(depth, o, d, prev_pdf, beta, stats);
             if let Some(e) = end.e {
-                // Hidden emitters: the environment the camera ray sees (it passes through
-                // emitters: segment_end).
-                if !(s.integrator.hide_emitters && depth == 1) {
-                    l += e;
-                }
+                l += e;
             }
             let Some(si) = end.surface else {
                 break;

@@ -10,7 +10,7 @@ use glam::Vec3;
 
 /// The most emitters a camera ray passes through with hidden emitters (`hide_emitters`);
 /// GLSL twin: `HIDE_PASSES` in path.glsl.
-pub(crate) const HIDE_PASSES: u32 = 16;
+pub(super) const HIDE_PASSES: u32 = 16;
 
 /// What the end of a path segment gives (the GLSL `segment_end`'s `e` and return value).
 #[derive(Default)]
@@ -69,7 +69,8 @@ impl CpuRenderer<'_> {
         let mut end = SegmentEnd::default();
         let mut o = o;
         let mut found = self.bvh.closest(s, o, d, f32::MAX);
-        if s.integrator.hide_emitters && depth == 1 {
+        let hidden = s.integrator.hide_emitters && depth == 1;
+        if hidden {
             // Mitsuba's hidden emitters: the camera ray passes through the emitters it meets,
             // on from just beyond each (at most HIDE_PASSES of them; GLSL twin: segment_end).
             for _ in 0..HIDE_PASSES {
@@ -88,10 +89,11 @@ impl CpuRenderer<'_> {
                 None => beta * s.environment,
                 Some(m) => beta * m.radiance(d) * self.env_weight(m, d, prev_pdf),
             };
-            if e.is_finite() {
-                end.e = Some(e);
-            } else {
+            if !e.is_finite() {
                 stats.nonfinite_extend += 1;
+            } else if !hidden {
+                // (Hidden emitters: the camera ray does not see the environment.)
+                end.e = Some(e);
             }
             return end;
         };
@@ -124,10 +126,11 @@ impl CpuRenderer<'_> {
                 1.0
             };
             let e = beta * le * w;
-            if e.is_finite() {
-                end.e = Some(e);
-            } else {
+            if !e.is_finite() {
                 stats.nonfinite_extend += 1;
+            } else if !hidden {
+                // (Nor an emitter it could not pass: HIDE_PASSES.)
+                end.e = Some(e);
             }
         }
         if depth == s.integrator.max_depth {
@@ -138,5 +141,16 @@ impl CpuRenderer<'_> {
         }
         end.surface = Some(si);
         end
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// The GLSL twin of the pass-through bound is the Rust one.
+    #[test]
+    fn glsl_hide_passes_matches() {
+        let glsl = include_str!("../../shaders/wavefront/path.glsl");
+        let passes = crate::robust::glsl_define(glsl, "wavefront/path.glsl", "HIDE_PASSES");
+        assert_eq!(passes, format!("{}u", super::HIDE_PASSES));
     }
 }

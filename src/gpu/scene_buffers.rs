@@ -361,17 +361,3 @@ pub fn env_dist(scene: &Scene) -> Vec<f32> {
 pub fn bvh_nodes(bvh: &Bvh) -> &[u8] {
     bytemuck::cast_slice(&bvh.nodes)
 }
-
-#[cfg(test)]
-mod twins {
-    /// The GLSL twins of the layout's constants are the Rust ones.
-    #[test]
-    fn glsl_layout_constants_match() {
-        let bvh = include_str!("../../shaders/bvh.glsl");
-        let texels = crate::robust::glsl_define(bvh, "bvh.glsl", "SPHERE_TEXELS");
-        assert_eq!(texels, format!("{}u", super::SPHERE_TEXELS));
-        let path = include_str!("../../shaders/wavefront/path.glsl");
-        let passes = crate::robust::glsl_define(path, "wavefront/path.glsl", "HIDE_PASSES");
-        assert_eq!(passes, format!("{}u", crate::cpu::HIDE_PASSES));
-    }
-}

@@ -623,15 +623,12 @@ fn obj_text(tris: &[(&Triangle, VertexAttributes)]) -> String {
 }
 
 /// The 4×4 matrix, row by row, that turns a sphere centred at `c` by the inverse of its
-/// frame's `W` (`R = Wᵀ`, `W = D·Q`: `crate::scene::SphereFrame`) about its centre:
+/// frame's `W` (`R = Wᵀ`; `W` is `crate::scene::SphereFrame::to_local`) about its centre:
 /// T(c)·R·T(−c).
 fn sphere_turn(f: crate::scene::SphereFrame, c: glam::Vec3) -> String {
-    let [x, y, z, w] = f.q.map(f64::from);
-    let q = glam::DMat3::from_quat(glam::DQuat::from_xyzw(x, y, z, w));
-    let d = glam::DVec3::new(1.0, 1.0, if f.mirror { -1.0 } else { 1.0 });
-    // W = D·Q (rows of Q scaled by d), R = Wᵀ.
-    let wm = glam::DMat3::from_cols(q.x_axis * d, q.y_axis * d, q.z_axis * d);
-    let r = wm.transpose();
+    // W's columns are the frame's images of the axes; R = Wᵀ.
+    let w = [glam::Vec3::X, glam::Vec3::Y, glam::Vec3::Z].map(|e| f.to_local(e).as_dvec3());
+    let r = glam::DMat3::from_cols(w[0], w[1], w[2]).transpose();
     let c = c.as_dvec3();
     let t = c - r * c;
     let rows = [
