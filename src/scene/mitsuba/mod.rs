@@ -43,7 +43,7 @@ pub(super) fn load_str(
     let mut cx = Cx::new(crate::errors::shown_path(path), &files.source);
     cx.parts = files.parts.clone();
     cx.read_bytes = files.bytes_read;
-    // A -D that the scene never substitutes is most likely misspelt (Mitsuba ignores it too).
+    // A -D that the scene never substitutes is most likely misspelt.
     for name in &files.unused_defines {
         let msg = format!(
             "-D {}: the scene has no ${} to substitute it into",
