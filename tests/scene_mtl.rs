@@ -111,6 +111,57 @@ fn without_mtl_the_faces_keep_the_shape_material() {
     );
 }
 
+/// OBJ statements as exporters write them read as the plain file reads: `usemtl` and `mtllib`
+/// indented, after a tab, a library named after the first `usemtl`, CRLF lines; a vertex weight
+/// `w` ignored (Mitsuba and Blender read x y z as written) with a warning naming its line; `vt`
+/// of one number; vertex colours on only some vertices. A bare `usemtl` is an error naming its
+/// line. Statements of the library that change the picture and are not read are named.
+#[test]
+fn obj_statements_as_exporters_write_them() {
+    let plain = scene_with(&[("a.obj", OBJ), ("lib.mtl", MTL)], "mtl = true").unwrap();
+    let awkward = "v -1 0 -1 1\r\nv 1 0 -1 2\r\nv 1 0 1 1 0 0\r\nv -1 0 1\r\nv -0.3 1 0.3\r\n\
+        v 0.3 1 0.3\r\nv 0.3 1 -0.3\r\nv -0.3 1 -0.3\r\nvt 0.5\r\n  usemtl matte\r\nmtllib\tlib.mtl\r\n\
+        f 1 4 3\r\nusemtl\tshiny\r\nf 1 3 2\r\n\tusemtl   lamp\r\nf 5 6 7 8\r\n";
+    let s = scene_with(&[("a.obj", awkward), ("lib.mtl", MTL)], "mtl = true").unwrap();
+    assert_eq!(s.material_names, plain.material_names);
+    let mats = |s: &Scene| {
+        s.triangles
+            .iter()
+            .map(|t| (t.material, t.emitter))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(mats(&s), mats(&plain));
+    let verts = |s: &Scene| s.triangles.iter().map(|t| t.v).collect::<Vec<_>>();
+    assert_eq!(
+        verts(&s),
+        verts(&plain),
+        "v 1 0 -1 2 is (1, 0, -1), not divided by w"
+    );
+    assert_warned(&s, "a.obj', line 2: the vertex weight w = 2 is ignored");
+    assert!(
+        !s.warnings.iter().any(|w| w.contains("line 1:")),
+        "{:?}",
+        s.warnings
+    );
+
+    let bare = OBJ.replace("usemtl shiny", "usemtl");
+    let e = scene_with(&[("a.obj", &bare), ("lib.mtl", MTL)], "mtl = true").unwrap_err();
+    assert!(
+        e.contains("a.obj', line 12: usemtl needs a material name"),
+        "{e}"
+    );
+
+    let mtl = MTL.replace(
+        "illum 1\n",
+        "illum 1\nTr 0.5\nmap_Ke glow.png\nnorm n.png\nPr 0.4\n",
+    );
+    let s = scene_with(&[("a.obj", OBJ), ("lib.mtl", &mtl)], "mtl = true").unwrap();
+    assert_warned(
+        &s,
+        "material 'm/a.obj:matte': ignored: d/Tr (transparency), texture maps (map_Ke, norm), physically based statements (Pr)",
+    );
+}
+
 /// Bad MTL content is an error naming the MTL file and its line (not the scene's line, not
 /// tobj's "material parse error"), numbers as written (never `inf`); a library that is not one,
 /// or not a regular file, is refused; a `usemtl` of a material no library defines, and an

@@ -552,6 +552,8 @@ pub(super) fn shape_primitives(
             emitter,
             sides: s.sides,
             flip: s.flip_mesh,
+            smooth: s.mitsuba_mesh && !face_normals,
+            mitsuba: s.mitsuba_mesh,
         };
         let sink = TriangleSink {
             triangles: &mut out.triangles,
@@ -568,6 +570,8 @@ pub(super) fn shape_primitives(
             emitter,
             sides: s.sides,
             flip: s.flip_mesh,
+            smooth: s.mitsuba_mesh && !face_normals,
+            mitsuba: s.mitsuba_mesh,
         };
         let mut mo = super::mtl::MtlOut {
             materials: &mut out.mtl_materials,
@@ -585,21 +589,6 @@ pub(super) fn shape_primitives(
         for a in out.attributes.iter_mut().skip(first_mesh_triangle) {
             a.n = None;
         }
-    } else if s.smooth_if_no_normals
-        && out.triangles.len() > first_mesh_triangle
-        && out
-            .attributes
-            .iter()
-            .skip(first_mesh_triangle)
-            .all(|a| a.n.is_none())
-    {
-        // (The attributes are kept up to the last triangle that has any: fill them out.)
-        out.attributes
-            .resize(out.triangles.len(), crate::scene::VertexAttributes::NONE);
-        super::geometry::smooth_vertex_normals(
-            &out.triangles[first_mesh_triangle..],
-            &mut out.attributes[first_mesh_triangle..],
-        );
     }
     Ok(())
 }

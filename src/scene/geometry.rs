@@ -205,6 +205,9 @@ impl TriangleSink<'_> {
 pub(super) struct FaceRules {
     by_normals: bool,
     flip: bool,
+    /// The normals are computed from the faces ([`vertex_normals`]), not the file's: they do
+    /// not choose sides, and are not counted as opposite to the winding.
+    computed: bool,
     skipped: usize,
     dropped_normals: usize,
     flipped: usize,
@@ -227,8 +230,14 @@ impl FaceRules {
         FaceRules {
             by_normals: self.by_normals,
             flip: self.flip,
+            computed: self.computed,
             ..FaceRules::default()
         }
+    }
+
+    /// Whether the normals given to [`Self::face`] from now on are computed from the faces.
+    pub(super) fn computed_normals(&mut self, computed: bool) {
+        self.computed = computed;
     }
 
     /// The triangle of the placed vertices `v` (checked by [`edge_overflow`] first), with the
@@ -276,7 +285,7 @@ impl FaceRules {
                 *n = n.map(|x| -x);
             }
         }
-        if let Some(normals) = n {
+        if let Some(normals) = n.filter(|_| !self.computed) {
             if (normals[0] + normals[1] + normals[2]).dot(crate::robust::triangle_normal(&v)) < 0.0
             {
                 if self.by_normals {
@@ -322,6 +331,7 @@ impl FaceRules {
         let FaceRules {
             by_normals: _,
             flip: _,
+            computed: _,
             skipped,
             dropped_normals,
             flipped,
@@ -353,25 +363,22 @@ impl FaceRules {
 }
 
 /// Smooth vertex normals for a mesh that has none, as Mitsuba 3 gives every mesh without
-/// normals (unless `face_normals`): at each vertex the average of the faces' unit normals
+/// normals (unless `face_normals`): at each vertex the average of its faces' unit normals
 /// weighted by the face's angle at that vertex (Thürmer & Wüthrich 1998, "Computing Vertex
-/// Normals from Polygonal Facets", JGT 3(1)), from the world-space triangles (after the
-/// shape's transform, as Mitsuba computes them). A vertex is its position and its texture
-/// coordinates, so a UV seam keeps its normals apart, as Mitsuba's OBJ reader keys vertices
-/// (a PLY file's distinct vertices at one position are merged here, which Mitsuba keeps apart).
-/// Zero-area triangles add nothing; a vertex whose faces cancel keeps the face normal.
-pub(super) fn smooth_vertex_normals(triangles: &[Triangle], attributes: &mut [VertexAttributes]) {
-    use std::collections::HashMap;
-    type Key = ([u32; 3], [u32; 2]);
-    let key = |p: Vec3, uv: Option<Vec2>| -> Key {
-        let uv = uv.unwrap_or(Vec2::ZERO);
-        // +0 and -0 are one position.
-        let b = |x: f32| (x + 0.0).to_bits();
-        ([b(p.x), b(p.y), b(p.z)], [b(uv.x), b(uv.y)])
-    };
-    let mut sums: HashMap<Key, DVec3> = HashMap::new();
-    for (t, a) in triangles.iter().zip(attributes.iter()) {
-        let v = t.v.map(|p| p.as_dvec3());
+/// Normals from Polygonal Facets", JGT 3(1)), from the placed vertices `positions` (after the
+/// shape's transform, as Mitsuba computes them) and the triangles' vertex `indices`. A vertex
+/// is a vertex of the file, as Mitsuba keys them (an OBJ file's (v, vt, vn) triple, a PLY
+/// file's vertex), so that vertices apart in the file stay apart, even at one position.
+/// Zero-area and non-finite triangles add nothing; a vertex whose faces cancel, or that no
+/// face uses, gets zero (the caller gives it the face normal).
+pub(super) fn vertex_normals(positions: &[Vec3], indices: &[u32]) -> Vec<Vec3> {
+    let mut sums = vec![DVec3::ZERO; positions.len()];
+    for face in indices.chunks_exact(3) {
+        let at = |j: usize| positions.get(face[j] as usize).map(|p| p.as_dvec3());
+        let (Some(a), Some(b), Some(c)) = (at(0), at(1), at(2)) else {
+            continue;
+        };
+        let v = [a, b, c];
         let n = (v[1] - v[0]).cross(v[2] - v[0]);
         let len = n.length();
         if !(len > 0.0 && len.is_finite()) {
@@ -383,28 +390,20 @@ pub(super) fn smooth_vertex_normals(triangles: &[Triangle], attributes: &mut [Ve
             let c = d0.dot(d1) / (d0.length() * d1.length());
             let angle = c.clamp(-1.0, 1.0).acos();
             if angle.is_finite() {
-                *sums
-                    .entry(key(t.v[j], a.uv.map(|uv| uv[j])))
-                    .or_insert(DVec3::ZERO) += n * angle;
+                sums[face[j] as usize] += n * angle;
             }
         }
     }
-    for (t, a) in triangles.iter().zip(attributes.iter_mut()) {
-        let face = crate::robust::triangle_normal(&t.v);
-        let n = [0, 1, 2].map(|j| {
-            let s = sums
-                .get(&key(t.v[j], a.uv.map(|uv| uv[j])))
-                .copied()
-                .unwrap_or(DVec3::ZERO);
+    sums.into_iter()
+        .map(|s| {
             let len = s.length();
             if len > 0.0 && len.is_finite() {
                 (s / len).as_vec3()
             } else {
-                face
+                Vec3::ZERO
             }
-        });
-        a.n = Some(n);
-    }
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -7,8 +7,11 @@
 //! * `illum 3` to `10` (ray-traced reflection, refraction, glass): as 2, with a warning that
 //!   the rest is ignored.
 //!
-//! `Ke` (non-zero) makes the material's faces emitters of radiance `Ke`. `Ka`, textures,
-//! `d`/`Tr` (transparency) and `Ni` are not used (a warning names those given). The values are
+//! `Ke` (non-zero) makes the material's faces emitters of radiance `Ke`. `Ka`, texture maps
+//! (`map_*`, `bump`, `norm`, `disp`, `decal`, `refl`), `d`/`Tr` (transparency), the physically
+//! based statements (`Pr`, `Pm`, …) and `Ni` are not used: a warning names those that would
+//! change the picture (a non-zero `Ka`, `d` < 1 or `Tr` > 0, any map or physically based
+//! statement; not `Ni`, which matters only to refraction, itself warned about). The values are
 //! checked by the models, so that a `Kd` above 1 is an error naming the material
 //! (`OBJ:NAME`), the MTL file and the line of its `Kd`.
 //!
@@ -54,11 +57,11 @@ pub(super) struct MtlLines {
 const COLOURS: &[&str] = &["Ka", "Kd", "Ks", "Ke", "Tf"];
 /// Statements of one number.
 const SCALARS: &[&str] = &["Ns", "Ni", "d", "Tr", "sharpness"];
-/// Other statements of the format, not read (texture maps are `map_*`).
-const OTHERS: &[&str] = &[
-    "illum", "bump", "disp", "decal", "refl", "norm", "Pr", "Pm", "Ps", "Pc", "Pcr", "aniso",
-    "anisor",
-];
+/// Texture maps besides `map_*`, not read.
+const TEXTURE_MAPS: &[&str] = &["bump", "disp", "decal", "refl", "norm"];
+/// The physically based extension's statements (roughness, metallic, sheen, clearcoat,
+/// anisotropy), not read.
+const PBR: &[&str] = &["Pr", "Pm", "Ps", "Pc", "Pcr", "aniso", "anisor"];
 
 /// Checks an MTL library line by line and finds where each material is written; an error is
 /// (line, what is wrong). The numbers tobj reads are checked ([`crate::numbers::parse_f32`]:
@@ -124,7 +127,7 @@ pub(super) fn scan_mtl(text: &str) -> Result<MtlLibrary, (usize, String)> {
                 );
                 return Err((n, msg));
             }
-        } else if !(kw.starts_with("map_") || OTHERS.contains(&kw)) {
+        } else if !(kw.starts_with("map_") || TEXTURE_MAPS.contains(&kw) || PBR.contains(&kw)) {
             unknown.push((n, crate::errors::excerpt(kw)));
             continue;
         }
@@ -210,26 +213,33 @@ pub(super) fn mtl_material(
             toml::Spanned::new(at("Ns"), toml::Value::Float(ns as f64)),
         );
     }
-    let mut ignored: Vec<&str> = Vec::new();
+    // What the material states and this reader does not use, from the library's own lines (tobj
+    // keeps only some statements in its fields).
+    let stated: Vec<&str> =
+        lines.map_or(Vec::new(), |l| l.keys.keys().map(String::as_str).collect());
+    let named = |pick: &dyn Fn(&str) -> bool| -> Option<String> {
+        let found: Vec<&str> = stated.iter().copied().filter(|k| pick(k)).collect();
+        (!found.is_empty()).then(|| found.join(", "))
+    };
+    let mut ignored: Vec<String> = Vec::new();
     if illum > 2 {
-        ignored.push("the reflection and refraction of illum > 2");
+        ignored.push("the reflection and refraction of illum > 2".into());
     }
     if m.ambient.is_some_and(|a| a != [0.0; 3]) {
-        ignored.push("Ka");
+        ignored.push("Ka".into());
     }
-    if m.dissolve.is_some_and(|d| d < 1.0) {
-        ignored.push("d/Tr (transparency)");
+    let tr = m
+        .unknown_param
+        .get("Tr")
+        .and_then(|t| t.trim().parse::<f32>().ok());
+    if m.dissolve.is_some_and(|d| d < 1.0) || tr.is_some_and(|t| t > 0.0) {
+        ignored.push("d/Tr (transparency)".into());
     }
-    let textures = [
-        &m.ambient_texture,
-        &m.diffuse_texture,
-        &m.specular_texture,
-        &m.normal_texture,
-        &m.shininess_texture,
-        &m.dissolve_texture,
-    ];
-    if textures.iter().any(|t| t.is_some()) {
-        ignored.push("texture maps");
+    if let Some(maps) = named(&|k| k.starts_with("map_") || TEXTURE_MAPS.contains(&k)) {
+        ignored.push(format!("texture maps ({maps})"));
+    }
+    if let Some(pbr) = named(&|k| PBR.contains(&k)) {
+        ignored.push(format!("physically based statements ({pbr})"));
     }
     if !ignored.is_empty() {
         let msg = format!("material '{name}': ignored: {}", ignored.join(", "));

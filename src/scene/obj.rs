@@ -3,7 +3,9 @@
 //! and emitter.
 
 use super::error::SceneError;
-use super::geometry::{edge_overflow, mesh_path, FaceRules, Transform, TriangleSink};
+use super::geometry::{
+    edge_overflow, mesh_path, vertex_normals, FaceRules, Transform, TriangleSink,
+};
 use super::mtl::{mtl_material, scan_mtl, MtlLibrary, MtlOut};
 use super::spanned::{Cx, Sp};
 use super::{Triangle, VertexAttributes};
@@ -19,6 +21,8 @@ pub(super) struct ObjScan {
     pub(super) mtllibs: Vec<(usize, String)>,
     /// `usemtl NAME` lines.
     pub(super) usemtls: Vec<(usize, String)>,
+    /// Whether the file has vertex normals (`vn`).
+    pub(super) normals: bool,
 }
 
 impl ObjScan {
@@ -40,17 +44,18 @@ pub(super) fn scan_obj(text: &str) -> Result<ObjScan, (usize, String)> {
         let kw = words.next();
         // tobj reports malformed numbers without a line ("position parse error"): check them.
         if let Some((what, min, max)) = match kw {
+            // x y z, then w (a weight, ignored) or r g b (a colour, not used).
             Some("v") => Some(("vertex position", 3, 6)),
             Some("vt") => Some(("texture coordinate", 1, 3)),
             Some("vn") => Some(("normal", 3, 3)),
             _ => None,
         } {
             let nums: Vec<&str> = line.split_whitespace().skip(1).collect();
-            if nums.len() < min || nums.len() > max {
-                let want = if min == max {
-                    format!("{min}")
-                } else {
-                    format!("{min} to {max}")
+            if nums.len() < min || nums.len() > max || (kw == Some("v") && nums.len() == 5) {
+                let want = match kw {
+                    Some("v") => "3 (x y z), 4 (x y z w) or 6 (x y z r g b)".to_string(),
+                    _ if min == max => format!("{min}"),
+                    _ => format!("{min} to {max}"),
                 };
                 return Err((
                     l + 1,
@@ -73,7 +78,10 @@ pub(super) fn scan_obj(text: &str) -> Result<ObjScan, (usize, String)> {
         match kw {
             Some("v") => nv += 1,
             Some("vt") => nt += 1,
-            Some("vn") => nn += 1,
+            Some("vn") => {
+                nn += 1;
+                found.normals = true;
+            }
             Some(kw @ ("mtllib" | "usemtl")) => {
                 let name = line
                     .trim()
@@ -137,6 +145,11 @@ pub(super) struct ObjShape {
     pub(super) sides: super::schema::Sides,
     /// Every triangle turned over, winding and normals (Mitsuba's `flip_normals`).
     pub(super) flip: bool,
+    /// A mesh without vertex normals gets smooth ones ([`super::geometry::vertex_normals`]),
+    /// as Mitsuba gives them (set by the Mitsuba reader, unless `face_normals`).
+    pub(super) smooth: bool,
+    /// Read from a Mitsuba scene, where MTL materials are never read (as Mitsuba ignores them).
+    pub(super) mitsuba: bool,
 }
 
 /// Where an OBJ file's messages point: the scene's span and field, and the file as shown.
@@ -184,9 +197,15 @@ pub(super) fn obj_triangles(
         None => scan_obj(&text)
             .map_err(|(line, msg)| at.err(cx, format!("OBJ file '{shown}', line {line}: {msg}")))?,
     };
+    // Smooth normals for the file's vertices: the file read as one model (`for_tobj`).
+    let one_model = shape.smooth && !scan.normals;
     let uses_mtl = scan.uses_mtl();
     if uses_mtl && mtl.is_none() {
-        at.warn(cx, format!("OBJ file '{shown}' refers to MTL materials; they are ignored: every face uses this shape's material (mtl = true uses them)"));
+        let hint = match shape.mitsuba {
+            true => "its BSDF, as in Mitsuba 3",
+            false => "this shape's material (mtl = true uses them)",
+        };
+        at.warn(cx, format!("OBJ file '{shown}' refers to MTL materials; they are ignored: every face uses {hint}"));
     }
     if !uses_mtl && mtl.is_some() {
         at.warn(cx, format!("OBJ file '{shown}' has no MTL materials (mtllib, usemtl): every face uses this shape's material"));
@@ -198,7 +217,7 @@ pub(super) fn obj_triangles(
     };
     let (models, library) = match plain {
         Some(model) => (vec![model], Vec::new()),
-        None => parse_obj(cx, &at, &text, read_mtl, &libraries)?,
+        None => parse_obj(cx, &at, &text, (read_mtl, one_model), &libraries)?,
     };
     drop(text);
     // Scene materials and emitters of the library's materials, made when a face uses them.
@@ -243,13 +262,23 @@ pub(super) fn obj_triangles(
                 at.warn(cx, msg);
             }
         }
+        // Smooth normals where the model has none: computed from the placed vertices.
+        let computed = (shape.smooth && !has_n).then(|| {
+            let placed: Vec<Vec3> = m
+                .positions
+                .chunks_exact(3)
+                .map(|p| xf.point(Vec3::from_slice(p)))
+                .collect();
+            vertex_normals(&placed, &m.indices)
+        });
+        rules.computed_normals(computed.is_some());
         let me = (material, emitter);
         model_triangles(
             cx,
             &at,
             model,
             xf,
-            (has_n, has_uv),
+            (has_n, has_uv, computed.as_deref()),
             me,
             &mut out,
             &mut rules,
@@ -267,15 +296,15 @@ const FACES_PER_PIECE: usize = 1 << 15;
 /// face order is the one reported, as in a serial pass. The pieces write straight into `out`
 /// (its new memory is first touched on all threads: a copy of a million triangles into fresh
 /// pages cost more than placing them), then the gaps of skipped faces close. The attributes
-/// are written beside the triangles only when the model has normals or texture coordinates
-/// (`attributes`).
+/// are written beside the triangles only when the model has normals (its own, or `computed`
+/// ones in world space, per vertex) or texture coordinates (`attributes`).
 #[allow(clippy::too_many_arguments)]
 fn model_triangles(
     cx: &Cx,
     at: &At,
     model: &tobj::Model,
     xf: &Transform,
-    attributes: (bool, bool),
+    attributes: (bool, bool, Option<&[Vec3]>),
     (material, emitter): (u32, Option<u32>),
     out: &mut TriangleSink,
     rules: &mut FaceRules,
@@ -291,7 +320,7 @@ fn model_triangles(
     };
     out.triangles
         .par_extend(rayon::iter::repeat_n(unset, faces));
-    let with_attributes = attributes.0 || attributes.1;
+    let with_attributes = attributes.0 || attributes.1 || attributes.2.is_some();
     if with_attributes {
         out.attributes.resize(old + faces, VertexAttributes::NONE);
     }
@@ -351,27 +380,93 @@ fn model_triangles(
     Ok(())
 }
 
-/// The text without its points (`p`) and polylines (`l`), which are not surfaces: tobj's
-/// ignore_points / ignore_lines drop only those of one and two vertices, and `l 1 2 3` became a
-/// face. The lines stay (empty, so that line numbers keep), and are counted.
-fn without_points_and_lines(text: &str) -> (String, usize, usize) {
-    let (mut points, mut polylines) = (0usize, 0usize);
-    let text: String = text
-        .lines()
-        .map(|l| match l.split_whitespace().next() {
-            Some("p") => {
-                points += 1;
-                ""
+/// The rest of a statement after its keyword, trimmed (a name that may hold spaces:
+/// `usemtl`, `mtllib`).
+fn rest_of(line: &str) -> &str {
+    line.trim()
+        .split_once(char::is_whitespace)
+        .unwrap_or_default()
+        .1
+        .trim()
+}
+
+/// What [`for_tobj`] left out of the text or changed, for the warnings.
+#[derive(Debug, Default, PartialEq)]
+struct Rewritten {
+    points: usize,
+    polylines: usize,
+    /// Vertex weights w (`v x y z w`) other than 1: how many, and the first one's line and w.
+    weights: usize,
+    first_weight: Option<(usize, String)>,
+}
+
+/// The text as tobj should read it, one statement a line in one form, so that what tobj makes
+/// of a file is what OBJ readers and Mitsuba 3 make of it:
+/// * `v x y z w` is `v x y z`: w weights the control points of rational curves and surfaces,
+///   not polygon vertices, and Mitsuba and Blender read x y z as written (tobj divides by w,
+///   and refuses w = 0); a vertex colour (`v x y z r g b`), never used, is dropped too (tobj
+///   refuses a file where only some vertices have one);
+/// * `vt u` is `vt u 0` (v defaults to 0);
+/// * `usemtl` and `mtllib` are read with any whitespace after the keyword, and the libraries
+///   before every face (tobj knows a material only after its `mtllib` line, and reads the name
+///   after the first space only); without `read_mtl` (the scene assigns the material) both
+///   are left out;
+/// * points (`p`) and polylines (`l`) are left out (not surfaces: tobj's ignore_points /
+///   ignore_lines drop only those of one and two vertices, and `l 1 2 3` became a face), as
+///   are comments and statements tobj does not read;
+/// * with `one_model`, `o` and `g` are left out too, so that tobj gives one model, whose
+///   vertices are the file's vertices, (v, vt, vn) triples of indices, wherever they are used
+///   (as Mitsuba 3 keys them; tobj keys them per model).
+///
+/// Lines left out stay as empty lines. The input is the text [`scan_obj`] checked.
+fn for_tobj(text: &str, read_mtl: bool, one_model: bool) -> (String, Rewritten) {
+    let mut changed = Rewritten::default();
+    let mut libraries = String::new();
+    let mut out = String::with_capacity(text.len() + 1);
+    for (l, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        let kw = words.next();
+        match kw {
+            Some("v") => {
+                let nums: Vec<&str> = words.collect();
+                out.push_str("v ");
+                out.push_str(&nums[..3.min(nums.len())].join(" "));
+                if let [_, _, _, w] = nums[..] {
+                    if w.parse::<f32>().ok() != Some(1.0) {
+                        changed.weights += 1;
+                        changed.first_weight.get_or_insert((l + 1, w.to_string()));
+                    }
+                }
             }
-            Some("l") => {
-                polylines += 1;
-                ""
+            Some("vt") => {
+                let nums: Vec<&str> = words.collect();
+                let v = nums.get(1).copied().unwrap_or("0");
+                out.push_str(&format!("vt {} {v}", nums.first().copied().unwrap_or("0")));
             }
-            _ => l,
-        })
-        .collect::<Vec<_>>()
-        .join("\n");
-    (text, points, polylines)
+            Some(kw @ ("vn" | "f")) => {
+                out.push_str(kw);
+                for w in words {
+                    out.push(' ');
+                    out.push_str(w);
+                }
+            }
+            Some("o" | "g") if !one_model => out.push_str(line.trim()),
+            Some("usemtl") if read_mtl => {
+                out.push_str("usemtl ");
+                out.push_str(rest_of(line));
+            }
+            Some("mtllib") if read_mtl => {
+                libraries.push_str("mtllib ");
+                libraries.push_str(rest_of(line));
+                libraries.push('\n');
+            }
+            Some("p") => changed.points += 1,
+            Some("l") => changed.polylines += 1,
+            _ => {}
+        }
+        out.push('\n');
+    }
+    (libraries + &out, changed)
 }
 
 /// The MTL libraries the OBJ file `full` names (`mtllib`, relative to the OBJ file), each read
@@ -420,6 +515,10 @@ fn mtl_libraries(
         libraries.push((name.clone(), lib));
     }
     for (line, name) in &scan.usemtls {
+        if name.is_empty() {
+            let msg = format!("OBJ file '{shown}', line {line}: usemtl needs a material name");
+            return Err(at.err(cx, msg));
+        }
         if !libraries.iter().any(|(_, l)| l.lines_of(name).is_some()) {
             let known = match libraries.len() {
                 0 => "the file names no MTL library (mtllib)".to_string(),
@@ -439,21 +538,33 @@ fn mtl_libraries(
     Ok(libraries)
 }
 
-/// tobj's triangulated models of the OBJ text, and its MTL library when `read_mtl` (the
-/// `libraries` read by [`mtl_libraries`]; without `read_mtl` the loader refuses every library:
-/// the scene file assigns the material).
+/// tobj's triangulated models of the OBJ text ([`for_tobj`] rewrites it first; one model with
+/// `one_model`), and its MTL library when `read_mtl` (the `libraries` read by
+/// [`mtl_libraries`]; without `read_mtl` the file's libraries are not read: the scene file
+/// assigns the material).
 fn parse_obj(
     cx: &mut Cx,
     at: &At,
     text: &str,
-    read_mtl: bool,
+    (read_mtl, one_model): (bool, bool),
     libraries: &[(String, MtlLibrary)],
 ) -> Result<(Vec<tobj::Model>, Vec<tobj::Material>), SceneError> {
     let shown = at.shown;
-    let (text, points, polylines) = without_points_and_lines(text);
+    let (text, changed) = for_tobj(text, read_mtl, one_model);
+    let (points, polylines) = (changed.points, changed.polylines);
     if points + polylines > 0 {
         at.warn(cx, format!(
             "OBJ file '{shown}': {points} point and {polylines} line element(s) ('p', 'l') ignored: only faces ('f') are surfaces"
+        ));
+    }
+    if let Some((line, w)) = &changed.first_weight {
+        let more = match changed.weights {
+            1 => String::new(),
+            n => format!(" (and on {} more lines)", n - 1),
+        };
+        at.warn(cx, format!(
+            "OBJ file '{shown}', line {line}: the vertex weight w = {}{more} is ignored: a vertex is x y z as written, as Mitsuba 3 and Blender read it (w weights rational curves and surfaces)",
+            crate::errors::excerpt(w)
         ));
     }
     let opts = tobj::LoadOptions {
@@ -499,7 +610,7 @@ fn obj_face(
     model: &tobj::Model,
     (t, face): (usize, &[u32]),
     xf: &Transform,
-    (has_n, has_uv): (bool, bool),
+    (has_n, has_uv, computed): (bool, bool, Option<&[Vec3]>),
 ) -> Result<([Vec3; 3], Option<[Vec3; 3]>, Option<[Vec2; 3]>), SceneError> {
     let (m, shown, name) = (&model.mesh, at.shown, &model.name);
     let mut v = [Vec3::ZERO; 3];
@@ -524,7 +635,9 @@ fn obj_face(
             );
             return Err(at.err(cx, msg));
         }
-        if has_n {
+        if let Some(c) = computed {
+            n[j] = c[i];
+        } else if has_n {
             n[j] = xf.normal(Vec3::from_slice(&m.normals[3 * i..3 * i + 3]));
         }
         if has_uv {
@@ -537,6 +650,14 @@ fn obj_face(
         let msg = format!("OBJ file '{shown}', object '{name}', triangle {t}: {msg}");
         return Err(at.err(cx, msg));
     }
+    if computed.is_some() {
+        // A vertex whose faces cancel takes this face's normal.
+        let face = crate::robust::triangle_normal(&v);
+        for x in n.iter_mut().filter(|x| **x == Vec3::ZERO) {
+            *x = face;
+        }
+    }
+    let has_n = has_n || computed.is_some();
     Ok((v, has_n.then_some(n), has_uv.then_some(uv)))
 }
 

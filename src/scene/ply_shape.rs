@@ -4,7 +4,9 @@
 //! normals that are zero or not finite dropped, normals opposite to the winding counted.
 
 use super::error::SceneError;
-use super::geometry::{edge_overflow, mesh_path, FaceRules, Transform, TriangleSink};
+use super::geometry::{
+    edge_overflow, mesh_path, vertex_normals, FaceRules, Transform, TriangleSink,
+};
 use super::obj::ObjShape;
 use super::spanned::{Cx, Sp};
 use glam::Vec3;
@@ -43,19 +45,32 @@ pub(super) fn ply_triangles(
         }
         positions.push(q);
     }
-    let normals: Option<Vec<Vec3>> = mesh
+    let mut normals: Option<Vec<Vec3>> = mesh
         .normals
         .as_ref()
         .map(|n| n.iter().map(|&n| xf.normal(n)).collect());
-
     let mut rules = FaceRules::new(shape.sides, shape.flip);
+    let computed = normals.is_none() && shape.smooth;
+    if computed {
+        // Smooth normals of the file's vertices, from the placed ones.
+        let indices: Vec<u32> = mesh.triangles().flatten().collect();
+        normals = Some(vertex_normals(&positions, &indices));
+        rules.computed_normals(true);
+    }
+
     for (t, idx) in mesh.triangles().enumerate() {
         let [a, b, c] = idx.map(|i| i as usize);
         let v = [positions[a], positions[b], positions[c]];
         if let Some(msg) = edge_overflow(&v) {
             return Err(cx.err(span, fp, format!("PLY file '{shown}', triangle {t}: {msg}")));
         }
-        let n = normals.as_ref().map(|ns| [ns[a], ns[b], ns[c]]);
+        let n = normals.as_ref().map(|ns| {
+            // (A computed normal is zero where the vertex's faces cancel: the face's is used.)
+            [ns[a], ns[b], ns[c]].map(|x| match x == Vec3::ZERO && computed {
+                true => crate::robust::triangle_normal(&v),
+                false => x,
+            })
+        });
         let uv = mesh.uvs.as_ref().map(|u| [u[a], u[b], u[c]]);
         if let Some(face) = rules.face(v, n, uv, shape.material, shape.emitter) {
             out.push(face);

@@ -111,11 +111,11 @@ pub(super) struct RawShape {
     /// as written, taken bit for bit ([`super::geometry::Transform::AsWritten`]).
     #[serde(skip)]
     pub(super) as_written: bool,
-    /// Set by the Mitsuba reader for `obj` and `ply` shapes: a mesh without vertex normals
-    /// (and without `face_normals`) is shaded with smooth ones, as Mitsuba does
-    /// ([`super::geometry::smooth_vertex_normals`]).
+    /// Set by the Mitsuba reader for `obj` and `ply` shapes, which then follow Mitsuba's
+    /// rules: a mesh without vertex normals (and without `face_normals`) is shaded with smooth
+    /// ones ([`super::geometry::vertex_normals`]), and an OBJ file's MTL materials are not read.
     #[serde(skip)]
-    pub(super) smooth_if_no_normals: bool,
+    pub(super) mitsuba_mesh: bool,
     /// Which side of the shape's surfaces is the front (set by the Mitsuba reader; TOML scenes
     /// keep the default, the winding).
     #[serde(skip)]

@@ -70,12 +70,13 @@ fn area_emitter(cx: &Cx, emitters: &[&El]) -> Result<Option<Sp<Triple>>, SceneEr
         [] => Ok(None),
         [e] if e.attr("type") == Some("area") => {
             let mut ep = Props::new(cx, e)?;
-            let Some(r) = ep.take("radiance") else {
-                return Err(cx.el_err(e, "<emitter type=\"area\"> needs a radiance"));
-            };
-            let c = Sp {
-                span: Some(r.span.clone()),
-                value: Triple(cx.emission_of(r)?),
+            // Mitsuba's default radiance is 1 (grey, as a <float>).
+            let c = match ep.take("radiance") {
+                Some(r) => Sp {
+                    span: Some(r.span.clone()),
+                    value: Triple(cx.emission_of(r)?),
+                },
+                None => sp(e, Triple([1.0; 3])),
             };
             ep.finish(cx, "radiance")?;
             Ok(Some(c))
@@ -114,7 +115,7 @@ fn geometry(
             }
             // Mitsuba gives a mesh without normals smooth ones (unless face_normals), and shades
             // by the normals: their side is the front.
-            raw.smooth_if_no_normals = true;
+            raw.mitsuba_mesh = true;
             raw.sides = Sides::ByNormals;
             // flip_normals turns the mesh over: its winding and its normals.
             raw.flip_mesh = flip;
