@@ -369,7 +369,7 @@ impl Provenance {
 }
 
 /// Checks every part's size against the film limit before anything is allocated.
-fn check_headers(path: &Path) -> Result<(), ImageError> {
+fn check_headers(path: &Path) -> Result<exr::meta::MetaData, ImageError> {
     let meta = exr::meta::MetaData::read_from_buffered(BufReader::new(open(path)?), false)
         .map_err(|source| ImageError::Exr {
             path: path.to_path_buf(),
@@ -379,32 +379,79 @@ fn check_headers(path: &Path) -> Result<(), ImageError> {
         let size = header.layer_size;
         check_size(path, size.width() as u64, size.height() as u64)?;
     }
-    Ok(())
+    Ok(meta)
 }
 
+/// An EXR file's colour image: its first part with `R`, `G` and `B` channels, else its first
+/// with a luminance channel `Y` as grey (as Mitsuba 3 reads both).
 pub(super) fn read_exr(path: &Path) -> Result<Image, ImageError> {
-    use exr::prelude::ReadChannels;
-    use exr::prelude::ReadLayers;
+    use exr::prelude::{ReadChannels, ReadLayers, ReadSpecificChannel};
     // The headers first: the reader below allocates the image from the data window.
-    check_headers(path)?;
-    let file = open(path)?;
+    let meta = check_headers(path)?;
+    let has =
+        |h: &exr::meta::header::Header, name: &str| h.channels.list.iter().any(|c| c.name.eq(name));
+    let rgb = meta
+        .headers
+        .iter()
+        .any(|h| ["R", "G", "B"].iter().all(|c| has(h, c)));
+    let exr_error = |source| ImageError::Exr {
+        path: path.to_path_buf(),
+        source,
+    };
+    fn new(size: exr::math::Vec2<usize>) -> Image {
+        Image::new(size.width() as u32, size.height() as u32)
+    }
+    fn at(img: &Image, pos: exr::math::Vec2<usize>) -> usize {
+        pos.y() * img.width as usize + pos.x()
+    }
+    let reader = BufReader::new(open(path)?);
+    if rgb {
+        let exr_img = exr::prelude::read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .rgba_channels(
+                |size, _| new(size),
+                |img: &mut Image, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                    let i = at(img, pos);
+                    img.data[i] = [r, g, b];
+                },
+            )
+            .first_valid_layer()
+            .all_attributes()
+            .from_buffered(reader)
+            .map_err(exr_error)?;
+        return Ok(exr_img.layer_data.channel_data.pixels);
+    }
+    if !meta.headers.iter().any(|h| has(h, "Y")) {
+        let names: Vec<String> = meta
+            .headers
+            .iter()
+            .flat_map(|h| h.channels.list.iter().map(|c| c.name.to_string()))
+            .collect();
+        return Err(ImageError::InvalidImage {
+            path: path.to_path_buf(),
+            reason: format!(
+                "it has no R, G, B channels and no Y (luminance) channel, only: {}",
+                crate::errors::excerpt(&names.join(", "))
+            ),
+        });
+    }
     let exr_img = exr::prelude::read()
         .no_deep_data()
         .largest_resolution_level()
-        .rgba_channels(
-            |size, _| Image::new(size.width() as u32, size.height() as u32),
-            |img: &mut Image, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-                let i = pos.y() * img.width as usize + pos.x();
-                img.data[i] = [r, g, b];
+        .specific_channels()
+        .required("Y")
+        .collect_pixels(
+            |size, _| new(size),
+            |img: &mut Image, pos, (y,): (f32,)| {
+                let i = at(img, pos);
+                img.data[i] = [y; 3];
             },
         )
         .first_valid_layer()
         .all_attributes()
-        .from_buffered(BufReader::new(file))
-        .map_err(|source| ImageError::Exr {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        .from_buffered(reader)
+        .map_err(exr_error)?;
     Ok(exr_img.layer_data.channel_data.pixels)
 }
 

@@ -89,8 +89,24 @@ fn read_hdr(path: &Path) -> Result<Image, ImageError> {
         path: path.to_path_buf(),
         reason: format!("Radiance HDR error: {source}"),
     };
+    // A Radiance file opens with "#?" and the name of the program that wrote it: "#?RADIANCE",
+    // "#?RGBE" (Mitsuba and others). The decoder's strict mode knows only the first; checked
+    // here, and the line then read as a comment.
+    let mut reader = BufReader::new(open(path)?);
+    let head = std::io::BufRead::fill_buf(&mut reader).map_err(|source| ImageError::Io {
+        path: path.to_path_buf(),
+        what: "cannot read",
+        source,
+    })?;
+    if !head.starts_with(b"#?") {
+        return Err(ImageError::InvalidImage {
+            path: path.to_path_buf(),
+            reason: "not a Radiance HDR file: it does not begin with '#?' (as in #?RADIANCE)"
+                .into(),
+        });
+    }
     let decoder =
-        image::codecs::hdr::HdrDecoder::new(BufReader::new(open(path)?)).map_err(hdr_error)?;
+        image::codecs::hdr::HdrDecoder::with_strictness(reader, false).map_err(hdr_error)?;
     let (w, h) = decoder.dimensions();
     check_size(path, w as u64, h as u64)?;
     let rgb = image::DynamicImage::from_decoder(decoder)
