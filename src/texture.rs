@@ -3,11 +3,12 @@
 //! (independent code, the same conventions and arithmetic): `shaders/texture.glsl`. How a model
 //! takes the values is `crate::brdf::textured`.
 //!
-//! **Values.** Read once, when the scene loads, into what the parameter means: a colour
-//! parameter decodes the sRGB curve of a PNG (8 or 16 bits) unless `raw = true`, and takes an
-//! EXR, HDR or PFM as linear; a scalar parameter takes the values as stored (a PNG's codes c/255,
-//! never decoded) and reduces a colour image to its luminance (Rec. 709), as Mitsuba 3's
-//! `eval_1` does. Every value is then clamped into the parameter's range (a NaN to its lower
+//! **Values.** Read once, when the scene loads, into what the parameter means: a PNG (8 or 16
+//! bits) has its sRGB curve decoded unless `raw`, which is `false` by default on a colour
+//! parameter and `true` on a scalar one (a PNG's codes c/255 as stored: a roughness map's
+//! numbers); EXR, HDR and PFM are linear. A scalar parameter reduces a colour image to its
+//! luminance (Rec. 709), as Mitsuba 3's `eval_1` does (Mitsuba decodes unless `raw` on both
+//! kinds: its reader sets `raw` as Mitsuba's default). Every value is then clamped into the parameter's range (a NaN to its lower
 //! end), and the clamped texels are counted in one warning per texture.
 //!
 //! **Lookup** (Mitsuba 3's `bitmap` conventions, so that its scenes render alike): (u, v) is first
@@ -163,9 +164,9 @@ pub struct ParamTexture {
 
 impl Texture {
     /// The texture of `pixels` (`width` × `height`, row 0 at the top, as stored) for parameter
-    /// `param`: decoded when `srgb` (a PNG's codes read by a colour parameter that is not
-    /// `raw`), reduced to luminance for a scalar parameter, clamped into the parameter's
-    /// range. Returns it and how many texels were clamped (a NaN counts).
+    /// `param`: decoded when `srgb` (a PNG's codes) and not `raw`, reduced to luminance for a
+    /// scalar parameter, clamped into the parameter's range. Returns it and how many texels
+    /// were clamped (a NaN counts).
     #[allow(clippy::too_many_arguments)]
     pub fn for_param(
         path: PathBuf,
@@ -188,14 +189,14 @@ impl Texture {
         let texels = pixels
             .iter()
             .map(|p| {
+                let decoded = match srgb && !raw {
+                    true => p.map(crate::imageio::srgb_to_linear),
+                    false => *p,
+                };
                 if colour {
-                    let decoded = match srgb && !raw {
-                        true => p.map(crate::imageio::srgb_to_linear),
-                        false => *p,
-                    };
                     decoded.map(&mut clamp)
                 } else {
-                    let l = crate::lights::luminance(Vec3::from_array(*p));
+                    let l = crate::lights::luminance(Vec3::from_array(decoded));
                     [clamp(l); 3]
                 }
             })

@@ -289,6 +289,184 @@ fn mirroring_transforms_keep_mitsubas_front_sides() {
     }
 }
 
+/// A mesh without normals gets Mitsuba's smooth normals at each vertex of the file: a cube whose
+/// faces share their eight corners (even across `o` and `g` groups) is smooth, one whose faces
+/// each have their own four vertices at the same corners is flat, in OBJ and in PLY;
+/// `face_normals` keeps it flat, and a TOML scene, which does not smooth, too.
+#[test]
+fn meshes_without_normals_are_smoothed_per_vertex_of_the_file() {
+    let corners =
+        "v -1 -1 -1\nv 1 -1 -1\nv -1 1 -1\nv 1 1 -1\nv -1 -1 1\nv 1 -1 1\nv -1 1 1\nv 1 1 1\n";
+    let quads = [
+        [1, 3, 4, 2],
+        [5, 6, 8, 7],
+        [1, 2, 6, 5],
+        [3, 7, 8, 4],
+        [1, 5, 7, 3],
+        [2, 4, 8, 6],
+    ];
+    let position = |i: usize| {
+        let i = i - 1;
+        Vec3::new(
+            [-1.0, 1.0][i & 1],
+            [-1.0, 1.0][(i >> 1) & 1],
+            [-1.0, 1.0][(i >> 2) & 1],
+        )
+    };
+    let welded: String = quads
+        .iter()
+        .map(|q| format!("f {} {} {} {}\n", q[0], q[1], q[2], q[3]))
+        .collect();
+    let grouped: String = quads
+        .iter()
+        .enumerate()
+        .map(|(k, q)| {
+            let kw = ["o", "g"][k % 2];
+            format!("{kw} side{k}\nf {} {} {} {}\n", q[0], q[1], q[2], q[3])
+        })
+        .collect();
+    let mut unwelded = String::new();
+    for (k, q) in quads.iter().enumerate() {
+        for &i in q {
+            let p = position(i);
+            unwelded += &format!("v {} {} {}\n", p.x, p.y, p.z);
+        }
+        let b = 4 * k;
+        unwelded += &format!("f {} {} {} {}\n", b + 1, b + 2, b + 3, b + 4);
+    }
+    let ply = |vertices: &[Vec3], faces: &[[usize; 4]]| {
+        let mut t = format!(
+            "ply\nformat ascii 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+            vertices.len(),
+            faces.len()
+        );
+        for v in vertices {
+            t += &format!("{} {} {}\n", v.x, v.y, v.z);
+        }
+        for f in faces {
+            t += &format!("4 {} {} {} {}\n", f[0], f[1], f[2], f[3]);
+        }
+        t
+    };
+    let eight: Vec<Vec3> = (1..=8).map(position).collect();
+    let zero_based: Vec<[usize; 4]> = quads.iter().map(|q| q.map(|i| i - 1)).collect();
+    let spread: Vec<Vec3> = quads.iter().flatten().map(|&i| position(i)).collect();
+    let own: Vec<[usize; 4]> = (0..6)
+        .map(|k| [4 * k, 4 * k + 1, 4 * k + 2, 4 * k + 3])
+        .collect();
+
+    let d = tempfile::tempdir().unwrap();
+    write(d.path(), "welded.obj", &format!("{corners}{welded}"));
+    write(d.path(), "grouped.obj", &format!("{corners}{grouped}"));
+    write(d.path(), "unwelded.obj", &unwelded);
+    write(d.path(), "welded.ply", &ply(&eight, &zero_based));
+    write(d.path(), "unwelded.ply", &ply(&spread, &own));
+    let shape = |file: &str, extra: &str| {
+        let kind = &file[file.len() - 3..];
+        let main = write(
+            d.path(),
+            "s.xml",
+            &xml(&format!(
+                r#"<shape type="{kind}"><string name="filename" value="{file}"/>{extra}</shape>"#
+            )),
+        );
+        load(&main).unwrap()
+    };
+    for (file, smooth) in [
+        ("welded.obj", true),
+        ("grouped.obj", true),
+        ("unwelded.obj", false),
+        ("welded.ply", true),
+        ("unwelded.ply", false),
+    ] {
+        let s = shape(file, "");
+        assert_eq!(s.triangles.len(), 12, "{file}");
+        for (k, t) in s.triangles.iter().enumerate() {
+            let n = s.attributes_of(k).n.expect("smooth normals");
+            let face = t.geometric_normal();
+            for (v, n) in t.v.iter().zip(n) {
+                let want = if smooth { *v / 3f32.sqrt() } else { face };
+                assert!(
+                    (n - want).length() < 1e-5,
+                    "{file}: triangle {k}: {n} at {v}, want {want}"
+                );
+            }
+        }
+        let flat = shape(file, r#"<boolean name="face_normals" value="true"/>"#);
+        assert!(
+            (0..12).all(|k| flat.attributes_of(k).n.is_none()),
+            "{file}: face_normals"
+        );
+    }
+    // A TOML scene shades a mesh without normals flat.
+    let main = write(
+        d.path(),
+        "s.toml",
+        "[camera]\nposition = [0, 0, -5]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_y = 40\n[film]\nwidth = 8\nheight = 8\n[materials.m]\nmodel = \"lambert\"\nalbedo = 0.5\n[[shapes]]\nobj = \"welded.obj\"\nmaterial = \"m\"\n",
+    );
+    let s = load(&main).unwrap();
+    assert!((0..12).all(|k| s.attributes_of(k).n.is_none()));
+}
+
+/// A bitmap's `to_uv` is rows and columns 0, 1 and 3 of its 4×4 transform, as Mitsuba takes it:
+/// a 3×3 `<matrix>` is the 4×4's linear part, so its third column moves nothing (with a
+/// warning), and a `<translate>` after it does.
+#[test]
+fn bitmap_to_uv_is_the_2d_part_of_the_transform() {
+    let d = tempfile::tempdir().unwrap();
+    image::RgbImage::from_pixel(2, 2, image::Rgb([200, 100, 50]))
+        .save(d.path().join("t.png"))
+        .unwrap();
+    let map = |steps: &str| {
+        let main = write(
+            d.path(),
+            "s.xml",
+            &xml(&format!(
+                r#"<shape type="sphere"><bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="t.png"/><transform name="to_uv">{steps}</transform></texture></bsdf></shape>"#
+            )),
+        );
+        let s = load(&main).unwrap();
+        (s.materials[0].textures[0].texture.to_uv, s.warnings)
+    };
+    let m3 = r#"<matrix value="1.5 0.5 0.2 -0.3 1.2 0.1 0 0 1"/>"#;
+    let (uv, warnings) = map(m3);
+    assert_eq!(uv, [[1.5, 0.5, 0.0], [-0.3, 1.2, 0.0]]);
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.contains("to_uv: the map's z column (0.2, 0.1) is dropped")),
+        "{warnings:?}"
+    );
+    let (uv, warnings) = map(&format!(r#"{m3}<translate x="0.25" y="0.5"/>"#));
+    assert_eq!(uv, [[1.5, 0.5, 0.25], [-0.3, 1.2, 0.5]]);
+    let (uv, warnings) = map(r#"<scale x="2" y="3"/><translate x="0.25"/>"#);
+    assert_eq!(uv, [[2.0, 0.0, 0.25], [0.0, 3.0, 0.0]]);
+    assert!(
+        !warnings.iter().any(|w| w.contains("to_uv")),
+        "{warnings:?}"
+    );
+}
+
+/// Emitters without their radiance, intensity or irradiance emit Mitsuba's default, 1 (grey).
+#[test]
+fn emitters_default_to_mitsubas_unit_radiance() {
+    let s = load_str(
+        &format!(
+            "<scene version=\"3.0.0\">{}<emitter type=\"constant\"/><shape type=\"rectangle\"><emitter type=\"area\"/></shape><emitter type=\"point\"/></scene>",
+            SENSOR.split("<emitter").next().unwrap()
+        ),
+        Path::new("dir/s.xml"),
+    )
+    .unwrap();
+    assert_eq!(s.environment, Vec3::ONE);
+    assert_eq!(s.emitters.len(), 1);
+    assert_eq!(s.emitters[0].radiance, Vec3::ONE);
+    assert!(matches!(
+        s.lights[..],
+        [brdfwave::scene::DeltaLight::Point { intensity, .. }] if intensity == Vec3::ONE
+    ));
+}
+
 /// Mitsuba's texture coordinates on its own shapes: the rectangle's ((x + 1)/2, (y + 1)/2)
 /// with or without `flip_normals`, the disk's (r, φ/2π), and each cube face onto [0, 1]².
 #[test]

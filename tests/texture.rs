@@ -405,3 +405,109 @@ fn obj_texture_coordinates_run_down_the_image() {
         [[0.25, 0.875], [0.75, 0.875], [0.25, 0.0]]
     );
 }
+
+/// A PNG on a number parameter is read as stored (a roughness map's numbers) unless
+/// `raw = false`, which decodes the sRGB curve as a colour parameter does by default; a Mitsuba
+/// scene's bitmap decodes unless `raw = true` on either kind, as Mitsuba does.
+#[test]
+fn png_numbers_are_as_stored_unless_raw_is_false() {
+    let dir = tempfile::tempdir().unwrap();
+    write_common(dir.path());
+    image::GrayImage::from_raw(2, 1, vec![128, 64])
+        .unwrap()
+        .save(dir.path().join("rough.png"))
+        .unwrap();
+    let stored = [128.0 / 255.0, 64.0 / 255.0];
+    let decoded = stored.map(imageio::srgb_to_linear);
+    let first_texture = |s: &Scene| {
+        let t = &s.materials[0].textures[0].texture;
+        [t.texels[0][0], t.texels[1][0]]
+    };
+    for (raw, want) in [
+        ("", stored),
+        (", raw = true", stored),
+        (", raw = false", decoded),
+    ] {
+        let m = format!(
+            "model = \"ward\"\nkd = 0.5\nks = 0.3\nalpha_x = {{ texture = \"rough.png\"{raw} }}"
+        );
+        let s = load(dir.path(), &scene_text(&m));
+        let got = first_texture(&s);
+        for (g, w) in got.iter().zip(want) {
+            assert!((g - w).abs() < 1e-6, "TOML{raw}: {got:?}, want {want:?}");
+        }
+    }
+    for (raw, want) in [
+        ("", decoded),
+        ("<boolean name=\"raw\" value=\"true\"/>", stored),
+    ] {
+        let xml = format!(
+            "<scene version=\"3.0.0\"><sensor type=\"perspective\"><film type=\"hdrfilm\"><integer name=\"width\" value=\"8\"/><integer name=\"height\" value=\"8\"/></film></sensor>\
+             <emitter type=\"constant\"/><shape type=\"sphere\"><bsdf type=\"roughconductor\"><texture type=\"bitmap\" name=\"alpha\">\
+             <string name=\"filename\" value=\"rough.png\"/>{raw}</texture></bsdf></shape></scene>"
+        );
+        let path = dir.path().join("s.xml");
+        std::fs::write(&path, xml).unwrap();
+        let s = scene::load(&path).unwrap();
+        let got = first_texture(&s);
+        for (g, w) in got.iter().zip(want) {
+            assert!((g - w).abs() < 1e-6, "XML {raw}: {got:?}, want {want:?}");
+        }
+    }
+}
+
+/// Radiance files open with "#?" and their writer's name: `#?RGBE` (Mitsuba's) reads as
+/// `#?RADIANCE` does; a file without the "#?" is refused. An EXR of one luminance channel `Y`
+/// is a grey image.
+#[test]
+fn radiance_files_of_every_writer_and_grey_exrs_are_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let img = Image::from_fn(3, 2, |x, y| {
+        [0.25 * (x + 1) as f32, 0.5 * (y + 1) as f32, 0.125]
+    });
+    let radiance = dir.path().join("radiance.hdr");
+    imageio::write_hdr(&radiance, &img).unwrap();
+    let bytes = std::fs::read(&radiance).unwrap();
+    assert!(bytes.starts_with(b"#?RADIANCE\n"));
+    let rgbe = dir.path().join("rgbe.hdr");
+    std::fs::write(&rgbe, [b"#?RGBE\n", &bytes[11..]].concat()).unwrap();
+    let a = imageio::read_stored(&radiance).unwrap().image;
+    let b = imageio::read_stored(&rgbe).unwrap().image;
+    assert_eq!(a.data, b.data);
+    assert_eq!(a.data, img.data, "exact in RGBE");
+    let bare = dir.path().join("bare.hdr");
+    std::fs::write(&bare, &bytes[11..]).unwrap();
+    let e = imageio::read_stored(&bare).unwrap_err().to_string();
+    assert!(
+        e.contains("bare.hdr") && e.contains("does not begin with '#?'"),
+        "{e}"
+    );
+
+    let grey = dir.path().join("grey.exr");
+    let xz = dir.path().join("xz.exr");
+    {
+        use exr::prelude::{SpecificChannels, Vec2, WritableImage};
+        let channels = SpecificChannels::build()
+            .with_channel("Y")
+            .with_pixel_fn(|p: Vec2<usize>| (0.25 * (p.x() + 2 * p.y()) as f32,));
+        exr::prelude::Image::from_channels((2, 2), channels)
+            .write()
+            .to_file(&grey)
+            .unwrap();
+        let channels = SpecificChannels::build()
+            .with_channel("X")
+            .with_channel("Z")
+            .with_pixel_fn(|_: Vec2<usize>| (1.0f32, 2.0f32));
+        exr::prelude::Image::from_channels((2, 2), channels)
+            .write()
+            .to_file(&xz)
+            .unwrap();
+    }
+    let g = imageio::read_stored(&grey).unwrap().image;
+    assert_eq!(g.data, [[0.0; 3], [0.25; 3], [0.5; 3], [0.75; 3]]);
+    let e = imageio::read_stored(&xz).unwrap_err().to_string();
+    assert!(
+        e.contains("no R, G, B channels and no Y") && e.contains("X, Z"),
+        "{e}"
+    );
+}

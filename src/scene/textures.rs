@@ -133,8 +133,10 @@ fn texture(
             ))
         }
     };
+    let colour = matches!(param.kind, Kind::Rgb(_));
+    // By default a colour decodes an sRGB image and a number takes the values as stored.
     let raw = match spec.get("raw") {
-        None => false,
+        None => !colour,
         Some(Value::Boolean(b)) => *b,
         Some(other) => return Err(err(cx, format!("'raw' is true or false, found {other}"))),
     };
@@ -169,7 +171,6 @@ fn texture(
             s
         }
     };
-    let colour = matches!(param.kind, Kind::Rgb(_));
     let (lo, hi) = param.texture_range();
     let key = format!(
         "{}|{raw}|{colour}|{lo:?}|{hi:?}|{filter:?}|{wrap:?}|{to_uv:?}",

@@ -227,6 +227,7 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
     let mut saw_integrator: Option<&El> = None;
     unique_ids(cx, top)?;
     super::values::rotate_axis_warnings(cx, top);
+    super::values::to_uv_warnings(cx, top);
     // The top-level BSDFs first, in their order: a shape may refer to one defined after it, as
     // Mitsuba allows.
     for el in top.iter().filter(|el| el.tag == "bsdf") {
@@ -272,10 +273,11 @@ pub(super) fn scene(cx: &mut Cx, top: &[El]) -> Result<RawScene, SceneError> {
                     ));
                 }
                 let mut p = Props::new(cx, el)?;
-                let Some(r) = p.take("radiance") else {
-                    return Err(cx.el_err(el, "<emitter type=\"constant\"> needs a radiance"));
+                // Mitsuba's default radiance is 1 (grey, as a <float>).
+                let radiance = match p.take("radiance") {
+                    Some(r) => sp(r, Triple(cx.emission_of(r)?)),
+                    None => sp(el, Triple([1.0; 3])),
                 };
-                let radiance = sp(r, Triple(cx.emission_of(r)?));
                 p.finish(cx, "radiance")?;
                 environment = Some(RawEnvironment {
                     radiance: Some(radiance),
@@ -559,7 +561,7 @@ pub(super) fn bsdf(
 /// A `<texture type="bitmap">` parameter → the TOML texture table (`kd = { texture = … }`):
 /// `filename` (relative to the file that names it), `raw`, `filter_type` (`bilinear`,
 /// `nearest`), `wrap_mode` (`repeat`, `mirror`, `clamp`) and `to_uv` (its 2-D part, as Mitsuba
-/// takes it: a 3×3 matrix as written, else rows and columns 0, 1 and 3 of the 4×4 transform).
+/// takes it: rows and columns 0, 1 and 3 of the 4×4 transform).
 /// The assembly reads the image and checks the values (`crate::scene::textures`).
 fn texture_value(cx: &Cx, el: &El) -> Result<Sp<Value>, SceneError> {
     if el.attr("type") != Some("bitmap") {
@@ -573,9 +575,13 @@ fn texture_value(cx: &Cx, el: &El) -> Result<Sp<Value>, SceneError> {
     let mut t = toml::map::Map::new();
     let file = f.dir.join(cx.string(f)?);
     t.insert("texture".into(), Value::String(file.display().to_string()));
-    if let Some(r) = p.take("raw") {
-        t.insert("raw".into(), Value::Boolean(cx.bool_of(r)?));
-    }
+    // Always given: Mitsuba decodes an sRGB image unless `raw`, on a number parameter too,
+    // where a texture table's default is the values as stored.
+    let raw = match p.take("raw") {
+        Some(r) => cx.bool_of(r)?,
+        None => false,
+    };
+    t.insert("raw".into(), Value::Boolean(raw));
     if let Some(x) = p.take("filter_type") {
         t.insert("filter".into(), Value::String(cx.string(x)?.to_string()));
     }
@@ -583,17 +589,10 @@ fn texture_value(cx: &Cx, el: &El) -> Result<Sp<Value>, SceneError> {
         t.insert("wrap".into(), Value::String(cx.string(x)?.to_string()));
     }
     if let Some(x) = p.take("to_uv") {
-        let rows = match x.children.as_slice() {
-            [m] if m.tag == "matrix" && cx.numbers(m, cx.attr(m, "value")?)?.len() == 9 => {
-                let v = cx.numbers(m, cx.attr(m, "value")?)?;
-                [[v[0], v[1], v[2]], [v[3], v[4], v[5]]]
-            }
-            _ => {
-                let m = to_world(cx, x)?.m;
-                let r = rows(&m);
-                [[r[0][0], r[0][1], r[0][3]], [r[1][0], r[1][1], r[1][3]]]
-            }
-        };
+        // (A 3×3 `<matrix>` is the linear part of the 4×4, as Mitsuba reads it: its third
+        // column is no (u, v) offset; `to_uv_warnings` says so.)
+        let r = rows(&to_world(cx, x)?.m);
+        let rows = [[r[0][0], r[0][1], r[0][3]], [r[1][0], r[1][1], r[1][3]]];
         let row = |r: [f64; 3]| Value::Array(r.iter().map(|v| Value::Float(*v)).collect());
         let mut m = toml::map::Map::new();
         m.insert(
@@ -824,7 +823,7 @@ pub(super) fn raw_shape(el: &El, material: Sp<String>) -> RawShape {
         face_normals: None,
         transform: None,
         as_written: false,
-        smooth_if_no_normals: false,
+        mitsuba_mesh: false,
         sides: crate::scene::schema::Sides::Winding,
         triangle_uvs: None,
         flip_mesh: false,

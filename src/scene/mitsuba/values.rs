@@ -98,6 +98,30 @@ pub(super) struct ToWorld {
     pub(super) lookat: Option<[[f64; 3]; 3]>,
 }
 
+/// A warning for each `to_uv` under `els` that maps z into u or v: a texture's map is rows and
+/// columns 0, 1 and 3 of the 4×4 transform, as Mitsuba 3 takes it, so column 2 is dropped. The
+/// common case is a 3×3 `<matrix>` written as a 2-D homogeneous map, whose third column a
+/// reader would take for a (u, v) offset: Mitsuba 3 reads it as the linear part of a 3-D
+/// transform, and so does brdfwave. Transforms it cannot read are left to `to_world`'s errors.
+pub(super) fn to_uv_warnings(cx: &mut Cx, els: &[El]) {
+    for el in els {
+        if el.tag == "transform" && el.attr("name") == Some("to_uv") {
+            if let Ok(t) = to_world(cx, el) {
+                let r = rows(&t.m);
+                if r[0][2] != 0.0 || r[1][2] != 0.0 {
+                    let msg = format!(
+                        "to_uv: the map's z column ({}, {}) is dropped, as Mitsuba 3 drops it: (u, v) maps by rows and columns 0, 1 and 3 of the 4×4 transform, and a 3×3 <matrix> is its linear part, so its third column does not move (u, v); a <translate> does",
+                        r[0][2] as f32,
+                        r[1][2] as f32
+                    );
+                    cx.warn(Some(el.span.clone()), &el.path, msg);
+                }
+            }
+        }
+        to_uv_warnings(cx, &el.children);
+    }
+}
+
 /// A warning for each `<rotate>` under `els` whose axis is not of unit length (off by more than
 /// 1e-3, a stretch an image could show). Mitsuba 3 puts the axis as written into Rodrigues'
 /// formula, so such a "rotation" also stretches what it turns; [`to_world`] does as Mitsuba 3
