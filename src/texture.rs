@@ -126,8 +126,8 @@ pub const TABLE_FIELDS: &[TableField] = &[
     TableField {
         name: "raw",
         kind: "boolean",
-        default: "`false`",
-        meaning: "a colour parameter takes a PNG's values as stored instead of decoding the sRGB curve (a number parameter always does)",
+        default: "`false` on a colour parameter, `true` on a number",
+        meaning: "take a PNG's values as stored instead of decoding the sRGB curve",
     },
     TableField {
         name: "filter",
@@ -417,22 +417,28 @@ mod tests {
         assert!((t.texels[0][0] - crate::imageio::srgb_to_linear(0.5)).abs() < 1e-7);
         assert_eq!(t.texels[1], [1.0, 0.0, 0.0]);
         assert_eq!(n, 3);
+        // A scalar parameter: the codes as stored when raw (its default), else decoded; a
+        // colour is reduced to its luminance.
         const S: Param = Param::scalar("r", "", 0.2, (0.0, 1.0), "");
-        let (t, n) = Texture::for_param(
-            "t".into(),
-            false,
-            (1, 1, &px[..1]),
-            true,
-            &S,
-            Filter::Bilinear,
-            Wrap::Repeat,
-            IDENTITY_UV,
-        );
-        assert_eq!(
-            (t.texels[0], n),
-            ([0.5; 3], 0),
-            "a scalar reads the codes, undecoded"
-        );
+        let scalar = |raw: bool, px: &[[f32; 3]]| {
+            Texture::for_param(
+                "t".into(),
+                raw,
+                (1, 1, px),
+                true,
+                &S,
+                Filter::Bilinear,
+                Wrap::Repeat,
+                IDENTITY_UV,
+            )
+        };
+        let (t, n) = scalar(true, &px[..1]);
+        assert_eq!((t.texels[0], n), ([0.5; 3], 0), "raw: the codes");
+        let (t, _) = scalar(false, &px[..1]);
+        assert_eq!(t.texels[0], [crate::imageio::srgb_to_linear(0.5); 3]);
+        let (t, _) = scalar(true, &[[0.2, 0.6, 0.1]]);
+        let l = crate::lights::luminance(Vec3::new(0.2, 0.6, 0.1));
+        assert_eq!(t.texels[0], [l; 3]);
     }
 
     /// Mitsuba's sphere coordinates: +z is v = 0, +x is u = 0, +y is u = ¼.

@@ -437,7 +437,7 @@ fn bitmap_to_uv_is_the_2d_part_of_the_transform() {
             .any(|w| w.contains("to_uv: the map's z column (0.2, 0.1) is dropped")),
         "{warnings:?}"
     );
-    let (uv, warnings) = map(&format!(r#"{m3}<translate x="0.25" y="0.5"/>"#));
+    let (uv, _) = map(&format!(r#"{m3}<translate x="0.25" y="0.5"/>"#));
     assert_eq!(uv, [[1.5, 0.5, 0.25], [-0.3, 1.2, 0.5]]);
     let (uv, warnings) = map(r#"<scale x="2" y="3"/><translate x="0.25"/>"#);
     assert_eq!(uv, [[2.0, 0.0, 0.25], [0.0, 3.0, 0.0]]);
@@ -1600,4 +1600,89 @@ fn reading_an_xml_scene_is_bounded() {
     write(d.path(), "c40.xml", "<scene version=\"3.0.0\"/>\n");
     let e = load(&d.path().join("c0.xml")).unwrap_err().to_string();
     assert!(e.contains("includes nest deeper than 32 files"), "{e}");
+}
+
+/// `convert` writes what Mitsuba reads as brdfwave read the scene: an OBJ with normals mirrored
+/// by a matrix (its normals then behind its winding's side) gets face normals, so that Mitsuba's front, where
+/// the normals point, is brdfwave's, the winding's side, and the XML renders as the TOML does;
+/// material names Mitsuba cannot take as ids (empty, or with a '$') get ids of their own; a
+/// path with a '$' is refused; a textured roughness on the dielectric form (roughplastic, whose
+/// alpha is a number) has no twin.
+#[test]
+fn convert_writes_what_mitsuba_reads_as_brdfwave_read_it() {
+    let d = tempfile::tempdir().unwrap();
+    // A quad facing +z with its normals, mirrored in x (the normals then face -z).
+    write(
+        d.path(),
+        "q.obj",
+        "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvn 0 0 1\nf 1//1 2//1 3//1 4//1\n",
+    );
+    image::RgbImage::from_pixel(2, 2, image::Rgb([90, 90, 90]))
+        .save(d.path().join("r.png"))
+        .unwrap();
+    let scene = |shape_extra: &str, names: [&str; 2], kd: &str| {
+        format!(
+            "[camera]\nposition = [0, 0, 4]\ntarget = [0, 0, 0]\nfov_y = 40\n[film]\nwidth = 16\nheight = 16\n\
+             [integrator]\nspp = 4\nmax_depth = 3\n[environment]\nradiance = 1\n\
+             [materials.\"{a}\"]\nmodel = \"lambert\"\nalbedo = 0.5\n\
+             [materials.\"{b}\"]\nmodel = \"cook_torrance\"\nfresnel = \"dielectric\"\nnormalization = \"walter\"\n\
+             geometry = \"smith\"\nkd = 0.4\nks = 0.3\nroughness = {kd}\n\
+             [[shapes]]\nmaterial = \"{a}\"\nobj = \"q.obj\"\n{shape_extra}\n\
+             [[shapes]]\nmaterial = \"{b}\"\nsphere = {{ center = [0, 0, -2], radius = 0.5 }}\n",
+            a = names[0],
+            b = names[1],
+        )
+    };
+    let convert = |text: &str| {
+        let p = write(d.path(), "s.toml", text);
+        let s = load(&p).unwrap();
+        to_mitsuba(&s, "s-meshes", Options::default()).map(|c| (s, c))
+    };
+    let (s, c) = convert(&scene(
+        "transform = { matrix = [[-1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]] }",
+        ["", "a$b"],
+        "0.3",
+    ))
+    .unwrap();
+    assert!(
+        c.xml.contains("id=\"material0\"") && c.xml.contains("id=\"material1\""),
+        "{}",
+        c.xml
+    );
+    assert!(!c.xml.contains('$'));
+    let obj = &c.meshes[0].1;
+    // The mirror winds the quad toward -z, and its normals stay +z: written as the face's.
+    assert!(
+        obj.contains("vn 0 0 -1\n") && !obj.contains("vn 0 0 1\n"),
+        "{obj}"
+    );
+    std::fs::create_dir_all(d.path().join("s-meshes")).unwrap();
+    for (file, text) in &c.meshes {
+        write(d.path(), file, text);
+    }
+    let xml = write(d.path(), "s.xml", &c.xml);
+    let x = load(&xml).unwrap();
+    assert_eq!(
+        bits(&render_cpu(&x)),
+        bits(&render_cpu(&s)),
+        "the XML renders as the TOML"
+    );
+
+    let Err(e) = convert(&scene("", ["m", "n"], "{ texture = \"r.png\" }")) else {
+        panic!("a textured roughplastic alpha converted")
+    };
+    assert!(
+        e.contains("material 'n'") && e.contains("not a texture"),
+        "{e}"
+    );
+    std::fs::create_dir_all(d.path().join("a$b")).unwrap();
+    image::RgbImage::from_pixel(2, 2, image::Rgb([90, 90, 90]))
+        .save(d.path().join("a$b/r.png"))
+        .unwrap();
+    let text = scene("", ["m", "n"], "0.3")
+        .replace("albedo = 0.5", "albedo = { texture = \"a$b/r.png\" }");
+    let Err(e) = convert(&text) else {
+        panic!("a path with a '$' converted")
+    };
+    assert!(e.contains("a$b/r.png") && e.contains("holds a '$'"), "{e}");
 }

@@ -56,10 +56,11 @@ pub fn to_mitsuba(s: &Scene, mesh_dir: &str, opts: Options) -> Result<Converted,
     x.push_str("<scene version=\"3.0.0\">\n");
     integrator(&mut x, s);
     sensor(&mut x, s);
+    let ids = bsdf_ids(&s.material_names);
     for (i, m) in s.materials.iter().enumerate() {
-        let name = &s.material_names[i];
+        let name = (s.material_names[i].as_str(), ids[i].as_str());
         let b = bsdf(m, name, s.material_params.get(i), &opts, scene_dir)?;
-        x.push_str(&if m.twosided { twosided(&b, name) } else { b });
+        x.push_str(&if m.twosided { twosided(&b, name.1) } else { b });
     }
     if s.environment != Vec3::ZERO {
         let _ = writeln!(
@@ -131,7 +132,7 @@ pub fn to_mitsuba(s: &Scene, mesh_dir: &str, opts: Options) -> Result<Converted,
                     // smooth normals over them where brdfwave shades the flat triangles.
                     let _ = writeln!(x, "        <boolean name=\"face_normals\" value=\"true\"/>");
                 }
-                shape_tail(&mut x, s, t.material, t.emitter);
+                shape_tail(&mut x, s, &ids, t.material, t.emitter);
                 meshes.push((file, obj_text(&tris)));
             }
             Shape::Sphere(sp) => {
@@ -162,12 +163,44 @@ pub fn to_mitsuba(s: &Scene, mesh_dir: &str, opts: Options) -> Result<Converted,
                         sphere_turn(f, c)
                     );
                 }
-                shape_tail(&mut x, s, sp.material, sp.emitter);
+                shape_tail(&mut x, s, &ids, sp.material, sp.emitter);
             }
         }
     }
     x.push_str("</scene>\n");
+    // Mitsuba substitutes `$name` in every attribute value and has no escape for '$'; the ids
+    // have none (`bsdf_ids`), so a '$' left is a file's.
+    let values = x
+        .split("value=\"")
+        .skip(1)
+        .chain(meshes.iter().map(|(f, _)| f.as_str()));
+    if let Some(v) = values
+        .map(|v| v.split('"').next().unwrap_or(v))
+        .find(|v| v.contains('$'))
+    {
+        return Err(format!(
+            "the path '{v}' holds a '$', which Mitsuba 3 reads as the start of a parameter ($name) and has no escape for: rename the file or folder (or the output) so that its path has none"
+        ));
+    }
     Ok(Converted { xml: x, meshes })
+}
+
+/// The XML ids of the materials `names`: each name as it is, unless Mitsuba cannot take it as
+/// an id (empty, or holding a '$', which Mitsuba reads as a parameter); those become
+/// `material<i>`. Each id is made unique by trailing underscores.
+fn bsdf_ids(names: &[String]) -> Vec<String> {
+    let mut ids: Vec<String> = Vec::with_capacity(names.len());
+    for (i, n) in names.iter().enumerate() {
+        let mut id = match n.is_empty() || n.contains('$') {
+            true => format!("material{i}"),
+            false => n.clone(),
+        };
+        while ids.contains(&id) || (id != *n && names.contains(&id)) {
+            id.push('_');
+        }
+        ids.push(id);
+    }
+    ids
 }
 
 /// A two-sided material: its BSDF element (`b`, as [`bsdf`] writes it) nested, without its id,
@@ -203,8 +236,8 @@ fn file_for_xml(s_dir: &Path, given: &str, xml_dir: Option<&Path>) -> String {
     p.to_string_lossy().into_owned()
 }
 
-fn twosided(b: &str, name: &str) -> String {
-    let id = format!(" id=\"{}\"", attr(name));
+fn twosided(b: &str, id: &str) -> String {
+    let id = format!(" id=\"{}\"", attr(id));
     let inner: String = b
         .replacen(&id, "", 1)
         .lines()
@@ -299,15 +332,15 @@ fn sensor(x: &mut String, s: &Scene) {
     );
 }
 
-/// A top-level `<bsdf id="NAME">`.
+/// A top-level `<bsdf id="ID">` of the material `name`.
 fn bsdf(
     m: &crate::brdf::Material,
-    name: &str,
+    (name, id): (&str, &str),
     params: Option<&std::collections::BTreeMap<String, toml::Value>>,
     opts: &Options,
     s_dir: &Path,
 ) -> Result<String, String> {
-    let id = attr(name);
+    let id = attr(id);
     let any = m.brdf.as_any();
     let xml_dir = opts.xml_dir.as_deref().unwrap_or(s_dir);
     // A textured parameter as a nested bitmap under Mitsuba's name for it.
@@ -340,7 +373,8 @@ fn bsdf(
     let why = format!(
         "material '{name}' ({}) has no Mitsuba 3 twin: Mitsuba takes Lambert (diffuse) and Cook–Torrance \
          with normalization = \"walter\" and geometry = \"smith\" (roughconductor: conductor Fresnel, or \
-         schlick with f0 = 1, and kd = 0; roughplastic: dielectric Fresnel); --brdfwave-plugins writes \
+         schlick with f0 = 1, and kd = 0; roughplastic: dielectric Fresnel, its roughness a number, not a \
+         texture); --brdfwave-plugins writes \
          it under brdfwave's own plugin name, which only brdfwave reads",
         m.model_name()
     );
@@ -441,6 +475,10 @@ fn cook_torrance(
     if c.normalization != Normalization::Walter || c.geometry != Geometry::Smith {
         return None;
     }
+    // Mitsuba's roughplastic takes a number for alpha, not a texture.
+    if c.fresnel == Fresnel::Dielectric && texture("roughness", "alpha").is_some() {
+        return None;
+    }
     // A rough plugin with α = 0 would divide by zero in Mitsuba: zero is the smooth plugin.
     let rough = c.roughness > 0.0;
     let mut p = String::new();
@@ -507,13 +545,10 @@ fn cook_torrance(
     ))
 }
 
-/// A shape's `<ref>`, emitter and end tag.
-fn shape_tail(x: &mut String, s: &Scene, material: u32, emitter: Option<u32>) {
-    let name = s
-        .material_names
-        .get(material as usize)
-        .map_or("", String::as_str);
-    let _ = writeln!(x, "        <ref id=\"{}\"/>", attr(name));
+/// A shape's `<ref>` (to its material's id, of `ids`), emitter and end tag.
+fn shape_tail(x: &mut String, s: &Scene, ids: &[String], material: u32, emitter: Option<u32>) {
+    let id = ids.get(material as usize).map_or("", String::as_str);
+    let _ = writeln!(x, "        <ref id=\"{}\"/>", attr(id));
     if let Some(e) = emitter.and_then(|e| s.emitters.get(e as usize)) {
         let _ = writeln!(
             x,
@@ -591,11 +626,20 @@ fn obj_text(tris: &[(&Triangle, VertexAttributes)]) -> String {
     let (mut vm, mut nm, mut tm) = (HashMap::new(), HashMap::new(), HashMap::new());
     let mut faces = String::new();
     for (t, a) in tris {
+        // brdfwave's front is the winding's side, and it shades with the normals only where
+        // they point to it; Mitsuba's front is where the normals point. A triangle with a
+        // normal behind it is written with its face normal: where all three are behind, as in
+        // a mirrored mesh, that is what brdfwave shades with.
+        let ng = t.geometric_normal();
+        let n = a.n.map(|n| match n.iter().any(|n| n.dot(ng) <= 0.0) {
+            true => [ng; 3],
+            false => n,
+        });
         let mut f = String::from("f");
         for k in 0..3 {
             let vi = index(&mut vm, &mut vs, t.v[k].to_array());
             let ti = a.uv.map(|uv| index(&mut tm, &mut ts, uv[k].to_array()));
-            let ni = a.n.map(|n| index(&mut nm, &mut ns, n[k].to_array()));
+            let ni = n.map(|n| index(&mut nm, &mut ns, n[k].to_array()));
             let _ = match (ti, ni) {
                 (None, None) => write!(f, " {vi}"),
                 (Some(ti), None) => write!(f, " {vi}/{ti}"),
