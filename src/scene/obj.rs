@@ -418,7 +418,8 @@ struct Rewritten {
 ///   vertices are the file's vertices, (v, vt, vn) triples of indices, wherever they are used
 ///   (as Mitsuba 3 keys them; tobj keys them per model).
 ///
-/// Lines left out stay as empty lines. The input is the text [`scan_obj`] checked.
+/// Lines left out stay as empty lines, after the libraries' lines. The input is the text
+/// [`scan_obj`] checked.
 fn for_tobj(text: &str, read_mtl: bool, one_model: bool) -> (String, Rewritten) {
     let mut changed = Rewritten::default();
     let mut libraries = String::new();
