@@ -1686,3 +1686,28 @@ fn convert_writes_what_mitsuba_reads_as_brdfwave_read_it() {
     };
     assert!(e.contains("a$b/r.png") && e.contains("holds a '$'"), "{e}");
 }
+
+/// Mitsuba's other path tracers render as `path` without participating media, and take its
+/// properties; other integrators are refused, and so is a `<spectrum>` of wavelength:value
+/// pairs, each with a message that says what to write.
+#[test]
+fn volumetric_and_replay_path_tracers_read_as_path() {
+    for kind in ["volpath", "volpathmis", "prb", "prbvolpath"] {
+        let s = load_xml(&format!(
+            r#"<integrator type="{kind}"><integer name="max_depth" value="3"/><integer name="rr_depth" value="2"/></integrator><shape type="sphere"/>"#
+        ))
+        .unwrap();
+        assert_eq!(s.integrator.max_depth, 3, "{kind}");
+        assert!(s.integrator.russian_roulette, "{kind}");
+    }
+    expect_error(
+        r#"<integrator type="direct"/><shape type="sphere"/>"#,
+        "integrator type",
+        "volpath, volpathmis, prb and prbvolpath, which render as path",
+    );
+    expect_error(
+        r#"<shape type="sphere"><bsdf type="diffuse"><spectrum name="reflectance" value="400:0.1, 700:0.9"/></bsdf></shape>"#,
+        "<spectrum",
+        "wavelength:value pairs",
+    );
+}

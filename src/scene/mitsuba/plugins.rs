@@ -123,6 +123,14 @@ impl Cx<'_> {
     /// An RGB colour: `<rgb value="r, g, b">` (or one number), or a grey `<float>`.
     pub(super) fn color_of(&self, el: &El) -> Result<[f64; 3], SceneError> {
         self.want_tag(el, &["rgb", "float", "spectrum"])?;
+        if el.tag == "spectrum"
+            && (el.attr("filename").is_some() || el.attr("value").is_some_and(|v| v.contains(':')))
+        {
+            return Err(self.el_err(
+                el,
+                "a <spectrum> of wavelength:value pairs or from a file is not read (brdfwave renders in RGB): write the colour as <rgb>; a constant <spectrum value=\"x\"/> is read",
+            ));
+        }
         let v = self.numbers(el, self.attr(el, "value")?)?;
         match (el.tag.as_str(), v.as_slice()) {
             (_, [x]) => Ok([*x; 3]),

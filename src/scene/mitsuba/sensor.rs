@@ -319,8 +319,15 @@ fn sampler(cx: &mut Cx, s: &El, integrator: &mut RawIntegrator) -> Result<(), Sc
 }
 
 pub(super) fn integrator(cx: &mut Cx, el: &El, out: &mut RawIntegrator) -> Result<(), SceneError> {
-    if el.attr("type") != Some("path") {
-        let msg = format!("{} is not supported (supported: path)", el.describe());
+    // Mitsuba's other unidirectional path tracers render what `path` renders where there are
+    // no participating media (which brdfwave has none of): the volumetric ones, and the
+    // path-replay ones, whose forward pass is `path`'s. They take the same properties.
+    const PATH_TRACERS: [&str; 5] = ["path", "volpath", "volpathmis", "prb", "prbvolpath"];
+    if !el.attr("type").is_some_and(|t| PATH_TRACERS.contains(&t)) {
+        let msg = format!(
+            "{} is not supported (supported: path, and volpath, volpathmis, prb and prbvolpath, which render as path without participating media)",
+            el.describe()
+        );
         return Err(cx.el_err(el, msg));
     }
     let mut p = Props::new(cx, el)?;
