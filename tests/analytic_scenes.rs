@@ -77,14 +77,7 @@ fn cube_obj() -> String {
         let c = |b: usize| if i & b != 0 { 1 } else { -1 };
         s += &format!("v {} {} {}\n", c(1), c(2), c(4));
     }
-    for q in [
-        [1, 3, 4, 2],
-        [5, 6, 8, 7],
-        [1, 2, 6, 5],
-        [3, 7, 8, 4],
-        [1, 5, 7, 3],
-        [2, 4, 8, 6],
-    ] {
+    for q in common::scene_file::CUBE_QUADS {
         s += &format!("f {} {} {} {}\n", q[0], q[1], q[2], q[3]);
     }
     s

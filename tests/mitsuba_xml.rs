@@ -297,14 +297,7 @@ fn mirroring_transforms_keep_mitsubas_front_sides() {
 fn meshes_without_normals_are_smoothed_per_vertex_of_the_file() {
     let corners =
         "v -1 -1 -1\nv 1 -1 -1\nv -1 1 -1\nv 1 1 -1\nv -1 -1 1\nv 1 -1 1\nv -1 1 1\nv 1 1 1\n";
-    let quads = [
-        [1, 3, 4, 2],
-        [5, 6, 8, 7],
-        [1, 2, 6, 5],
-        [3, 7, 8, 4],
-        [1, 5, 7, 3],
-        [2, 4, 8, 6],
-    ];
+    let quads = common::scene_file::CUBE_QUADS;
     let position = |i: usize| {
         let i = i - 1;
         Vec3::new(

@@ -75,3 +75,14 @@ pub fn scene_with_obj(obj: &str, extra: &str) -> (tempfile::TempDir, PathBuf) {
 /// A unit quad in z = 0 with texture coordinates, as an OBJ file.
 pub const QUAD_OBJ: &str =
     "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3 4/4\n";
+
+/// The cube [−1, 1]³ as OBJ quads, wound to face out: vertex i (from 1) is the corner whose
+/// x, y, z are +1 where bits 0, 1, 2 of i − 1 are set.
+pub const CUBE_QUADS: [[usize; 4]; 6] = [
+    [1, 3, 4, 2],
+    [5, 6, 8, 7],
+    [1, 2, 6, 5],
+    [3, 7, 8, 4],
+    [1, 5, 7, 3],
+    [2, 4, 8, 6],
+];
