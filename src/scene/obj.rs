@@ -428,29 +428,33 @@ fn for_tobj(text: &str, read_mtl: bool, one_model: bool) -> (String, Rewritten) 
         let mut words = line.split_whitespace();
         let kw = words.next();
         match kw {
-            Some("v") => {
-                let nums: Vec<&str> = words.collect();
-                out.push_str("v ");
-                out.push_str(&nums[..3.min(nums.len())].join(" "));
-                if let [_, _, _, w] = nums[..] {
-                    if w.parse::<f32>().ok() != Some(1.0) {
-                        changed.weights += 1;
-                        changed.first_weight.get_or_insert((l + 1, w.to_string()));
+            // (tobj splits these at any whitespace: a line with nothing to drop goes as it is.)
+            Some("v") if line.split_whitespace().nth(5).is_none() => {
+                let (x, y, z) = (words.next(), words.next(), words.next());
+                match words.next() {
+                    None => out.push_str(line),
+                    Some(w) => {
+                        let xyz = [x, y, z].map(Option::unwrap_or_default);
+                        out.push_str(&format!("v {} {} {}", xyz[0], xyz[1], xyz[2]));
+                        if w.parse::<f32>().ok() != Some(1.0) {
+                            changed.weights += 1;
+                            changed.first_weight.get_or_insert((l + 1, w.to_string()));
+                        }
                     }
                 }
             }
+            Some("v") => {
+                // x y z r g b: the colour is not used.
+                let xyz: Vec<&str> = words.take(3).collect();
+                out.push_str(&format!("v {}", xyz.join(" ")));
+            }
+            Some("vt") if line.split_whitespace().nth(2).is_some() => out.push_str(line),
             Some("vt") => {
-                let nums: Vec<&str> = words.collect();
-                let v = nums.get(1).copied().unwrap_or("0");
-                out.push_str(&format!("vt {} {v}", nums.first().copied().unwrap_or("0")));
+                out.push_str("vt ");
+                out.push_str(words.next().unwrap_or("0"));
+                out.push_str(" 0");
             }
-            Some(kw @ ("vn" | "f")) => {
-                out.push_str(kw);
-                for w in words {
-                    out.push(' ');
-                    out.push_str(w);
-                }
-            }
+            Some("vn" | "f") => out.push_str(line),
             Some("o" | "g") if !one_model => out.push_str(line.trim()),
             Some("usemtl") if read_mtl => {
                 out.push_str("usemtl ");
@@ -665,6 +669,26 @@ fn obj_face(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The text tobj reads: one form a statement, w and colours dropped, `vt u` padded, the
+    /// libraries first, and what tobj should not see left out (lines kept empty).
+    #[test]
+    fn for_tobj_writes_one_form() {
+        let text = "# c\nv 1 2 3 2\r\n  v 4 5 6 0.1 0.2 0.3\nvt 0.5\n\tusemtl   red \ng part\nf 1 2 3\nmtllib\ta b.mtl\np 1\nl 1 2\n";
+        let (out, changed) = for_tobj(text, true, false);
+        assert_eq!(
+            out,
+            "mtllib a b.mtl\n\nv 1 2 3\nv 4 5 6\nvt 0.5 0\nusemtl red\ng part\nf 1 2 3\n\n\n\n"
+        );
+        assert_eq!(
+            (changed.points, changed.polylines, changed.weights),
+            (1, 1, 1)
+        );
+        assert_eq!(changed.first_weight, Some((2, "2".to_string())));
+        // Without MTL materials their statements go; one model: no groups.
+        let (out, _) = for_tobj(text, false, true);
+        assert_eq!(out, "\nv 1 2 3\nv 4 5 6\nvt 0.5 0\n\n\nf 1 2 3\n\n\n\n");
+    }
 
     #[test]
     fn obj_scan_checks_indices() {
