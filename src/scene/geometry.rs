@@ -206,7 +206,8 @@ pub(super) struct FaceRules {
     by_normals: bool,
     flip: bool,
     /// The normals are computed from the faces ([`vertex_normals`]), not the file's: they do
-    /// not choose sides, and are not counted as opposite to the winding.
+    /// not choose sides, are not counted as opposite to the winding, and a zero one (where its
+    /// vertex's faces cancel) is the face's normal.
     computed: bool,
     skipped: usize,
     dropped_normals: usize,
@@ -256,6 +257,17 @@ impl FaceRules {
             return None;
         }
         let (mut v, mut uv) = (v, uv);
+        // A computed normal is zero where its vertex's faces cancel: that corner takes this
+        // face's normal.
+        let n = match self.computed {
+            true => n.map(|n| {
+                n.map(|x| match x == Vec3::ZERO {
+                    true => crate::robust::triangle_normal(&v),
+                    false => x,
+                })
+            }),
+            false => n,
+        };
         let mut n = n.filter(|n| {
             let usable = n.iter().all(|x| x.is_finite() && *x != Vec3::ZERO);
             if !usable {
@@ -370,7 +382,7 @@ impl FaceRules {
 /// is a vertex of the file, as Mitsuba keys them (an OBJ file's (v, vt, vn) triple, a PLY
 /// file's vertex), so that vertices apart in the file stay apart, even at one position.
 /// Zero-area and non-finite triangles add nothing; a vertex whose faces cancel, or that no
-/// face uses, gets zero (the caller gives it the face normal).
+/// face uses, gets zero ([`FaceRules`] gives that corner the face's normal).
 pub(super) fn vertex_normals(positions: &[Vec3], indices: &[u32]) -> Vec<Vec3> {
     let mut sums = vec![DVec3::ZERO; positions.len()];
     for face in indices.chunks_exact(3) {

@@ -655,13 +655,6 @@ fn obj_face(
         let msg = format!("OBJ file '{shown}', object '{name}', triangle {t}: {msg}");
         return Err(at.err(cx, msg));
     }
-    if computed.is_some() {
-        // A vertex whose faces cancel takes this face's normal.
-        let face = crate::robust::triangle_normal(&v);
-        for x in n.iter_mut().filter(|x| **x == Vec3::ZERO) {
-            *x = face;
-        }
-    }
     let has_n = has_n || computed.is_some();
     Ok((v, has_n.then_some(n), has_uv.then_some(uv)))
 }

@@ -50,8 +50,7 @@ pub(super) fn ply_triangles(
         .as_ref()
         .map(|n| n.iter().map(|&n| xf.normal(n)).collect());
     let mut rules = FaceRules::new(shape.sides, shape.flip);
-    let computed = normals.is_none() && shape.smooth;
-    if computed {
+    if normals.is_none() && shape.smooth {
         // Smooth normals of the file's vertices, from the placed ones.
         let indices: Vec<u32> = mesh.triangles().flatten().collect();
         normals = Some(vertex_normals(&positions, &indices));
@@ -64,13 +63,7 @@ pub(super) fn ply_triangles(
         if let Some(msg) = edge_overflow(&v) {
             return Err(cx.err(span, fp, format!("PLY file '{shown}', triangle {t}: {msg}")));
         }
-        let n = normals.as_ref().map(|ns| {
-            // (A computed normal is zero where the vertex's faces cancel: the face's is used.)
-            [ns[a], ns[b], ns[c]].map(|x| match x == Vec3::ZERO && computed {
-                true => crate::robust::triangle_normal(&v),
-                false => x,
-            })
-        });
+        let n = normals.as_ref().map(|ns| [ns[a], ns[b], ns[c]]);
         let uv = mesh.uvs.as_ref().map(|u| [u[a], u[b], u[c]]);
         if let Some(face) = rules.face(v, n, uv, shape.material, shape.emitter) {
             out.push(face);
