@@ -124,11 +124,15 @@ impl EnvMap {
     /// The map of an image (`width` × `height` texels, row 0 at the top) times `scale`, turned
     /// by `to_world` (a rotation). Refuses a map smaller than 2 × 2 and any texel that is not
     /// finite and ≥ 0, before or after scaling.
+    ///
+    /// The pixels become the texels in place, and the cells' weights are made again, a row at a
+    /// time, for each of the two passes that need them: a map costs its texels (12 bytes each)
+    /// and the sampling tables (8 bytes a cell), 5 GiB at the largest size, 16384².
     pub fn new(
         path: PathBuf,
         width: u32,
         height: u32,
-        pixels: &[[f32; 3]],
+        pixels: Vec<[f32; 3]>,
         scale: f32,
         to_world: Mat3,
     ) -> Result<EnvMap, EnvMapError> {
@@ -137,8 +141,8 @@ impl EnvMap {
         }
         let (w, h) = (width as usize, height as usize);
         assert_eq!(pixels.len(), w * h, "the image holds width × height pixels");
-        let mut texels = Vec::with_capacity(w * h);
-        for (i, p) in pixels.iter().enumerate() {
+        let mut texels = pixels;
+        for (i, p) in texels.iter_mut().enumerate() {
             let (x, y) = ((i % w) as u32, (i / w) as u32);
             if !p.iter().all(|c| c.is_finite() && *c >= 0.0) {
                 return Err(EnvMapError::BadTexel { x, y, value: *p });
@@ -147,43 +151,45 @@ impl EnvMap {
             if !s.iter().all(|c| c.is_finite()) {
                 return Err(EnvMapError::Overflow { x, y, value: *p });
             }
-            texels.push(s);
+            *p = s;
         }
-        // The cells' weights, in f64: the mean luminance of the four corners times sin θ at
-        // the centre.
-        let lum: Vec<f64> = texels
-            .iter()
-            .map(|t| luminance(Vec3::from_array(*t)) as f64)
-            .collect();
+        // The weights of row y's cells, in f64: the mean luminance of the four corners times
+        // sin θ at the centre.
         let rows = h - 1;
-        let mut f = vec![0.0f64; w * rows];
-        for y in 0..rows {
+        let lum = |i: usize| luminance(Vec3::from_array(texels[i])) as f64;
+        let row_weights = |y: usize, f: &mut Vec<f64>| {
+            f.clear();
             let sin = (std::f64::consts::PI * (y as f64 + 0.5) / rows as f64).sin();
             for x in 0..w {
                 let x1 = (x + 1) % w;
                 let corners =
-                    lum[y * w + x] + lum[y * w + x1] + lum[(y + 1) * w + x] + lum[(y + 1) * w + x1];
-                f[y * w + x] = 0.25 * corners * sin;
+                    lum(y * w + x) + lum(y * w + x1) + lum((y + 1) * w + x) + lum((y + 1) * w + x1);
+                f.push(0.25 * corners * sin);
             }
-        }
-        let row_sums: Vec<f64> = f.chunks(w).map(|r| r.iter().sum()).collect();
+        };
+        let mut f = Vec::with_capacity(w);
+        let row_sums: Vec<f64> = (0..rows)
+            .map(|y| {
+                row_weights(y, &mut f);
+                f.iter().sum()
+            })
+            .collect();
         let total: f64 = row_sums.iter().sum();
         // A black map has nothing to sample: uniform cells (never chosen, since its light
         // weight is 0).
         let uniform = total <= 0.0 || !total.is_finite();
-        let mut conditional = Vec::with_capacity(rows * (w + 1));
-        for (y, r) in f.chunks(w).enumerate() {
-            conditional.extend(cdf(r, uniform || row_sums[y] <= 0.0));
-        }
-        let marginal = cdf(&row_sums, uniform);
         let cells = (w * rows) as f64;
-        let cell_pdf = f
-            .iter()
-            .map(|v| match uniform {
+        let mut conditional = Vec::with_capacity(rows * (w + 1));
+        let mut cell_pdf = Vec::with_capacity(rows * w);
+        for (y, &sum) in row_sums.iter().enumerate() {
+            row_weights(y, &mut f);
+            conditional.extend(cdf(&f, uniform || sum <= 0.0));
+            cell_pdf.extend(f.iter().map(|v| match uniform {
                 true => 1.0,
                 false => (v * cells / total) as f32,
-            })
-            .collect();
+            }));
+        }
+        let marginal = cdf(&row_sums, uniform);
         // ∫ lum dω = Σ f · (du dv) · 2π² (f already carries the sin θ).
         let luminance_integral = total / cells * 2.0 * std::f64::consts::PI * std::f64::consts::PI;
         Ok(EnvMap {
@@ -458,7 +464,7 @@ mod tests {
 
     fn map(w: u32, h: u32, f: impl Fn(u32, u32) -> f32) -> EnvMap {
         let px: Vec<[f32; 3]> = (0..w * h).map(|i| [f(i % w, i / w); 3]).collect();
-        EnvMap::new("t.exr".into(), w, h, &px, 1.0, Mat3::IDENTITY).unwrap()
+        EnvMap::new("t.exr".into(), w, h, px, 1.0, Mat3::IDENTITY).unwrap()
     }
 
     #[test]
@@ -518,20 +524,20 @@ mod tests {
     fn bad_texels_and_tiny_maps_are_refused() {
         let px = vec![[1.0; 3]; 4];
         assert!(matches!(
-            EnvMap::new("t".into(), 4, 1, &px, 1.0, Mat3::IDENTITY),
+            EnvMap::new("t".into(), 4, 1, px.clone(), 1.0, Mat3::IDENTITY),
             Err(EnvMapError::TooSmall { .. })
         ));
         let mut px = vec![[1.0; 3]; 6];
         px[4] = [1.0, f32::NAN, 0.0];
         assert!(matches!(
-            EnvMap::new("t".into(), 3, 2, &px, 1.0, Mat3::IDENTITY),
+            EnvMap::new("t".into(), 3, 2, px.clone(), 1.0, Mat3::IDENTITY),
             Err(EnvMapError::BadTexel { x: 1, y: 1, .. })
         ));
         px[4] = [1.0, -1.0, 0.0];
-        assert!(EnvMap::new("t".into(), 3, 2, &px, 1.0, Mat3::IDENTITY).is_err());
+        assert!(EnvMap::new("t".into(), 3, 2, px.clone(), 1.0, Mat3::IDENTITY).is_err());
         px[4] = [3e38; 3];
         assert!(matches!(
-            EnvMap::new("t".into(), 3, 2, &px, 10.0, Mat3::IDENTITY),
+            EnvMap::new("t".into(), 3, 2, px.clone(), 10.0, Mat3::IDENTITY),
             Err(EnvMapError::Overflow { .. })
         ));
     }

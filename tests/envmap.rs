@@ -222,7 +222,7 @@ fn the_map_sampler_follows_its_pdf() {
         })
         .collect();
     let rot = Mat3::from_axis_angle(Vec3::new(0.3, 1.0, -0.2).normalize(), 0.7);
-    let m = EnvMap::new("t.exr".into(), w, h, &px, 1.0, rot).unwrap();
+    let m = EnvMap::new("t.exr".into(), w, h, px.clone(), 1.0, rot).unwrap();
     let (nz, nphi, sub) = (24usize, 48usize, 24usize);
     let bin = |d: Vec3| -> usize {
         let z = ((d.z as f64 + 1.0) * 0.5 * nz as f64).clamp(0.0, nz as f64 - 1.0) as usize;
@@ -284,7 +284,7 @@ fn the_map_sampler_follows_its_pdf() {
         "the sampler does not follow its pdf: χ² = {stat:.1}, {k} cells, p = {p:e}"
     );
     // And the test can fail: the same samples against a map turned another way.
-    let other = EnvMap::new("t.exr".into(), w, h, &px, 1.0, Mat3::IDENTITY).unwrap();
+    let other = EnvMap::new("t.exr".into(), w, h, px.clone(), 1.0, Mat3::IDENTITY).unwrap();
     let mut wrong = vec![0.0f64; nz * nphi];
     for i in 0..n / 10 {
         let u1 = brdfwave::rng::random_f32(11, 0, i, 0, 0);

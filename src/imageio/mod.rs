@@ -85,6 +85,17 @@ pub enum ImageError {
     Invalid(String),
 }
 
+impl ImageError {
+    /// The message without the "invalid image: " of [`ImageError::Invalid`], for an error
+    /// that says it already.
+    pub(super) fn reason(&self) -> String {
+        match self {
+            ImageError::Invalid(r) => r.clone(),
+            other => other.to_string(),
+        }
+    }
+}
+
 /// A linear-RGB floating-point image. Pixels are stored row by row, row 0 at the top, so pixel
 /// (x, y) is `data[y * width + x]`.
 #[derive(Clone, Debug, PartialEq)]
@@ -467,7 +478,7 @@ pub fn read(path: &Path) -> Result<Image, ImageError> {
     };
     img.validate().map_err(|e| ImageError::InvalidImage {
         path: path.to_path_buf(),
-        reason: e.to_string(),
+        reason: e.reason(),
     })?;
     Ok(img)
 }
@@ -488,7 +499,7 @@ pub fn read_layered(path: &Path) -> Result<Layered, ImageError> {
     for img in std::iter::once(&l.image).chain(&l.variance).chain(batch) {
         img.validate().map_err(|e| ImageError::InvalidImage {
             path: path.to_path_buf(),
-            reason: e.to_string(),
+            reason: e.reason(),
         })?;
     }
     Ok(l)
@@ -522,28 +533,66 @@ pub(crate) fn check_size(path: &Path, width: u64, height: u64) -> Result<(), Ima
 }
 
 fn read_png(path: &Path) -> Result<Image, ImageError> {
-    use image::ImageDecoder;
-    let file = open(path)?;
+    let mut img = read_png_codes(path)?;
+    for p in &mut img.data {
+        *p = p.map(srgb_to_linear);
+    }
+    Ok(img)
+}
+
+/// A PNG's values as codes in [0, 1] (c / 255 or c / 65535, as the `image` crate converts
+/// them), grey replicated to RGB, alpha ignored. Decoded straight into the image's pixels: the
+/// file's samples (1 to 8 bytes a pixel) and the 12 bytes a pixel of the result are all it
+/// holds at once, for a file of a few hundred kilobytes can declare 16384² pixels of one colour.
+pub(crate) fn read_png_codes(path: &Path) -> Result<Image, ImageError> {
+    use image::{ColorType, ImageDecoder};
     let png_error = |source| ImageError::Png {
         path: path.to_path_buf(),
         source,
     };
     // The size from the header first: a small file of a flat colour can expand to gigabytes.
-    let decoder =
-        image::codecs::png::PngDecoder::with_limits(BufReader::new(file), image::Limits::default())
-            .map_err(png_error)?;
+    let decoder = image::codecs::png::PngDecoder::with_limits(
+        BufReader::new(open(path)?),
+        image::Limits::default(),
+    )
+    .map_err(png_error)?;
     let (w, h) = decoder.dimensions();
     check_size(path, w as u64, h as u64)?;
-    let decoded = image::DynamicImage::from_decoder(decoder).map_err(png_error)?;
-    let rgb = decoded.into_rgb32f();
-    let (width, height) = rgb.dimensions();
-    let data = rgb
-        .pixels()
-        .map(|p| p.0.map(|c| srgb_to_linear(c.clamp(0.0, 1.0))))
-        .collect();
-    Image::from_data(width, height, data).map_err(|e| ImageError::InvalidImage {
+    let color = decoder.color_type();
+    let mut bytes = vec![0u8; decoder.total_bytes() as usize];
+    decoder.read_image(&mut bytes).map_err(png_error)?;
+    let channels = color.channel_count() as usize;
+    let code8 = |c: u8| (c as f32 / u8::MAX as f32).clamp(0.0, 1.0);
+    let code16 =
+        |c: &[u8]| (u16::from_ne_bytes([c[0], c[1]]) as f32 / u16::MAX as f32).clamp(0.0, 1.0);
+    let data: Vec<[f32; 3]> = match color {
+        ColorType::L8 | ColorType::La8 => bytes
+            .chunks_exact(channels)
+            .map(|p| [code8(p[0]); 3])
+            .collect(),
+        ColorType::Rgb8 | ColorType::Rgba8 => bytes
+            .chunks_exact(channels)
+            .map(|p| [code8(p[0]), code8(p[1]), code8(p[2])])
+            .collect(),
+        ColorType::L16 | ColorType::La16 => bytes
+            .chunks_exact(2 * channels)
+            .map(|p| [code16(&p[0..2]); 3])
+            .collect(),
+        ColorType::Rgb16 | ColorType::Rgba16 => bytes
+            .chunks_exact(2 * channels)
+            .map(|p| [code16(&p[0..2]), code16(&p[2..4]), code16(&p[4..6])])
+            .collect(),
+        other => {
+            return Err(ImageError::InvalidImage {
+                path: path.to_path_buf(),
+                reason: format!("unsupported PNG colour type {other:?}"),
+            })
+        }
+    };
+    drop(bytes);
+    Image::from_data(w, h, data).map_err(|e| ImageError::InvalidImage {
         path: path.to_path_buf(),
-        reason: e.to_string(),
+        reason: e.reason(),
     })
 }
 

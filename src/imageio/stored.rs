@@ -13,7 +13,7 @@
 //! Every reader checks the declared size against [`super::check_size`] before it allocates
 //! (a file of a few bytes can declare 10^10 pixels), and every error names the file.
 
-use super::{check_size, open, Image, ImageError};
+use super::{check_size, open, read_png_codes, Image, ImageError};
 use std::io::BufReader;
 use std::path::Path;
 
@@ -49,37 +49,9 @@ pub fn read_stored(path: &Path) -> Result<Stored, ImageError> {
     };
     image.validate().map_err(|e| ImageError::InvalidImage {
         path: path.to_path_buf(),
-        reason: e.to_string(),
+        reason: e.reason(),
     })?;
     Ok(Stored { image, srgb })
-}
-
-/// A PNG's values as codes in [0, 1] (c / 255 or c / 65535), grey replicated to RGB.
-fn read_png_codes(path: &Path) -> Result<Image, ImageError> {
-    use image::ImageDecoder;
-    let png_error = |source| ImageError::Png {
-        path: path.to_path_buf(),
-        source,
-    };
-    let decoder = image::codecs::png::PngDecoder::with_limits(
-        BufReader::new(open(path)?),
-        image::Limits::default(),
-    )
-    .map_err(png_error)?;
-    let (w, h) = decoder.dimensions();
-    check_size(path, w as u64, h as u64)?;
-    let rgb = image::DynamicImage::from_decoder(decoder)
-        .map_err(png_error)?
-        .into_rgb32f();
-    let (width, height) = rgb.dimensions();
-    let data = rgb
-        .pixels()
-        .map(|p| p.0.map(|c| c.clamp(0.0, 1.0)))
-        .collect();
-    Image::from_data(width, height, data).map_err(|e| ImageError::InvalidImage {
-        path: path.to_path_buf(),
-        reason: e.to_string(),
-    })
 }
 
 /// A Radiance RGBE file through the `image` crate's decoder, its size checked first.
@@ -116,7 +88,7 @@ fn read_hdr(path: &Path) -> Result<Image, ImageError> {
     let data = rgb.pixels().map(|p| p.0).collect();
     Image::from_data(width, height, data).map_err(|e| ImageError::InvalidImage {
         path: path.to_path_buf(),
-        reason: e.to_string(),
+        reason: e.reason(),
     })
 }
 

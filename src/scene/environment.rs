@@ -58,15 +58,17 @@ pub(super) fn environment(
     let field = "environment.map";
     let stored = super::images::read(cx, map.span(), field, &path)?;
     // A PNG holds sRGB codes: the map is radiance, so they are decoded.
-    let img = match stored.srgb {
-        true => stored.image.map(|p| p.map(crate::imageio::srgb_to_linear)),
-        false => stored.image,
-    };
+    let mut img = stored.image;
+    if stored.srgb {
+        for p in &mut img.data {
+            *p = p.map(crate::imageio::srgb_to_linear);
+        }
+    }
     let m = EnvMap::new(
         path.clone(),
         img.width,
         img.height,
-        &img.data,
+        img.data,
         scale,
         to_world,
     )
