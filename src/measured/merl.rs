@@ -201,11 +201,18 @@ impl MerlTable {
         let dim = |k: usize| i32::from_le_bytes(header[4 * k..4 * k + 4].try_into().unwrap());
         let dims = [dim(0), dim(1), dim(2)];
         if dims != [THETA_H as i32, THETA_D as i32, PHI_D as i32] {
-            let declared = dims.iter().map(|&d| d as i64).product::<i64>();
+            // In i128: three i32 multiply to at most 2^93.
+            let declared = match dims.iter().all(|&d| d > 0) {
+                true => {
+                    let n = dims.iter().map(|&d| d as i128).product::<i128>();
+                    format!("{n} values per plane")
+                }
+                false => "a dimension that is not positive".to_string(),
+            };
             return Err(err(
                 path,
                 format!(
-                    "the header declares dimensions {} × {} × {} ({declared} values per plane); \
+                    "the header declares dimensions {} × {} × {} ({declared}); \
                      a MERL file is 90 (θh) × 90 (θd) × 180 (φd), and no other resolution is \
                      read",
                     dims[0], dims[1], dims[2]
@@ -447,5 +454,31 @@ mod tests {
         assert_eq!(periodic_axis(179.5, 180), ([179, 0], 0.5));
         assert_eq!(clamped_axis(-3.0, 90), ([0, 1], 0.0));
         assert_eq!(clamped_axis(89.7, 90), ([88, 89], 1.0));
+    }
+
+    /// Dimensions that multiply past i64, or are negative, are named as they are, without a
+    /// wrapped product (a build with overflow checks would panic on it).
+    #[test]
+    fn a_header_of_other_dimensions_is_refused_with_its_product() {
+        let header = |d: [i32; 3]| {
+            let mut h = [0u8; 12];
+            for (k, v) in d.iter().enumerate() {
+                h[4 * k..4 * k + 4].copy_from_slice(&v.to_le_bytes());
+            }
+            h
+        };
+        let msg = |d| {
+            let e = MerlTable::check_header(Path::new("m.binary"), &header(d)).unwrap_err();
+            e.to_string()
+        };
+        let big = msg([1 << 30; 3]);
+        assert!(
+            big.contains("(1237940039285380274899124224 values per plane)"),
+            "{big}"
+        );
+        let neg = msg([-1, 90, 180]);
+        assert!(neg.contains("(a dimension that is not positive)"), "{neg}");
+        assert!(msg([90, 90, 181]).contains("(1466100 values per plane)"));
+        assert!(MerlTable::check_header(Path::new("m"), &header([90, 90, 180])).is_ok());
     }
 }
