@@ -34,6 +34,15 @@ use std::fmt;
 use std::path::PathBuf;
 use std::sync::Arc;
 
+/// How many texels [`Texture::for_param`] clamped into the parameter's range.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Clamped {
+    /// Texels with any channel changed.
+    pub texels: u64,
+    /// Of those, texels with a NaN channel.
+    pub nan: u64,
+}
+
 /// How a lookup between texels is filtered (`filter`, Mitsuba's `filter_type`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Filter {
@@ -166,7 +175,7 @@ impl Texture {
     /// The texture of `pixels` (`width` × `height`, row 0 at the top, as stored) for parameter
     /// `param`: decoded when `srgb` (a PNG's codes) and not `raw`, reduced to luminance for a
     /// scalar parameter, clamped into the parameter's range. Returns it and how many texels
-    /// were clamped (a NaN counts).
+    /// were clamped (a texel with a NaN to the range's low end).
     #[allow(clippy::too_many_arguments)]
     pub fn for_param(
         path: PathBuf,
@@ -177,15 +186,10 @@ impl Texture {
         filter: Filter,
         wrap: Wrap,
         to_uv: [[f32; 3]; 2],
-    ) -> (Texture, u64) {
+    ) -> (Texture, Clamped) {
         let colour = matches!(param.kind, crate::brdf::Kind::Rgb(_));
         let (lo, hi) = param.texture_range();
-        let mut clamped = 0u64;
-        let mut clamp = |x: f32| {
-            let c = if x.is_nan() { lo } else { x.clamp(lo, hi) };
-            clamped += (c != x || x.is_nan()) as u64;
-            c
-        };
+        let mut counts = Clamped::default();
         let texels = pixels
             .iter()
             .map(|p| {
@@ -193,12 +197,15 @@ impl Texture {
                     true => p.map(crate::imageio::srgb_to_linear),
                     false => *p,
                 };
-                if colour {
-                    decoded.map(&mut clamp)
-                } else {
-                    let l = crate::lights::luminance(Vec3::from_array(decoded));
-                    [clamp(l); 3]
-                }
+                let values = match colour {
+                    true => decoded,
+                    false => [crate::lights::luminance(Vec3::from_array(decoded)); 3],
+                };
+                let nan = values.iter().any(|x| x.is_nan());
+                let out = values.map(|x| if x.is_nan() { lo } else { x.clamp(lo, hi) });
+                counts.texels += u64::from(nan || out != values);
+                counts.nan += u64::from(nan);
+                out
             })
             .collect();
         (
@@ -212,7 +219,7 @@ impl Texture {
                 wrap,
                 to_uv,
             },
-            clamped,
+            counts,
         )
     }
 
@@ -416,7 +423,8 @@ mod tests {
         );
         assert!((t.texels[0][0] - crate::imageio::srgb_to_linear(0.5)).abs() < 1e-7);
         assert_eq!(t.texels[1], [1.0, 0.0, 0.0]);
-        assert_eq!(n, 3);
+        // One texel, however many of its channels, and one of them NaN.
+        assert_eq!(n, Clamped { texels: 1, nan: 1 });
         // A scalar parameter: the codes as stored when raw (its default), else decoded; a
         // colour is reduced to its luminance.
         const S: Param = Param::scalar("r", "", 0.2, (0.0, 1.0), "");
@@ -433,7 +441,11 @@ mod tests {
             )
         };
         let (t, n) = scalar(true, &px[..1]);
-        assert_eq!((t.texels[0], n), ([0.5; 3], 0), "raw: the codes");
+        assert_eq!(
+            (t.texels[0], n),
+            ([0.5; 3], Clamped::default()),
+            "raw: the codes"
+        );
         let (t, _) = scalar(false, &px[..1]);
         assert_eq!(t.texels[0], [crate::imageio::srgb_to_linear(0.5); 3]);
         let (t, _) = scalar(true, &[[0.2, 0.6, 0.1]]);

@@ -190,15 +190,22 @@ fn texture(
         wrap,
         to_uv,
     );
-    if clamped > 0 {
+    if clamped.texels > 0 {
         let range = crate::brdf::params::fmt_num(lo);
+        let nan = match clamped.nan {
+            0 => String::new(),
+            n => format!(" ({n} of them NaN, set to {range})"),
+        };
         let msg = format!(
-            "{clamped} of the {}x{} texels of '{}' are outside [{range}, {}], the range of '{}', and were clamped (NaN to {range})",
+            "{} of the {}x{} texels of '{}' {} outside [{range}, {}], the range of '{}', and {} clamped{nan}",
+            clamped.texels,
             img.width,
             img.height,
             path.display(),
+            if clamped.texels == 1 { "is" } else { "are" },
             crate::brdf::params::fmt_num(hi),
-            param.name
+            param.name,
+            if clamped.texels == 1 { "was" } else { "were" },
         );
         cx.warn(span, field, msg);
     }
