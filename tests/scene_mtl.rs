@@ -94,6 +94,41 @@ fn mtl_materials_become_models_and_emitters() {
     assert!(cpu.mean.mean().iter().all(|&c| c > 0.01), "a lit image");
 }
 
+/// `convert --brdfwave-plugins` writes the MTL materials too (Blinn–Phong has no Mitsuba twin),
+/// with the parameters they were made with: the XML reads back to the same materials.
+#[test]
+fn mtl_materials_convert_with_their_parameters() {
+    use brdfwave::scene::mitsuba::write::{to_mitsuba, Options};
+    let s = scene_with(&[("a.obj", OBJ), ("lib.mtl", MTL)], "mtl = true").unwrap();
+    let Err(e) = to_mitsuba(&s, "x-meshes", Options::default()) else {
+        panic!("Blinn–Phong converted without --brdfwave-plugins");
+    };
+    assert!(e.contains("--brdfwave-plugins"), "{e}");
+    let opts = Options {
+        brdfwave_plugins: true,
+        ..Options::default()
+    };
+    let c = to_mitsuba(&s, "x-meshes", opts).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("x-meshes")).unwrap();
+    for (file, text) in &c.meshes {
+        std::fs::write(dir.path().join(file), text).unwrap();
+    }
+    std::fs::write(dir.path().join("x.xml"), &c.xml).unwrap();
+    let back = load(&dir.path().join("x.xml")).unwrap();
+    let (wi, wo) = (
+        Vec3::new(0.3, 0.1, 0.9).normalize(),
+        Vec3::new(-0.2, 0.3, 0.8).normalize(),
+    );
+    for name in ["m/a.obj:matte", "m/a.obj:shiny", "m/a.obj:lamp"] {
+        let at = |sc: &Scene| sc.material_names.iter().position(|x| x == name);
+        let (a, b) = (at(&s).unwrap(), at(&back).expect(name));
+        let (a, b) = (&s.materials[a], &back.materials[b]);
+        assert_eq!(a.model_name(), b.model_name(), "{name}");
+        assert_eq!(a.brdf.eval(wi, wo), b.brdf.eval(wi, wo), "{name}");
+    }
+}
+
 #[test]
 fn without_mtl_the_faces_keep_the_shape_material() {
     let s = scene_with(&[("a.obj", OBJ), ("lib.mtl", MTL)], "").unwrap();

@@ -110,7 +110,7 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
         }
     }
 
-    let (mut materials, mut material_names, material_spans, material_params) =
+    let (mut materials, mut material_names, material_spans, mut material_params) =
         materials(cx, raw.materials)?;
     let index: HashMap<&str, usize> = material_names
         .iter()
@@ -142,9 +142,10 @@ pub(super) fn build(cx: &mut Cx, raw: RawScene, path: &Path) -> Result<Scene, Sc
     }
 
     // The MTL materials of OBJ shapes with `mtl = true` follow the scene's own.
-    for (name, m) in std::mem::take(&mut out.mtl_materials) {
+    for (name, m, params) in std::mem::take(&mut out.mtl_materials) {
         material_names.push(name);
         materials.push(m);
+        material_params.push(params);
     }
 
     for (k, u) in used.iter().enumerate() {
@@ -275,9 +276,7 @@ fn materials(
                 match &v.value {
                     toml::Value::Boolean(b) => twosided = *b,
                     other => {
-                        let msg = format!(
-                            "material '{name}', field 'twosided': expected true or false, found {other}"
-                        );
+                        let msg = format!("expected true or false, found {other}");
                         return Err(cx.err(v.span(), &format!("materials.{name}.twosided"), msg));
                     }
                 }
@@ -438,7 +437,7 @@ pub(super) struct Shapes {
     pub(super) spheres: Vec<Sphere>,
     pub(super) emitters: Vec<Emitter>,
     /// Materials read from MTL files (`mtl = true`), with their names.
-    pub(super) mtl_materials: Vec<(String, brdf::Material)>,
+    pub(super) mtl_materials: Vec<(String, brdf::Material, super::mtl::Params)>,
     /// The number of the scene's own materials (the MTL ones are numbered from it).
     pub(super) material_base: u32,
     /// The camera's position, which spheres are checked against

@@ -204,9 +204,8 @@ pub struct Scene {
     /// Material names, parallel to `materials`.
     pub material_names: Vec<String>,
     /// Each material's parameters as the scene file gave them (`model` included), parallel to
-    /// the scene file's own materials (the first entries of `materials`; the materials of an
-    /// OBJ's MTL library that follow have none): what `brdfwave convert` writes for the models
-    /// Mitsuba lacks.
+    /// `materials` (for a material of an OBJ's MTL library, the parameters it was made with):
+    /// what `brdfwave convert` writes for the models Mitsuba lacks.
     pub material_params: Vec<std::collections::BTreeMap<String, toml::Value>>,
     pub emitters: Vec<Emitter>,
     pub triangles: Vec<Triangle>,

@@ -154,10 +154,14 @@ pub(super) fn scan_mtl(text: &str) -> Result<MtlLibrary, (usize, String)> {
     })
 }
 
+/// A material's parameters as TOML values, `model` included.
+pub(super) type Params = BTreeMap<String, toml::Value>;
+
 /// Where the MTL materials of OBJ shapes go: materials appended after the scene's `base`
 /// ones, emitters after the scene's.
 pub(super) struct MtlOut<'a> {
-    pub(super) materials: &'a mut Vec<(String, brdf::Material)>,
+    /// Each with its parameters as TOML values (`Scene::material_params`).
+    pub(super) materials: &'a mut Vec<(String, brdf::Material, Params)>,
     pub(super) emitters: &'a mut Vec<Emitter>,
     /// The number of the scene's own materials.
     pub(super) base: u32,
@@ -192,7 +196,7 @@ pub(super) fn mtl_material(
     };
     let kd = m.diffuse.unwrap_or([0.8; 3]);
     let illum = m.illumination_model.unwrap_or(2);
-    let mut fields = BTreeMap::new();
+    let mut fields: BTreeMap<String, toml::Spanned<toml::Value>> = BTreeMap::new();
     if illum <= 1 {
         fields.insert("model".into(), value(toml::Value::String("lambert".into())));
         fields.insert("albedo".into(), rgb(kd, "Kd"));
@@ -252,10 +256,14 @@ pub(super) fn mtl_material(
         span: s.clone(),
         dir: Some(&cx.dir),
     };
+    let params: Params = fields
+        .iter()
+        .map(|(k, v)| (k.clone(), v.get_ref().clone()))
+        .collect();
     let (material, warnings) = brdf::parse_material(origin, fields)?;
     cx.warnings.extend(warnings);
     let index = out.base + out.materials.len() as u32;
-    out.materials.push((name.clone(), material));
+    out.materials.push((name.clone(), material, params));
 
     let ke = Vec3::from_array(m.emissive.unwrap_or([0.0; 3]));
     let emitter = if ke == Vec3::ZERO {
