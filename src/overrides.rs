@@ -242,7 +242,8 @@ fn set_in_value(value: &mut Value, path: &[Key], v: &Value, prefix: &str) -> Res
 /// returns the scene and the file's bytes. An error about an overridden field is prefixed with
 /// the override (`--set materials.gold.roughnes=0.1: box.toml:12: material 'gold', field
 /// 'roughnes': unknown field …`); another error is the file's own, with its lines, when the
-/// file alone has it too.
+/// file alone has it too, or else prefixed with the last override that makes an error alone
+/// (a value of the wrong type: `--set shapes[0].transform.translate=x: …`).
 pub fn load_toml(path: &Path, sets: &[Set]) -> anyhow::Result<(Scene, Vec<u8>)> {
     let source = crate::infile::read_text(path, crate::infile::SCENE).map_err(|source| {
         SceneError::Read {
@@ -264,6 +265,7 @@ pub fn load_toml(path: &Path, sets: &[Set]) -> anyhow::Result<(Scene, Vec<u8>)> 
             ))
         }
     };
+    let doc_of = |src: &str| -> DocumentMut { src.parse().expect("parsed once already") };
     apply_toml(&mut doc, sets).map_err(anyhow::Error::msg)?;
     let edited = doc.to_string();
     match scene::load_str(&edited, path) {
@@ -272,10 +274,20 @@ pub fn load_toml(path: &Path, sets: &[Set]) -> anyhow::Result<(Scene, Vec<u8>)> 
             if let Some(s) = sets.iter().rev().find(|s| s.is_about(&e)) {
                 return Err(anyhow::anyhow!("--set {}: {e}", s.text));
             }
-            match scene::load_str(&source, path) {
-                Err(own) => Err(own.into()),
-                Ok(_) => Err(anyhow::anyhow!("with the --set overrides: {e}")),
+            if let Err(own) = scene::load_str(&source, path) {
+                return Err(own.into());
             }
+            // An error that names no overridden field (a value of the wrong type, a key the
+            // schema lacks): the last override that makes an error on its own is named.
+            for s in sets.iter().rev() {
+                let mut alone = doc_of(&source);
+                if apply_toml(&mut alone, std::slice::from_ref(s)).is_ok() {
+                    if let Err(e) = scene::load_str(&alone.to_string(), path) {
+                        return Err(anyhow::anyhow!("--set {}: {e}", s.text));
+                    }
+                }
+            }
+            Err(anyhow::anyhow!("with the --set overrides: {e}"))
         }
     }
 }

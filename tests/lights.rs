@@ -199,7 +199,7 @@ fn a_two_sided_floor_shades_its_back_like_its_front() {
     }
     let e = light_error("[materials.t]\nmodel = \"lambert\"\ntwosided = 1\n");
     assert!(
-        e.contains("material 't', field 'twosided': expected true or false, found 1"),
+        e.contains("field 'materials.t.twosided': expected true or false, found 1"),
         "{e}"
     );
 }

@@ -113,6 +113,17 @@ fn a_wrong_override_is_refused_naming_its_key() {
             "integrator.spp.x=1",
             "'integrator.spp' is integer, which has no field 'x'",
         ),
+        // Errors that name no overridden field: the override that makes them is named.
+        (
+            "shapes[0].transform.translate=x",
+            "--set shapes[0].transform.translate=x: ",
+        ),
+        ("foo.bar=1", "--set foo.bar=1: "),
+        // A table of the schema is described, not named by its Rust type.
+        (
+            "shapes[0].transform=0",
+            "expected a transform table (translate, rotate, scale, matrix)",
+        ),
     ] {
         let (_, e) = CLI.status(
             &[

@@ -73,8 +73,8 @@ pub struct RenderArgs {
     /// image (EXR layer `meanVariance`) the variance of each pixel's mean from the K batch
     /// means: right for every sampler, where the variance of one sample over the spp is right
     /// only for `independent`; the z-test of `diff` uses it. With `multijitter` each batch is its
-    /// own pattern of spp/K points, with `sobol` its own scramble (spp/K a power of two), so
-    /// the image is not the unbatched one; with `independent` it is.
+    /// own pattern of spp/K points and with `sobol` its own scramble (for both, spp/K a power of
+    /// two), so the image is not the unbatched one; with `independent` it is.
     #[arg(long, value_name = "K", value_parser = clap::value_parser!(u32).range(2..=65536))]
     batches: Option<u32>,
     /// Vulkan device: a case-insensitive part of its name (default: lavapipe if present;

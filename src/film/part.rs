@@ -12,7 +12,10 @@ const VERSION: u32 = 3;
 
 /// The JSON header of a partial film (see the module documentation).
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a partial film's header, a JSON object"
+)]
 pub struct PartHeader {
     /// The scene file as given on the command line (for messages only).
     pub scene: String,

@@ -16,7 +16,10 @@ pub(super) type Tris = Vec<Sp<Arr<Arr<f64, 3>, 3>>>;
 pub(super) type MaterialTable = BTreeMap<String, Sp<toml::Value>>;
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a scene: tables [camera], [film], [materials.NAME], [[shapes]] and optional ones"
+)]
 pub(super) struct RawScene {
     pub(super) camera: RawCamera,
     pub(super) film: RawFilm,
@@ -33,7 +36,10 @@ pub(super) struct RawScene {
 /// A `[[lights]]` table: a point or directional light ([`super::delta_lights`] checks which
 /// fields its type takes).
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a light table (type = point or directional, and its fields)"
+)]
 pub(super) struct RawLight {
     #[serde(rename = "type")]
     pub(super) kind: Sp<String>,
@@ -44,7 +50,10 @@ pub(super) struct RawLight {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a [camera] table (position, target, fov_y, ...)"
+)]
 pub(super) struct RawCamera {
     pub(super) position: V3,
     pub(super) target: V3,
@@ -60,14 +69,17 @@ pub(super) struct RawCamera {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a [film] table (width, height)")]
 pub(super) struct RawFilm {
     pub(super) width: Sp<u32>,
     pub(super) height: Sp<u32>,
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "an [integrator] table (spp, max_depth, ...)"
+)]
 pub(super) struct RawIntegrator {
     pub(super) spp: Option<Sp<u32>>,
     pub(super) max_depth: Option<Sp<u32>>,
@@ -79,7 +91,10 @@ pub(super) struct RawIntegrator {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "an [environment] table (radiance, or map and its fields)"
+)]
 pub(super) struct RawEnvironment {
     pub(super) radiance: Option<Sp<Triple>>,
     /// An equirectangular image of the environment ([`super::environment`]).
@@ -91,7 +106,10 @@ pub(super) struct RawEnvironment {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a shape table (material, and one of sphere, quad, triangles, obj, ply)"
+)]
 pub(super) struct RawShape {
     pub(super) name: Option<String>,
     pub(super) material: Sp<String>,
@@ -147,7 +165,10 @@ pub(super) enum Sides {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a sphere table ({ center = [x, y, z], radius = r })"
+)]
 pub(super) struct RawSphere {
     pub(super) center: V3,
     pub(super) radius: Sp<f64>,
@@ -156,7 +177,10 @@ pub(super) struct RawSphere {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a transform table (translate, rotate, scale, matrix)"
+)]
 pub(super) struct RawTransform {
     pub(super) translate: Option<V3>,
     pub(super) scale: Option<Sp<Triple>>,
@@ -167,7 +191,10 @@ pub(super) struct RawTransform {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a rotation table ({ axis = [x, y, z], angle_deg = degrees })"
+)]
 pub(super) struct RawRotate {
     pub(super) axis: V3,
     pub(super) angle_deg: Sp<f64>,
