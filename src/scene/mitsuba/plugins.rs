@@ -714,18 +714,25 @@ fn conductor(cx: &Cx, el: &El, p: &mut Props, t: &mut MaterialTable) -> Result<(
                 put(t, m, "k", rgb(k));
             }
         },
-        (None, Some(eta), Some(k)) => {
+        (None, Some(eta), k) => {
             put(t, el, "fresnel", Value::String("conductor".into()));
             t.insert("eta".into(), cx.color_value(eta)?);
-            t.insert("k".into(), cx.color_value(k)?);
+            // Mitsuba's default κ when only η is given: 1.
+            match k {
+                Some(k) => {
+                    t.insert("k".into(), cx.color_value(k)?);
+                }
+                None => put(t, el, "k", Value::Float(1.0)),
+            }
         }
-        // Mitsuba's default: material="none", a perfect mirror (F = 1).
-        (None, None, None) => {
+        // Mitsuba's default: material="none", a perfect mirror (F = 1); and so with κ alone,
+        // whose default η of 0 (a purely imaginary index) reflects everything whatever κ is.
+        (None, None, _) => {
             put(t, el, "fresnel", Value::String("schlick".into()));
             put(t, el, "f0", Value::Float(1.0));
         }
-        (_, Some(e), _) | (_, _, Some(e)) => {
-            return Err(cx.el_err(e, "give either material, or both eta and k"));
+        (Some(_), Some(e), _) | (Some(_), _, Some(e)) => {
+            return Err(cx.el_err(e, "give either material, or eta and k, not both"));
         }
     }
     Ok(())
