@@ -496,18 +496,15 @@ mod tests {
     #[test]
     fn flip_in_bands_is_flip_of_the_whole_image() {
         let (w, h) = (37, 211);
-        let mut state = 0x9e37_79b9_u32;
-        let mut rnd = move || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            (state >> 8) as f32 / (1u32 << 24) as f32
-        };
+        let rnd = |x: u32, y: u32| crate::rng::random_f32(7, y * w + x, 0, 0, 0);
         let reference = Image::from_fn(w, h, |x, y| {
             let edge = if (x / 5 + y / 7) % 2 == 0 { 0.8 } else { 0.1 };
             [edge, x as f32 / w as f32, y as f32 / h as f32]
         });
-        let test = reference.map(|p| p.map(|c| (c + 0.3 * (rnd() - 0.5)).max(0.0)));
+        let test = Image::from_fn(w, h, |x, y| {
+            let n = 0.3 * (rnd(x, y) - 0.5);
+            reference.get(x, y).map(|c| (c + n).max(0.0))
+        });
         let whole = flip_map_in_bands(&test, &reference, h);
         assert!(whole.iter().any(|&v| v > 0.05), "the images differ visibly");
         for band in [1, 5, 64, 100] {
