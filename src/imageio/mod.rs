@@ -226,6 +226,14 @@ impl Image {
         }
     }
 
+    /// Decodes sRGB codes to linear values in place ([`srgb_to_linear`]; no copy of a large
+    /// image).
+    pub fn decode_srgb(&mut self) {
+        for p in &mut self.data {
+            *p = p.map(srgb_to_linear);
+        }
+    }
+
     /// Per-channel mean over all pixels, in f64. Non-finite values propagate (see
     /// [`Image::count_nonfinite`]); use [`Image::mean_finite`] to skip them.
     pub fn mean(&self) -> [f64; 3] {
@@ -534,9 +542,7 @@ pub(crate) fn check_size(path: &Path, width: u64, height: u64) -> Result<(), Ima
 
 fn read_png(path: &Path) -> Result<Image, ImageError> {
     let mut img = read_png_codes(path)?;
-    for p in &mut img.data {
-        *p = p.map(srgb_to_linear);
-    }
+    img.decode_srgb();
     Ok(img)
 }
 

@@ -60,9 +60,7 @@ pub(super) fn environment(
     // A PNG holds sRGB codes: the map is radiance, so they are decoded.
     let mut img = stored.image;
     if stored.srgb {
-        for p in &mut img.data {
-            *p = p.map(crate::imageio::srgb_to_linear);
-        }
+        img.decode_srgb();
     }
     let m = EnvMap::new(
         path.clone(),

@@ -83,12 +83,7 @@ pub(super) fn scan_obj(text: &str) -> Result<ObjScan, (usize, String)> {
                 found.normals = true;
             }
             Some(kw @ ("mtllib" | "usemtl")) => {
-                let name = line
-                    .trim()
-                    .split_once(char::is_whitespace)
-                    .unwrap_or_default()
-                    .1;
-                let entry = (l + 1, name.trim().to_string());
+                let entry = (l + 1, rest_of(line).to_string());
                 match kw {
                     "mtllib" => found.mtllibs.push(entry),
                     _ => found.usemtls.push(entry),

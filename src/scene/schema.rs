@@ -108,7 +108,7 @@ pub(super) struct RawEnvironment {
 #[derive(Deserialize)]
 #[serde(
     deny_unknown_fields,
-    expecting = "a shape table (material, and one of sphere, quad, triangles, obj, ply)"
+    expecting = "a shape table (material, and one of sphere, quads, triangles, obj, ply)"
 )]
 pub(super) struct RawShape {
     pub(super) name: Option<String>,
