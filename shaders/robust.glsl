@@ -83,17 +83,21 @@ vec3 triangle_normal(vec3 v0, vec3 v1, vec3 v2) {
 // The least magnitude of a coordinate offset_ray_origin moves, 2^-100 (Rust: ORIGIN_MIN).
 #define ORIGIN_MIN uintBitsToFloat(0x0d800000u)
 
-// Rust: next_float_up / next_float_down / offset_ray_origin (the same arithmetic).
-// The next float above (below) x; -0 and +0 are treated as +0 (-0). Non-finite x unchanged.
-float next_float_up(float x) {
-    if ((floatBitsToUint(x) & 0x7f800000u) == 0x7f800000u) return x;
-    uint b = x == 0.0 ? 0u : floatBitsToUint(x);
-    return uintBitsToFloat(x >= 0.0 ? b + 1u : b - 1u);
-}
-float next_float_down(float x) {
-    if ((floatBitsToUint(x) & 0x7f800000u) == 0x7f800000u) return x;
-    uint b = x == 0.0 ? 0x80000000u : floatBitsToUint(x);
-    return uintBitsToFloat(x <= 0.0 ? b + 1u : b - 1u);
+// Rust: step_off / offset_ray_origin (the same arithmetic on the same bits).
+// q one float further in the direction of the sign of n (next_float_up for n > 0,
+// next_float_down for n < 0, -0 and +0 stepping away from 0 alike), a result below ORIGIN_MIN
+// in magnitude replaced by +-ORIGIN_MIN on the side of n; q itself for n = 0 or NaN and for an
+// infinite or NaN q. Selects on integer bits, no branches.
+float step_off(float q, float n) {
+    uint b = floatBitsToUint(q);
+    uint mag = b & 0x7fffffffu;
+    bool down = n < 0.0;
+    bool moves = (n > 0.0) || down;
+    bool away = (((b >> 31) != 0u) == down) || mag == 0u;
+    uint s = away ? b + 1u : b - 1u;
+    uint least = floatBitsToUint(ORIGIN_MIN) | (down ? 0x80000000u : 0u);
+    uint r = (s & 0x7fffffffu) < floatBitsToUint(ORIGIN_MIN) ? least : s;
+    return uintBitsToFloat(moves && mag < 0x7f800000u ? r : b);
 }
 
 // Move p, within err (per coordinate) of the true surface point, off the surface to the side of
@@ -105,13 +109,7 @@ float next_float_down(float x) {
 vec3 offset_ray_origin(vec3 p, vec3 err, vec3 n) {
     precise float d = abs(n.x) * err.x + abs(n.y) * err.y + abs(n.z) * err.z;
     precise vec3 q = p + n * d;
-    for (int i = 0; i < 3; ++i) {
-        if (!(n[i] > 0.0) && !(n[i] < 0.0)) continue; // 0 or NaN: unchanged, as in Rust
-        float s = n[i] > 0.0 ? next_float_up(q[i]) : next_float_down(q[i]);
-        bool below = (floatBitsToUint(s) & 0x7fffffffu) < floatBitsToUint(ORIGIN_MIN);
-        q[i] = below ? (n[i] > 0.0 ? ORIGIN_MIN : -ORIGIN_MIN) : s;
-    }
-    return q;
+    return vec3(step_off(q.x, n.x), step_off(q.y, n.y), step_off(q.z, n.z));
 }
 
 #endif

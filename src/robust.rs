@@ -307,28 +307,47 @@ pub fn next_float_down(x: f32) -> f32 {
 /// carry subnormals through its box and triangle tests, which Intel cores compute in
 /// microcode, about a hundred times slower (docs/bench-log.md: the CPU reference 1.2x and
 /// lavapipe 2x slower on the Cornell box). Further along `n` is on the same side.
+///
+/// Written without branches ([`step_off`]): the signs of a normal's components change at random
+/// from one hit to the next, and the branches of `next_float_up`/`down` on them were
+/// mispredicted (the function was 5 % of a Cornell box render on the CPU reference;
+/// docs/bench-log.md).
 pub fn offset_ray_origin(p: Vec3, err: Vec3, n: Vec3) -> Vec3 {
-    // |q| < ORIGIN_MIN on the bits, so that the subnormal is never an operand of arithmetic.
-    let below_origin_min = |q: f32| q.to_bits() & 0x7fff_ffff < ORIGIN_MIN.to_bits();
     let d = dot3(n.abs(), err);
     let q = p + n * d;
     // By the sign of n, not of the offset: a point with a zero error bound (a vertex at the
     // origin) still moves.
-    let one = |q: f32, n: f32| -> f32 {
-        let (step, least) = if n > 0.0 {
-            (next_float_up(q), ORIGIN_MIN)
-        } else if n < 0.0 {
-            (next_float_down(q), -ORIGIN_MIN)
-        } else {
-            return q;
-        };
-        if below_origin_min(step) {
-            least
-        } else {
-            step
-        }
+    Vec3::new(step_off(q.x, n.x), step_off(q.y, n.y), step_off(q.z, n.z))
+}
+
+/// `q` one float further in the direction of the sign of `n` ([`next_float_up`] for n > 0,
+/// [`next_float_down`] for n < 0), a result below [`ORIGIN_MIN`] in magnitude replaced by
+/// ±`ORIGIN_MIN` on the side of `n` (compared on the bits, so that the subnormal is never an
+/// operand of arithmetic); `q` itself for n = 0 or NaN and for an infinite or NaN `q`. Every
+/// case is a select on integer bits, not a branch.
+#[inline(always)]
+fn step_off(q: f32, n: f32) -> f32 {
+    const MAGNITUDE: u32 = 0x7fff_ffff;
+    let bits = q.to_bits();
+    let down = n < 0.0;
+    // `|`, not `||`: both comparisons, no branch. NaN compares false both ways.
+    let moves = (n > 0.0) | down;
+    let finite = bits & MAGNITUDE < 0x7f80_0000;
+    // Away from 0 when q's sign is the direction's, and from ±0 always (next_float_up(-0) is
+    // the least positive float, which the floor below replaces anyway); else towards 0.
+    let away = ((bits >> 31 != 0) == down) | (bits & MAGNITUDE == 0);
+    let step = if away {
+        bits.wrapping_add(1)
+    } else {
+        bits.wrapping_sub(1)
     };
-    Vec3::new(one(q.x, n.x), one(q.y, n.y), one(q.z, n.z))
+    let least = ORIGIN_MIN.to_bits() | (u32::from(down) << 31);
+    let stepped = if step & MAGNITUDE < ORIGIN_MIN.to_bits() {
+        least
+    } else {
+        step
+    };
+    f32::from_bits(if moves & finite { stepped } else { bits })
 }
 
 /// The value of `#define NAME value` in the GLSL source `glsl` (the file `file`, for the
@@ -434,6 +453,54 @@ mod tests {
         let z = ORIGIN_MIN * 4.0;
         let q = offset_ray_origin(Vec3::new(0.0, 0.0, z), Vec3::ZERO, Vec3::Z);
         assert_eq!(q.z, next_float_up(z));
+    }
+
+    /// The branch-free step of `offset_ray_origin` is the branching one it replaced, bit for
+    /// bit: that one (below, written with `next_float_up`/`down`) on every sign and class of
+    /// coordinate and normal component: zeros of both signs, subnormals, values around
+    /// ORIGIN_MIN, the largest finite floats, infinities and NaN, and a million others.
+    #[test]
+    fn step_off_is_the_branching_step() {
+        fn branching(q: f32, n: f32) -> f32 {
+            let below = |x: f32| x.to_bits() & 0x7fff_ffff < ORIGIN_MIN.to_bits();
+            let (step, least) = if n > 0.0 {
+                (next_float_up(q), ORIGIN_MIN)
+            } else if n < 0.0 {
+                (next_float_down(q), -ORIGIN_MIN)
+            } else {
+                return q;
+            };
+            if below(step) {
+                least
+            } else {
+                step
+            }
+        }
+        let m = ORIGIN_MIN.to_bits();
+        let mut qs: Vec<u32> = vec![0, 1, 2, m - 1, m, m + 1, 0x7f7f_ffff, 0x7f80_0000];
+        qs.extend([0x7fc0_0000, 0x7f80_0001, 0x3f80_0000, 0x0080_0000, 0x007f_ffff]);
+        let signed: Vec<u32> = qs.iter().flat_map(|&b| [b, b | 0x8000_0000]).collect();
+        let ns = [1.0, -1.0, 0.0, -0.0, f32::NAN, 1e-30, -1e-42, f32::INFINITY];
+        let same = |q: f32, n: f32| {
+            let (a, b) = (step_off(q, n), branching(q, n));
+            assert_eq!(a.to_bits(), b.to_bits(), "q {:#x}, n {n}", q.to_bits());
+        };
+        for &q in &signed {
+            for &n in &ns {
+                same(f32::from_bits(q), n);
+            }
+        }
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        for _ in 0..1_000_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let q = f32::from_bits(x as u32);
+            same(q, ns[(x >> 40) as usize % ns.len()]);
+            // Near the floor, where the replacement happens.
+            let near = f32::from_bits((m as i64 + ((x >> 32) as i64 & 0xffff) - 0x8000) as u32);
+            same(if x >> 63 != 0 { -near } else { near }, ns[(x >> 48) as usize % 2]);
+        }
     }
 
     #[test]
