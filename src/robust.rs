@@ -478,7 +478,13 @@ mod tests {
         }
         let m = ORIGIN_MIN.to_bits();
         let mut qs: Vec<u32> = vec![0, 1, 2, m - 1, m, m + 1, 0x7f7f_ffff, 0x7f80_0000];
-        qs.extend([0x7fc0_0000, 0x7f80_0001, 0x3f80_0000, 0x0080_0000, 0x007f_ffff]);
+        qs.extend([
+            0x7fc0_0000,
+            0x7f80_0001,
+            0x3f80_0000,
+            0x0080_0000,
+            0x007f_ffff,
+        ]);
         let signed: Vec<u32> = qs.iter().flat_map(|&b| [b, b | 0x8000_0000]).collect();
         let ns = [1.0, -1.0, 0.0, -0.0, f32::NAN, 1e-30, -1e-42, f32::INFINITY];
         let same = |q: f32, n: f32| {
@@ -490,16 +496,17 @@ mod tests {
                 same(f32::from_bits(q), n);
             }
         }
-        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        let mut rng = crate::stress::Rng::new(43);
         for _ in 0..1_000_000 {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
+            let x = rng.next_u64();
             let q = f32::from_bits(x as u32);
             same(q, ns[(x >> 40) as usize % ns.len()]);
             // Near the floor, where the replacement happens.
             let near = f32::from_bits((m as i64 + ((x >> 32) as i64 & 0xffff) - 0x8000) as u32);
-            same(if x >> 63 != 0 { -near } else { near }, ns[(x >> 48) as usize % 2]);
+            same(
+                if x >> 63 != 0 { -near } else { near },
+                ns[(x >> 48) as usize % 2],
+            );
         }
     }
 
