@@ -87,7 +87,8 @@ vec3 triangle_normal(vec3 v0, vec3 v1, vec3 v2) {
 // q one float further in the direction of the sign of n (next_float_up for n > 0,
 // next_float_down for n < 0, -0 and +0 stepping away from 0 alike), a result below ORIGIN_MIN
 // in magnitude replaced by +-ORIGIN_MIN on the side of n; q itself for n = 0 or NaN and for an
-// infinite or NaN q. Selects on integer bits, no branches.
+// infinite or NaN q. Selects on integer bits, not if-statements (as in Rust, which has no
+// branches there).
 float step_off(float q, float n) {
     uint b = floatBitsToUint(q);
     uint mag = b & 0x7fffffffu;
