@@ -22,7 +22,7 @@ use crate::conventions::SEGMENTS_COUNTED;
 use crate::film::{self, Block, Film, PairwiseSum, Tile};
 use crate::lights::LightTable;
 use crate::output::{nonfinite_stages, RenderOutput};
-use crate::rng::PathRng;
+use crate::rng::{LaneRng, PacketRng};
 use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -161,19 +161,19 @@ impl<'a> CpuRenderer<'a> {
                 let mut stats = PathStats::default();
                 let mut bad = 0u64;
                 let y = tile.y + row as u32;
+                // A pixel's samples draw their numbers a packet at a time (`rng::PacketRng`).
+                let mut packet = PacketRng::new(
+                    s.integrator.sampler,
+                    s.integrator.seed,
+                    s.integrator.pattern_bits(),
+                );
                 for (i, x) in (tile.x..tile.x + tile.width).enumerate() {
                     let pixel = y * s.width + x;
                     for (b, range) in blocks.iter().enumerate() {
                         let mut acc = PairwiseSum::default();
                         for sample in range.clone() {
-                            let rng = PathRng::with_bits(
-                                s.integrator.sampler,
-                                s.integrator.seed,
-                                s.integrator.pattern_bits(),
-                                pixel,
-                                sample,
-                            );
-                            let l = self.trace_path(x, y, &rng, &mut stats);
+                            let mut rng = packet.path(pixel, sample);
+                            let l = self.trace_path(x, y, &mut rng, &mut stats);
                             // Sums in f64: no finite f32 sample overflows them, or its
                             // square (the GPU film scales its f32 sums instead). A
                             // non-finite sample is dropped, counted, and adds 0.
@@ -240,7 +240,7 @@ impl<'a> CpuRenderer<'a> {
     /// (`path.rs`), then at a surface the path goes on from [`Self::shade_vertex`]
     /// (`scatter.rs`) and its shadow ray, in the order of the GPU megakernel
     /// (`shaders/wavefront/megakernel.comp`).
-    fn trace_path(&self, x: u32, y: u32, rng: &PathRng, stats: &mut PathStats) -> Vec3 {
+    fn trace_path(&self, x: u32, y: u32, rng: &mut LaneRng, stats: &mut PathStats) -> Vec3 {
         let s = self.scene;
         let (mut o, mut d) = self.camera_ray(x, y, rng);
         let mut beta = Vec3::ONE;

@@ -5,7 +5,7 @@
 
 use super::surface::{light_pdf, power_heuristic, surface_at, Surface};
 use super::{CpuRenderer, PathStats};
-use crate::rng::{dim, PathRng};
+use crate::rng::{dim, LaneRng};
 use glam::Vec3;
 
 /// The most emitters a camera ray passes through with hidden emitters (`hide_emitters`);
@@ -37,7 +37,7 @@ impl CpuRenderer<'_> {
 
     /// Camera ray through pixel (x, y): box pixel filter, uniform position in the pixel; from
     /// a point of the lens when the camera has one (`crate::camera`).
-    pub(super) fn camera_ray(&self, x: u32, y: u32, rng: &PathRng) -> (Vec3, Vec3) {
+    pub(super) fn camera_ray(&self, x: u32, y: u32, rng: &mut LaneRng) -> (Vec3, Vec3) {
         let s = self.scene;
         let sub_pixel = rng.get2(0, dim::PIXEL_X);
         let fx = x as f32 + sub_pixel.x;

@@ -6,7 +6,7 @@ use super::{CpuRenderer, PathStats};
 use crate::brdf::Brdf;
 use crate::envmap::EnvMap;
 use crate::lights::{DeltaEntry, ENV_ENTRY};
-use crate::rng::{dim, PathRng};
+use crate::rng::{dim, LaneRng};
 use crate::robust;
 use glam::Vec3;
 
@@ -116,7 +116,7 @@ impl CpuRenderer<'_> {
     /// counted by model (the GPU's `shade_<model>`) and dropped.
     pub(super) fn shade_vertex(
         &self,
-        rng: &PathRng,
+        rng: &mut LaneRng,
         depth: u32,
         si: &Surface,
         d: Vec3,

@@ -58,12 +58,14 @@
 use std::fmt;
 
 mod multijitter;
+mod packet;
 mod sobol;
 
 pub use multijitter::{
     hashed_permute, multijitter_bits, multijitter_pair, multijitter_pattern_key, multijitter_u32,
     remix, MULTIJITTER_MAX_BITS,
 };
+pub use packet::{LaneRng, PacketRng, PACKET};
 pub use sobol::{
     lk_permute, sobol1_reversed, sobol_batch_key, sobol_component, sobol_f32, sobol_shuffled_index,
     sobol_u32, SOBOL_UNBATCHED,
@@ -312,6 +314,34 @@ impl PathRng {
             multijitter_pattern_key(key, self.sample, bits),
             bits,
         )
+    }
+
+    /// Pair `pair` (dimensions `2·pair` and `2·pair + 1`) at `depth` as 32-bit values, whose
+    /// [`to_unit_f32`] are the numbers [`get2`](Self::get2) and [`get`](Self::get) return.
+    #[inline(always)]
+    pub fn pair_u32(&self, depth: u32, pair: u32) -> (u32, u32) {
+        let dim = 2 * pair;
+        match self.sampler {
+            Sampler::Multijitter => self.multijitter(depth, dim),
+            Sampler::Sobol => {
+                let key = self.sobol_key(depth, dim);
+                let index = sobol_shuffled_index(self.sample, key);
+                (
+                    sobol_component(index, key, 0),
+                    sobol_component(index, key, 1),
+                )
+            }
+            Sampler::Independent => (
+                random_u32(self.seed, self.pixel, self.sample, depth, dim),
+                random_u32(self.seed, self.pixel, self.sample, depth, dim + 1),
+            ),
+        }
+    }
+
+    /// The same numbers for sample `sample` of the same pixel and render.
+    #[inline]
+    pub fn with_sample(&self, sample: u32) -> PathRng {
+        PathRng { sample, ..*self }
     }
 
     /// The number of dimension `dim` at `depth`.
