@@ -8,7 +8,9 @@
 //! [`defines`], so it is written down once.
 //!
 //! This file holds the stream keys, the `independent` sampler and the public API (re-exporting
-//! the rest); the two low-discrepancy samplers are `sobol.rs` and `multijitter.rs`.
+//! the rest); the two low-discrepancy samplers are `sobol.rs` and `multijitter.rs`. The CPU
+//! reference draws a pixel's numbers 16 samples at a time (`packet.rs`, [`PacketRng`]): the
+//! same numbers, each pair computed in SIMD lanes for the packet's samples.
 //!
 //! Three samplers ([`Sampler`]), chosen by the scene's `[integrator] sampler` or `--sampler`:
 //!
