@@ -437,7 +437,37 @@ fn offset_origins_do_not_hit_their_own_surface() {
                 if d.dot(n) < 1e-3 {
                     continue;
                 }
-                if let Some(h2) = b.closest(&s, origin, d, f32::MAX) {
+                let found = b.closest(&s, origin, d, f32::MAX);
+                // Told which primitive it leaves, the traversal skips that triangle (the CPU
+                // reference's rays from a surface) and finds the same hit, bit for bit; a
+                // sphere it does not skip.
+                let leaving = b.closest_leaving(&s, origin, d, f32::MAX, h.prim);
+                let bits = |h: &Option<Hit>| {
+                    h.as_ref().map(|h| {
+                        (
+                            h.prim,
+                            h.t.to_bits(),
+                            h.bary.x.to_bits(),
+                            h.bary.y.to_bits(),
+                        )
+                    })
+                };
+                assert_eq!(
+                    bits(&found),
+                    bits(&leaving),
+                    "scale {scale}: prim {:#x}",
+                    h.prim
+                );
+                let t = found.as_ref().map_or(1.0e3 * scale, |h| h.t);
+                for tmax in [0.5 * t, 1.5 * t] {
+                    assert_eq!(
+                        b.occluded(&s, origin, d, tmax),
+                        b.occluded_leaving(&s, origin, d, tmax, h.prim),
+                        "scale {scale}: prim {:#x}",
+                        h.prim
+                    );
+                }
+                if let Some(h2) = found {
                     if h2.prim == h.prim {
                         // Only a sphere left inwards may be hit again, on its far side
                         // (chord = 2r·cos >= 2e-3 r here).

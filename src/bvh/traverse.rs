@@ -11,23 +11,65 @@ use super::{Bvh, Hit, SPHERE_BIT};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 
+/// No primitive to leave out.
+const NONE: u32 = u32::MAX;
+
 impl Bvh {
     /// Closest hit with t in (0, tmax); ties are resolved as the module documentation says.
     /// `scene` must be the scene the BVH was built from. A zero, infinite or NaN direction
     /// hits nothing. Panics on a tree built for the GPU alone ([`super::Traversal::GpuOnly`]).
     pub fn closest(&self, scene: &Scene, o: Vec3, d: Vec3, tmax: f32) -> Option<Hit> {
-        self.traverse::<false>(scene, o, d, tmax)
+        self.traverse::<false>(scene, o, d, tmax, NONE)
     }
 
     /// Whether anything is hit with t in (0, tmax) (shadow rays).
     pub fn occluded(&self, scene: &Scene, o: Vec3, d: Vec3, tmax: f32) -> bool {
-        self.traverse::<true>(scene, o, d, tmax).is_some()
+        self.traverse::<true>(scene, o, d, tmax, NONE).is_some()
+    }
+
+    /// [`closest`](Self::closest) for a ray that leaves the triangle `leaving` (a primitive
+    /// reference, [`Hit::prim`]; a sphere's is ignored), which the traversal then does not
+    /// test. The CPU reference's rays leave a surface from an origin offset off the triangle's
+    /// plane to the side they go to (`crate::robust::offset_ray_origin`), and a plane is
+    /// crossed at most once, so they cannot meet that triangle again: `closest` would test it,
+    /// find `t` within its error bound of 0, redo the test in f64 and miss it. Skipping it
+    /// gives the same hit without the two tests (`tests/bvh.rs` checks the same bits on rays
+    /// leaving surfaces at many scales); only a direction within rounding of the plane itself
+    /// could be told apart. The GLSL traversal tests it and misses it.
+    pub fn closest_leaving(
+        &self,
+        scene: &Scene,
+        o: Vec3,
+        d: Vec3,
+        tmax: f32,
+        leaving: u32,
+    ) -> Option<Hit> {
+        self.traverse::<false>(scene, o, d, tmax, leaving)
+    }
+
+    /// [`occluded`](Self::occluded) for a ray that leaves the triangle `leaving`.
+    pub fn occluded_leaving(
+        &self,
+        scene: &Scene,
+        o: Vec3,
+        d: Vec3,
+        tmax: f32,
+        leaving: u32,
+    ) -> bool {
+        self.traverse::<true>(scene, o, d, tmax, leaving).is_some()
     }
 
     // Inlined as the profile-guided build inlines it (docs/bench-log.md, "Hot functions inlined
     // by hand").
     #[inline(always)]
-    fn traverse<const ANY: bool>(&self, scene: &Scene, o: Vec3, d: Vec3, tmax: f32) -> Option<Hit> {
+    fn traverse<const ANY: bool>(
+        &self,
+        scene: &Scene,
+        o: Vec3,
+        d: Vec3,
+        tmax: f32,
+        leaving: u32,
+    ) -> Option<Hit> {
         assert!(
             !self.wide.is_empty(),
             "the CPU traversal of a BVH built for the GPU alone (bvh::Traversal::GpuOnly)"
@@ -55,6 +97,8 @@ impl Bvh {
                     let h = if r & SPHERE_BIT != 0 {
                         let s = &scene.spheres[(r & !SPHERE_BIT) as usize];
                         sphere(o, d, s.center, s.radius, best.t).map(|t| (t, Vec2::ZERO))
+                    } else if r == leaving {
+                        None
                     } else {
                         ray.triangle(&self.leaf_triangles[i as usize], best.t)
                     };

@@ -248,11 +248,13 @@ impl<'a> CpuRenderer<'a> {
         // Solid-angle pdf of the BSDF sample that produced the current ray; 0 for the camera
         // ray and after delta lobes (emission is then counted with weight 1).
         let mut prev_pdf = 0.0f32;
+        // The triangle the ray leaves (none for the camera ray).
+        let mut leaving = u32::MAX;
         for depth in 1..=s.integrator.max_depth {
             stats.extension_rays += 1;
             let seg = (depth.min(SEGMENTS_COUNTED) - 1) as usize;
             stats.segment_extension[seg] += 1;
-            let end = self.segment_end(depth, o, d, prev_pdf, beta, stats);
+            let end = self.segment_end(depth, (o, d, leaving), prev_pdf, beta, stats);
             if let Some(e) = end.e {
                 l += e;
             }
@@ -263,7 +265,10 @@ impl<'a> CpuRenderer<'a> {
             if let Some(sh) = sc.shadow {
                 stats.shadow_rays += 1;
                 stats.segment_shadow[seg] += 1;
-                if !self.bvh.occluded(s, sh.o, sh.d, sh.tmax) {
+                if !self
+                    .bvh
+                    .occluded_leaving(s, sh.o, sh.d, sh.tmax, sh.leaving)
+                {
                     l += sh.l;
                 } else {
                     stats.shadow_rays_occluded += 1;
@@ -276,6 +281,7 @@ impl<'a> CpuRenderer<'a> {
             d = next.d;
             beta = next.beta;
             prev_pdf = next.pdf;
+            leaving = next.leaving;
         }
         l
     }

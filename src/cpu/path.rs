@@ -59,8 +59,7 @@ impl CpuRenderer<'_> {
     pub(super) fn segment_end(
         &self,
         depth: u32,
-        o: Vec3,
-        d: Vec3,
+        (o, d, leaving): (Vec3, Vec3, u32),
         prev_pdf: f32,
         beta: Vec3,
         stats: &mut PathStats,
@@ -68,7 +67,7 @@ impl CpuRenderer<'_> {
         let s = self.scene;
         let mut end = SegmentEnd::default();
         let mut o = o;
-        let mut found = self.bvh.closest(s, o, d, f32::MAX);
+        let mut found = self.bvh.closest_leaving(s, o, d, f32::MAX, leaving);
         let hidden = s.integrator.hide_emitters && depth == 1;
         if hidden {
             // Mitsuba's hidden emitters: the camera ray passes through the emitters it meets,

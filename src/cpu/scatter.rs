@@ -15,6 +15,8 @@ pub(super) struct ShadowRay {
     pub o: Vec3,
     pub d: Vec3,
     pub tmax: f32,
+    /// The primitive it leaves (`Surface::prim`), which it cannot meet again.
+    pub leaving: u32,
     /// Its unoccluded contribution.
     pub l: Vec3,
 }
@@ -26,6 +28,8 @@ pub(super) struct NextSegment {
     pub d: Vec3,
     pub beta: Vec3,
     pub pdf: f32,
+    /// The primitive it leaves (`Surface::prim`), which it cannot meet again.
+    pub leaving: u32,
 }
 
 /// What shading one surface vertex produces (the GLSL `struct Scatter`).
@@ -68,6 +72,7 @@ impl CpuRenderer<'_> {
             o: origin,
             d: ds.wi,
             tmax: ds.tmax,
+            leaving: si.prim,
             l: contrib,
         })
     }
@@ -106,6 +111,7 @@ impl CpuRenderer<'_> {
             o: origin,
             d: es.wi,
             tmax: f32::MAX,
+            leaving: si.prim,
             l: contrib,
         })
     }
@@ -204,6 +210,7 @@ impl CpuRenderer<'_> {
                                 o: origin,
                                 d: wi,
                                 tmax: dist * (1.0 - robust::SHADOW_EPSILON),
+                                leaving: si.prim,
                                 l: contrib,
                             });
                         }
@@ -244,6 +251,7 @@ impl CpuRenderer<'_> {
             d: wi,
             beta,
             pdf: prev_pdf,
+            leaving: si.prim,
         });
         r
     }

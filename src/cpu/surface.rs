@@ -61,6 +61,8 @@ pub struct Surface {
     pub frame: Frame,
     pub material: u32,
     pub emitter: Option<u32>,
+    /// The primitive reference of the hit ([`Hit::prim`]).
+    pub prim: u32,
     /// Texture coordinates (`crate::texture::hit_uv`), set only in a scene with textures.
     pub uv: Vec2,
 }
@@ -103,6 +105,7 @@ pub fn surface_at(scene: &Scene, normals: &[Vec3], hit: &Hit, o: Vec3, d: Vec3) 
             frame: make_frame(ng, hint),
             material: s.material,
             emitter: s.emitter,
+            prim: hit.prim,
             uv: Vec2::ZERO,
         }
     } else {
@@ -145,6 +148,7 @@ pub fn surface_at(scene: &Scene, normals: &[Vec3], hit: &Hit, o: Vec3, d: Vec3) 
             frame: make_frame(ns, hint),
             material: tri.material,
             emitter: tri.emitter,
+            prim: hit.prim,
             uv: Vec2::ZERO,
         }
     }
