@@ -45,6 +45,15 @@ struct Hit {
 };
 
 #define BVH_SPHERE_BIT 0x80000000u
+// No primitive (a ray that leaves none; Hit.prim on a miss).
+#define BVH_NO_PRIM 0xFFFFFFFFu
+
+// The triangle a ray leaves, kept in a float of the path state (the .w of beta and of the shadow
+// ray's direction) as an exact value: reference + 1 below 2^24, else 0 for none (a sphere,
+// BVH_NO_PRIM, a triangle from 2^24 on, which is then tested and missed). No bit pattern of a
+// NaN or subnormal number, which a driver might change on the way through memory.
+float bvh_leaving_code(uint prim) { return prim < 16777216u ? float(prim + 1u) : 0.0; }
+uint bvh_leaving_prim(float code) { return code > 0.0 ? uint(code) - 1u : BVH_NO_PRIM; }
 #define BVH_LEAF_FLAG 0x80000000u
 #define BVH_STACK_SIZE 64
 // 1 + 2^-20 (Rust BOX_WIDEN), 2^-80 (ZERO_DIR), 2^120 (ZERO_INV), 2^80 (ZERO_PAD), largest
@@ -410,10 +419,16 @@ bool bvh_replaces(float t, uint ref, Hit hit, bool found) {
 // reached a leaf wait there, and the costly leaf code runs once for all of them. The stack
 // cannot overflow: the builder bounds the depth below BVH_STACK_SIZE, and the host defines
 // BVH_STACK_REGS only above the tree's depth + 1 (src/bvh/node.rs).
-bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
+// `leaving` is the triangle the ray leaves (BVH_NO_PRIM for none; a sphere's reference is not
+// skipped), which the traversal does not test: the ray starts off its plane on the side it goes
+// to and cannot meet it again (Rust: Bvh::closest_leaving). Tested, it would be ambiguous (t
+// within its error bound of 0) and go to the double test after the loop, to be missed there.
+bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, uint leaving, out Hit hit) {
     hit.t = tmax;
     hit.prim = 0xFFFFFFFFu;
     hit.bary = vec2(0.0);
+    // A sphere (and BVH_NO_PRIM) has the high bit: no reference is skipped.
+    if ((leaving & BVH_SPHERE_BIT) != 0u) leaving = BVH_NO_PRIM;
     BvhRay r;
     if (!bvh_make_ray(o, d, r)) return false;
     bool found = false;
@@ -473,7 +488,7 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
             uint ref = bvh_prim(i);
             float t;
             vec2 bary;
-            int res = bvh_primitive(r, o, d, ref, hit.t, t, bary);
+            int res = ref == leaving ? BVH_MISS : bvh_primitive(r, o, d, ref, hit.t, t, bary);
             if (res == BVH_HIT && bvh_replaces(t, ref, hit, found)) {
                 hit.t = t;
                 hit.prim = ref;
@@ -520,15 +535,22 @@ bool bvh_traverse(vec3 o, vec3 d, float tmax, bool any_hit, out Hit hit) {
     return found;
 }
 
-// Closest hit with t in (0, tmax). On a miss, hit.t = tmax and hit.prim = 0xFFFFFFFF.
+// Closest hit with t in (0, tmax), for a ray that leaves the triangle `leaving` (BVH_NO_PRIM:
+// none). On a miss, hit.t = tmax and hit.prim = 0xFFFFFFFF.
+bool trace_closest_leaving(vec3 o, vec3 d, float tmax, uint leaving, out Hit hit) {
+    return bvh_traverse(o, d, tmax, false, leaving, hit);
+}
 bool trace_closest(vec3 o, vec3 d, float tmax, out Hit hit) {
-    return bvh_traverse(o, d, tmax, false, hit);
+    return bvh_traverse(o, d, tmax, false, BVH_NO_PRIM, hit);
 }
 
-// Whether anything is hit with t in (0, tmax).
-bool trace_any(vec3 o, vec3 d, float tmax) {
+// Whether anything is hit with t in (0, tmax), likewise.
+bool trace_any_leaving(vec3 o, vec3 d, float tmax, uint leaving) {
     Hit h;
-    return bvh_traverse(o, d, tmax, true, h);
+    return bvh_traverse(o, d, tmax, true, leaving, h);
+}
+bool trace_any(vec3 o, vec3 d, float tmax) {
+    return trace_any_leaving(o, d, tmax, BVH_NO_PRIM);
 }
 
 #endif

@@ -14,7 +14,8 @@ use brdfwave::vk::{raw, Context, ContextOptions, Resource, ShaderCompiler};
 use common::bvh::{grid_cube, mixed_scene, random_spheres, scene, targets, tmax_of, RayRng};
 use glam::{Vec2, Vec3};
 
-/// The probe kernel: per ray two vec4 in (o, tmax), (d, 0); out two uvec4:
+/// The probe kernel: per ray two vec4 in (o, tmax), (d, the triangle the ray leaves as
+/// `bvh_leaving_code`, 0 for none); out two uvec4:
 /// (closest prim or ~0, t, b1, b2) and (any hit, offset_ray_origin(o, |o|·4e-7, d)). Its
 /// bindings and push constant are declared by the header `gpu::bvh_probe::interface_glsl` generates.
 const PROBE: &str = r#"#version 460
@@ -29,8 +30,9 @@ void main() {
     vec4 o = rays[2u * i];
     vec4 d = rays[2u * i + 1u];
     Hit h;
-    bool c = trace_closest(o.xyz, d.xyz, o.w, h);
-    bool a = trace_any(o.xyz, d.xyz, o.w);
+    uint leaving = bvh_leaving_prim(d.w);
+    bool c = trace_closest_leaving(o.xyz, d.xyz, o.w, leaving, h);
+    bool a = trace_any_leaving(o.xyz, d.xyz, o.w, leaving);
     vec3 q = offset_ray_origin(o.xyz, abs(o.xyz) * 4.0e-7, d.xyz);
     outp[2u * i] = uvec4(c ? h.prim : 0xFFFFFFFFu, floatBitsToUint(h.t), floatBitsToUint(h.bary.x), floatBitsToUint(h.bary.y));
     outp[2u * i + 1u] = uvec4(a ? 1u : 0u, floatBitsToUint(q.x), floatBitsToUint(q.y), floatBitsToUint(q.z));
@@ -57,6 +59,22 @@ fn glsl_twin_compiles_for_vulkan() {
     assert!(compile_probe(&[]).len() > 100);
     let regs = [("BVH_STACK_REGS".to_string(), "8".to_string())];
     assert!(compile_probe(&regs).len() > 100);
+}
+
+/// A probe ray: origin, direction, tmax, and the primitive it leaves ([`NONE`] for none).
+type ProbeRay = (Vec3, Vec3, f32, u32);
+
+/// No primitive left.
+const NONE: u32 = u32::MAX;
+
+/// `bvh_leaving_code` of `shaders/bvh.glsl`: a triangle reference as reference + 1 below 2^24,
+/// else 0 (none).
+fn leaving_code(prim: u32) -> f32 {
+    if prim < 1 << 24 {
+        (prim + 1) as f32
+    } else {
+        0.0
+    }
 }
 
 /// Runs the probe over `rays` ((o, tmax), (d, 0) per ray) against the scene as the renderer
@@ -96,9 +114,9 @@ fn run_probe(ctx: &Context, spirv: &[u32], s: &Scene, b: &Bvh, rays: &[[f32; 4]]
 
 /// The probe's rays for scene `s`: random rays (half aimed at primitives), secondary rays from
 /// surface points as the renderer makes them, and axis-aligned rays from grid points.
-fn probe_rays(s: &Scene, b: &Bvh, rng: &mut Rng) -> Vec<(Vec3, Vec3, f32)> {
+fn probe_rays(s: &Scene, b: &Bvh, rng: &mut Rng) -> Vec<ProbeRay> {
     let tg = targets(s, rng);
-    let mut rays: Vec<(Vec3, Vec3, f32)> = Vec::new();
+    let mut rays: Vec<ProbeRay> = Vec::new();
     for k in 0..20_000 {
         let o = rng.vec(-8.0, 8.0);
         let d = if k % 2 == 0 || tg.is_empty() {
@@ -106,12 +124,12 @@ fn probe_rays(s: &Scene, b: &Bvh, rng: &mut Rng) -> Vec<(Vec3, Vec3, f32)> {
         } else {
             tg[(rng.next_u64() % tg.len() as u64) as usize] - o
         };
-        rays.push((o, d, tmax_of(rng, 10.0)));
+        rays.push((o, d, tmax_of(rng, 10.0), NONE));
     }
     // Secondary rays as the renderer makes them: from surface points (offset along the
     // normal, and raw) in random directions, spheres included.
     for k in 0..4000 {
-        let (o, d, tmax) = rays[k];
+        let (o, d, tmax, _) = rays[k];
         let Some(h) = b.closest(s, o, d, tmax) else {
             continue;
         };
@@ -129,8 +147,11 @@ fn probe_rays(s: &Scene, b: &Bvh, rng: &mut Rng) -> Vec<(Vec3, Vec3, f32)> {
         if dir.dot(n) < 0.0 {
             dir -= 2.0 * dir.dot(n) * n;
         }
-        rays.push((robust::offset_ray_origin(p, err, n), dir, f32::MAX));
-        rays.push((p, dir, f32::MAX));
+        let origin = robust::offset_ray_origin(p, err, n);
+        // Told the primitive it leaves (a sphere's is not skipped), and not told.
+        rays.push((origin, dir, f32::MAX, h.prim));
+        rays.push((origin, dir, f32::MAX, NONE));
+        rays.push((p, dir, f32::MAX, NONE));
     }
     // Axis-aligned rays from grid points (zero direction components, box-face origins).
     for k in 0..3000 {
@@ -146,7 +167,7 @@ fn probe_rays(s: &Scene, b: &Bvh, rng: &mut Rng) -> Vec<(Vec3, Vec3, f32)> {
             1 => Vec3::new(o.y, o.z, o.x),
             _ => o,
         };
-        rays.push((o, Vec3::from(d), f32::MAX));
+        rays.push((o, Vec3::from(d), f32::MAX, NONE));
     }
     rays
 }
@@ -157,14 +178,14 @@ fn compare_probe(
     name: &str,
     s: &Scene,
     b: &Bvh,
-    rays: &[(Vec3, Vec3, f32)],
+    rays: &[ProbeRay],
     out: &[[u32; 4]],
 ) -> (usize, usize, usize) {
     let (mut hits, mut exact, mut inexact) = (0, 0, 0);
-    for (i, &(o, d, tmax)) in rays.iter().enumerate() {
+    for (i, &(o, d, tmax, leaving)) in rays.iter().enumerate() {
         let [prim, t, b1, b2] = out[2 * i];
         let [any, qx, qy, qz] = out[2 * i + 1];
-        let cpu = b.closest(s, o, d, tmax);
+        let cpu = b.closest_leaving(s, o, d, tmax, leaving);
         let q = robust::offset_ray_origin(o, o.abs() * 4.0e-7, d);
         assert_eq!(
             [qx, qy, qz],
@@ -173,7 +194,7 @@ fn compare_probe(
         );
         assert_eq!(
             any == 1,
-            b.occluded(s, o, d, tmax),
+            b.occluded_leaving(s, o, d, tmax, leaving),
             "{name}: any-hit differs for o={o} d={d} tmax={tmax}"
         );
         match cpu {
@@ -253,7 +274,7 @@ fn glsl_traversal_matches_cpu_on_a_vulkan_device() {
         let rays = probe_rays(s, &b, &mut rng);
         let ray_data: Vec<[f32; 4]> = rays
             .iter()
-            .flat_map(|&(o, d, t)| [[o.x, o.y, o.z, t], [d.x, d.y, d.z, 0.0]])
+            .flat_map(|&(o, d, t, l)| [[o.x, o.y, o.z, t], [d.x, d.y, d.z, leaving_code(l)]])
             .collect();
         let n = rays.len();
         let defines = brdfwave::gpu::bvh_defines(&b);

@@ -16,7 +16,8 @@ void run_kernel() {
     vec3 e;
     Hit hit;
     Surface s;
-    uint slot = segment_end(pc.depth, o, dd.xyz, dd.w, beta(path).xyz, e, hit, s);
+    vec4 b = beta(path);
+    uint slot = segment_end(pc.depth, o, dd.xyz, bvh_leaving_prim(b.w), dd.w, b.xyz, e, hit, s);
     if (e.x != 0.0 || e.y != 0.0 || e.z != 0.0) radiance_set(path, radiance(path) + vec4(e, 0.0));
     if (slot == NO_QUEUE) return;
     hit_rec_set(path, uvec4(hit.prim, floatBitsToUint(hit.bary.x), floatBitsToUint(hit.bary.y), floatBitsToUint(hit.t)));

@@ -14,7 +14,8 @@ void run_kernel() {
     camera_ray(path, o, d);
     ray_o_set(path, vec4(o, 0.0));
     ray_d_set(path, vec4(d, 0.0));
-    beta_set(path, vec4(1.0));
+    // w: the camera ray leaves no triangle (bvh_leaving_code).
+    beta_set(path, vec4(vec3(1.0), 0.0));
     radiance_set(path, vec4(0.0));
     queue_entry_set(QUEUE_RAY * g.wave_paths + path, path);
 }

@@ -43,11 +43,14 @@ void main() {
         vec3 l;
         float prev_pdf;
         uint depth;
+        // The triangle the ray leaves (bvh_leaving_code), saved in beta.w.
+        float leaving;
         if (pc.phase == MEGAKERNEL_START) {
             camera_ray(path, o, d);
             b = vec3(1.0);
             l = vec3(0.0);
             prev_pdf = 0.0;
+            leaving = 0.0;
             depth = 1u;
             radiance_set(path, vec4(0.0));
             ray_o_set(path, vec4(o, 1.0));
@@ -61,7 +64,9 @@ void main() {
             depth = uint(ro.w);
             d = rd.xyz;
             prev_pdf = rd.w;
-            b = beta(path).xyz;
+            vec4 bl = beta(path);
+            b = bl.xyz;
+            leaving = bl.w;
             l = radiance(path).xyz;
         }
         // One segment per iteration, kept only if no loop was cut short in it (loops_intact,
@@ -77,14 +82,14 @@ void main() {
             vec3 e;
             Hit hit;
             Surface s;
-            uint slot = segment_end(depth, o, d, prev_pdf, b, e, hit, s);
+            uint slot = segment_end(depth, o, d, bvh_leaving_prim(leaving), prev_pdf, b, e, hit, s);
             Scatter sc;
             sc.shadow = false;
             sc.next = false;
             bool lit = false;
             if (slot != NO_QUEUE) {
                 sc = shade_vertex(path, depth, s, d, b, counter_nonfinite_shade(slot));
-                if (sc.shadow) lit = !trace_any(sc.shadow_o, sc.shadow_d, sc.shadow_tmax);
+                if (sc.shadow) lit = !trace_any_leaving(sc.shadow_o, sc.shadow_d, sc.shadow_tmax, hit.prim);
             }
             if (!loops_intact()) break;
             atomicAdd(wg_extension, 1u);
@@ -106,10 +111,11 @@ void main() {
             d = sc.d;
             b = sc.beta;
             prev_pdf = sc.pdf;
+            leaving = bvh_leaving_code(hit.prim);
             depth += 1u;
             ray_o_set(path, vec4(o, float(depth)));
             ray_d_set(path, vec4(d, prev_pdf));
-            beta_set(path, vec4(b, 0.0));
+            beta_set(path, vec4(b, leaving));
         }
         // Read back from memory, not from the loop's variables (see above).
         if (ray_o(path).w != 0.0) atomicAdd(counters[COUNTER_RESUMED], 1u);

@@ -60,15 +60,15 @@ void camera_ray(uint path, out vec3 o, out vec3 d) {
 // The most emitters a camera ray passes through with hidden emitters (Rust: HIDE_PASSES).
 #define HIDE_PASSES 16u
 
-// The end of path segment `depth` (ray o + t d, throughput b, pdf of the BSDF sample that chose
-// d or 0): the emitted light seen there, MIS-weighted against next-event estimation, or the
+// The end of path segment `depth` (ray o + t d leaving the triangle `leaving` or BVH_NO_PRIM,
+// throughput b, pdf of the BSDF sample that chose d or 0): the emitted light seen there, MIS-weighted against next-event estimation, or the
 // environment on a miss, goes to `e` (zero when none; a non-finite value is counted at the
 // extend counter and dropped). Returns the material queue slot when the path goes on from a
 // surface (whose interaction is `s`, for shading), NO_QUEUE when it ends (miss, back face unless
 // two-sided, the depth limit, a black surface).
-uint segment_end(uint depth, vec3 o, vec3 d, float prev_pdf, vec3 b, out vec3 e, out Hit hit, out Surface s) {
+uint segment_end(uint depth, vec3 o, vec3 d, uint leaving, float prev_pdf, vec3 b, out vec3 e, out Hit hit, out Surface s) {
     e = vec3(0.0);
-    bool found = trace_closest(o, d, 3.402823e38, hit);
+    bool found = trace_closest_leaving(o, d, 3.402823e38, leaving, hit);
 #ifdef HIDE_EMITTERS
     // Mitsuba's hidden emitters: the camera ray passes through the emitters it meets, on from
     // just beyond each, at most HIDE_PASSES of them (Rust: segment_end).

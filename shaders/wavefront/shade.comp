@@ -27,12 +27,12 @@ void run_kernel() {
     Scatter sc = shade_vertex(path, pc.depth, s, d, beta(path).xyz, counter_nonfinite_shade(pc.queue_slot));
     if (sc.shadow) {
         shadow_o_set(path, vec4(sc.shadow_o, sc.shadow_tmax));
-        shadow_d_set(path, vec4(sc.shadow_d, 0.0));
+        shadow_d_set(path, vec4(sc.shadow_d, bvh_leaving_code(hit.prim)));
         shadow_l_set(path, vec4(sc.shadow_l, 0.0));
         queue_push(QUEUE_SHADOW, COUNTER_SHADOW, path);
     }
     if (!sc.next) return;
-    beta_set(path, vec4(sc.beta, 0.0));
+    beta_set(path, vec4(sc.beta, bvh_leaving_code(hit.prim)));
     ray_o_set(path, vec4(sc.o, 0.0));
     ray_d_set(path, vec4(sc.d, sc.pdf));
     queue_push(ray_queue_out(), counter_ray_queue(ray_queue_out()), path);

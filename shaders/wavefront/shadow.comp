@@ -12,7 +12,8 @@ void run_kernel() {
     if (queued) {
         uint path = queue_entry(QUEUE_SHADOW * g.wave_paths + i);
         vec4 o = shadow_o(path);
-        occluded = trace_any(o.xyz, shadow_d(path).xyz, o.w);
+        vec4 d = shadow_d(path);
+        occluded = trace_any_leaving(o.xyz, d.xyz, o.w, bvh_leaving_prim(d.w));
         if (!occluded) radiance_set(path, radiance(path) + vec4(shadow_l(path).xyz, 0.0));
     }
     count_total(COUNTER_OCCLUDED_TOTAL, occluded);

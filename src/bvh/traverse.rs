@@ -35,7 +35,8 @@ impl Bvh {
     /// find `t` within its error bound of 0, redo the test in f64 and miss it. Skipping it
     /// gives the same hit without the two tests (`tests/bvh.rs` checks the same bits on rays
     /// leaving surfaces at many scales); only a direction within rounding of the plane itself
-    /// could be told apart. The GLSL traversal tests it and misses it.
+    /// could be told apart. GLSL twin: `trace_closest_leaving` (`shaders/bvh.glsl`), whose
+    /// path state carries the primitive as `bvh_leaving_code`.
     pub fn closest_leaving(
         &self,
         scene: &Scene,
