@@ -15,9 +15,7 @@ use common::*;
 use std::path::PathBuf;
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("brdfwave-deep-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
+    scratch("deep").join(name)
 }
 
 /// `scenes/furnace-sphere.toml` with albedo 1: every segment of every path adds exactly 0.5

@@ -3,7 +3,6 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use std::sync::Mutex;
 
 /// How one test file runs the binary.
 pub struct Cli {
@@ -16,21 +15,9 @@ pub struct Cli {
 }
 
 impl Cli {
-    /// `name` in the test file's scratch folder (made when missing, and emptied at its first
-    /// use in this process).
+    /// `name` in the test file's scratch folder ([`super::scratch`]).
     pub fn tmp(&self, name: &str) -> PathBuf {
-        static EMPTIED: Mutex<Vec<&'static str>> = Mutex::new(Vec::new());
-        let d = std::env::temp_dir().join(format!("brdfwave-{}-{}", self.tag, std::process::id()));
-        let mut emptied = EMPTIED.lock().unwrap_or_else(|e| e.into_inner());
-        if !emptied.contains(&self.tag) {
-            // A folder of this name left by an earlier run whose process had the same id
-            // (ids are reused) would hand its files to this one: a bench reference cached
-            // there by another build made a test find two.
-            let _ = std::fs::remove_dir_all(&d);
-            emptied.push(self.tag);
-        }
-        std::fs::create_dir_all(&d).unwrap();
-        d.join(name)
+        super::scratch(self.tag).join(name)
     }
 
     /// Runs `brdfwave ARGS`; fails the test when it panicked.

@@ -21,6 +21,48 @@ pub fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
+/// The test process's scratch folder `brdfwave-TAG-PID` in the system's temporary folder, made
+/// when missing. At its first use in a process it is emptied (a folder of this name left by an
+/// earlier process with the same id would hand its files to this one: a bench reference cached
+/// there by another build made a test find two), and the folders of the same tag whose process
+/// has ended are removed, so that test runs do not pile them up; those of the last run stay,
+/// to look at after a failure.
+pub fn scratch(tag: &'static str) -> PathBuf {
+    use std::sync::Mutex;
+    static STARTED: Mutex<Vec<&'static str>> = Mutex::new(Vec::new());
+    let tmp = std::env::temp_dir();
+    let d = tmp.join(format!("brdfwave-{tag}-{}", std::process::id()));
+    let mut started = STARTED.lock().unwrap_or_else(|e| e.into_inner());
+    if !started.contains(&tag) {
+        let _ = std::fs::remove_dir_all(&d);
+        remove_ended(&tmp, tag);
+        started.push(tag);
+    }
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Removes `brdfwave-TAG-PID` folders in `tmp` whose process no longer runs (Linux: no
+/// `/proc/PID`; elsewhere nothing is removed).
+fn remove_ended(tmp: &Path, tag: &str) {
+    if !Path::new("/proc/self").exists() {
+        return;
+    }
+    let prefix = format!("brdfwave-{tag}-");
+    let Ok(entries) = std::fs::read_dir(tmp) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let name = e.file_name();
+        let Some(pid) = name.to_str().and_then(|n| n.strip_prefix(&prefix)) else {
+            continue;
+        };
+        if pid.parse::<u32>().is_ok() && !Path::new("/proc").join(pid).exists() {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
+    }
+}
+
 /// Runs `cmd` and requires it to exit 0; a failure shows the command and its stderr.
 #[track_caller]
 pub fn run_ok(cmd: &mut Command) -> Output {
