@@ -149,6 +149,7 @@ impl<'a> CpuRenderer<'a> {
         }
         let s = self.scene;
         let tile = film.film.tile;
+        let pixel_samples = samples.len() as u32;
         let blocks = film::dyadic_blocks(samples);
         let nb = blocks.len();
         let rows_done = AtomicU64::new(0);
@@ -166,6 +167,7 @@ impl<'a> CpuRenderer<'a> {
                     s.integrator.sampler,
                     s.integrator.seed,
                     s.integrator.pattern_bits(),
+                    pixel_samples,
                 );
                 for (i, x) in (tile.x..tile.x + tile.width).enumerate() {
                     let pixel = y * s.width + x;

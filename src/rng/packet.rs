@@ -1,4 +1,4 @@
-//! The numbers of [`PathRng`] for a packet of [`PACKET`] consecutive samples of one pixel,
+//! The numbers of [`PathRng`] for a packet of up to [`PACKET`] consecutive samples of one pixel,
 //! each pair computed once for the whole packet: the CPU reference traces a pixel's samples one
 //! after another, and they draw the same (depth, pair) keys, so the first path to ask for a pair
 //! computes it for all the packet's samples in one loop that the compiler puts in SIMD lanes
@@ -8,7 +8,8 @@
 
 use super::{to_unit_f32, PathRng, Sampler};
 
-/// Samples per packet: a packet holds samples `16·k .. 16·k + 16` of one pixel.
+/// The most samples per packet: a packet of n samples (a power of two, at most 16) holds samples
+/// `n·k .. n·k + n` of one pixel.
 pub const PACKET: usize = 16;
 /// Depths whose pairs the packet keeps (0 to 15); deeper vertices compute theirs one path at a
 /// time.
@@ -24,6 +25,8 @@ pub struct PacketRng {
     rng: PathRng,
     /// Whether `rng` is a packet's yet (nothing is computed before the first [`Self::path`]).
     started: bool,
+    /// Samples per packet, a power of two up to [`PACKET`].
+    lanes: usize,
     /// Bit `depth·CACHED_PAIRS + pair` set once that slot of `x` and `y` holds the pair.
     valid: u64,
     x: [[u32; PACKET]; SLOTS],
@@ -31,11 +34,15 @@ pub struct PacketRng {
 }
 
 impl PacketRng {
-    /// An empty packet for a render's sampler, seed and pattern bits ([`super::pattern_bits`]).
-    pub fn new(sampler: Sampler, seed: u32, bits: u32) -> PacketRng {
+    /// An empty packet for a render's sampler, seed and pattern bits ([`super::pattern_bits`]),
+    /// which traces `samples` samples of each pixel: packets of that many, rounded up to a power
+    /// of two, at most [`PACKET`] (a pair computed for samples the render does not trace is
+    /// wasted: a 1-spp render draws each pair once).
+    pub fn new(sampler: Sampler, seed: u32, bits: u32, samples: u32) -> PacketRng {
         PacketRng {
             rng: PathRng::with_bits(sampler, seed, bits, 0, 0),
             started: false,
+            lanes: (samples.max(1) as usize).next_power_of_two().min(PACKET),
             valid: 0,
             x: [[0; PACKET]; SLOTS],
             y: [[0; PACKET]; SLOTS],
@@ -46,7 +53,7 @@ impl PacketRng {
     /// bits, pixel, sample)`. The packet starts over when the path is not one of its own.
     #[inline]
     pub fn path(&mut self, pixel: u32, sample: u32) -> LaneRng<'_> {
-        let first = sample & !(PACKET as u32 - 1);
+        let first = sample & !(self.lanes as u32 - 1);
         if !(self.started && self.rng.pixel == pixel && self.rng.sample == first) {
             let r = &self.rng;
             self.rng = PathRng::with_bits(r.sampler, r.seed, r.pattern_bits, pixel, first);
@@ -64,7 +71,8 @@ impl PacketRng {
     /// hoists them and vectorises the per-sample part.
     #[inline(never)]
     fn fill(&mut self, slot: usize, depth: u32, pair: u32) {
-        let (xs, ys) = (&mut self.x[slot], &mut self.y[slot]);
+        let lanes = self.lanes;
+        let (xs, ys) = (&mut self.x[slot][..lanes], &mut self.y[slot][..lanes]);
         let first = self.rng.sample;
         for (k, (x, y)) in xs.iter_mut().zip(ys.iter_mut()).enumerate() {
             let sample = first.wrapping_add(k as u32);
@@ -125,9 +133,9 @@ mod tests {
     #[test]
     fn packets_give_each_path_its_own_numbers() {
         for sampler in Sampler::ALL {
-            for bits in [0u32, 3, 4, 7] {
+            for (bits, lanes) in [(0u32, 1u32), (3, 16), (4, 3), (7, 16), (7, 100)] {
                 let seed = 0x1234_5678;
-                let mut packet = PacketRng::new(sampler, seed, bits);
+                let mut packet = PacketRng::new(sampler, seed, bits, lanes);
                 let paths = [
                     (5u32, 3u32),
                     (5, 17),
@@ -145,7 +153,7 @@ mod tests {
                             assert_eq!(
                                 got.get(depth, dim).to_bits(),
                                 want.get(depth, dim).to_bits(),
-                                "{sampler} bits {bits} pixel {pixel} sample {sample} depth {depth} dim {dim}"
+                                "{sampler} bits {bits} lanes {lanes} pixel {pixel} sample {sample} depth {depth} dim {dim}"
                             );
                             if dim & 1 == 0 {
                                 assert_eq!(got.get2(depth, dim), want.get2(depth, dim));
