@@ -264,13 +264,11 @@ impl<'a> CpuRenderer<'a> {
                 break;
             };
             let sc = self.shade_vertex(rng, depth, &si, d, beta, stats);
+            // Both rays from here leave the surface's primitive, which they cannot meet again.
             if let Some(sh) = sc.shadow {
                 stats.shadow_rays += 1;
                 stats.segment_shadow[seg] += 1;
-                if !self
-                    .bvh
-                    .occluded_leaving(s, sh.o, sh.d, sh.tmax, sh.leaving)
-                {
+                if !self.bvh.occluded_leaving(s, sh.o, sh.d, sh.tmax, si.prim) {
                     l += sh.l;
                 } else {
                     stats.shadow_rays_occluded += 1;
@@ -283,7 +281,7 @@ impl<'a> CpuRenderer<'a> {
             d = next.d;
             beta = next.beta;
             prev_pdf = next.pdf;
-            leaving = next.leaving;
+            leaving = si.prim;
         }
         l
     }

@@ -15,8 +15,6 @@ pub(super) struct ShadowRay {
     pub o: Vec3,
     pub d: Vec3,
     pub tmax: f32,
-    /// The primitive it leaves (`Surface::prim`), which it cannot meet again.
-    pub leaving: u32,
     /// Its unoccluded contribution.
     pub l: Vec3,
 }
@@ -28,8 +26,6 @@ pub(super) struct NextSegment {
     pub d: Vec3,
     pub beta: Vec3,
     pub pdf: f32,
-    /// The primitive it leaves (`Surface::prim`), which it cannot meet again.
-    pub leaving: u32,
 }
 
 /// What shading one surface vertex produces (the GLSL `struct Scatter`).
@@ -72,7 +68,6 @@ impl CpuRenderer<'_> {
             o: origin,
             d: ds.wi,
             tmax: ds.tmax,
-            leaving: si.prim,
             l: contrib,
         })
     }
@@ -111,7 +106,6 @@ impl CpuRenderer<'_> {
             o: origin,
             d: es.wi,
             tmax: f32::MAX,
-            leaving: si.prim,
             l: contrib,
         })
     }
@@ -210,7 +204,6 @@ impl CpuRenderer<'_> {
                                 o: origin,
                                 d: wi,
                                 tmax: dist * (1.0 - robust::SHADOW_EPSILON),
-                                leaving: si.prim,
                                 l: contrib,
                             });
                         }
@@ -251,7 +244,6 @@ impl CpuRenderer<'_> {
             d: wi,
             beta,
             pdf: prev_pdf,
-            leaving: si.prim,
         });
         r
     }
