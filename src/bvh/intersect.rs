@@ -31,9 +31,9 @@ pub(super) struct Ray {
     /// ZERO_PAD on zero components, else 0.
     pad: Vec3A,
     /// Woop et al.: axes of the shear, kz = largest |d| component.
-    kx: usize,
-    ky: usize,
-    kz: usize,
+    kx: Axis,
+    ky: Axis,
+    kz: Axis,
     /// Shear constants (Sx, Sy, Sz).
     s: Vec3,
     /// The direction on the permuted axes (the f64 test of ambiguous hits).
@@ -44,31 +44,36 @@ impl Ray {
     /// None for a zero, infinite or NaN direction: such a ray hits nothing.
     #[inline]
     pub(super) fn new(o: Vec3, d: Vec3) -> Option<Ray> {
-        let a = d.abs();
-        let kz = if a.x >= a.y && a.x >= a.z {
-            0
-        } else if a.y >= a.z {
-            1
+        // Components read from arrays by `Axis` (in range by its type, so without a bounds
+        // check): glam's `Vec3` indexing is a chain of comparisons for each read, about 75
+        // instructions a ray in all (docs/bench-log.md, "The ray set-up's axes").
+        let (oa, da, aa) = (o.to_array(), d.to_array(), d.abs().to_array());
+        let kz = if aa[0] >= aa[1] && aa[0] >= aa[2] {
+            Axis::X
+        } else if aa[1] >= aa[2] {
+            Axis::Y
         } else {
-            2
+            Axis::Z
         };
-        if !(a[kz] > 0.0 && a[kz] <= f32::MAX) {
+        let dz = da[kz as usize];
+        if !(aa[kz as usize] > 0.0 && aa[kz as usize] <= f32::MAX) {
             return None;
         }
-        let mut kx = if kz == 2 { 0 } else { kz + 1 };
-        let mut ky = if kx == 2 { 0 } else { kx + 1 };
-        if d[kz] < 0.0 {
+        let mut kx = kz.next();
+        let mut ky = kx.next();
+        if dz < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
+        let (dx, dy) = (da[kx as usize], da[ky as usize]);
         // The divisions as two SIMD divisions (each lane the same IEEE quotient as a scalar
         // division): the shear (d[kx] / d[kz], d[ky] / d[kz], 1 / d[kz]), and the safe inverse,
         // which is ZERO_INV with the slab padded by ZERO_PAD where |d| < ZERO_DIR (there the
         // quotient, possibly infinite, is not used).
-        let s = Vec3::from(Vec3A::new(d[kx], d[ky], 1.0) / Vec3A::splat(d[kz]));
+        let s = Vec3::from(Vec3A::new(dx, dy, 1.0) / Vec3A::splat(dz));
         let d_a = Vec3A::from(d);
         let zero = d_a.abs().cmplt(Vec3A::splat(ZERO_DIR));
         Some(Ray {
-            op: Vec3::new(o[kx], o[ky], o[kz]),
+            op: Vec3::new(oa[kx as usize], oa[ky as usize], oa[kz as usize]),
             o_a: Vec3A::from(o),
             inv: Vec3A::select(zero, Vec3A::splat(ZERO_INV), Vec3A::ONE / d_a),
             pad: Vec3A::select(zero, Vec3A::splat(ZERO_PAD), Vec3A::ZERO),
@@ -76,7 +81,7 @@ impl Ray {
             ky,
             kz,
             s,
-            dp: Vec3::new(d[kx], d[ky], d[kz]),
+            dp: Vec3::new(dx, dy, dz),
         })
     }
 
@@ -98,7 +103,7 @@ impl Ray {
     pub(super) fn triangle(&self, v: &[Vec3; 3], tmax: f32) -> Option<(f32, Vec2)> {
         // Each vertex relative to the origin on the ray's permuted axes (kx, ky, kz): the same
         // subtractions as (v - o)[k], reading the vertex's components straight from memory.
-        let (kx, ky, kz) = (self.kx, self.ky, self.kz);
+        let (kx, ky, kz) = (self.kx as usize, self.ky as usize, self.kz as usize);
         let rel = |p: &Vec3| {
             let p: &[f32; 3] = p.as_ref();
             Vec3::new(p[kx] - self.op.x, p[ky] - self.op.y, p[kz] - self.op.z)
@@ -164,7 +169,7 @@ impl Ray {
     #[cold]
     #[inline(never)]
     fn triangle_f64(&self, v: &[Vec3; 3], tmax: f32) -> Option<(f32, Vec2)> {
-        let (kx, ky, kz) = (self.kx, self.ky, self.kz);
+        let (kx, ky, kz) = (self.kx as usize, self.ky as usize, self.kz as usize);
         let o = self.op.as_dvec3();
         let d = self.dp.as_dvec3();
         let rel = |p: &Vec3| {
@@ -211,6 +216,28 @@ impl Ray {
         // A t below the smallest f32 is still a hit in front of the origin.
         let t32 = (t as f32).max(f32::from_bits(1));
         Some((t32, Vec2::new((v_ * rcp) as f32, (w * rcp) as f32)))
+    }
+}
+
+/// A coordinate axis: an index below 3 by its type, so that reading `[f32; 3]` with it needs
+/// no bounds check.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub(super) enum Axis {
+    X = 0,
+    Y = 1,
+    Z = 2,
+}
+
+impl Axis {
+    /// The next axis in cyclic order (x, y, z, x).
+    #[inline]
+    fn next(self) -> Axis {
+        match self {
+            Axis::X => Axis::Y,
+            Axis::Y => Axis::Z,
+            Axis::Z => Axis::X,
+        }
     }
 }
 
