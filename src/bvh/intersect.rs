@@ -38,6 +38,9 @@ pub(super) struct Ray {
     s: Vec3,
     /// The direction on the permuted axes (the f64 test of ambiguous hits).
     dp: Vec3,
+    /// The constants of `triangle_simd`.
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
+    simd: simd::SimdRay,
 }
 
 impl Ray {
@@ -82,6 +85,8 @@ impl Ray {
             kz,
             s,
             dp: Vec3::new(dx, dy, dz),
+            #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
+            simd: simd::SimdRay::new(o, [kx, ky, kz]),
         })
     }
 
@@ -101,6 +106,17 @@ impl Ray {
     // by hand").
     #[inline(always)]
     pub(super) fn triangle(&self, v: &[Vec3; 3], tmax: f32) -> Option<(f32, Vec2)> {
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
+        return self.triangle_simd(v, tmax);
+        #[cfg(not(all(target_arch = "x86_64", target_feature = "avx")))]
+        return self.triangle_scalar(v, tmax);
+    }
+
+    /// [`Ray::triangle`] one coordinate at a time: the steps of the GLSL twin, and the test on
+    /// CPUs without AVX; `triangle_simd` computes the same numbers.
+    #[cfg_attr(all(target_arch = "x86_64", target_feature = "avx"), allow(dead_code))]
+    #[inline(always)]
+    pub(super) fn triangle_scalar(&self, v: &[Vec3; 3], tmax: f32) -> Option<(f32, Vec2)> {
         // Each vertex relative to the origin on the ray's permuted axes (kx, ky, kz): the same
         // subtractions as (v - o)[k], reading the vertex's components straight from memory.
         let (kx, ky, kz) = (self.kx as usize, self.ky as usize, self.kz as usize);
@@ -219,6 +235,135 @@ impl Ray {
     }
 }
 
+/// The triangle test in 128-bit SIMD registers (x86-64 with AVX): the same operations on the
+/// same values as [`Ray::triangle_scalar`], in lanes.
+#[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
+mod simd {
+    use super::{t_error_of_maxima, Axis, Ray};
+    use glam::{Vec2, Vec3};
+    use std::arch::x86_64::*;
+
+    /// The origin as (x, y, z, 0) and (0, x, y, z), and the permutations that put a vertex's
+    /// (kx, ky, kz) coordinates in lanes 0–2, for a vertex loaded into lanes 0–2 (`perm`) and
+    /// into lanes 1–3 (`perm_high`).
+    #[derive(Clone, Copy, Debug)]
+    pub(super) struct SimdRay {
+        o: __m128,
+        o_high: __m128,
+        perm: __m128i,
+        perm_high: __m128i,
+    }
+
+    impl SimdRay {
+        #[inline(always)]
+        pub(super) fn new(o: Vec3, [kx, ky, kz]: [Axis; 3]) -> SimdRay {
+            let k = [kx as i32, ky as i32, kz as i32];
+            // SAFETY: the build enables the instructions (the module's `cfg`).
+            unsafe {
+                SimdRay {
+                    o: _mm_setr_ps(o.x, o.y, o.z, 0.0),
+                    o_high: _mm_setr_ps(0.0, o.x, o.y, o.z),
+                    perm: _mm_setr_epi32(k[0], k[1], k[2], 3),
+                    perm_high: _mm_setr_epi32(k[0] + 1, k[1] + 1, k[2] + 1, 0),
+                }
+            }
+        }
+    }
+
+    /// The lanes of `v`.
+    #[inline(always)]
+    fn lanes(v: __m128) -> [f32; 4] {
+        let mut a = [0.0f32; 4];
+        // SAFETY: `a` has room for four floats; the build enables the instruction.
+        unsafe { _mm_storeu_ps(a.as_mut_ptr(), v) };
+        a
+    }
+
+    impl Ray {
+        /// [`Ray::triangle_scalar`] with the three vertices, their shear and the three edge
+        /// functions in SIMD lanes: the vertices relative to the origin as three 4-lane
+        /// subtractions and permutations onto (kx, ky, kz), transposed to x, y and z of all
+        /// three, sheared and crossed a lane per vertex. Each lane's operations are the scalar
+        /// test's, in its order (no fused multiply-add), so the result is the same bit for
+        /// bit (`tests::simd_triangle_matches_scalar`).
+        #[inline(always)]
+        pub(in crate::bvh) fn triangle_simd(
+            &self,
+            v: &[Vec3; 3],
+            tmax: f32,
+        ) -> Option<(f32, Vec2)> {
+            // SAFETY: the build enables the instructions (the module's `cfg`), and the loads
+            // read floats 0–3, 3–6 and 5–8 of the triangle's nine.
+            unsafe {
+                let r = &self.simd;
+                let f = v.as_ptr() as *const f32;
+                let (v0, v1, v2) = (
+                    _mm_loadu_ps(f),
+                    _mm_loadu_ps(f.add(3)),
+                    _mm_loadu_ps(f.add(5)),
+                );
+                let a = _mm_permutevar_ps(_mm_sub_ps(v0, r.o), r.perm);
+                let b = _mm_permutevar_ps(_mm_sub_ps(v1, r.o), r.perm);
+                let c = _mm_permutevar_ps(_mm_sub_ps(v2, r.o_high), r.perm_high);
+                // x, y and z of the three vertices (lane 3 zero).
+                let zero = _mm_setzero_ps();
+                let (ab_lo, c_lo) = (_mm_unpacklo_ps(a, b), _mm_unpacklo_ps(c, zero));
+                let (ab_hi, c_hi) = (_mm_unpackhi_ps(a, b), _mm_unpackhi_ps(c, zero));
+                let x = _mm_movelh_ps(ab_lo, c_lo);
+                let y = _mm_movehl_ps(c_lo, ab_lo);
+                let z = _mm_movelh_ps(ab_hi, c_hi);
+                let xs = _mm_sub_ps(x, _mm_mul_ps(_mm_set1_ps(self.s.x), z));
+                let ys = _mm_sub_ps(y, _mm_mul_ps(_mm_set1_ps(self.s.y), z));
+                // (u, v, w) = (cx·by − cy·bx, ax·cy − ay·cx, bx·ay − by·ax).
+                const CAB: i32 = 0b11_01_00_10;
+                const BCA: i32 = 0b11_00_10_01;
+                let p = _mm_mul_ps(_mm_permute_ps::<CAB>(xs), _mm_permute_ps::<BCA>(ys));
+                let q = _mm_mul_ps(_mm_permute_ps::<CAB>(ys), _mm_permute_ps::<BCA>(xs));
+                let e = _mm_sub_ps(p, q);
+                let negative = _mm_movemask_ps(_mm_cmplt_ps(e, zero)) & 7;
+                let positive = _mm_movemask_ps(_mm_cmpgt_ps(e, zero)) & 7;
+                if negative != 0 && positive != 0 {
+                    return None;
+                }
+                let [u, v_, w, _] = lanes(e);
+                let det = u + v_ + w;
+                if det == 0.0 {
+                    return None;
+                }
+                let zs = _mm_mul_ps(_mm_set1_ps(self.s.z), z);
+                let [m0, m1, m2, _] = lanes(_mm_mul_ps(e, zs));
+                let tt = m0 + m1 + m2;
+                let rcp = 1.0 / det;
+                let t = tt * rcp;
+                if t.is_nan() || t > tmax {
+                    return None;
+                }
+                // The bound's maxima: of |x|, |y|, |z| and |e| over the three lanes, by a
+                // transpose, and of the unsheared coordinates by axis. No value here is NaN (a
+                // NaN anywhere makes t NaN), so `maxps` is `f32::max`.
+                let sign = _mm_set1_ps(-0.0);
+                let abs = |v: __m128| _mm_andnot_ps(sign, v);
+                let (r0, r1, r2, r3) = (abs(xs), abs(ys), abs(zs), abs(e));
+                let (t0, t1) = (_mm_unpacklo_ps(r0, r1), _mm_unpacklo_ps(r2, r3));
+                let (t2, t3) = (_mm_unpackhi_ps(r0, r1), _mm_unpackhi_ps(r2, r3));
+                let (c0, c1) = (_mm_movelh_ps(t0, t1), _mm_movehl_ps(t1, t0));
+                let c2 = _mm_movelh_ps(t2, t3);
+                let maxima = lanes(_mm_max_ps(_mm_max_ps(c0, c1), c2));
+                let rel = lanes(_mm_max_ps(_mm_max_ps(abs(a), abs(b)), abs(c)));
+                let rel_max = Vec3::new(rel[0], rel[1], rel[2]);
+                let bound = t_error_of_maxima(maxima, rel_max, rcp);
+                if t > bound {
+                    Some((t, Vec2::new(v_ * rcp, w * rcp)))
+                } else if t < -bound {
+                    None
+                } else {
+                    self.triangle_f64(v, tmax)
+                }
+            }
+        }
+    }
+}
+
 /// A coordinate axis: an index below 3 by its type, so that reading `[f32; 3]` with it needs
 /// no bounds check.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -257,6 +402,7 @@ pub(super) const fn gamma64(n: u32) -> f64 {
 /// direction; the traversal's directions are not normalised.) A ray whose origin is off a
 /// triangle's plane by a rounding error's worth, leaving it, gets at most this `t` from that
 /// triangle, however the sheared coordinates cancel.
+#[cfg_attr(all(target_arch = "x86_64", target_feature = "avx"), allow(dead_code))]
 #[inline]
 fn triangle_t_error(
     rel: [Vec3; 3],
@@ -269,6 +415,13 @@ fn triangle_t_error(
     let max3 = |a: [f32; 3]| a[0].abs().max(a[1].abs()).max(a[2].abs());
     let (max_x, max_y, max_z, max_e) = (max3(x), max3(y), max3(z), max3(e));
     let rel_max = rel[0].abs().max(rel[1].abs()).max(rel[2].abs());
+    t_error_of_maxima([max_x, max_y, max_z, max_e], rel_max, rcp)
+}
+
+/// [`triangle_t_error`] from the largest magnitudes of the sheared x, y, the scaled heights
+/// and the edge functions, and of the unsheared coordinates by axis (`rel_max`).
+#[inline(always)]
+fn t_error_of_maxima([max_x, max_y, max_z, max_e]: [f32; 4], rel_max: Vec3, rcp: f32) -> f32 {
     let delta_x = gamma(5) * (rel_max.x + rel_max.z);
     let delta_y = gamma(5) * (rel_max.y + rel_max.z);
     let delta_z = gamma(3) * max_z;
@@ -424,6 +577,68 @@ pub(super) fn sphere(o: Vec3, d: Vec3, center: Vec3, radius: f32, tmax: f32) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The SIMD triangle test gives the scalar test's answers bit for bit: hits, misses,
+    /// distances and barycentrics, on rays through and beside triangles at scales from 2^-40
+    /// to 2^40, rays leaving a triangle (the error bound and the f64 test), rays along axes
+    /// (zero direction components), degenerate triangles and small `tmax`.
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
+    #[test]
+    fn simd_triangle_matches_scalar() {
+        let state = std::cell::Cell::new(0x9e37_79b9_7f4a_7c15u64);
+        let unit = || {
+            let mut x = state.get();
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            state.set(x);
+            (x >> 40) as f32 / (1u32 << 24) as f32
+        };
+        let (mut hits, mut near_zero, mut cases) = (0, 0, 0);
+        for i in 0..200_000 {
+            let scale = 2f32.powi((i % 81) - 40);
+            let shift = Vec3::splat(if i % 7 == 0 { scale * 1000.0 } else { 0.0 });
+            let p = || shift + Vec3::new(unit(), unit(), unit()) * 2.0 * scale - scale;
+            let mut v = [p(), p(), p()];
+            if i % 97 == 0 {
+                v[2] = v[1]; // degenerate
+            }
+            let on = v[0] + (v[1] - v[0]) * unit() * 0.5 + (v[2] - v[0]) * unit() * 0.5;
+            let o = match i % 3 {
+                0 => p(),
+                // On (or a rounding off) the triangle: t within its error bound of 0.
+                1 => on,
+                _ => on + (v[1] - v[0]).cross(v[2] - v[0]) * (unit() - 0.5) * 1e-6,
+            };
+            let mut d = if i % 2 == 0 {
+                on + (p() - on) * 0.01 - o
+            } else {
+                Vec3::new(unit(), unit(), unit()) * 2.0 - 1.0
+            };
+            if i % 11 == 0 {
+                d[(i / 11 % 3) as usize] = 0.0;
+            }
+            if i % 13 == 0 {
+                d = Vec3::new(0.0, 0.0, 1.0) * (unit() - 0.5);
+            }
+            let tmax = if i % 5 == 0 { unit() * 2.0 } else { f32::MAX };
+            let Some(ray) = Ray::new(o, d) else { continue };
+            let bits = |h: Option<(f32, Vec2)>| h.map(|(t, b)| [t, b.x, b.y].map(f32::to_bits));
+            let (scalar, simd) = (ray.triangle_scalar(&v, tmax), ray.triangle_simd(&v, tmax));
+            assert_eq!(
+                bits(scalar),
+                bits(simd),
+                "o {o:?} d {d:?} v {v:?} tmax {tmax}"
+            );
+            cases += 1;
+            hits += usize::from(scalar.is_some());
+            near_zero += usize::from(scalar.is_some_and(|(t, _)| t < 1e-3 * scale));
+        }
+        assert!(
+            cases > 190_000 && hits > 30_000 && near_zero > 100,
+            "{cases} {hits} {near_zero}"
+        );
+    }
 
     #[test]
     fn triangle_hit_values() {
