@@ -317,7 +317,49 @@ pub fn offset_ray_origin(p: Vec3, err: Vec3, n: Vec3) -> Vec3 {
     let q = p + n * d;
     // By the sign of n, not of the offset: a point with a zero error bound (a vertex at the
     // origin) still moves.
-    Vec3::new(step_off(q.x, n.x), step_off(q.y, n.y), step_off(q.z, n.z))
+    #[cfg(target_arch = "x86_64")]
+    return step_off_lanes(q, n);
+    #[cfg(not(target_arch = "x86_64"))]
+    return Vec3::new(step_off(q.x, n.x), step_off(q.y, n.y), step_off(q.z, n.z));
+}
+
+/// [`step_off`] of the three coordinates at once, in the lanes of 128-bit SSE2 registers (every
+/// x86-64 CPU has them): the same integer selects on the bits, so the same result
+/// (`tests::step_off_lanes_is_step_off`), in about a third of the instructions.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn step_off_lanes(q: Vec3, n: Vec3) -> Vec3 {
+    use std::arch::x86_64::*;
+    const MAGNITUDE: i32 = 0x7fff_ffff;
+    // SAFETY: SSE2 is part of x86-64; the loads and the store are of four floats, from and to
+    // arrays of four.
+    unsafe {
+        let qv = _mm_loadu_ps([q.x, q.y, q.z, 0.0].as_ptr());
+        let nv = _mm_loadu_ps([n.x, n.y, n.z, 0.0].as_ptr());
+        let bits = _mm_castps_si128(qv);
+        let zero = _mm_setzero_ps();
+        let down = _mm_castps_si128(_mm_cmplt_ps(nv, zero));
+        let moves = _mm_or_si128(_mm_castps_si128(_mm_cmpgt_ps(nv, zero)), down);
+        let magnitude = _mm_and_si128(bits, _mm_set1_epi32(MAGNITUDE));
+        let finite = _mm_cmplt_epi32(magnitude, _mm_set1_epi32(0x7f80_0000));
+        let negative = _mm_srai_epi32::<31>(bits);
+        let away = _mm_or_si128(
+            _mm_cmpeq_epi32(negative, down),
+            _mm_cmpeq_epi32(magnitude, _mm_setzero_si128()),
+        );
+        // +1 away from 0, −1 towards it.
+        let delta = _mm_add_epi32(_mm_and_si128(away, _mm_set1_epi32(2)), _mm_set1_epi32(-1));
+        let step = _mm_add_epi32(bits, delta);
+        let floor = _mm_set1_epi32(ORIGIN_MIN.to_bits() as i32);
+        let least = _mm_or_si128(floor, _mm_and_si128(down, _mm_set1_epi32(i32::MIN)));
+        let small = _mm_cmplt_epi32(_mm_and_si128(step, _mm_set1_epi32(MAGNITUDE)), floor);
+        let stepped = _mm_or_si128(_mm_and_si128(small, least), _mm_andnot_si128(small, step));
+        let take = _mm_and_si128(moves, finite);
+        let out = _mm_or_si128(_mm_and_si128(take, stepped), _mm_andnot_si128(take, bits));
+        let mut r = [0.0f32; 4];
+        _mm_storeu_ps(r.as_mut_ptr(), _mm_castsi128_ps(out));
+        Vec3::new(r[0], r[1], r[2])
+    }
 }
 
 /// `q` one float further in the direction of the sign of `n` ([`next_float_up`] for n > 0,
@@ -325,6 +367,7 @@ pub fn offset_ray_origin(p: Vec3, err: Vec3, n: Vec3) -> Vec3 {
 /// ±`ORIGIN_MIN` on the side of `n` (compared on the bits, so that the subnormal is never an
 /// operand of arithmetic); `q` itself for n = 0 or NaN and for an infinite or NaN `q`. Every
 /// case is a select on integer bits, not a branch.
+#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
 #[inline(always)]
 fn step_off(q: f32, n: f32) -> f32 {
     const MAGNITUDE: u32 = 0x7fff_ffff;
@@ -365,6 +408,55 @@ pub(crate) fn glsl_define<'a>(glsl: &'a str, file: &str, name: &str) -> &'a str 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The SIMD step is the scalar one, bit for bit, on random bit patterns of q and n (NaN,
+    /// infinities, zeros, subnormals among them) and on values around the floor and 0.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn step_off_lanes_is_step_off() {
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x as u32
+        };
+        let m = ORIGIN_MIN.to_bits();
+        let special = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            f32::MAX,
+            f32::MIN_POSITIVE,
+            f32::from_bits(1),
+            -f32::from_bits(1),
+            ORIGIN_MIN,
+            -ORIGIN_MIN,
+            f32::from_bits(m - 1),
+            f32::from_bits(m + 1),
+            -f32::from_bits(m + 1),
+        ];
+        for i in 0..300_000u32 {
+            let pick = |r: u32| match r % 4 {
+                0 => special[(r >> 2) as usize % special.len()],
+                1 => f32::from_bits(m.wrapping_add(r >> 28).wrapping_sub(8) | (r & 1) << 31),
+                _ => f32::from_bits(r),
+            };
+            let q = Vec3::new(pick(next()), pick(next()), pick(next()));
+            let n = Vec3::new(pick(next()), pick(next()), pick(next()));
+            let lanes = step_off_lanes(q, n).to_array().map(f32::to_bits);
+            let scalar = [step_off(q.x, n.x), step_off(q.y, n.y), step_off(q.z, n.z)];
+            assert_eq!(
+                lanes,
+                scalar.map(f32::to_bits),
+                "round {i}: q {q:?} n {n:?}"
+            );
+        }
+    }
 
     #[test]
     fn normal_of_huge_and_tiny_triangles() {
