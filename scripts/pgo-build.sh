@@ -2,9 +2,9 @@
 # Builds brdfwave with profile-guided optimisation (PGO): an instrumented build renders a set of
 # training scenes on the CPU reference, and the profile it records tells the compiler which
 # branches are taken and which code is hot, for the final build. The CPU reference then renders
-# the same pixels, bit for bit, 1.01-1.19x faster (docs/bench-log.md, "A build guided by a
-# profile" and "Hot functions inlined by hand"); the GPU backend's time is in the Vulkan driver
-# and does not change.
+# the same pixels, bit for bit, 1.03-1.10x faster (docs/bench-log.md, "A build guided by a
+# profile", "Hot functions inlined by hand" and "The path loop's two traversals inlined"); the
+# GPU backend's time is in the Vulkan driver and does not change.
 #
 #   bash scripts/pgo-build.sh        # writes target/pgo/release/brdfwave
 #

@@ -37,6 +37,11 @@ impl Bvh {
     /// leaving surfaces at many scales); only a direction within rounding of the plane itself
     /// could be told apart. GLSL twin: `trace_closest_leaving` (`shaders/bvh.glsl`), whose
     /// path state carries the primitive as `bvh_leaving_code`.
+    // This and `occluded_leaving` are the CPU path loop's rays, each called from one place:
+    // inlined there, as the profile-guided build and a build with fat LTO inline them (a
+    // public function of the library is not one that LLVM sees used once, so the plain build
+    // called them; docs/bench-log.md, "The path loop's two traversals inlined").
+    #[inline(always)]
     pub fn closest_leaving(
         &self,
         scene: &Scene,
@@ -49,6 +54,7 @@ impl Bvh {
     }
 
     /// [`occluded`](Self::occluded) for a ray that leaves the triangle `leaving`.
+    #[inline(always)]
     pub fn occluded_leaving(
         &self,
         scene: &Scene,
