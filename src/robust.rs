@@ -369,7 +369,7 @@ fn step_off_lanes(q: Vec3, n: Vec3) -> Vec3 {
 /// case is a select on integer bits, not a branch.
 #[cfg_attr(target_arch = "x86_64", allow(dead_code))]
 #[inline(always)]
-fn step_off(q: f32, n: f32) -> f32 {
+pub(crate) fn step_off(q: f32, n: f32) -> f32 {
     const MAGNITUDE: u32 = 0x7fff_ffff;
     let bits = q.to_bits();
     let down = n < 0.0;

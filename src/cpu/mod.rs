@@ -11,7 +11,12 @@
 //! segment d counts when d ≤ max_depth, and a light sample from the vertex at the end of segment
 //! d adds segment d+1, so it is taken only when d < max_depth. Surfaces reflect on their front
 //! side only; a path that reaches a back face ends. Russian roulette is optional.
+//!
+//! A path is [`CpuRenderer::trace_path`]; the renderer traces a pixel's samples a packet at a
+//! time in lockstep (`lanes.rs`), which gives the same image and shades part of each segment in
+//! SIMD lanes.
 
+mod lanes;
 mod path;
 mod scatter;
 pub mod surface;
@@ -88,6 +93,16 @@ pub struct CpuRenderer<'a> {
     normals: Vec<Vec3>,
     /// Some material has textures: surfaces get their texture coordinates.
     textured: bool,
+    /// Trace a pixel's samples in lockstep packets (`lanes.rs`); `BRDFWAVE_LANES=0` turns it
+    /// off (for A/B timing of the experiment).
+    use_lanes: bool,
+    /// Per material, the albedo when the lane kernel shades its vertices.
+    lane_albedo: Vec<Option<Vec3>>,
+    /// The index of Lambert in [`crate::brdf::MODELS`].
+    lambert_model: usize,
+    /// The lanes turn triangle hits into surfaces: no triangle has vertex normals or texture
+    /// coordinates.
+    lane_surfaces: bool,
 }
 
 impl<'a> CpuRenderer<'a> {
@@ -95,14 +110,31 @@ impl<'a> CpuRenderer<'a> {
         // Read at every hit, in no order: on huge pages, as the BVH's arrays are.
         let mut normals: Vec<Vec3> = crate::memory::huge_page_vec(scene.triangles.len());
         normals.par_extend(scene.triangles.par_iter().map(|t| t.geometric_normal()));
-        CpuRenderer {
+        let mut r = CpuRenderer {
             scene,
             bvh,
             lights: LightTable::build(scene),
             camera: CameraBasis::new(scene),
             normals,
             textured: scene.materials.iter().any(|m| !m.textures.is_empty()),
-        }
+            use_lanes: std::env::var("BRDFWAVE_LANES").map_or(true, |v| v != "0"),
+            lane_albedo: Vec::new(),
+            lambert_model: crate::brdf::MODELS
+                .iter()
+                .position(|m| m.name == "lambert")
+                .expect("Lambert is a model"),
+            lane_surfaces: false,
+        };
+        r.lane_albedo = r.lane_albedos();
+        r.lane_surfaces = !r.textured && !scene.has_shading_normals() && !scene.has_uvs();
+        r
+    }
+
+    /// Whether to trace a pixel's samples in lockstep packets (`lanes.rs`, the default) or one
+    /// path at a time ([`Self::trace_path`]); the image and counts are the same either way.
+    pub fn with_lanes(mut self, on: bool) -> Self {
+        self.use_lanes = on;
+        self
     }
 
     /// Render `scene.integrator.spp` samples per pixel. `progress` is called with the number of
@@ -173,18 +205,34 @@ impl<'a> CpuRenderer<'a> {
                     let pixel = y * s.width + x;
                     for (b, range) in blocks.iter().enumerate() {
                         let mut acc = PairwiseSum::default();
-                        for sample in range.clone() {
-                            let mut rng = packet.path(pixel, sample);
-                            let l = self.trace_path(x, y, &mut rng, &mut stats);
-                            // Sums in f64: no finite f32 sample overflows them, or its
-                            // square (the GPU film scales its f32 sums instead). A
-                            // non-finite sample is dropped, counted, and adds 0.
+                        // Sums in f64: no finite f32 sample overflows them, or its square (the
+                        // GPU film scales its f32 sums instead). A non-finite sample is
+                        // dropped, counted, and adds 0.
+                        let mut push = |l: Vec3| {
                             acc.push(if l.is_finite() {
                                 film::sample_sums(l.to_array())
                             } else {
                                 bad += 1;
                                 [0.0; 6]
-                            });
+                            })
+                        };
+                        if self.use_lanes {
+                            // Chunks that do not cross a packet of the sampler.
+                            let lanes = packet.lanes() as u32;
+                            let mut sample = range.start;
+                            while sample < range.end {
+                                let end = ((sample & !(lanes - 1)) + lanes).min(range.end);
+                                let n = (end - sample) as usize;
+                                let at = (x, y, pixel);
+                                let ls = self.trace_packet(at, sample, n, &mut packet, &mut stats);
+                                ls[..n].iter().for_each(|&l| push(l));
+                                sample = end;
+                            }
+                        } else {
+                            for sample in range.clone() {
+                                let mut rng = packet.path(pixel, sample);
+                                push(self.trace_path(x, y, &mut rng, &mut stats));
+                            }
                         }
                         out[i * nb + b] = acc.total();
                     }

@@ -65,7 +65,6 @@ impl CpuRenderer<'_> {
         stats: &mut PathStats,
     ) -> SegmentEnd {
         let s = self.scene;
-        let mut end = SegmentEnd::default();
         let mut o = o;
         let mut found = self.bvh.closest_leaving(s, o, d, f32::MAX, leaving);
         let hidden = s.integrator.hide_emitters && depth == 1;
@@ -84,22 +83,52 @@ impl CpuRenderer<'_> {
             }
         }
         let Some(hit) = found else {
-            let e = match &s.environment_map {
-                None => beta * s.environment,
-                Some(m) => beta * m.radiance(d) * self.env_weight(m, d, prev_pdf),
-            };
-            if !e.is_finite() {
-                stats.nonfinite_extend += 1;
-            } else if !hidden {
-                // (Hidden emitters: the camera ray does not see the environment.)
-                end.e = Some(e);
-            }
-            return end;
+            return self.segment_miss(d, prev_pdf, beta, hidden, stats);
         };
         let mut si = surface_at(s, &self.normals, &hit, o, d);
         if self.textured {
             si.uv = crate::texture::hit_uv(s, &hit, si.p);
         }
+        self.segment_surface(depth, d, hit.t, si, (prev_pdf, beta, hidden), stats)
+    }
+
+    /// [`Self::segment_end`] where the ray met nothing: the environment's light.
+    pub(super) fn segment_miss(
+        &self,
+        d: Vec3,
+        prev_pdf: f32,
+        beta: Vec3,
+        hidden: bool,
+        stats: &mut PathStats,
+    ) -> SegmentEnd {
+        let s = self.scene;
+        let mut end = SegmentEnd::default();
+        let e = match &s.environment_map {
+            None => beta * s.environment,
+            Some(m) => beta * m.radiance(d) * self.env_weight(m, d, prev_pdf),
+        };
+        if !e.is_finite() {
+            stats.nonfinite_extend += 1;
+        } else if !hidden {
+            // (Hidden emitters: the camera ray does not see the environment.)
+            end.e = Some(e);
+        }
+        end
+    }
+
+    /// [`Self::segment_end`] at surface `si`, met at distance `t` along `d`: the light it
+    /// emits, and whether the path goes on from it.
+    pub(super) fn segment_surface(
+        &self,
+        depth: u32,
+        d: Vec3,
+        t: f32,
+        si: Surface,
+        (prev_pdf, beta, hidden): (f32, Vec3, bool),
+        stats: &mut PathStats,
+    ) -> SegmentEnd {
+        let s = self.scene;
+        let mut end = SegmentEnd::default();
         if !si.front {
             // The back of a two-sided material scatters (shade_vertex turns it to the front)
             // but emits nothing.
@@ -115,11 +144,7 @@ impl CpuRenderer<'_> {
                 let cos_light = -d.dot(si.ng);
                 power_heuristic(
                     prev_pdf,
-                    light_pdf(
-                        self.lights.select_density[e as usize],
-                        hit.t * hit.t,
-                        cos_light,
-                    ),
+                    light_pdf(self.lights.select_density[e as usize], t * t, cos_light),
                 )
             } else {
                 1.0

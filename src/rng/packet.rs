@@ -49,6 +49,11 @@ impl PacketRng {
         }
     }
 
+    /// Samples per packet, a power of two up to [`PACKET`].
+    pub fn lanes(&self) -> usize {
+        self.lanes
+    }
+
     /// The numbers of the path (pixel, sample): those of `PathRng::with_bits(sampler, seed,
     /// bits, pixel, sample)`. The packet starts over when the path is not one of its own.
     #[inline]
