@@ -62,6 +62,27 @@ fn offset(p: &V3, err: &V3, n: &V3, k: usize) -> (f32, f32, f32) {
     )
 }
 
+/// The state of a packet's paths (the locals of [`CpuRenderer::trace_path`], one per lane).
+struct Paths {
+    o: [Vec3; LANES],
+    d: [Vec3; LANES],
+    beta: [Vec3; LANES],
+    l: [Vec3; LANES],
+    prev_pdf: [f32; LANES],
+    leaving: [u32; LANES],
+    alive: [bool; LANES],
+}
+
+/// The vertices of the segment being shaded: whose they are, and those the Lambert lanes take.
+struct Vertices {
+    pixel: u32,
+    first: u32,
+    depth: u32,
+    /// The segment's index in the counts by segment.
+    seg: usize,
+    lam: LambertLanes,
+}
+
 /// The Lambert vertices of one segment, compacted: entry j is path lane `lane[j]`.
 #[derive(Default)]
 struct LambertLanes {
@@ -78,7 +99,6 @@ struct LambertLanes {
     beta: V3,
     albedo: V3,
     // The light sample's triangle and emitter, gathered.
-    u_sel: F,
     lb1: F,
     lb2: F,
     lv0: V3,
@@ -234,8 +254,8 @@ impl CpuRenderer<'_> {
     }
 
     /// The radiance of the `n` paths (pixel (x, y), samples `first..first + n`), traced in
-    /// lockstep: [`Self::trace_path`]'s steps, lane by lane, with the Lambert vertices shaded
-    /// together.
+    /// lockstep: [`Self::trace_path`]'s steps, lane by lane, with the triangle hits and the
+    /// Lambert vertices of each segment computed together.
     pub(super) fn trace_packet(
         &self,
         (x, y, pixel): (u32, u32, u32),
@@ -245,157 +265,141 @@ impl CpuRenderer<'_> {
         stats: &mut PathStats,
     ) -> [Vec3; LANES] {
         let s = self.scene;
-        let mut o = [Vec3::ZERO; LANES];
-        let mut d = [Vec3::ZERO; LANES];
-        let mut beta = [Vec3::ONE; LANES];
-        let mut l = [Vec3::ZERO; LANES];
-        let mut prev_pdf = [0f32; LANES];
-        let mut leaving = [u32::MAX; LANES];
-        let mut alive = [false; LANES];
+        let mut paths = Paths {
+            o: [Vec3::ZERO; LANES],
+            d: [Vec3::ZERO; LANES],
+            beta: [Vec3::ONE; LANES],
+            l: [Vec3::ZERO; LANES],
+            prev_pdf: [0.0; LANES],
+            leaving: [u32::MAX; LANES],
+            alive: [false; LANES],
+        };
+        let mut v = Vertices {
+            pixel,
+            first,
+            depth: 0,
+            seg: 0,
+            // Reused from segment to segment: entries at and beyond `n` are stale, and the
+            // kernels' results for them are not read.
+            lam: LambertLanes::default(),
+        };
         for k in 0..n {
             let mut rng = packet.path(pixel, first + k as u32);
-            (o[k], d[k]) = self.camera_ray(x, y, &mut rng);
-            alive[k] = true;
+            (paths.o[k], paths.d[k]) = self.camera_ray(x, y, &mut rng);
+            paths.alive[k] = true;
         }
-        // Reused from segment to segment: entries at and beyond `lam.n` are stale, and the
-        // kernel's results for them are not read.
-        let mut lam = LambertLanes::default();
-        let mut out = LaneOut::default();
         let mut hits = HitLanes::default();
+        let mut out = LaneOut::default();
         for depth in 1..=s.integrator.max_depth {
-            let seg = (depth.min(SEGMENTS_COUNTED) - 1) as usize;
-            lam.n = 0;
-            // The segment's rays, one at a time; triangle hits are turned into surfaces in
-            // lanes (`hit_lanes`), the rest as the scalar path does.
-            let mut surf: [Option<Surface>; LANES] = Default::default();
+            v.depth = depth;
+            v.seg = (depth.min(SEGMENTS_COUNTED) - 1) as usize;
+            v.lam.n = 0;
             hits.n = 0;
+            // The segment's rays, one at a time; triangle hits are turned into surfaces in
+            // lanes (`HitLanes`), the rest as the scalar path does.
             for k in 0..n {
-                if !alive[k] {
+                if !paths.alive[k] {
                     continue;
                 }
                 stats.extension_rays += 1;
-                stats.segment_extension[seg] += 1;
+                stats.segment_extension[v.seg] += 1;
+                let (o, d) = (paths.o[k], paths.d[k]);
+                let at = (paths.prev_pdf[k], paths.beta[k], false);
                 let end = if self.lane_surfaces && !(depth == 1 && s.integrator.hide_emitters) {
-                    let found = self
+                    match self
                         .bvh
-                        .closest_leaving(s, o[k], d[k], f32::MAX, leaving[k]);
-                    match found {
-                        None => self.segment_miss(d[k], prev_pdf[k], beta[k], false, stats),
+                        .closest_leaving(s, o, d, f32::MAX, paths.leaving[k])
+                    {
+                        None => self.segment_miss(d, at.0, at.1, false, stats),
                         Some(hit) if hit.prim & SPHERE_BIT == 0 => {
-                            hits.push(s, &self.normals, k, &hit, d[k]);
+                            hits.push(s, &self.normals, k, &hit, d);
                             continue;
                         }
                         Some(hit) => {
-                            let si = surface_at(s, &self.normals, &hit, o[k], d[k]);
-                            let ray = (prev_pdf[k], beta[k], false);
-                            self.segment_surface(depth, d[k], hit.t, si, ray, stats)
+                            let si = surface_at(s, &self.normals, &hit, o, d);
+                            self.segment_surface(depth, d, hit.t, si, at, stats)
                         }
                     }
                 } else {
-                    let ray = (o[k], d[k], leaving[k]);
-                    self.segment_end(depth, ray, prev_pdf[k], beta[k], stats)
+                    self.segment_end(depth, (o, d, paths.leaving[k]), at.0, at.1, stats)
                 };
                 if let Some(e) = end.e {
-                    l[k] += e;
+                    paths.l[k] += e;
                 }
-                surf[k] = end.surface;
+                match end.surface {
+                    Some(si) => self.vertex(&mut v, &mut paths, k, si, packet, stats),
+                    None => paths.alive[k] = false,
+                }
             }
             if hits.n > 0 {
                 hits.surfaces();
                 for j in 0..hits.n {
                     let k = hits.lane[j];
-                    let tri = &s.triangles[hits.prim[j] as usize];
-                    let ng = hits.ng.get(j);
-                    let si = Surface {
-                        p: hits.p.get(j),
-                        p_err: hits.p_err.get(j),
-                        ng,
-                        front: hits.front[j],
-                        frame: Frame {
-                            t: hits.ft.get(j),
-                            b: hits.fb.get(j),
-                            n: ng,
-                        },
-                        material: tri.material,
-                        emitter: tri.emitter,
-                        prim: hits.prim[j],
-                        uv: glam::Vec2::ZERO,
-                    };
-                    let ray = (prev_pdf[k], beta[k], false);
-                    let end = self.segment_surface(depth, d[k], hits.t[j], si, ray, stats);
-                    if let Some(e) = end.e {
-                        l[k] += e;
+                    let prim = hits.prim[j];
+                    let tri = &s.triangles[prim as usize];
+                    let (ng, front) = (hits.ng.get(j), hits.front[j]);
+                    let at = (paths.prev_pdf[k], paths.beta[k], false);
+                    let hit = (front, ng, tri.material, tri.emitter);
+                    let (e, goes_on) =
+                        self.segment_light(depth, paths.d[k], hits.t[j], hit, at, stats);
+                    if let Some(e) = e {
+                        paths.l[k] += e;
                     }
-                    surf[k] = end.surface;
-                }
-            }
-            for k in 0..n {
-                if !alive[k] {
-                    continue;
-                }
-                let Some(si) = surf[k].take() else {
-                    alive[k] = false;
-                    continue;
-                };
-                match self.lane_albedo[si.material as usize] {
-                    Some(albedo) if si.front => {
-                        let j = lam.n;
-                        lam.n += 1;
-                        lam.lane[j] = k;
-                        lam.prim[j] = si.prim;
-                        lam.p.set(j, si.p);
-                        lam.p_err.set(j, si.p_err);
-                        lam.ng.set(j, si.ng);
-                        lam.t.set(j, si.frame.t);
-                        lam.b.set(j, si.frame.b);
-                        lam.sn.set(j, si.frame.n);
-                        lam.d.set(j, d[k]);
-                        lam.beta.set(j, beta[k]);
-                        lam.albedo.set(j, albedo);
-                        let mut rng = packet.path(pixel, first + k as u32);
-                        let u_choice = rng.get2(depth, dim::LIGHT_SELECT);
-                        let u_light = rng.get2(depth, dim::LIGHT_U);
-                        lam.ub[j] = rng.get2(depth, dim::BSDF_U);
-                        lam.u_sel[j] = u_choice.x;
-                        self.gather_light(&mut lam, j, u_choice.x, u_light);
+                    if !goes_on {
+                        paths.alive[k] = false;
+                        continue;
                     }
-                    _ => {
-                        let mut rng = packet.path(pixel, first + k as u32);
-                        let sc = self.shade_vertex(&mut rng, depth, &si, d[k], beta[k], stats);
-                        if let Some(sh) = sc.shadow {
-                            self.shadow_ray(
-                                seg,
-                                (sh.o, sh.d, sh.tmax, si.prim),
-                                sh.l,
-                                &mut l[k],
-                                stats,
-                            );
+                    match self.lane_albedo[tri.material as usize] {
+                        Some(albedo) if front => {
+                            let jl = v.lam.n;
+                            v.lam.n += 1;
+                            let lam = &mut v.lam;
+                            lam.lane[jl] = k;
+                            lam.prim[jl] = prim;
+                            lam.p.set(jl, hits.p.get(j));
+                            lam.p_err.set(jl, hits.p_err.get(j));
+                            lam.ng.set(jl, ng);
+                            lam.t.set(jl, hits.ft.get(j));
+                            lam.b.set(jl, hits.fb.get(j));
+                            lam.sn.set(jl, ng);
+                            self.lambert_lane(&mut v, &paths, k, jl, albedo, packet);
                         }
-                        match sc.next {
-                            None => alive[k] = false,
-                            Some(next) => {
-                                (o[k], d[k], beta[k]) = (next.o, next.d, next.beta);
-                                prev_pdf[k] = next.pdf;
-                                leaving[k] = si.prim;
-                            }
+                        _ => {
+                            let si = Surface {
+                                p: hits.p.get(j),
+                                p_err: hits.p_err.get(j),
+                                ng,
+                                front,
+                                frame: Frame {
+                                    t: hits.ft.get(j),
+                                    b: hits.fb.get(j),
+                                    n: ng,
+                                },
+                                material: tri.material,
+                                emitter: tri.emitter,
+                                prim,
+                                uv: glam::Vec2::ZERO,
+                            };
+                            self.vertex(&mut v, &mut paths, k, si, packet, stats);
                         }
                     }
                 }
             }
-            if lam.n == 0 {
+            if v.lam.n == 0 {
                 continue;
             }
+            let lam = &v.lam;
             let rr = s.integrator.russian_roulette && depth >= s.integrator.rr_start_depth;
-            self.shade_lambert_lanes(&lam, &mut out, stats);
+            self.shade_lambert_lanes(lam, &mut out, stats);
             for j in 0..lam.n {
                 let k = lam.lane[j];
                 let origin = out.origin.get(j);
                 if out.shadow[j] {
                     let ray = (origin, out.sd.get(j), out.stmax[j], lam.prim[j]);
-                    self.shadow_ray(seg, ray, out.sl.get(j), &mut l[k], stats);
+                    self.shadow_ray(v.seg, ray, out.sl.get(j), &mut paths.l[k], stats);
                 }
                 if !out.next[j] {
-                    alive[k] = false;
+                    paths.alive[k] = false;
                     continue;
                 }
                 let mut b = out.nbeta.get(j);
@@ -405,26 +409,95 @@ impl CpuRenderer<'_> {
                     let q = b.max_element().min(1.0);
                     let mut rng = packet.path(pixel, first + k as u32);
                     if rng.get(depth, dim::RR) >= q {
-                        alive[k] = false;
+                        paths.alive[k] = false;
                         continue;
                     }
                     b /= q;
                 }
                 if !(b.is_finite() && wi.is_finite() && pdf.is_finite()) {
                     stats.nonfinite_shade[self.lambert_model] += 1;
-                    alive[k] = false;
+                    paths.alive[k] = false;
                     continue;
                 }
                 if b == Vec3::ZERO {
-                    alive[k] = false;
+                    paths.alive[k] = false;
                     continue;
                 }
-                (o[k], d[k], beta[k]) = (origin, wi, b);
-                prev_pdf[k] = pdf;
-                leaving[k] = lam.prim[j];
+                (paths.o[k], paths.d[k], paths.beta[k]) = (origin, wi, b);
+                paths.prev_pdf[k] = pdf;
+                paths.leaving[k] = lam.prim[j];
             }
         }
-        l
+        paths.l
+    }
+
+    /// Path lane `k` goes on from surface `si`: into the Lambert lanes when they shade it, else
+    /// shaded by [`Self::shade_vertex`] with its shadow ray traced and the path moved on.
+    fn vertex(
+        &self,
+        v: &mut Vertices,
+        paths: &mut Paths,
+        k: usize,
+        si: Surface,
+        packet: &mut PacketRng,
+        stats: &mut PathStats,
+    ) {
+        match self.lane_albedo[si.material as usize] {
+            Some(albedo) if si.front => {
+                let j = v.lam.n;
+                v.lam.n += 1;
+                let lam = &mut v.lam;
+                lam.lane[j] = k;
+                lam.prim[j] = si.prim;
+                lam.p.set(j, si.p);
+                lam.p_err.set(j, si.p_err);
+                lam.ng.set(j, si.ng);
+                lam.t.set(j, si.frame.t);
+                lam.b.set(j, si.frame.b);
+                lam.sn.set(j, si.frame.n);
+                self.lambert_lane(v, paths, k, j, albedo, packet);
+            }
+            _ => {
+                let mut rng = packet.path(v.pixel, v.first + k as u32);
+                let (depth, d, beta) = (v.depth, paths.d[k], paths.beta[k]);
+                let sc = self.shade_vertex(&mut rng, depth, &si, d, beta, stats);
+                if let Some(sh) = sc.shadow {
+                    let ray = (sh.o, sh.d, sh.tmax, si.prim);
+                    self.shadow_ray(v.seg, ray, sh.l, &mut paths.l[k], stats);
+                }
+                match sc.next {
+                    None => paths.alive[k] = false,
+                    Some(next) => {
+                        (paths.o[k], paths.d[k], paths.beta[k]) = (next.o, next.d, next.beta);
+                        paths.prev_pdf[k] = next.pdf;
+                        paths.leaving[k] = si.prim;
+                    }
+                }
+            }
+        }
+    }
+
+    /// The rest of Lambert entry `j` (path lane `k`; its surface is set): the ray's direction
+    /// and throughput, the albedo, the random numbers and the light sample's triangle.
+    #[inline(always)]
+    fn lambert_lane(
+        &self,
+        v: &mut Vertices,
+        paths: &Paths,
+        k: usize,
+        j: usize,
+        albedo: Vec3,
+        packet: &mut PacketRng,
+    ) {
+        let lam = &mut v.lam;
+        lam.d.set(j, paths.d[k]);
+        lam.beta.set(j, paths.beta[k]);
+        lam.albedo.set(j, albedo);
+        let mut rng = packet.path(v.pixel, v.first + k as u32);
+        let u_choice = rng.get2(v.depth, dim::LIGHT_SELECT);
+        let u_light = rng.get2(v.depth, dim::LIGHT_U);
+        lam.ub[j] = rng.get2(v.depth, dim::BSDF_U);
+        self.gather_light(lam, j, u_choice.x, u_light);
     }
 
     /// A shadow ray of segment index `seg` leaving primitive `prim`: adds `contrib` to `l`

@@ -96,6 +96,8 @@ pub struct CpuRenderer<'a> {
     /// Trace a pixel's samples in lockstep packets (`lanes.rs`); `BRDFWAVE_LANES=0` turns it
     /// off (for A/B timing of the experiment).
     use_lanes: bool,
+    /// Per material, whether it scatters light ([`crate::brdf::Brdf::scatters`]).
+    scatters: Vec<bool>,
     /// Per material, the albedo when the lane kernel shades its vertices.
     lane_albedo: Vec<Option<Vec3>>,
     /// The index of Lambert in [`crate::brdf::MODELS`].
@@ -118,6 +120,7 @@ impl<'a> CpuRenderer<'a> {
             normals,
             textured: scene.materials.iter().any(|m| !m.textures.is_empty()),
             use_lanes: std::env::var("BRDFWAVE_LANES").map_or(true, |v| v != "0"),
+            scatters: scene.materials.iter().map(|m| m.brdf.scatters()).collect(),
             lane_albedo: Vec::new(),
             lambert_model: crate::brdf::MODELS
                 .iter()

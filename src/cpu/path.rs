@@ -117,31 +117,49 @@ impl CpuRenderer<'_> {
     }
 
     /// [`Self::segment_end`] at surface `si`, met at distance `t` along `d`: the light it
-    /// emits, and whether the path goes on from it.
+    /// emits, and the surface when the path goes on from it.
     pub(super) fn segment_surface(
         &self,
         depth: u32,
         d: Vec3,
         t: f32,
         si: Surface,
-        (prev_pdf, beta, hidden): (f32, Vec3, bool),
+        at: (f32, Vec3, bool),
         stats: &mut PathStats,
     ) -> SegmentEnd {
+        let hit = (si.front, si.ng, si.material, si.emitter);
+        let (e, goes_on) = self.segment_light(depth, d, t, hit, at, stats);
+        SegmentEnd {
+            e,
+            surface: goes_on.then_some(si),
+        }
+    }
+
+    /// The light that a surface met at distance `t` along `d` emits toward the ray (front side
+    /// `front`, geometric normal `ng`, its material and emitter), MIS-weighted against
+    /// next-event estimation, and whether the path goes on from it.
+    pub(super) fn segment_light(
+        &self,
+        depth: u32,
+        d: Vec3,
+        t: f32,
+        (front, ng, material, emitter): (bool, Vec3, u32, Option<u32>),
+        (prev_pdf, beta, hidden): (f32, Vec3, bool),
+        stats: &mut PathStats,
+    ) -> (Option<Vec3>, bool) {
         let s = self.scene;
-        let mut end = SegmentEnd::default();
-        if !si.front {
+        let scatters = self.scatters[material as usize];
+        if !front {
             // The back of a two-sided material scatters (shade_vertex turns it to the front)
             // but emits nothing.
-            let m = &s.materials[si.material as usize];
-            if m.twosided && depth < s.integrator.max_depth && m.brdf.scatters() {
-                end.surface = Some(si);
-            }
-            return end;
+            let twosided = s.materials[material as usize].twosided;
+            return (None, twosided && depth < s.integrator.max_depth && scatters);
         }
-        if let Some(e) = si.emitter {
+        let mut light = None;
+        if let Some(e) = emitter {
             let le = s.emitters[e as usize].radiance;
             let w = if prev_pdf > 0.0 {
-                let cos_light = -d.dot(si.ng);
+                let cos_light = -d.dot(ng);
                 power_heuristic(
                     prev_pdf,
                     light_pdf(self.lights.select_density[e as usize], t * t, cos_light),
@@ -154,17 +172,10 @@ impl CpuRenderer<'_> {
                 stats.nonfinite_extend += 1;
             } else if !hidden {
                 // (Nor an emitter it could not pass: HIDE_PASSES.)
-                end.e = Some(e);
+                light = Some(e);
             }
         }
-        if depth == s.integrator.max_depth {
-            return end;
-        }
-        if !s.materials[si.material as usize].brdf.scatters() {
-            return end;
-        }
-        end.surface = Some(si);
-        end
+        (light, depth < s.integrator.max_depth && scatters)
     }
 }
 
