@@ -366,8 +366,8 @@ fn step_off_lanes(q: Vec3, n: Vec3) -> Vec3 {
 /// [`next_float_down`] for n < 0), a result below [`ORIGIN_MIN`] in magnitude replaced by
 /// ±`ORIGIN_MIN` on the side of `n` (compared on the bits, so that the subnormal is never an
 /// operand of arithmetic); `q` itself for n = 0 or NaN and for an infinite or NaN `q`. Every
-/// case is a select on integer bits, not a branch.
-#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+/// case is a select on integer bits, not a branch. (The CPU reference's lanes use it for 16
+/// points at a time, `cpu/lanes.rs`.)
 #[inline(always)]
 pub(crate) fn step_off(q: f32, n: f32) -> f32 {
     const MAGNITUDE: u32 = 0x7fff_ffff;

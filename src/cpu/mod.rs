@@ -94,7 +94,7 @@ pub struct CpuRenderer<'a> {
     /// Some material has textures: surfaces get their texture coordinates.
     textured: bool,
     /// Trace a pixel's samples in lockstep packets (`lanes.rs`); `BRDFWAVE_LANES=0` turns it
-    /// off (for A/B timing of the experiment).
+    /// off (one path at a time, the same image: for timing the two side by side).
     use_lanes: bool,
     /// Per material, whether it scatters light ([`crate::brdf::Brdf::scatters`]).
     scatters: Vec<bool>,
@@ -219,7 +219,10 @@ impl<'a> CpuRenderer<'a> {
                                 [0.0; 6]
                             })
                         };
-                        if self.use_lanes {
+                        // The lane kernels always compute all LANES lanes, so packets of
+                        // fewer than MIN_LANES samples (renders of 1 or 2 spp) trace one path
+                        // at a time (docs/bench-log.md, "A pixel's samples in lockstep").
+                        if self.use_lanes && packet.lanes() >= lanes::MIN_LANES {
                             // Chunks that do not cross a packet of the sampler.
                             let lanes = packet.lanes() as u32;
                             let mut sample = range.start;
@@ -307,14 +310,14 @@ impl<'a> CpuRenderer<'a> {
             stats.extension_rays += 1;
             let seg = (depth.min(SEGMENTS_COUNTED) - 1) as usize;
             stats.segment_extension[seg] += 1;
-            let end = self.segment_end(depth, (o, d, leaving), prev_pdf, beta, stats);
+            let end = self.segment_end_inline(depth, (o, d, leaving), prev_pdf, beta, stats);
             if let Some(e) = end.e {
                 l += e;
             }
             let Some(si) = end.surface else {
                 break;
             };
-            let sc = self.shade_vertex(rng, depth, &si, d, beta, stats);
+            let sc = self.shade_vertex_inline(rng, depth, &si, d, beta, stats);
             // Both rays from here leave the surface's primitive, which they cannot meet again.
             if let Some(sh) = sc.shadow {
                 stats.shadow_rays += 1;

@@ -114,7 +114,24 @@ impl CpuRenderer<'_> {
     /// `d` with throughput `beta`): one light sample (next-event estimation) and one BRDF
     /// sample, keyed on (path, depth). Non-finite light contributions and continuations are
     /// counted by model (the GPU's `shade_<model>`) and dropped.
+    // Out of line for the lanes' scalar fall-back; `trace_path` inlines `shade_vertex_inline`
+    // (as for `segment_end`).
+    #[inline(never)]
     pub(super) fn shade_vertex(
+        &self,
+        rng: &mut LaneRng,
+        depth: u32,
+        si: &Surface,
+        d: Vec3,
+        beta: Vec3,
+        stats: &mut PathStats,
+    ) -> Scatter {
+        self.shade_vertex_inline(rng, depth, si, d, beta, stats)
+    }
+
+    /// [`Self::shade_vertex`], inlined.
+    #[inline(always)]
+    pub(super) fn shade_vertex_inline(
         &self,
         rng: &mut LaneRng,
         depth: u32,
