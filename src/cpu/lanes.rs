@@ -15,15 +15,16 @@
 //! path at a time, for A/B timing). Issue 43, lever 3's first step: docs/bench-log.md, "A
 //! pixel's samples in lockstep".
 
-use super::surface::{surface_at, Frame, Surface};
+use super::surface::{surface_at, triangle_light_point, Frame, Surface};
 use super::{CpuRenderer, PathStats};
 use crate::brdf::common::MIN_COS2;
 use crate::brdf::lambert::Lambert;
 use crate::bvh::SPHERE_BIT;
 use crate::conventions::SEGMENTS_COUNTED;
-use crate::lights::{pair_barycentrics, PAIR_BIT};
+use crate::lights::LightTable;
 use crate::rng::{dim, PacketRng, PACKET};
 use crate::robust::{gamma, step_off, ulp, SHADOW_EPSILON, SHIFT_ULPS};
+use crate::scene::Scene;
 use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI};
 
@@ -238,27 +239,27 @@ struct LaneOut {
     npdf: F,
 }
 
-impl CpuRenderer<'_> {
-    /// The albedo of each material whose vertices the lane kernel shades (untextured Lambert),
-    /// when every light of the scene is a triangle or a pair of them; else none.
-    pub(super) fn lane_albedos(&self) -> Vec<Option<Vec3>> {
-        let s = self.scene;
-        let lights_ok = s.environment_map.is_none()
-            && s.lights.is_empty()
-            && !self.lights.is_empty()
-            && self.lights.prims.iter().all(|&p| p & SPHERE_BIT == 0);
-        s.materials
-            .iter()
-            .map(|m| {
-                let lambert = m.brdf.as_any().downcast_ref::<Lambert>();
-                match lambert {
-                    Some(l) if lights_ok && m.textures.is_empty() => Some(l.albedo),
-                    _ => None,
-                }
-            })
-            .collect()
-    }
+/// The albedo of each material of `s` whose vertices the lane kernel shades (untextured
+/// Lambert), when every light of the scene (its table `lights`) is a triangle or a pair of
+/// them; else none.
+pub(super) fn lane_albedos(s: &Scene, lights: &LightTable) -> Vec<Option<Vec3>> {
+    let lights_ok = s.environment_map.is_none()
+        && s.lights.is_empty()
+        && !lights.is_empty()
+        && lights.prims.iter().all(|&p| p & SPHERE_BIT == 0);
+    s.materials
+        .iter()
+        .map(|m| {
+            let lambert = m.brdf.as_any().downcast_ref::<Lambert>();
+            match lambert {
+                Some(l) if lights_ok && m.textures.is_empty() => Some(l.albedo),
+                _ => None,
+            }
+        })
+        .collect()
+}
 
+impl CpuRenderer<'_> {
     /// The radiance of the `n` paths (pixel (x, y), samples `first..first + n`), traced in
     /// lockstep: [`Self::trace_path`]'s steps, lane by lane, with the triangle hits and the
     /// Lambert vertices of each segment computed together.
@@ -357,18 +358,9 @@ impl CpuRenderer<'_> {
                     }
                     match self.lane_albedo[tri.material as usize] {
                         Some(albedo) if front => {
-                            let jl = v.lam.n;
-                            v.lam.n += 1;
-                            let lam = &mut v.lam;
-                            lam.lane[jl] = k;
-                            lam.prim[jl] = prim;
-                            lam.p.set(jl, hits.p.get(j));
-                            lam.p_err.set(jl, hits.p_err.get(j));
-                            lam.ng.set(jl, ng);
-                            lam.t.set(jl, hits.ft.get(j));
-                            lam.b.set(jl, hits.fb.get(j));
-                            lam.sn.set(jl, ng);
-                            self.lambert_lane(&mut v, &paths, k, jl, albedo, packet);
+                            let frame = (hits.ft.get(j), hits.fb.get(j), ng);
+                            let at = (prim, hits.p.get(j), hits.p_err.get(j), ng, frame);
+                            self.lambert_lane(&mut v, &paths, k, at, albedo, packet);
                         }
                         _ => {
                             let si = Surface {
@@ -395,7 +387,6 @@ impl CpuRenderer<'_> {
                 continue;
             }
             let lam = &v.lam;
-            let rr = s.integrator.russian_roulette && depth >= s.integrator.rr_start_depth;
             self.shade_lambert_lanes(lam, &mut out, stats);
             for j in 0..lam.n {
                 let k = lam.lane[j];
@@ -408,27 +399,14 @@ impl CpuRenderer<'_> {
                     paths.alive[k] = false;
                     continue;
                 }
-                let mut b = out.nbeta.get(j);
-                let wi = out.nd.get(j);
-                let pdf = out.npdf[j];
-                if rr {
-                    let q = b.max_element().min(1.0);
-                    let mut rng = packet.path(pixel, first + k as u32);
-                    if rng.get(depth, dim::RR) >= q {
-                        paths.alive[k] = false;
-                        continue;
-                    }
-                    b /= q;
-                }
-                if !(b.is_finite() && wi.is_finite() && pdf.is_finite()) {
-                    stats.nonfinite_shade[self.lambert_model] += 1;
+                let (wi, pdf) = (out.nd.get(j), out.npdf[j]);
+                let mut rng = packet.path(pixel, first + k as u32);
+                let next = (wi, out.nbeta.get(j), pdf);
+                let model = self.lambert_model;
+                let Some(b) = self.continuation(&mut rng, depth, next, model, stats) else {
                     paths.alive[k] = false;
                     continue;
-                }
-                if b == Vec3::ZERO {
-                    paths.alive[k] = false;
-                    continue;
-                }
+                };
                 (paths.o[k], paths.d[k], paths.beta[k]) = (origin, wi, b);
                 paths.prev_pdf[k] = pdf;
                 paths.leaving[k] = lam.prim[j];
@@ -450,18 +428,9 @@ impl CpuRenderer<'_> {
     ) {
         match self.lane_albedo[si.material as usize] {
             Some(albedo) if si.front => {
-                let j = v.lam.n;
-                v.lam.n += 1;
-                let lam = &mut v.lam;
-                lam.lane[j] = k;
-                lam.prim[j] = si.prim;
-                lam.p.set(j, si.p);
-                lam.p_err.set(j, si.p_err);
-                lam.ng.set(j, si.ng);
-                lam.t.set(j, si.frame.t);
-                lam.b.set(j, si.frame.b);
-                lam.sn.set(j, si.frame.n);
-                self.lambert_lane(v, paths, k, j, albedo, packet);
+                let frame = (si.frame.t, si.frame.b, si.frame.n);
+                let at = (si.prim, si.p, si.p_err, si.ng, frame);
+                self.lambert_lane(v, paths, k, at, albedo, packet);
             }
             _ => {
                 let mut rng = packet.path(v.pixel, v.first + k as u32);
@@ -483,19 +452,31 @@ impl CpuRenderer<'_> {
         }
     }
 
-    /// The rest of Lambert entry `j` (path lane `k`; its surface is set): the ray's direction
+    /// A new Lambert entry for path lane `k` at the surface of primitive `prim` (point `p`, its
+    /// error bound, geometric normal `ng`, shading frame (t, b, n)): with the ray's direction
     /// and throughput, the albedo, the random numbers and the light sample's triangle.
     #[inline(always)]
+    #[allow(clippy::type_complexity)]
     fn lambert_lane(
         &self,
         v: &mut Vertices,
         paths: &Paths,
         k: usize,
-        j: usize,
+        (prim, p, p_err, ng, (t, b, n)): (u32, Vec3, Vec3, Vec3, (Vec3, Vec3, Vec3)),
         albedo: Vec3,
         packet: &mut PacketRng,
     ) {
         let lam = &mut v.lam;
+        let j = lam.n;
+        lam.n += 1;
+        lam.lane[j] = k;
+        lam.prim[j] = prim;
+        lam.p.set(j, p);
+        lam.p_err.set(j, p_err);
+        lam.ng.set(j, ng);
+        lam.t.set(j, t);
+        lam.b.set(j, b);
+        lam.sn.set(j, n);
         lam.d.set(j, paths.d[k]);
         lam.beta.set(j, paths.beta[k]);
         lam.albedo.set(j, albedo);
@@ -532,15 +513,7 @@ impl CpuRenderer<'_> {
     fn gather_light(&self, lam: &mut LambertLanes, j: usize, u_sel: f32, u: glam::Vec2) {
         let s = self.scene;
         let prim = self.lights.prims[self.lights.select(u_sel)];
-        let (index, b1, b2) = if prim & PAIR_BIT != 0 {
-            let (second, b1, b2) = pair_barycentrics(u.x, u.y);
-            ((prim & !PAIR_BIT) as usize + second as usize, b1, b2)
-        } else {
-            let su = u.x.sqrt();
-            let b0 = 1.0 - su;
-            let b1 = u.y * su;
-            (prim as usize, b1, 1.0 - b0 - b1)
-        };
+        let (index, b1, b2) = triangle_light_point(prim, u.x, u.y);
         let t = &s.triangles[index];
         let e = t.emitter.expect("light table holds emitters only") as usize;
         lam.lb1[j] = b1;
@@ -555,7 +528,7 @@ impl CpuRenderer<'_> {
 
     /// [`Self::shade_vertex`] for Lambert vertices under area lights, in lanes: the light
     /// sample's contribution and the cosine-weighted continuation, before Russian roulette and
-    /// the finiteness check of the continuation (the caller's).
+    /// the finiteness check of the continuation (the caller's, [`Self::continuation`]).
     fn shade_lambert_lanes(&self, lam: &LambertLanes, out: &mut LaneOut, stats: &mut PathStats) {
         let (g4, g2) = (gamma(4), gamma(2));
         let mut wo_up = [false; LANES];

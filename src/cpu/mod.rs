@@ -112,25 +112,24 @@ impl<'a> CpuRenderer<'a> {
         // Read at every hit, in no order: on huge pages, as the BVH's arrays are.
         let mut normals: Vec<Vec3> = crate::memory::huge_page_vec(scene.triangles.len());
         normals.par_extend(scene.triangles.par_iter().map(|t| t.geometric_normal()));
-        let mut r = CpuRenderer {
+        let lights = LightTable::build(scene);
+        let textured = scene.materials.iter().any(|m| !m.textures.is_empty());
+        CpuRenderer {
             scene,
             bvh,
-            lights: LightTable::build(scene),
             camera: CameraBasis::new(scene),
             normals,
-            textured: scene.materials.iter().any(|m| !m.textures.is_empty()),
+            textured,
             use_lanes: std::env::var("BRDFWAVE_LANES").map_or(true, |v| v != "0"),
             scatters: scene.materials.iter().map(|m| m.brdf.scatters()).collect(),
-            lane_albedo: Vec::new(),
+            lane_albedo: lanes::lane_albedos(scene, &lights),
             lambert_model: crate::brdf::MODELS
                 .iter()
                 .position(|m| m.name == "lambert")
                 .expect("Lambert is a model"),
-            lane_surfaces: false,
-        };
-        r.lane_albedo = r.lane_albedos();
-        r.lane_surfaces = !r.textured && !scene.has_shading_normals() && !scene.has_uvs();
-        r
+            lane_surfaces: !textured && !scene.has_shading_normals() && !scene.has_uvs(),
+            lights,
+        }
     }
 
     /// Whether to trace a pixel's samples in lockstep packets (`lanes.rs`, the default) or one

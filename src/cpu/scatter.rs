@@ -238,24 +238,11 @@ impl CpuRenderer<'_> {
         if wi.dot(si.ng) <= 0.0 {
             return r;
         }
-        let mut beta = beta;
-        beta *= bs.weight;
         let prev_pdf = if bs.delta { 0.0 } else { bs.pdf };
-        if s.integrator.russian_roulette && depth >= s.integrator.rr_start_depth {
-            let q = beta.max_element().min(1.0);
-            if rng.get(depth, dim::RR) >= q {
-                return r;
-            }
-            beta /= q;
-        }
-        // A non-finite throughput, direction or pdf ends the path, counted.
-        if !(beta.is_finite() && wi.is_finite() && prev_pdf.is_finite()) {
-            stats.nonfinite_shade[material.model] += 1;
+        let next = (wi, beta * bs.weight, prev_pdf);
+        let Some(beta) = self.continuation(rng, depth, next, material.model, stats) else {
             return r;
-        }
-        if beta == Vec3::ZERO {
-            return r;
-        }
+        };
         r.next = Some(NextSegment {
             o: origin,
             d: wi,
@@ -263,5 +250,36 @@ impl CpuRenderer<'_> {
             pdf: prev_pdf,
         });
         r
+    }
+
+    /// The throughput with which a path goes on along `wi` (BSDF pdf `pdf`) from the vertex at
+    /// the end of segment `depth`, given its throughput `beta` times the sample's weight: after
+    /// Russian roulette, when it is on; `None` when the path ends there, or when the throughput,
+    /// direction or pdf is not finite (counted for `model`) or the throughput is zero. Both the
+    /// scalar vertex and the Lambert lanes (`lanes.rs`) end with it.
+    #[inline(always)]
+    pub(super) fn continuation(
+        &self,
+        rng: &mut LaneRng,
+        depth: u32,
+        (wi, beta, pdf): (Vec3, Vec3, f32),
+        model: usize,
+        stats: &mut PathStats,
+    ) -> Option<Vec3> {
+        let s = self.scene;
+        let mut beta = beta;
+        if s.integrator.russian_roulette && depth >= s.integrator.rr_start_depth {
+            let q = beta.max_element().min(1.0);
+            if rng.get(depth, dim::RR) >= q {
+                return None;
+            }
+            beta /= q;
+        }
+        // A non-finite throughput, direction or pdf ends the path, counted.
+        if !(beta.is_finite() && wi.is_finite() && pdf.is_finite()) {
+            stats.nonfinite_shade[model] += 1;
+            return None;
+        }
+        (beta != Vec3::ZERO).then_some(beta)
     }
 }

@@ -196,15 +196,7 @@ pub fn sample_light(
             density: lights.select_density[e as usize],
         }
     } else {
-        let (index, b1, b2) = if prim & PAIR_BIT != 0 {
-            let (second, b1, b2) = pair_barycentrics(u1, u2);
-            ((prim & !PAIR_BIT) as usize + second as usize, b1, b2)
-        } else {
-            let su = u1.sqrt();
-            let b0 = 1.0 - su;
-            let b1 = u2 * su;
-            (prim as usize, b1, 1.0 - b0 - b1)
-        };
+        let (index, b1, b2) = triangle_light_point(prim, u1, u2);
         let t = &scene.triangles[index];
         let e = t.emitter.expect("light table holds emitters only");
         let (p, p_err) = triangle_point(&t.v, b1, b2);
@@ -215,6 +207,22 @@ pub fn sample_light(
             radiance: scene.emitters[e as usize].radiance,
             density: lights.select_density[e as usize],
         }
+    }
+}
+
+/// The triangle and the barycentrics (b1, b2) of a point uniform by area on the light-table
+/// entry `prim` (a triangle, or a pair of them by one 2-D sample over both,
+/// [`pair_barycentrics`]), from the 2-D sample (u1, u2).
+#[inline(always)]
+pub fn triangle_light_point(prim: u32, u1: f32, u2: f32) -> (usize, f32, f32) {
+    if prim & PAIR_BIT != 0 {
+        let (second, b1, b2) = pair_barycentrics(u1, u2);
+        ((prim & !PAIR_BIT) as usize + second as usize, b1, b2)
+    } else {
+        let su = u1.sqrt();
+        let b0 = 1.0 - su;
+        let b1 = u2 * su;
+        (prim as usize, b1, 1.0 - b0 - b1)
     }
 }
 
