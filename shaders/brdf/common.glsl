@@ -309,11 +309,18 @@ vec2 beckmann_visible_slopes(float cos_t, float sin_t, vec2 u) {
     float b = b_max - (1.0 + b_max) * pow(1.0 - u.x, q);
     float lo = -1.0;
     float hi = b_max;
+    // erfinv(b) of the b that met the tolerance, which the loop has just computed, as in Rust.
+    bool converged = false;
+    float x_converged = 0.0;
     for (int i = 0; i < BECKMANN_VNDF_STEPS; i++) {
         if (!(b >= lo && b <= hi)) b = 0.5 * (lo + hi);
         float x = erfinv_f(b);
         float value = norm * (1.0 + b + k * exp(-x * x)) - u.x;
-        if (abs(value) < BECKMANN_VNDF_TOLERANCE) break;
+        if (abs(value) < BECKMANN_VNDF_TOLERANCE) {
+            converged = true;
+            x_converged = x;
+            break;
+        }
         if (value > 0.0) {
             hi = b;
         } else {
@@ -322,7 +329,7 @@ vec2 beckmann_visible_slopes(float cos_t, float sin_t, vec2 u) {
         float slope = norm * (1.0 - x * tan_t);
         b = slope > 1e-20 ? b - value / slope : 0.5 * (lo + hi);
     }
-    return vec2(erfinv_f(b), erfinv_f(2.0 * u.y - 1.0));
+    return vec2(converged ? x_converged : erfinv_f(b), erfinv_f(2.0 * u.y - 1.0));
 }
 
 // Visible-normal sampling of Beckmann (Heitz & d'Eon 2014); as sample_beckmann_vndf.

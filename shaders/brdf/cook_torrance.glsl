@@ -49,9 +49,10 @@ vec3 cook_torrance_eval(Material m, vec3 wi, vec3 wo) {
 }
 
 float ct_specular_probability(Material m, float cos_given) {
-    float ws = luminance(m.p[1].xyz * ct_fresnel(m, cos_given)) * m.p[1].w;
+    // Without a diffuse lobe the answer is 1 whatever the Fresnel term: it is not evaluated.
     float wd = luminance(m.p[0].xyz);
     if (wd <= 0.0) return 1.0;
+    float ws = luminance(m.p[1].xyz * ct_fresnel(m, cos_given)) * m.p[1].w;
     if (ws <= 0.0) return 0.0;
     return clamp(ws / (ws + wd), 0.1, 0.9);
 }

@@ -3,7 +3,7 @@
 //! function has a GLSL twin of the same name and the same arithmetic in
 //! `shaders/brdf/common.glsl`, so that both renderers compute the same numbers.
 
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec3A};
 use std::f32::consts::PI;
 
 // ---------------------------------------------------------------------------------------------
@@ -327,12 +327,51 @@ pub fn fresnel_conductor1(c: f32, eta: f32, k: f32) -> f32 {
     (0.5 * (rs + rp)).clamp(0.0, 1.0)
 }
 
-/// [`fresnel_conductor1`] per RGB channel.
+/// The square root of each lane (correctly rounded, as `f32::sqrt`).
+#[inline(always)]
+fn sqrt3(v: Vec3A) -> Vec3A {
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+    {
+        // SAFETY: SSE2 is enabled at compile time.
+        Vec3A::from(unsafe { std::arch::x86_64::_mm_sqrt_ps(v.into()) })
+    }
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
+    {
+        Vec3A::new(v.x.sqrt(), v.y.sqrt(), v.z.sqrt())
+    }
+}
+
+/// [`fresnel_conductor1`] per RGB channel, the three channels in SIMD lanes: the same f32
+/// operations in the same order, each branch a select, so the same bits as three calls (for
+/// every η, κ the model accepts; `tests` below checks it).
 pub fn fresnel_conductor(c: f32, eta: Vec3, k: Vec3) -> Vec3 {
+    let (eta, k) = (Vec3A::from(eta), Vec3A::from(k));
+    let c = c.clamp(0.0, 1.0);
+    let c2 = c * c;
+    let s2 = (1.0 - c2).max(0.0);
+    let x = eta * eta - k * k - s2;
+    let ek = eta * k;
+    let t = sqrt3(x * x + 4.0 * ek * ek);
+    // The larger of a², b² from t ± x, the smaller as η²κ²/(the larger).
+    let positive = x.cmpge(Vec3A::ZERO);
+    let larger = 0.5 * Vec3A::select(positive, t + x, t - x);
+    let smaller = Vec3A::select(larger.cmpgt(Vec3A::ZERO), ek * ek / larger, Vec3A::ZERO);
+    let a2 = Vec3A::select(positive, larger, smaller);
+    let b2 = Vec3A::select(positive, smaller, larger);
+    let a = sqrt3(a2);
+    let ab2 = a2 + b2;
+    let rs_num = ab2 - 2.0 * a * c + c2;
+    let rs_den = ab2 + 2.0 * a * c + c2;
+    let rs = Vec3A::select(rs_den.cmpgt(Vec3A::ZERO), rs_num / rs_den, Vec3A::ONE);
+    let p_num = c2 * ab2 - 2.0 * a * c * s2 + s2 * s2;
+    let p_den = c2 * ab2 + 2.0 * a * c * s2 + s2 * s2;
+    let rp = Vec3A::select(p_den.cmpgt(Vec3A::ZERO), rs * p_num / p_den, rs);
+    let f = 0.5 * (rs + rp);
+    // f32::clamp, lane by lane (a NaN stays NaN, as in the scalar form).
     Vec3::new(
-        fresnel_conductor1(c, eta.x, k.x),
-        fresnel_conductor1(c, eta.y, k.y),
-        fresnel_conductor1(c, eta.z, k.z),
+        f.x.clamp(0.0, 1.0),
+        f.y.clamp(0.0, 1.0),
+        f.z.clamp(0.0, 1.0),
     )
 }
 
@@ -559,6 +598,9 @@ pub fn beckmann_visible_slopes(cos_t: f32, sin_t: f32, u: Vec2) -> Vec2 {
     let q = 1.0 + theta * (-0.876 + theta * (0.4265 - 0.0594 * theta));
     let mut b = b_max - (1.0 + b_max) * (1.0 - u.x).powf(q);
     let (mut lo, mut hi) = (-1.0f32, b_max);
+    // erf⁻¹(b) of the b that met the tolerance, which the loop has just computed; after the
+    // last step without it, of the b that step left.
+    let mut converged = None;
     for _ in 0..BECKMANN_VNDF_STEPS {
         if !(b >= lo && b <= hi) {
             b = 0.5 * (lo + hi);
@@ -566,6 +608,7 @@ pub fn beckmann_visible_slopes(cos_t: f32, sin_t: f32, u: Vec2) -> Vec2 {
         let x = erfinv_f(b);
         let value = norm * (1.0 + b + k * (-x * x).exp()) - u.x;
         if value.abs() < BECKMANN_VNDF_TOLERANCE {
+            converged = Some(x);
             break;
         }
         if value > 0.0 {
@@ -580,7 +623,8 @@ pub fn beckmann_visible_slopes(cos_t: f32, sin_t: f32, u: Vec2) -> Vec2 {
             0.5 * (lo + hi)
         };
     }
-    Vec2::new(erfinv_f(b), erfinv_f(2.0 * u.y - 1.0))
+    let x = converged.unwrap_or_else(|| erfinv_f(b));
+    Vec2::new(x, erfinv_f(2.0 * u.y - 1.0))
 }
 
 /// Most Newton–bisection steps of [`beckmann_visible_slopes`] (the first guess is usually
@@ -609,6 +653,42 @@ pub fn visible_reflected_pdf(
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn conductor_fresnel_in_lanes_is_three_scalar_calls_bit_for_bit() {
+        use super::{fresnel_conductor, fresnel_conductor1};
+        use glam::Vec3;
+        // η in (0, 100], κ in [0, 100] as the model accepts, and c over [-0.5, 1.5] (clamped).
+        let mut state = 0x9e37_79b9u32;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            state as f32 / u32::MAX as f32
+        };
+        let mut values = vec![1e-6, 1e-3, 0.05, 0.5, 1.0, 1.5, 4.0, 100.0];
+        values.extend((0..40).map(|_| 10f32.powf(4.0 * next() - 2.0)));
+        for &e in &values {
+            for &k in values.iter().chain([0.0].iter()).step_by(3) {
+                for i in 0..=40 {
+                    let c = -0.5 + 2.0 * i as f32 / 40.0;
+                    let c = if i % 7 == 3 { next() } else { c };
+                    let lanes =
+                        fresnel_conductor(c, Vec3::new(e, k.max(1e-6), 1.0), Vec3::new(k, e, 0.0));
+                    let one = Vec3::new(
+                        fresnel_conductor1(c, e, k),
+                        fresnel_conductor1(c, k.max(1e-6), e),
+                        fresnel_conductor1(c, 1.0, 0.0),
+                    );
+                    assert_eq!(
+                        lanes.to_array().map(f32::to_bits),
+                        one.to_array().map(f32::to_bits),
+                        "c {c}, η {e}, κ {k}"
+                    );
+                }
+            }
+        }
+    }
+
     #[test]
     fn cosine_samples_on_the_disk_rim_stay_above_the_horizon() {
         // u = 0 in either coordinate is the rim (|a| = 1); it used to give cosθ = 0, pdf 0.

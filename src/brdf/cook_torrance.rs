@@ -325,23 +325,50 @@ pub fn eval(m: &CookTorrance, wi: Vec3, wo: Vec3) -> Vec3 {
         return diffuse;
     }
     let h = (wi + wo).normalize();
+    diffuse + specular(m, wi, wo, h, ndf(m, h))
+}
+
+/// The specular lobe of [`eval`] at half vector `h`, whose D(h) is `d`.
+fn specular(m: &CookTorrance, wi: Vec3, wo: Vec3, h: Vec3, d: f32) -> Vec3 {
     let c = wi.dot(h);
-    let d = ndf(m, h);
     let g = geometry(m, wi, wo, h);
     let denom = (4.0 * wi.z * wo.z).max(1e-20);
     // D·G/(4 cos cos), then the exact power-of-two factor N: survey = 4 × walter bit for bit.
     let s = d * g / denom * m.norm_factor();
-    diffuse + m.ks * fresnel(m, c) * s
+    m.ks * fresnel(m, c) * s
+}
+
+/// [`eval`]`(wi, wo)` and [`pdf_with`]`(s, wo, wi)` at once, the same values, with the half
+/// vector and D(h) computed once for both (a light sample's MIS weight and a BRDF sample's
+/// weight need the two at one pair of directions).
+pub fn eval_pdf_with(m: &CookTorrance, s: Sampler, wi: Vec3, wo: Vec3) -> (Vec3, f32) {
+    if !same_hemisphere_up(wi, wo) {
+        return (Vec3::ZERO, 0.0);
+    }
+    let diffuse = m.kd * FRAC_1_PI;
+    let ps = specular_probability(m, wo.z);
+    let mut p = (1.0 - ps) * cosine_hemisphere_pdf(wi.z);
+    if m.is_mirror() {
+        return (diffuse, p);
+    }
+    // (wi + wo) and pdf_with's (given + sampled) are the same sum.
+    let h = (wi + wo).normalize();
+    let d = ndf(m, h);
+    if ps > 0.0 {
+        p += ps * specular_pdf(m, s, wo, wi, |_| d);
+    }
+    (diffuse + specular(m, wi, wo, h, d), p)
 }
 
 /// Probability of choosing the specular lobe (the delta mirror when rough < 1e-3) given the
 /// cosine of the known direction.
 pub fn specular_probability(m: &CookTorrance, cos_given: f32) -> f32 {
-    let ws = luminance(m.ks * fresnel(m, cos_given)) * m.norm_factor();
+    // Without a diffuse lobe the answer is 1 whatever the Fresnel term: it is not evaluated.
     let wd = luminance(m.kd);
     if wd <= 0.0 {
         return 1.0;
     }
+    let ws = luminance(m.ks * fresnel(m, cos_given)) * m.norm_factor();
     if ws <= 0.0 {
         return 0.0;
     }
@@ -359,12 +386,17 @@ pub fn exact_g1(m: &CookTorrance, w: Vec3) -> f32 {
 
 /// Solid-angle density of the half-vector sampler `s` mapped to `sampled`: D(h) cosθh/(4
 /// given·h) for [`Sampler::Ndf`], G1(given) D(h)/(4 cosθ_given) for [`Sampler::Visible`].
-fn specular_pdf(m: &CookTorrance, s: Sampler, given: Vec3, sampled: Vec3) -> f32 {
+/// `d` gives D(h) at the half vector h of `given` and `sampled`.
+fn specular_pdf(
+    m: &CookTorrance,
+    s: Sampler,
+    given: Vec3,
+    sampled: Vec3,
+    d: impl FnOnce(Vec3) -> f32,
+) -> f32 {
     match s {
-        Sampler::Ndf => reflected_pdf(given, sampled, |h| ndf(m, h) * h.z),
-        Sampler::Visible => {
-            visible_reflected_pdf(given, sampled, exact_g1(m, given), |h| ndf(m, h))
-        }
+        Sampler::Ndf => reflected_pdf(given, sampled, |h| d(h) * h.z),
+        Sampler::Visible => visible_reflected_pdf(given, sampled, exact_g1(m, given), d),
     }
 }
 
@@ -380,7 +412,7 @@ pub fn pdf_with(m: &CookTorrance, s: Sampler, given: Vec3, sampled: Vec3) -> f32
     let ps = specular_probability(m, given.z);
     let mut p = (1.0 - ps) * cosine_hemisphere_pdf(sampled.z);
     if !m.is_mirror() && ps > 0.0 {
-        p += ps * specular_pdf(m, s, given, sampled);
+        p += ps * specular_pdf(m, s, given, sampled, |h| ndf(m, h));
     }
     p
 }
@@ -419,10 +451,14 @@ pub fn sample_with(
     } else {
         sample_cosine_hemisphere(u)
     };
-    BrdfSample::scattered(wi, |wi| pdf_with(m, s, given, wi), |wi| eval(m, wi, given))
+    let (f, p) = eval_pdf_with(m, s, wi, given);
+    BrdfSample::scattered(wi, |_| p, |_| f)
 }
 
 impl_brdf!(CookTorrance {
+    fn eval_pdf(&self, wi: Vec3, wo: Vec3) -> (Vec3, f32) {
+        eval_pdf_with(self, self.sampler(), wi, wo)
+    }
     fn with_params(&self, v: &super::textured::ParamValues) -> Arc<dyn Brdf> {
         Arc::new(CookTorrance {
             kd: v.rgb(&KD, self.kd),

@@ -164,6 +164,11 @@ pub trait Brdf: Debug + Send + Sync {
     /// Sample a direction given the other one. `u_lobe` chooses a lobe, `u` the direction.
     /// `None` when the sample carries no energy (below the horizon, zero pdf).
     fn sample(&self, given: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample>;
+    /// `(eval(wi, wo), pdf(wo, wi))`: what a light sample's contribution and MIS weight need.
+    /// The same two values; a model overrides it where the two share work.
+    fn eval_pdf(&self, wi: Vec3, wo: Vec3) -> (Vec3, f32) {
+        (self.eval(wi, wo), self.pdf(wo, wi))
+    }
     /// The GPU parameter block.
     fn pack(&self) -> Params;
     /// The model's own type, for tools that translate a material to another renderer (the

@@ -92,11 +92,11 @@ impl CpuRenderer<'_> {
             return None;
         }
         let pdf_l = self.lights.env_select * es.pdf;
-        let f = brdf.eval(wi_local, wo);
+        let (f, pdf_b) = brdf.eval_pdf(wi_local, wo);
         if pdf_l.is_nan() || pdf_l <= 0.0 || f == Vec3::ZERO {
             return None;
         }
-        let w = power_heuristic(pdf_l, brdf.pdf(wo, wi_local));
+        let w = power_heuristic(pdf_l, pdf_b);
         let contrib = beta * f * (wi_local.z * w / pdf_l) * es.radiance;
         if !contrib.is_finite() {
             stats.nonfinite_shade[model] += 1;
@@ -209,9 +209,8 @@ impl CpuRenderer<'_> {
                 let wi_local = si.frame.to_local(wi);
                 if cos_light > 0.0 && wi.dot(si.ng) > 0.0 && wi_local.z > 0.0 {
                     let pdf_l = light_pdf(ls.density, dist2, cos_light);
-                    let f = brdf.eval(wi_local, wo);
+                    let (f, pdf_b) = brdf.eval_pdf(wi_local, wo);
                     if pdf_l > 0.0 && f != Vec3::ZERO {
-                        let pdf_b = brdf.pdf(wo, wi_local);
                         let w = power_heuristic(pdf_l, pdf_b);
                         let contrib = beta * f * (wi_local.z * w / pdf_l) * ls.radiance;
                         if !contrib.is_finite() {
