@@ -147,10 +147,14 @@ fn stratified_samplers_agree_with_independent_and_have_less_error() {
     }
 }
 
-/// The image mean is the exact value within 5 standard errors. The standard error comes from
-/// the per-sample variance as if the samples were independent; with the default `multijitter`
-/// sampler that overstates it (stratified samples vary less in their mean), so the bound is
-/// conservative; a bias of more than a few standard errors still fails it.
+/// The image mean is the exact value within 5 standard errors and 1e-5. The standard error
+/// comes from the per-sample variance as if the samples were independent; with the default
+/// `multijitter` sampler that overstates it (stratified samples vary less in their mean), so the
+/// bound is conservative; a bias of more than a few standard errors still fails it. In the
+/// closed sphere below the estimator's exact variance is zero (from a point on the sphere, the
+/// light sample's solid-angle density, dist²/(A cos) = cosθ/π, is the cosine sample's: equal
+/// MIS weights, and every path sums to the same value), so what variance there is is rounding's,
+/// possibly none at all, and the 1e-5 governs.
 fn analytic_furnace(out: &brdfwave::output::RenderOutput, expected: f64) {
     let n = out.mean.data.len() as f64 * out.spp as f64;
     for c in 0..3 {
@@ -159,7 +163,7 @@ fn analytic_furnace(out: &brdfwave::output::RenderOutput, expected: f64) {
         let var: f64 = out.variance.data.iter().map(|p| p[c] as f64).sum::<f64>()
             / out.variance.data.len() as f64;
         let se = (var / n).sqrt();
-        assert!(var > 0.0, "the estimator should have some variance");
+        assert!(var >= 0.0 && var.is_finite(), "channel {c}: variance {var}");
         assert!(
             (mean - expected).abs() < 5.0 * se + 1e-5,
             "channel {c}: mean {mean} vs exact {expected} (standard error {se})"

@@ -18,13 +18,13 @@ vec3 sample_cosine_hemisphere(vec2 u) {
     if (a.x == 0.0 && a.y == 0.0) {
         d = vec2(0.0);
     } else if (abs(a.x) > abs(a.y)) {
-        float r = a.x;
+        // phi = (PI/4)(a.y/a.x), in [-PI/4, PI/4].
         float phi = (PI / 4.0) * (a.y / a.x);
-        d = vec2(r * cos(phi), r * sin(phi));
+        d = a.x * vec2(cos(phi), sin(phi));
     } else {
-        float r = a.y;
-        float phi = PI / 2.0 - (PI / 4.0) * (a.x / a.y);
-        d = vec2(r * cos(phi), r * sin(phi));
+        // phi = PI/2 - psi with psi = (PI/4)(a.x/a.y): cos phi = sin psi, sin phi = cos psi.
+        float psi = (PI / 4.0) * (a.x / a.y);
+        d = a.y * vec2(sin(psi), cos(psi));
     }
     // The rim (cosθ = 0, pdf 0) moves inwards to 1 - |d|² = MIN_COS2, as in the Rust twin.
     float z2 = 1.0 - dot(d, d);

@@ -17,7 +17,7 @@
 
 use super::surface::{surface_at, triangle_light_point, Frame, Surface};
 use super::{CpuRenderer, PathStats};
-use crate::brdf::common::MIN_COS2;
+use crate::brdf::common::{sin_cos_quarter, MIN_COS2};
 use crate::brdf::lambert::Lambert;
 use crate::bvh::SPHERE_BIT;
 use crate::conventions::SEGMENTS_COUNTED;
@@ -606,36 +606,27 @@ impl CpuRenderer<'_> {
             out.stmax[k] = dist * (1.0 - SHADOW_EPSILON);
             (out.sl.x[k], out.sl.y[k], out.sl.z[k]) = (cx, cy, cz);
         }
-        // The cosine-weighted sample: the concentric map's angle, its cosine and sine (libm's,
-        // lane by lane, as the scalar code calls them), then the rest.
-        let mut r = [0f32; LANES];
-        let mut phi = [0f32; LANES];
-        let mut zero = [false; LANES];
+        // The cosine-weighted sample (`sample_cosine_hemisphere`): the concentric map's angle
+        // in [−π/4, π/4], its sine and cosine by `sin_cos_quarter`'s polynomials, then the
+        // rest.
+        let (rim, rim_z) = ((1.0 - MIN_COS2).sqrt(), MIN_COS2.sqrt());
         for k in 0..LANES {
             let ax = 2.0 * lam.ub[k].x - 1.0;
             let ay = 2.0 * lam.ub[k].y - 1.0;
-            zero[k] = ax == 0.0 && ay == 0.0;
+            let zero = ax == 0.0 && ay == 0.0;
             let wide = ax.abs() > ay.abs();
-            r[k] = if wide { ax } else { ay };
-            phi[k] = if wide {
+            let psi = if wide {
                 (PI / 4.0) * (ay / ax)
             } else {
-                PI / 2.0 - (PI / 4.0) * (ax / ay)
+                (PI / 4.0) * (ax / ay)
             };
-        }
-        let mut c = [0f32; LANES];
-        let mut sn = [0f32; LANES];
-        for k in 0..lam.n {
-            if !zero[k] {
-                (c[k], sn[k]) = (phi[k].cos(), phi[k].sin());
-            }
-        }
-        let (rim, rim_z) = ((1.0 - MIN_COS2).sqrt(), MIN_COS2.sqrt());
-        for k in 0..LANES {
-            let (mut dx, mut dy) = if zero[k] {
+            let (sin, cos) = sin_cos_quarter(psi);
+            let (mut dx, mut dy) = if zero {
                 (0.0, 0.0)
+            } else if wide {
+                (ax * cos, ax * sin)
             } else {
-                (r[k] * c[k], r[k] * sn[k])
+                (ay * sin, ay * cos)
             };
             let len2 = dx * dx + dy * dy;
             let z2 = 1.0 - len2;
