@@ -610,7 +610,7 @@ impl CpuRenderer<'_> {
         // in [−π/4, π/4], its sine and cosine by `sin_cos_quarter`'s polynomials, then the
         // rest.
         let (rim, rim_z) = ((1.0 - MIN_COS2).sqrt(), MIN_COS2.sqrt());
-        for k in 0..LANES {
+        for (k, &up) in wo_up.iter().enumerate() {
             let ax = 2.0 * lam.ub[k].x - 1.0;
             let ay = 2.0 * lam.ub[k].y - 1.0;
             let zero = ax == 0.0 && ay == 0.0;
@@ -643,7 +643,7 @@ impl CpuRenderer<'_> {
             let wy = lam.t.y[k] * dx + lam.b.y[k] * dy + lam.sn.y[k] * z;
             let wz = lam.t.z[k] * dx + lam.b.z[k] * dy + lam.sn.z[k] * z;
             let above = wx * lam.ng.x[k] + wy * lam.ng.y[k] + wz * lam.ng.z[k] > 0.0;
-            out.next[k] = wo_up[k] && pdf > 0.0 && above;
+            out.next[k] = up && pdf > 0.0 && above;
             (out.nd.x[k], out.nd.y[k], out.nd.z[k]) = (wx, wy, wz);
             out.nbeta.x[k] = lam.beta.x[k] * lam.albedo.x[k];
             out.nbeta.y[k] = lam.beta.y[k] * lam.albedo.y[k];
