@@ -660,3 +660,63 @@ fn visible_normals_lower_the_weight_variance() {
         "visible normals raise the variance: {bad:#?}"
     );
 }
+
+/// `eval_pdf`, which shares the half vector and D(h) between the two, gives `eval(wi, wo)` and
+/// `pdf(wo, wi)` bit for bit, for both half-vector samplers, every Fresnel term, both
+/// distributions and geometries, a diffuse lobe or none, the delta mirror, and directions on
+/// either side of the horizon; and a sample's weight and pdf are those of the two calls.
+#[test]
+fn eval_pdf_is_eval_and_pdf_bit_for_bit() {
+    let mut variants = chi2_variants();
+    for geometry in [Geometry::VCavity, Geometry::Smith] {
+        for fresnel in [Fresnel::Dielectric, Fresnel::Conductor, Fresnel::Schlick] {
+            for kd in [0.0, 0.3] {
+                variants.push((
+                    format!("{geometry:?} {fresnel:?} kd={kd}"),
+                    CookTorrance {
+                        kd: Vec3::splat(kd),
+                        ks: Vec3::splat(0.6),
+                        roughness: 0.25,
+                        geometry,
+                        fresnel,
+                        ..Default::default()
+                    },
+                ));
+            }
+        }
+    }
+    let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+    for (name, m) in &variants {
+        for s in [Sampler::Ndf, Sampler::Visible] {
+            for i in 0..400 {
+                let (mut wi, mut wo) = (rand_dir(i, 0), rand_dir(i, 2));
+                if i % 7 == 0 {
+                    wi.z = -wi.z;
+                }
+                if i % 11 == 0 {
+                    wo.z = -wo.z;
+                }
+                let (f, p) = cook_torrance::eval_pdf_with(m, s, wi, wo);
+                let want_p = cook_torrance::pdf_with(m, s, wo, wi);
+                assert_eq!(bits(f), bits(cook_torrance::eval(m, wi, wo)), "{name} {s:?} f");
+                assert_eq!(p.to_bits(), want_p.to_bits(), "{name} {s:?} pdf");
+                let u = Vec2::new(
+                    brdfwave::rng::random_f32(7, i, 0, 0, 0),
+                    brdfwave::rng::random_f32(7, i, 0, 0, 1),
+                );
+                let u_lobe = brdfwave::rng::random_f32(7, i, 0, 0, 2);
+                if let Some(bs) = cook_torrance::sample_with(m, s, wo, u_lobe, u) {
+                    if !bs.delta {
+                        let p = cook_torrance::pdf_with(m, s, wo, bs.wi);
+                        let w = cook_torrance::eval(m, bs.wi, wo) * (bs.wi.z / p);
+                        assert_eq!(bs.pdf.to_bits(), p.to_bits(), "{name} {s:?} sample pdf");
+                        assert_eq!(bits(bs.weight), bits(w), "{name} {s:?} sample weight");
+                    }
+                }
+            }
+        }
+        let (f, p) = m.eval_pdf(rand_dir(3, 0), rand_dir(3, 2));
+        let want = cook_torrance::eval_pdf_with(m, m.sampler(), rand_dir(3, 0), rand_dir(3, 2));
+        assert_eq!((bits(f), p.to_bits()), (bits(want.0), want.1.to_bits()), "{name} trait");
+    }
+}
