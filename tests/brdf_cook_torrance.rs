@@ -698,7 +698,11 @@ fn eval_pdf_is_eval_and_pdf_bit_for_bit() {
                 }
                 let (f, p) = cook_torrance::eval_pdf_with(m, s, wi, wo);
                 let want_p = cook_torrance::pdf_with(m, s, wo, wi);
-                assert_eq!(bits(f), bits(cook_torrance::eval(m, wi, wo)), "{name} {s:?} f");
+                assert_eq!(
+                    bits(f),
+                    bits(cook_torrance::eval(m, wi, wo)),
+                    "{name} {s:?} f"
+                );
                 assert_eq!(p.to_bits(), want_p.to_bits(), "{name} {s:?} pdf");
                 let u = Vec2::new(
                     brdfwave::rng::random_f32(7, i, 0, 0, 0),
@@ -717,6 +721,10 @@ fn eval_pdf_is_eval_and_pdf_bit_for_bit() {
         }
         let (f, p) = m.eval_pdf(rand_dir(3, 0), rand_dir(3, 2));
         let want = cook_torrance::eval_pdf_with(m, m.sampler(), rand_dir(3, 0), rand_dir(3, 2));
-        assert_eq!((bits(f), p.to_bits()), (bits(want.0), want.1.to_bits()), "{name} trait");
+        assert_eq!(
+            (bits(f), p.to_bits()),
+            (bits(want.0), want.1.to_bits()),
+            "{name} trait"
+        );
     }
 }

@@ -43,6 +43,8 @@ pub fn sample_cosine_hemisphere(u: Vec2) -> Vec3 {
 /// polynomials of Cephes' `sinf` and `cosf` on that interval (Moshier 1989), within 2 ulp of
 /// the true values (`tests`, against f64). Plain arithmetic, where libm's `sincosf` is a call:
 /// the lane kernels (`cpu/lanes.rs`) do it for 16 angles at once with the same operations.
+/// No GLSL twin: the shaders' `sample_cosine_hemisphere` reduces the angle alike and calls the
+/// builtin `sin` and `cos`, so the two sides agree to rounding, not bit for bit.
 #[inline(always)]
 pub fn sin_cos_quarter(x: f32) -> (f32, f32) {
     let z = x * x;
