@@ -311,34 +311,9 @@ pub fn fresnel_dielectric(c: f32, n: f32) -> f32 {
     (0.5 * a * a * (1.0 + b * b)).clamp(0.0, 1.0)
 }
 
-/// Exact unpolarised Fresnel reflectance of a conductor with complex index η + iκ (one
-/// channel), F = ½(R_s + R_p), in the real-arithmetic form of Born & Wolf / Moeller's
-/// "Optics": with s² = sin²θ and x = η² − κ² − s², t = √(x² + 4η²κ²), a² = (t + x)/2,
-/// b² = (t − x)/2 (ab = ηκ). The smaller of a², b² is computed as η²κ²/(the larger) so that
-/// neither cancels. κ = 0 reduces to the dielectric (η ≥ 1) or total internal reflection.
+/// [`fresnel_conductor`] of one channel.
 pub fn fresnel_conductor1(c: f32, eta: f32, k: f32) -> f32 {
-    let c = c.clamp(0.0, 1.0);
-    let c2 = c * c;
-    let s2 = (1.0 - c2).max(0.0);
-    let x = eta * eta - k * k - s2;
-    let ek = eta * k;
-    let t = (x * x + 4.0 * ek * ek).sqrt();
-    let (a2, b2) = if x >= 0.0 {
-        let a2 = 0.5 * (t + x);
-        (a2, if a2 > 0.0 { ek * ek / a2 } else { 0.0 })
-    } else {
-        let b2 = 0.5 * (t - x);
-        (if b2 > 0.0 { ek * ek / b2 } else { 0.0 }, b2)
-    };
-    let a = a2.sqrt();
-    let ab2 = a2 + b2; // = t
-    let rs_num = ab2 - 2.0 * a * c + c2;
-    let rs_den = ab2 + 2.0 * a * c + c2;
-    let rs = if rs_den > 0.0 { rs_num / rs_den } else { 1.0 };
-    let p_num = c2 * ab2 - 2.0 * a * c * s2 + s2 * s2;
-    let p_den = c2 * ab2 + 2.0 * a * c * s2 + s2 * s2;
-    let rp = if p_den > 0.0 { rs * p_num / p_den } else { rs };
-    (0.5 * (rs + rp)).clamp(0.0, 1.0)
+    fresnel_conductor(c, Vec3::splat(eta), Vec3::splat(k)).x
 }
 
 /// The square root of each lane (correctly rounded, as `f32::sqrt`).
@@ -355,9 +330,14 @@ fn sqrt3(v: Vec3A) -> Vec3A {
     }
 }
 
-/// [`fresnel_conductor1`] per RGB channel, the three channels in SIMD lanes: the same f32
-/// operations in the same order, each branch a select, so the same bits as three calls (for
-/// every η, κ the model accepts; `tests` below checks it).
+/// Exact unpolarised Fresnel reflectance of a conductor with complex index η + iκ, per RGB
+/// channel, F = ½(R_s + R_p), in the real-arithmetic form of Born & Wolf / Moeller's
+/// "Optics": with s² = sin²θ and x = η² − κ² − s², t = √(x² + 4η²κ²), a² = (t + x)/2,
+/// b² = (t − x)/2 (ab = ηκ). The smaller of a², b² is computed as η²κ²/(the larger) so that
+/// neither cancels. κ = 0 reduces to the dielectric (η ≥ 1) or total internal reflection.
+/// The three channels in SIMD lanes, each branch of the GLSL twin (`fresnel_conductor1` per
+/// channel) a select: the same f32 operations in the same order, so the same bits as the
+/// branching one-channel form (for every η, κ the model accepts; `tests` below checks it).
 pub fn fresnel_conductor(c: f32, eta: Vec3, k: Vec3) -> Vec3 {
     let (eta, k) = (Vec3A::from(eta), Vec3A::from(k));
     let c = c.clamp(0.0, 1.0);
@@ -686,9 +666,36 @@ mod tests {
         assert!(worst > 0.0);
     }
 
+    /// The one-channel form with branches, as the GLSL twin writes it: the reference that
+    /// `fresnel_conductor`'s selects must match bit for bit.
+    fn branching_fresnel_conductor1(c: f32, eta: f32, k: f32) -> f32 {
+        let c = c.clamp(0.0, 1.0);
+        let c2 = c * c;
+        let s2 = (1.0 - c2).max(0.0);
+        let x = eta * eta - k * k - s2;
+        let ek = eta * k;
+        let t = (x * x + 4.0 * ek * ek).sqrt();
+        let (a2, b2) = if x >= 0.0 {
+            let a2 = 0.5 * (t + x);
+            (a2, if a2 > 0.0 { ek * ek / a2 } else { 0.0 })
+        } else {
+            let b2 = 0.5 * (t - x);
+            (if b2 > 0.0 { ek * ek / b2 } else { 0.0 }, b2)
+        };
+        let a = a2.sqrt();
+        let ab2 = a2 + b2; // = t
+        let rs_num = ab2 - 2.0 * a * c + c2;
+        let rs_den = ab2 + 2.0 * a * c + c2;
+        let rs = if rs_den > 0.0 { rs_num / rs_den } else { 1.0 };
+        let p_num = c2 * ab2 - 2.0 * a * c * s2 + s2 * s2;
+        let p_den = c2 * ab2 + 2.0 * a * c * s2 + s2 * s2;
+        let rp = if p_den > 0.0 { rs * p_num / p_den } else { rs };
+        (0.5 * (rs + rp)).clamp(0.0, 1.0)
+    }
+
     #[test]
     fn conductor_fresnel_in_lanes_is_three_scalar_calls_bit_for_bit() {
-        use super::{fresnel_conductor, fresnel_conductor1};
+        use super::fresnel_conductor;
         use glam::Vec3;
         // η in (0, 100], κ in [0, 100] as the model accepts, and c over [-0.5, 1.5] (clamped).
         let mut state = 0x9e37_79b9u32;
@@ -708,9 +715,9 @@ mod tests {
                     let lanes =
                         fresnel_conductor(c, Vec3::new(e, k.max(1e-6), 1.0), Vec3::new(k, e, 0.0));
                     let one = Vec3::new(
-                        fresnel_conductor1(c, e, k),
-                        fresnel_conductor1(c, k.max(1e-6), e),
-                        fresnel_conductor1(c, 1.0, 0.0),
+                        branching_fresnel_conductor1(c, e, k),
+                        branching_fresnel_conductor1(c, k.max(1e-6), e),
+                        branching_fresnel_conductor1(c, 1.0, 0.0),
                     );
                     assert_eq!(
                         lanes.to_array().map(f32::to_bits),
