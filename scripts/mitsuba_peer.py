@@ -16,9 +16,11 @@ of two plain warm renders of PLAIN_SPP samples per pixel, the figure a user sees
 the same size that compiles Dr.Jit's kernels (COMPILE_SECONDS: how much longer that one
 took); LOAD_SECONDS is the scene's load (`mi.load_string`: parsing the XML and the meshes and
 building Mitsuba's acceleration structure). Then brdfwave
-writes `render N` and this script renders a fresh image of N samples per pixel (a stratified
-sampler loses its stratification when independent passes are averaged, so every point of the
-curve is one render), timed alone, and answers `done SECONDS SPP COMPILE_SECONDS PATH` with
+writes `render N REPEAT_BELOW` and this script renders a fresh image of N samples per pixel
+(a stratified sampler loses its stratification when independent passes are averaged, so every
+point of the curve is one render), timed alone; a render that took under REPEAT_BELOW seconds
+is rendered and timed once more with the same seed (the same image), and SECONDS is the faster
+of the two, as brdfwave times its own short renders. It answers `done SECONDS SPP COMPILE_SECONDS PATH` with
 the samples per pixel the sampler actually took (stratified samplers round N up to a square,
 `ldsampler` to a power of two), the compile time kept out of the timing and the image (linear
 RGB, EXR); `quit` ends it. The kernels of the samplers other than `independent` depend on the
@@ -81,11 +83,14 @@ def main():
         if not words or words[0] == "quit":
             break
         n = int(words[1])
+        repeat_below = float(words[2]) if len(words) > 2 else 0.0
         cold = None
         if n not in warm:
             _, cold = render(n, 2**30 + seed)
             warm.add(n)
         img, dt = render(n, seed)
+        if dt < repeat_below:
+            dt = min(dt, render(n, seed)[1])
         compile_seconds = 0.0 if cold is None else max(cold - dt, 0.0)
         seed += 1
         spp = scene.sensors()[0].sampler().sample_count()

@@ -94,7 +94,12 @@ impl MitsubaRunner {
 impl Runner for MitsubaRunner {
     fn pass(&mut self, n: u32) -> Result<(u32, f64)> {
         // A fresh render of all the samples so far (see the module docs).
-        writeln!(self.stdin, "render {}", self.spp + n)?;
+        writeln!(
+            self.stdin,
+            "render {} {}",
+            self.spp + n,
+            super::REPEAT_BELOW
+        )?;
         self.stdin.flush()?;
         let line = protocol_line(&mut self.stdout)?;
         let mut w = line.split_whitespace();
