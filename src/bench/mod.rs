@@ -59,6 +59,11 @@ use crate::scene::{self, Scene};
 use crate::vk::{Context, ContextOptions, ShaderCompiler};
 use anyhow::{anyhow, bail, Context as _, Result};
 use runner::Runner;
+use std::fmt::Write as _;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
 
 /// Render seconds under which a fresh render (a `multijitter` point of ours, every Mitsuba
 /// point) is timed a second time and the faster of the two kept: a render of 0.1–0.6 s, which
@@ -66,11 +71,6 @@ use runner::Runner;
 /// system is to be measured at its best. Passes that continue a sequence (`sobol`,
 /// `independent`, brdfwave's GPU configurations with them) are timed once.
 pub(super) const REPEAT_BELOW: f64 = 1.0;
-use std::fmt::Write as _;
-use std::io::IsTerminal;
-use std::path::{Path, PathBuf};
-use std::sync::Arc;
-use std::time::Instant;
 
 /// The CSV header of `bench.csv`, one row per pass.
 pub const CSV_COLUMNS: &str = "config,pass,spp,seconds,paths_per_second,rmse,relmse,flip";

@@ -95,6 +95,7 @@ impl Runner for RendererRunner<'_> {
                 // A short render is timed twice, the faster kept (the same image: the render
                 // depends on the seed and the samples alone), as the Mitsuba peer's are.
                 if r.seconds_samples < super::REPEAT_BELOW {
+                    drop(renderer);
                     let tile = Tile::full(sc.width, sc.height);
                     let mut again = render::open(self.backend, &sc, self.bvh.clone(), tile)?;
                     let s = again.render(&RenderRequest::samples(0..total), &|_| {})?;
