@@ -89,16 +89,16 @@ impl Runner for RendererRunner<'_> {
                 let tile = Tile::full(sc.width, sc.height);
                 let mut renderer = render::open(self.backend, &sc, self.bvh.clone(), tile)?;
                 self.setup_seconds += t.elapsed().as_secs_f64();
-                let r = renderer.render(&RenderRequest::samples(0..total), &|_| {})?;
+                let request = RenderRequest::samples(0..total);
+                let r = renderer.render(&request, &|_| {})?;
                 self.description = Some(renderer.describe());
                 self.seconds = r.seconds_samples;
                 // A short render is timed twice, the faster kept (the same image: the render
                 // depends on the seed and the samples alone), as the Mitsuba peer's are.
                 if r.seconds_samples < super::REPEAT_BELOW {
                     drop(renderer);
-                    let tile = Tile::full(sc.width, sc.height);
                     let mut again = render::open(self.backend, &sc, self.bvh.clone(), tile)?;
-                    let s = again.render(&RenderRequest::samples(0..total), &|_| {})?;
+                    let s = again.render(&request, &|_| {})?;
                     self.seconds = self.seconds.min(s.seconds_samples);
                 }
                 r
