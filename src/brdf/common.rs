@@ -786,6 +786,17 @@ pub fn visible_reflected_pdf(
 mod tests {
     use super::*;
 
+    /// Numbers in [0, 1) from a fixed xorshift sequence (Marsaglia 2003), for the tests' inputs.
+    fn uniforms() -> impl FnMut() -> f32 {
+        let mut state = 0x9e37_79b9u32;
+        move || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            (state >> 8) as f32 / (1u32 << 24) as f32
+        }
+    }
+
     /// The root b of C(b) = u for the view at cosθ = `cos_t`, by bisection on the f32 functions
     /// of `beckmann_visible_slopes` (to adjacent floats).
     fn beckmann_root(cos_t: f32, u: f32) -> f32 {
@@ -863,13 +874,7 @@ mod tests {
     /// normal) and over views uniform in cosθ, and every sample meets it within the steps.
     #[test]
     fn beckmann_vndf_evaluations() {
-        let mut state = 0x9e37_79b9u32;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            (state >> 8) as f32 / (1u32 << 24) as f32
-        };
+        let mut next = uniforms();
         for (alpha, most) in [(0.2f32, 2.15f64), (1.0, 2.15)] {
             let (mut evaluations, samples) = (0u32, 100_000);
             for _ in 0..samples {
@@ -939,13 +944,7 @@ mod tests {
         use super::fresnel_conductor;
         use glam::Vec3;
         // η in (0, 100], κ in [0, 100] as the model accepts, and c over [-0.5, 1.5] (clamped).
-        let mut state = 0x9e37_79b9u32;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            state as f32 / u32::MAX as f32
-        };
+        let mut next = uniforms();
         let mut values = vec![1e-6, 1e-3, 0.05, 0.5, 1.0, 1.5, 4.0, 100.0];
         values.extend((0..40).map(|_| 10f32.powf(4.0 * next() - 2.0)));
         for &e in &values {
