@@ -595,12 +595,12 @@ pub fn beckmann_visible_slopes(cos_t: f32, sin_t: f32, u: Vec2) -> Vec2 {
 /// [`beckmann_visible_slopes`], adding the number of evaluations of C to `evaluations`.
 #[inline(always)]
 fn beckmann_visible_slopes_counted(cos_t: f32, sin_t: f32, u: Vec2, evaluations: &mut u32) -> Vec2 {
-    let View {
+    let BeckmannView {
         tan_t,
         b_max,
         k,
         norm,
-    } = View::new(cos_t, sin_t);
+    } = BeckmannView::new(cos_t, sin_t);
     let mut b = beckmann_guess(cos_t, u.x);
     let (mut lo, mut hi) = (-1.0f32, b_max);
     // erf⁻¹(b) of the b that met the tolerance, which the loop has just computed; after the
@@ -642,7 +642,7 @@ fn beckmann_visible_slopes_counted(cos_t: f32, sin_t: f32, u: Vec2, evaluations:
 
 /// The view's terms of [`beckmann_visible_slopes`]' marginal CDF C(b) = norm·(1 + b + k·e^(−x²)),
 /// x = erf⁻¹(b), on b ≤ b_max.
-struct View {
+struct BeckmannView {
     tan_t: f32,
     /// erf(cotθ), where C reaches 1.
     b_max: f32,
@@ -652,9 +652,9 @@ struct View {
     norm: f32,
 }
 
-impl View {
+impl BeckmannView {
     #[inline(always)]
-    fn new(cos_t: f32, sin_t: f32) -> View {
+    fn new(cos_t: f32, sin_t: f32) -> BeckmannView {
         let tan_t = sin_t / cos_t;
         // cotθ capped at 9 (no infinity at θ = 0): from there erf(cotθ) is 1 and tanθ·e^(−cot²θ)
         // (< 1e-36) vanishes beside 2 in f32, so the cap changes no value, and e^(−81) is still
@@ -668,7 +668,7 @@ impl View {
         let b_max = 1.0 - erfc(cot_t);
         let k = tan_t * FRAC_1_SQRT_PI;
         let norm = 1.0 / (1.0 + b_max + k * (-cot_t * cot_t).exp());
-        View {
+        BeckmannView {
             tan_t,
             b_max,
             k,
@@ -801,7 +801,7 @@ mod tests {
     /// of `beckmann_visible_slopes` (to adjacent floats).
     fn beckmann_root(cos_t: f32, u: f32) -> f32 {
         let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-        let View { b_max, k, norm, .. } = View::new(cos_t, sin_t);
+        let BeckmannView { b_max, k, norm, .. } = BeckmannView::new(cos_t, sin_t);
         let c = |b: f32| {
             let x = erfinv_f(b);
             norm * (1.0 + b + k * (-x * x).exp())
@@ -822,8 +822,8 @@ mod tests {
     }
 
     /// `BECKMANN_GUESS` holds the roots it says it holds (to 1e-6: the bisection's functions
-    /// are libm's, which may round differently on another machine); its text is printed when
-    /// not, to paste into `common.rs` and `shaders/brdf/common.glsl`.
+    /// are libm's, which may round differently on another machine); the table's text is
+    /// printed when not, to paste into `common.rs`.
     #[test]
     fn beckmann_guess_table_is_the_roots() {
         let n = GUESS_CELLS;
@@ -835,28 +835,19 @@ mod tests {
                 bits.push(beckmann_root(cos_t, 1.0 - s * s).to_bits());
             }
         }
-        let text = |prefix: &str, suffix: &str| {
-            bits.chunks(6)
-                .map(|c| {
-                    let v: Vec<_> = c
-                        .iter()
-                        .map(|b| format!("{prefix}{b:08x}{suffix}"))
-                        .collect();
-                    v.join(", ")
-                })
-                .collect::<Vec<_>>()
-                .join(",\n")
-        };
+        let text = bits
+            .chunks(6)
+            .map(|c| {
+                let v: Vec<_> = c.iter().map(|b| format!("0x{b:08x}")).collect();
+                v.join(", ")
+            })
+            .collect::<Vec<_>>()
+            .join(",\n");
         let far = BECKMANN_GUESS
             .iter()
             .zip(&bits)
             .any(|(&a, &b)| (f32::from_bits(a) - f32::from_bits(b)).abs() > 1e-6);
-        assert!(
-            !far,
-            "BECKMANN_GUESS is not the roots; Rust:\n{}\nGLSL:\n{}",
-            text("0x", ""),
-            text("0x", "u")
-        );
+        assert!(!far, "BECKMANN_GUESS is not the roots; they are:\n{text}");
     }
 
     /// The GLSL twin's Halley step has the Rust constant.
