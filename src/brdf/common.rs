@@ -595,12 +595,10 @@ pub fn beckmann_visible_slopes(cos_t: f32, sin_t: f32, u: Vec2) -> Vec2 {
 /// [`beckmann_visible_slopes`], adding the number of evaluations of C to `evaluations`.
 #[inline(always)]
 fn beckmann_visible_slopes_counted(cos_t: f32, sin_t: f32, u: Vec2, evaluations: &mut u32) -> Vec2 {
+    let view = BeckmannView::new(cos_t, sin_t);
     let BeckmannView {
-        tan_t,
-        b_max,
-        k,
-        norm,
-    } = BeckmannView::new(cos_t, sin_t);
+        tan_t, b_max, norm, ..
+    } = view;
     let mut b = beckmann_guess(cos_t, u.x);
     let (mut lo, mut hi) = (-1.0f32, b_max);
     // erf⁻¹(b) of the b that met the tolerance, which the loop has just computed; after the
@@ -611,9 +609,8 @@ fn beckmann_visible_slopes_counted(cos_t: f32, sin_t: f32, u: Vec2, evaluations:
             b = 0.5 * (lo + hi);
         }
         *evaluations += 1;
-        let x = erfinv_f(b);
-        let e = (-x * x).exp();
-        let value = norm * (1.0 + b + k * e) - u.x;
+        let (x, e, c) = view.cdf(b);
+        let value = c - u.x;
         if value.abs() < BECKMANN_VNDF_TOLERANCE {
             converged = Some(x);
             break;
@@ -674,6 +671,14 @@ impl BeckmannView {
             k,
             norm,
         }
+    }
+
+    /// C(b), with x = erf⁻¹(b) and e^(−x²), which a root-finding step needs too.
+    #[inline(always)]
+    fn cdf(&self, b: f32) -> (f32, f32, f32) {
+        let x = erfinv_f(b);
+        let e = (-x * x).exp();
+        (x, e, self.norm * (1.0 + b + self.k * e))
     }
 }
 
@@ -801,12 +806,9 @@ mod tests {
     /// of `beckmann_visible_slopes` (to adjacent floats).
     fn beckmann_root(cos_t: f32, u: f32) -> f32 {
         let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-        let BeckmannView { b_max, k, norm, .. } = BeckmannView::new(cos_t, sin_t);
-        let c = |b: f32| {
-            let x = erfinv_f(b);
-            norm * (1.0 + b + k * (-x * x).exp())
-        };
-        let (mut lo, mut hi) = (-1.0f32, b_max);
+        let view = BeckmannView::new(cos_t, sin_t);
+        let c = |b: f32| view.cdf(b).2;
+        let (mut lo, mut hi) = (-1.0f32, view.b_max);
         for _ in 0..200 {
             let mid = 0.5 * (lo + hi);
             if mid <= lo || mid >= hi {
