@@ -128,7 +128,8 @@ fn link_debian_glslang() {
 
 /// Sets `BRDFWAVE_COMMIT` to the git commit being built (12 hex digits), or empty outside a git
 /// checkout; partial films record it (`src/film/part.rs`, `code_version`) so that parts rendered
-/// by different versions are not merged. Re-run when HEAD or a branch moves.
+/// by different versions are not merged; and `BRDFWAVE_MODIFIED` to `modified-<hash>` when the
+/// code differs from that commit. Re-run when HEAD, a branch or the code moves.
 fn git_commit() {
     let git = |args: &[&str]| -> Option<String> {
         let out = std::process::Command::new("git").args(args).output().ok()?;
@@ -151,6 +152,35 @@ fn git_commit() {
         watch(format!("{common}/packed-refs"));
     }
     println!("cargo:rustc-env=BRDFWAVE_COMMIT={commit}");
+    // Uncommitted changes to what the program is built from: a build of an edited tree must
+    // not pass for the commit's (a binary left in target/ by an experiment could not be told
+    // from main's build when a paired timing needed to; docs/bench-log.md). Named by a hash
+    // of the diff, so that two different edits of one commit are told apart too. New files
+    // that git does not track yet are not seen.
+    let code = [
+        "src",
+        "shaders",
+        "build.rs",
+        "Cargo.toml",
+        "Cargo.lock",
+        ".cargo",
+    ];
+    for path in code {
+        watch(path.to_string());
+    }
+    let mut args = vec!["diff", "HEAD", "--"];
+    args.extend(code);
+    let modified = match git(&args) {
+        Some(diff) if !commit.is_empty() && !diff.is_empty() => {
+            // FNV-1a, 64 bits.
+            let hash = diff.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+                (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+            });
+            format!("modified-{:08x}", hash >> 32)
+        }
+        _ => String::new(),
+    };
+    println!("cargo:rustc-env=BRDFWAVE_MODIFIED={modified}");
 }
 
 /// File endings treated as shader sources (anything else under `shaders/` is not embedded).

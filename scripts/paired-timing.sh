@@ -44,6 +44,18 @@ one() {
         "${common[@]}" "${args[@]}" --out "$2.exr"
 }
 
+# Which program each side runs: `--version` names the commit, and `.modified-<hash>` where it
+# was built from uncommitted changes (a binary an experiment left behind names main's commit).
+for side in A B; do
+    words=$a
+    [ $side = B ] && words=$b
+    bin=$default_bin
+    for word in $words; do
+        case $word in BIN=*) bin=${word#BIN=} ;; esac
+    done
+    echo "$side: $("$bin" --version) ($bin)"
+done
+
 ratios=()
 for r in $(seq "$rounds"); do
     if [ $((r % 2)) = 0 ]; then

@@ -50,7 +50,8 @@ fn write_stdout(args: std::fmt::Arguments<'_>) -> Result<()> {
 #[derive(Parser)]
 #[command(
     name = "brdfwave",
-    version,
+    // The package version, the commit and whether the code had uncommitted changes.
+    version = &*String::leak(brdfwave::film::code_version()),
     about = "Vulkan wavefront path tracer for the survey's surface models"
 )]
 struct Cli {

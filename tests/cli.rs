@@ -15,6 +15,37 @@ const CLI: Cli = Cli {
     env_remove: &[],
 };
 
+/// `--version` names what the binary was built from: the package version, the commit of a
+/// git checkout and, where the code had uncommitted changes, a hash of them; the same string the
+/// render summary's `version` and the partial films carry.
+#[test]
+fn version_names_the_commit_and_uncommitted_changes() {
+    let version = brdfwave::film::code_version();
+    assert_eq!(CLI.ok(&["--version"]).trim(), format!("brdfwave {version}"));
+    let commit = std::process::Command::new("git")
+        .args(["rev-parse", "--short=12", "HEAD"])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string());
+    if let Some(commit) = commit {
+        // Built from this checkout (cargo test builds before it runs).
+        assert!(
+            version.contains(&commit),
+            "{version} does not name {commit}"
+        );
+        let clean = std::process::Command::new("git")
+            .args([
+                "diff", "--quiet", "HEAD", "--", "src", "shaders", "build.rs",
+            ])
+            .args(["Cargo.toml", "Cargo.lock", ".cargo"])
+            .status()
+            .expect("git runs")
+            .success();
+        assert_eq!(version.contains(".modified-"), !clean, "{version}");
+    }
+}
+
 #[test]
 fn render_json_summary_on_both_backends() {
     let mut images = Vec::new();

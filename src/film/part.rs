@@ -48,14 +48,15 @@ pub struct PartHeader {
 }
 
 /// The program's version for partial films: parts from different versions are not merged. The
-/// package version and, when built from a git checkout, the commit (uncommitted changes are not
-/// seen).
+/// package version and, when built from a git checkout, the commit, with `.modified-<hash>`
+/// where the code had uncommitted changes (a hash of their diff: new files git does not track
+/// are not seen). `brdfwave --version` prints it.
 pub fn code_version() -> String {
-    let commit = env!("BRDFWAVE_COMMIT");
-    if commit.is_empty() {
-        env!("CARGO_PKG_VERSION").to_string()
-    } else {
-        format!("{}+{}", env!("CARGO_PKG_VERSION"), commit)
+    let (commit, modified) = (env!("BRDFWAVE_COMMIT"), env!("BRDFWAVE_MODIFIED"));
+    match (commit.is_empty(), modified.is_empty()) {
+        (true, _) => env!("CARGO_PKG_VERSION").to_string(),
+        (false, true) => format!("{}+{}", env!("CARGO_PKG_VERSION"), commit),
+        (false, false) => format!("{}+{}.{}", env!("CARGO_PKG_VERSION"), commit, modified),
     }
 }
 
