@@ -30,12 +30,22 @@ default_bin=$PWD/target/release/brdfwave
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 
+# bin_of SIDE_ARGS: the executable a side runs (its BIN= word, else the default).
+bin_of() {
+    local bin=$default_bin
+    for word in $1; do
+        case $word in BIN=*) bin=${word#BIN=} ;; esac
+    done
+    echo "$bin"
+}
+
 # one SIDE_ARGS TIMEFILE: one render, its CPU seconds written to TIMEFILE.
 one() {
-    local bin=$default_bin env=() args=()
+    local bin env=() args=()
+    bin=$(bin_of "$1")
     for word in $1; do
         case $word in
-            BIN=*) bin=${word#BIN=} ;;
+            BIN=*) ;;
             ENV=*) env+=("${word#ENV=}") ;;
             *) args+=("$word") ;;
         esac
@@ -46,15 +56,8 @@ one() {
 
 # Which program each side runs: `--version` names the commit, and `.modified-<hash>` where it
 # was built from uncommitted changes (a binary an experiment left behind names main's commit).
-for side in A B; do
-    words=$a
-    [ $side = B ] && words=$b
-    bin=$default_bin
-    for word in $words; do
-        case $word in BIN=*) bin=${word#BIN=} ;; esac
-    done
-    echo "$side: $("$bin" --version) ($bin)"
-done
+echo "A: $("$(bin_of "$a")" --version) ($(bin_of "$a"))"
+echo "B: $("$(bin_of "$b")" --version) ($(bin_of "$b"))"
 
 ratios=()
 for r in $(seq "$rounds"); do
